@@ -1,0 +1,48 @@
+#pragma once
+
+#include <array>
+
+#include "teleop/types.hpp"
+
+namespace teleop::control {
+
+/// One face of a forbidden region: the points p with n·p > offset are forbidden. `normal` is a unit vector in the
+/// device's base frame (dimensionless), `offset_m` the signed distance of the plane from the origin along it.
+struct FixturePlane {
+  DofVector normal;
+  double offset_m = 0.0;
+};
+
+/// The forbidden-region virtual fixture of Abbott & Okamura eq. 7, generalised to N-DOF as a set of half-spaces:
+/// for every plane with penetration d = n·x - offset > 0 the fixture pushes back with K·d along -n. With one plane
+/// and n = +1 in 1-DOF this is exactly eq. 7 (F_VF = K·X for X > 0, else 0). Unilateral: no force outside.
+class ForbiddenRegionFixture {
+ public:
+  static constexpr int kMaxPlanes = 8;
+
+  struct Config {
+    int dof = 1;
+    double stiffness_N_per_m = 0.0;  ///< K_iVF; 0 disables the fixture.
+    int plane_count = 0;
+    std::array<FixturePlane, kMaxPlanes> planes{};
+  };
+
+  struct Output {
+    DofVector force_N;                ///< Force the fixture applies to the device, base frame (pushes out of the region).
+    double max_penetration_m = 0.0;   ///< Largest penetration over the planes; 0 when outside.
+  };
+
+  ForbiddenRegionFixture() = default;
+  /// Validates and stores the config (normals are normalised). Throws teleop::Error on a bad config (set-up only).
+  explicit ForbiddenRegionFixture(const Config& config);
+
+  /// Fixture force for the measured position (m, base frame). Allocation-free.
+  [[nodiscard]] Output Step(const DofVector& position_m) const noexcept;
+
+  const Config& config() const noexcept { return config_; }
+
+ private:
+  Config config_{};
+};
+
+}  // namespace teleop::control

@@ -1,0 +1,64 @@
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "teleop/proto/codec.hpp"
+#include "teleop/proto/sample_message.hpp"
+
+namespace teleop::transport {
+
+/// What a link counts. Every datagram/frame that is not applied is counted under exactly one reason.
+struct LinkCounters {
+  std::uint64_t sent = 0;
+  std::uint64_t send_errors = 0;         ///< Socket/bus refused a send (buffer full, bus-off, ...).
+  std::uint64_t received = 0;            ///< Datagrams/frames read from the medium, before validation.
+  std::uint64_t accepted = 0;            ///< Decoded, from the expected peer, newer than anything before.
+  std::uint64_t lost = 0;                ///< Sequence gaps: numbers never seen (late arrivals are subtracted).
+  std::uint64_t reordered = 0;           ///< Arrived after a newer one (stale): counted, not applied.
+  std::uint64_t duplicates = 0;          ///< Same sequence as one already accepted.
+  std::uint64_t rejected = 0;            ///< Sum of rejected_by_reason.
+  std::array<std::uint64_t, static_cast<std::size_t>(proto::DecodeStatus::kCount)> rejected_by_reason{};
+  std::uint64_t wrong_sender = 0;        ///< Valid sample from an unexpected role or address (also in rejected).
+  std::uint64_t superseded = 0;          ///< Valid and in order, but a newer one arrived in the same drain.
+  std::uint64_t bus_errors = 0;          ///< CAN error frames and similar medium faults.
+};
+
+/// Tracks sequence numbers of accepted samples: loss, reordering, duplicates (libfranka-style "keep the newest").
+/// Wrap-around safe (serial-number arithmetic on uint32).
+class SequenceTracker {
+ public:
+  enum class Verdict : std::uint8_t { kNewer, kDuplicate, kStale };
+  /// Classifies `sequence` and updates the counters in `counters` (lost / reordered / duplicates).
+  Verdict Observe(std::uint32_t sequence, LinkCounters& counters) noexcept;
+  bool has_any() const noexcept { return has_any_; }
+  std::uint32_t newest() const noexcept { return newest_; }
+  void Reset() noexcept { has_any_ = false; newest_ = 0; }
+
+ private:
+  bool has_any_ = false;
+  std::uint32_t newest_ = 0;
+};
+
+/// A bidirectional sample link to the peer process. Both calls are made from the real-time thread: non-blocking,
+/// allocation-free, never throw. Opening the medium happens in the constructor and may throw teleop::Error.
+class Link {
+ public:
+  virtual ~Link() = default;
+  Link() = default;
+  Link(const Link&) = delete;
+  Link& operator=(const Link&) = delete;
+
+  /// Sends one sample. Returns false (and counts a send error) when the medium refused it.
+  [[nodiscard]] virtual bool Send(const proto::SampleMessage& message) noexcept = 0;
+  /// Drains everything pending. When at least one sample newer than any before arrived, writes the newest to
+  /// `newest` and returns true; otherwise leaves `newest` alone and returns false.
+  [[nodiscard]] virtual bool Poll(proto::SampleMessage& newest) noexcept = 0;
+
+  virtual const LinkCounters& counters() const noexcept = 0;
+  /// Short description for logs ("udp 127.0.0.1:47001 -> 127.0.0.1:47002").
+  virtual std::string Describe() const = 0;
+};
+
+}  // namespace teleop::transport

@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# Shared by deploy/demo.sh and deploy/test.sh: install missing Debian packages, configure and build.
+set -euo pipefail
+
+TELEOP_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+TELEOP_BUILD="${TELEOP_BUILD:-${TELEOP_ROOT}/build}"
+
+# Debian 12 packages the build, the demo and the tests need. One list, so both commands agree.
+TELEOP_PACKAGES=(
+  build-essential cmake ninja-build pkg-config
+  libeigen3-dev libboost-dev libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libsodium-dev libmodbus-dev
+  clang-format clang-tidy
+  gnuplot-nox python3
+  iproute2 can-utils
+  qemu-system-x86 busybox-static cpio kmod
+)
+
+teleop::missing_packages() {
+  local missing=() p
+  for p in "$@"; do
+    if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+      missing+=("$p")
+    fi
+  done
+  echo "${missing[@]:-}"
+}
+
+# Installs what is missing: with apt-get as root, otherwise prints the exact command and fails.
+teleop::ensure_packages() {
+  local missing
+  missing=$(teleop::missing_packages "$@")
+  [[ -z "${missing// /}" ]] && return 0
+  if [[ $(id -u) -eq 0 ]]; then
+    echo "[teleop] installing missing Debian packages: ${missing}"
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq
+    # shellcheck disable=SC2086
+    apt-get install -y -qq --no-install-recommends ${missing} >/dev/null
+  else
+    echo "[teleop] missing Debian packages. Install them with:" >&2
+    echo "  sudo apt-get install -y ${missing}" >&2
+    exit 1
+  fi
+}
+
+# Configures (once) and builds the release preset into build/. Quick when nothing changed.
+teleop::build() {
+  cd "${TELEOP_ROOT}"
+  if [[ ! -f "${TELEOP_BUILD}/build.ninja" ]]; then
+    cmake --preset release >/dev/null
+  fi
+  cmake --build "${TELEOP_BUILD}" --parallel "$(nproc)" "$@"
+}

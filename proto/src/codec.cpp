@@ -1,0 +1,1 @@
+// Filled by the wire-protocol work: see codec.hpp.
