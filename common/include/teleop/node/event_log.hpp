@@ -1,0 +1,52 @@
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <thread>
+
+#include "teleop/runtime/spsc_ring.hpp"
+
+namespace teleop::node {
+
+/// Something the loop wants a human to read. Logged by a non-real-time thread, never from the cycle.
+struct Event {
+  enum class Kind : std::uint8_t {
+    kPeerConnected,
+    kPeerLost,
+    kPeerRecovered,
+    kPeerShutdown,
+    kPeerFault,
+    kDeviceFault,
+    kDeviceFaultCleared,
+    kNonFiniteInput,
+    kOverrun,
+  };
+  Kind kind = Kind::kPeerConnected;
+  std::uint64_t cycle = 0;
+  double value = 0.0;  ///< Kind-specific: fault bits, overrun count, ...
+};
+
+/// The loop's log: TryPush from the real-time thread (drops are counted), a thread drains it into spdlog.
+class EventLog {
+ public:
+  explicit EventLog(std::size_t capacity);
+  ~EventLog();
+  EventLog(const EventLog&) = delete;
+  EventLog& operator=(const EventLog&) = delete;
+
+  void Push(const Event& event) noexcept {
+    if (!ring_.TryPush(event)) dropped_.fetch_add(1, std::memory_order_relaxed);
+  }
+  /// Drains what is left and joins the thread.
+  void Stop();
+  std::uint64_t dropped() const noexcept { return dropped_.load(std::memory_order_relaxed); }
+
+ private:
+  void Drain();
+  runtime::SpscRing<Event> ring_;
+  std::atomic<bool> stop_{false};
+  std::atomic<std::uint64_t> dropped_{0};
+  std::thread thread_;
+};
+
+}  // namespace teleop::node

@@ -1,0 +1,55 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "teleop/runtime/latency_histogram.hpp"
+#include "teleop/transport/link.hpp"
+#include "teleop/types.hpp"
+
+namespace teleop::node {
+
+/// Percentiles of a distribution, in the unit the field name says.
+struct Distribution {
+  std::uint64_t count = 0;
+  double p50 = 0.0;
+  double p99 = 0.0;
+  double max = 0.0;
+};
+
+/// What a process prints at the end of a run and writes with --summary-json. The field names are the JSON keys.
+struct RunSummary {
+  Role role = Role::kMaster;
+  double rate_hz = 0.0;                 ///< Configured.
+  double duration_s = 0.0;              ///< Wall time from first to last cycle.
+  std::uint64_t cycles = 0;
+  double achieved_rate_hz = 0.0;        ///< cycles / duration.
+  std::uint64_t overruns = 0;
+  Distribution period_us{};             ///< Wake-to-wake period.
+  Distribution jitter_us{};             ///< |wake - scheduled|.
+  Distribution compute_us{};            ///< Cycle body time.
+  transport::LinkCounters link{};
+  Distribution rtt_ms{};                ///< Round trip to the peer and back (NTP-style, peer hold time removed).
+  std::uint64_t cycles_with_peer = 0;   ///< Cycles in which the peer's sample was fresh (watchdog ok).
+  std::uint64_t watchdog_trips = 0;
+  std::uint64_t dof_mismatches = 0;     ///< Valid samples whose DOF count differs from ours: never applied.
+  std::uint64_t device_fault_cycles = 0;
+  std::uint64_t nonfinite_inputs = 0;
+  std::uint64_t saturated_cycles = 0;
+  double tracking_error_rms_m = 0.0;    ///< |local - peer| in the local frame over cycles with a fresh peer.
+  double tracking_error_max_m = 0.0;
+  double fixture_max_penetration_m = 0.0;
+  std::uint64_t telemetry_records = 0;
+  std::uint64_t telemetry_dropped = 0;
+  std::string stop_reason;              ///< "duration", "signal", "peer shutdown", ...
+};
+
+/// Fills a Distribution from a histogram of nanoseconds, scaled to the given unit (1e3 → µs, 1e6 → ms).
+Distribution FromHistogram(const runtime::LatencyHistogram& histogram, double ns_per_unit) noexcept;
+
+/// Multi-line human-readable summary.
+std::string FormatSummaryText(const RunSummary& summary);
+/// The same as one JSON object.
+std::string FormatSummaryJson(const RunSummary& summary);
+
+}  // namespace teleop::node

@@ -1,0 +1,92 @@
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <csignal>
+#include <fstream>
+#include <iostream>
+
+#include "teleop/config/yaml_config.hpp"
+#include "teleop/error.hpp"
+#include "teleop/node/teleop_node.hpp"
+#include "teleop/transport/link_config.hpp"
+
+namespace teleop::node {
+
+namespace {
+
+std::atomic<TeleopNode*> g_running_node{nullptr};
+
+extern "C" void HandleStopSignal(int /*signal*/) {
+  if (TeleopNode* node = g_running_node.load()) node->Stop();
+}
+
+proto::SenderRole ToSender(Role role) noexcept {
+  return role == Role::kMaster ? proto::SenderRole::kMaster : proto::SenderRole::kSlave;
+}
+
+}  // namespace
+
+int ProcessMain(int argc, char** argv, Role role) {
+  const std::string program = std::string("teleop-") + ToString(role);
+  CLI::App app{program + ": the " + ToString(role) +
+               " side of a bilateral teleoperator (three-channel law, forbidden-region virtual fixture)"};
+  std::string config_path;
+  double duration_s = -1.0;
+  std::string summary_json;
+  std::string telemetry_csv;
+  std::string log_level = "info";
+  app.add_option("-c,--config", config_path, "Process configuration (YAML); see docs/configuration.md")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("-d,--duration", duration_s, "Stop after this many seconds (overrides the config; 0 = run until "
+                                              "SIGINT/SIGTERM)")
+      ->check(CLI::Range(0.0, 1e6));
+  app.add_option("--summary-json", summary_json, "Also write the end-of-run summary to this file as JSON");
+  app.add_option("--telemetry-csv", telemetry_csv, "Per-cycle telemetry CSV (overrides telemetry.csv in the config)");
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical, off")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
+  CLI11_PARSE(app, argc, argv);
+
+  spdlog::set_level(spdlog::level::from_str(log_level));
+  spdlog::set_pattern("[%H:%M:%S.%e] [" + program + "] [%^%l%$] %v");
+
+  try {
+    config::ProcessConfig config = config::LoadProcessConfig(config_path);
+    if (config.role != role) {
+      throw Error(config_path + ": role is '" + ToString(config.role) + "' but this is " + program);
+    }
+    if (duration_s >= 0.0) config.loop.duration_s = duration_s;
+    if (!telemetry_csv.empty()) config.telemetry.csv_path = telemetry_csv;
+
+    auto device = device::MakeDevice(config.device);
+    auto link = transport::MakeLink(config.link, ToSender(role));
+    TeleopNode node(config, std::move(device), std::move(link));
+
+    g_running_node.store(&node);
+    struct sigaction action {};
+    action.sa_handler = HandleStopSignal;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, nullptr);
+    sigaction(SIGTERM, &action, nullptr);
+
+    const RunSummary summary = node.Run();
+    g_running_node.store(nullptr);
+
+    std::cout << FormatSummaryText(summary) << std::flush;
+    if (!summary_json.empty()) {
+      std::ofstream out(summary_json);
+      out << FormatSummaryJson(summary);
+      if (!out) throw Error("cannot write the summary to " + summary_json);
+    }
+    return 0;
+  } catch (const Error& e) {
+    spdlog::critical("{}", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    spdlog::critical("unexpected error: {}", e.what());
+    return 3;
+  }
+}
+
+}  // namespace teleop::node

@@ -1,0 +1,106 @@
+#include "teleop/node/run_summary.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <string>
+
+namespace teleop::node {
+
+Distribution FromHistogram(const runtime::LatencyHistogram& histogram, double ns_per_unit) noexcept {
+  Distribution d;
+  d.count = histogram.count();
+  d.p50 = static_cast<double>(histogram.Percentile(0.50)) / ns_per_unit;
+  d.p99 = static_cast<double>(histogram.Percentile(0.99)) / ns_per_unit;
+  d.max = static_cast<double>(histogram.max_ns()) / ns_per_unit;
+  return d;
+}
+
+namespace {
+
+// JSON has no NaN/inf: write null for them.
+std::string Num(double v) { return std::isfinite(v) ? fmt::format("{:.9g}", v) : std::string("null"); }
+
+std::string DistJson(const Distribution& d) {
+  return fmt::format(R"({{"count": {}, "p50": {}, "p99": {}, "max": {}}})", d.count, Num(d.p50), Num(d.p99),
+                     Num(d.max));
+}
+
+std::string RejectedJson(const transport::LinkCounters& c) {
+  std::string out = "{";
+  bool first = true;
+  for (std::size_t i = 1; i < c.rejected_by_reason.size(); ++i) {
+    if (!first) out += ", ";
+    first = false;
+    out += fmt::format(R"("{}": {})", proto::ToString(static_cast<proto::DecodeStatus>(i)), c.rejected_by_reason[i]);
+  }
+  return out + "}";
+}
+
+}  // namespace
+
+std::string FormatSummaryText(const RunSummary& s) {
+  const auto& l = s.link;
+  std::string out;
+  out += fmt::format("teleop-{} summary ({})\n", ToString(s.role), s.stop_reason);
+  out += fmt::format("  cycles            {} in {:.3f} s ({:.1f} Hz achieved, {:.0f} Hz configured), overruns {}\n",
+                     s.cycles, s.duration_s, s.achieved_rate_hz, s.rate_hz, s.overruns);
+  out += fmt::format("  period jitter     p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us\n", s.jitter_us.p50,
+                     s.jitter_us.p99, s.jitter_us.max);
+  out += fmt::format("  compute time      p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us\n", s.compute_us.p50,
+                     s.compute_us.p99, s.compute_us.max);
+  out += fmt::format("  packets           sent {}, received {}, accepted {}, lost {}, reordered {}, duplicates {}, "
+                     "rejected {}, send errors {}\n",
+                     l.sent, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors);
+  out += fmt::format("  round trip        p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms ({} samples)\n", s.rtt_ms.p50,
+                     s.rtt_ms.p99, s.rtt_ms.max, s.rtt_ms.count);
+  out += fmt::format("  peer              fresh in {} cycles, watchdog trips {}\n", s.cycles_with_peer,
+                     s.watchdog_trips);
+  out += fmt::format("  tracking error    rms {:.3f} mm, max {:.3f} mm\n", s.tracking_error_rms_m * 1e3,
+                     s.tracking_error_max_m * 1e3);
+  out += fmt::format("  fixture           max penetration {:.3f} mm\n", s.fixture_max_penetration_m * 1e3);
+  out += fmt::format("  faults            device fault cycles {}, non-finite inputs {}, saturated cycles {}\n",
+                     s.device_fault_cycles, s.nonfinite_inputs, s.saturated_cycles);
+  out += fmt::format("  telemetry         {} records, {} dropped\n", s.telemetry_records, s.telemetry_dropped);
+  return out;
+}
+
+std::string FormatSummaryJson(const RunSummary& s) {
+  const auto& l = s.link;
+  std::string out = "{\n";
+  out += fmt::format(R"(  "role": "{}",)"
+                     "\n",
+                     ToString(s.role));
+  out += fmt::format(R"(  "stop_reason": "{}",)"
+                     "\n",
+                     s.stop_reason);
+  out += fmt::format(R"(  "rate_hz": {}, "duration_s": {}, "cycles": {}, "achieved_rate_hz": {}, "overruns": {},)"
+                     "\n",
+                     Num(s.rate_hz), Num(s.duration_s), s.cycles, Num(s.achieved_rate_hz), s.overruns);
+  out += fmt::format(R"(  "period_us": {}, "jitter_us": {}, "compute_us": {},)"
+                     "\n",
+                     DistJson(s.period_us), DistJson(s.jitter_us), DistJson(s.compute_us));
+  out += fmt::format(R"(  "packets": {{"sent": {}, "send_errors": {}, "received": {}, "accepted": {}, "lost": {}, )"
+                     R"("reordered": {}, "duplicates": {}, "rejected": {}, "wrong_sender": {}, "superseded": {}, )"
+                     R"("bus_errors": {}, "rejected_by_reason": {}}},)"
+                     "\n",
+                     l.sent, l.send_errors, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected,
+                     l.wrong_sender, l.superseded, l.bus_errors, RejectedJson(l));
+  out += fmt::format(R"(  "rtt_ms": {},)"
+                     "\n",
+                     DistJson(s.rtt_ms));
+  out += fmt::format(R"(  "cycles_with_peer": {}, "watchdog_trips": {}, "device_fault_cycles": {}, )"
+                     R"("nonfinite_inputs": {}, "saturated_cycles": {}, "dof_mismatches": {},)"
+                     "\n",
+                     s.cycles_with_peer, s.watchdog_trips, s.device_fault_cycles, s.nonfinite_inputs,
+                     s.saturated_cycles, s.dof_mismatches);
+  out += fmt::format(R"(  "tracking_error_rms_m": {}, "tracking_error_max_m": {}, "fixture_max_penetration_m": {},)"
+                     "\n",
+                     Num(s.tracking_error_rms_m), Num(s.tracking_error_max_m), Num(s.fixture_max_penetration_m));
+  out += fmt::format(R"(  "telemetry_records": {}, "telemetry_dropped": {})"
+                     "\n}}\n",
+                     s.telemetry_records, s.telemetry_dropped);
+  return out;
+}
+
+}  // namespace teleop::node

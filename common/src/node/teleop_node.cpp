@@ -1,0 +1,310 @@
+#include "teleop/node/teleop_node.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <limits>
+
+#include "teleop/error.hpp"
+#include "teleop/node/event_log.hpp"
+#include "teleop/runtime/periodic_loop.hpp"
+#include "teleop/runtime/telemetry.hpp"
+#include "teleop/runtime/watchdog.hpp"
+
+namespace teleop::node {
+
+namespace {
+
+std::int64_t MonotonicNs() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+proto::SenderRole ToSender(Role role) noexcept {
+  return role == Role::kMaster ? proto::SenderRole::kMaster : proto::SenderRole::kSlave;
+}
+
+void CopyToWire(const DofVector& v, std::array<double, proto::kMaxWireDof>& out) noexcept {
+  for (int i = 0; i < v.size(); ++i) out[static_cast<std::size_t>(i)] = v[i];
+}
+
+void CopyFromWire(const std::array<double, proto::kMaxWireDof>& in, int dof, DofVector& out) noexcept {
+  out.resize(dof);
+  for (int i = 0; i < dof; ++i) out[i] = in[static_cast<std::size_t>(i)];
+}
+
+void CopyToRecord(const DofVector& v, double (&out)[kMaxDof]) noexcept {
+  for (int i = 0; i < kMaxDof; ++i) out[i] = i < v.size() ? v[i] : 0.0;
+}
+
+}  // namespace
+
+struct TeleopNode::Impl {
+  Impl(const config::ProcessConfig& cfg, std::unique_ptr<device::Device> dev, std::unique_ptr<transport::Link> lnk)
+      : config(cfg),
+        device(std::move(dev)),
+        link(std::move(lnk)),
+        law(cfg.law),
+        loop(cfg.loop),
+        watchdog(cfg.link.timeout_ms * 1e-3),
+        events(1024) {
+    const int dof = config.dof;
+    if (device->capabilities().dof != dof) {
+      throw Error("device '" + device->name() + "' has " + std::to_string(device->capabilities().dof) +
+                  " DOF but the config says dof: " + std::to_string(dof));
+    }
+    reading.position_m = ZeroDof(dof);
+    reading.velocity_m_per_s = ZeroDof(dof);
+    reading.force_N = ZeroDof(dof);
+    input.position_m = ZeroDof(dof);
+    input.velocity_m_per_s = ZeroDof(dof);
+    input.peer_position_m = ZeroDof(dof);
+    input.peer_velocity_m_per_s = ZeroDof(dof);
+    input.peer_force_N = ZeroDof(dof);
+    zero_command = ZeroDof(dof);
+    outgoing.sender = ToSender(config.role);
+    outgoing.dof = static_cast<std::uint8_t>(dof);
+    if (!config.telemetry.csv_path.empty()) {
+      telemetry = std::make_unique<runtime::TelemetryWriter>(config.telemetry.csv_path,
+                                                             static_cast<std::size_t>(config.telemetry.ring_capacity));
+    }
+  }
+
+  void Cycle(std::uint64_t cycle, double period_s) noexcept;
+  void Finish(RunSummary& summary);
+
+  config::ProcessConfig config;
+  std::unique_ptr<device::Device> device;
+  std::unique_ptr<transport::Link> link;
+  control::ThreeChannelLaw law;
+  runtime::PeriodicLoop loop;
+  runtime::LinkWatchdog watchdog;
+  EventLog events;
+  std::unique_ptr<runtime::TelemetryWriter> telemetry;
+
+  // Preallocated cycle state.
+  device::Reading reading;
+  control::ThreeChannelLaw::Input input;
+  DofVector zero_command;
+  proto::SampleMessage incoming{};
+  proto::SampleMessage peer{};
+  proto::SampleMessage outgoing{};
+  bool have_peer = false;
+  bool peer_was_valid = false;
+  bool peer_shutdown = false;
+  bool device_faulted = false;
+  std::int64_t start_ns = 0;
+  std::int64_t peer_rx_ns = 0;
+  std::uint32_t sequence = 0;
+  std::uint8_t last_flags = 0;
+
+  // Run statistics.
+  runtime::LatencyHistogram rtt_ns;
+  std::uint64_t cycles_with_peer = 0;
+  std::uint64_t device_fault_cycles = 0;
+  std::uint64_t saturated_cycles = 0;
+  std::uint64_t nonfinite_inputs = 0;
+  std::uint64_t reported_overruns = 0;
+  double tracking_sq_sum = 0.0;
+  double tracking_max = 0.0;
+  double max_penetration = 0.0;
+  std::uint64_t telemetry_records = 0;
+  std::uint64_t dof_mismatches = 0;
+  std::atomic<bool> stop_on_peer_shutdown{false};
+  std::atomic<bool> stop_requested{false};
+};
+
+void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
+  const std::int64_t now_ns = MonotonicNs();
+  if (cycle == 0) start_ns = now_ns;
+  const double t_s = static_cast<double>(now_ns - start_ns) * 1e-9;
+  const int dof = config.dof;
+
+  // 1. Sense.
+  device->Read(reading);
+
+  // 2. Receive: drain the link, keep the newest sample.
+  if (link->Poll(incoming)) {
+    if (incoming.dof != dof) {
+      // A peer configured for another DOF count: never applied; the watchdog expires and coupling stays off.
+      ++dof_mismatches;
+    } else {
+      peer = incoming;
+      peer_rx_ns = now_ns;
+      if (!have_peer) events.Push({Event::Kind::kPeerConnected, cycle, 0.0});
+      have_peer = true;
+      watchdog.Feed(t_s);
+      if (peer.echo_time_ns != 0) {
+        const std::int64_t rtt = now_ns - static_cast<std::int64_t>(peer.echo_time_ns) -
+                                 static_cast<std::int64_t>(peer.echo_age_ns);
+        if (rtt >= 0) rtt_ns.Add(rtt);
+      }
+      if ((peer.flags & proto::kFlagShutdown) != 0 && !peer_shutdown) {
+        peer_shutdown = true;
+        events.Push({Event::Kind::kPeerShutdown, cycle, 0.0});
+        if (stop_on_peer_shutdown.load(std::memory_order_relaxed)) loop.Stop();
+      }
+      if ((peer.flags & proto::kFlagFault) != 0 && (last_flags & proto::kFlagFault) == 0) {
+        events.Push({Event::Kind::kPeerFault, cycle, 0.0});
+      }
+      last_flags = peer.flags;
+    }
+  }
+  const bool fresh = have_peer && watchdog.Fresh(t_s);
+  const bool peer_ok = fresh && !peer_shutdown && (peer.flags & proto::kFlagFault) == 0;
+  if (have_peer && peer_was_valid && !fresh) events.Push({Event::Kind::kPeerLost, cycle, 0.0});
+  if (have_peer && !peer_was_valid && fresh && cycle > 0 && watchdog.trips() > 0) {
+    events.Push({Event::Kind::kPeerRecovered, cycle, 0.0});
+  }
+  peer_was_valid = fresh;
+
+  // 3. Control.
+  input.position_m = reading.position_m;
+  input.has_velocity = device->capabilities().measures_velocity;
+  input.velocity_m_per_s = reading.velocity_m_per_s;
+  input.peer_valid = peer_ok;
+  if (have_peer) {
+    CopyFromWire(peer.position_m, dof, input.peer_position_m);
+    CopyFromWire(peer.velocity_m_per_s, dof, input.peer_velocity_m_per_s);
+    CopyFromWire(peer.force_N, dof, input.peer_force_N);
+  }
+  const auto out = law.Step(input, period_s);
+
+  // 4. Actuate, or hold the safe state on a device fault.
+  const bool fault = reading.faults != device::kFaultNone;
+  if (fault) {
+    device->SetSafe();
+    ++device_fault_cycles;
+    if (!device_faulted) events.Push({Event::Kind::kDeviceFault, cycle, static_cast<double>(reading.faults)});
+  } else {
+    if (device_faulted) events.Push({Event::Kind::kDeviceFaultCleared, cycle, 0.0});
+    device->Write(out.command_N);
+  }
+  device_faulted = fault;
+  device->Update(period_s);
+
+  // 5. Send this cycle's sample with the echo for the peer's round-trip measurement.
+  outgoing.sequence = sequence++;
+  outgoing.sender_time_ns = static_cast<std::uint64_t>(now_ns);
+  outgoing.echo_time_ns = have_peer ? peer.sender_time_ns : 0;
+  outgoing.echo_age_ns =
+      have_peer ? static_cast<std::uint32_t>(std::min<std::int64_t>(MonotonicNs() - peer_rx_ns, 0xFFFFFFFF)) : 0;
+  std::uint8_t flags = proto::kFlagEnabled;
+  if (fault || out.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput) flags |= proto::kFlagFault;
+  if (have_peer && !fresh) flags |= proto::kFlagPeerLost;
+  if (out.status == control::ThreeChannelLaw::StepStatus::kSaturated) flags |= proto::kFlagSaturated;
+  if (out.fixture_penetration_m > 0.0) flags |= proto::kFlagInFixture;
+  if (loop.stopping()) flags |= proto::kFlagShutdown;
+  outgoing.flags = flags;
+  CopyToWire(reading.position_m, outgoing.position_m);
+  CopyToWire(out.velocity_m_per_s, outgoing.velocity_m_per_s);
+  CopyToWire(reading.force_N, outgoing.force_N);
+  (void)link->Send(outgoing);  // a refused send is counted by the link
+
+  // 6. Statistics and telemetry.
+  if (out.status == control::ThreeChannelLaw::StepStatus::kSaturated) ++saturated_cycles;
+  if (out.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput) {
+    if (nonfinite_inputs == 0) events.Push({Event::Kind::kNonFiniteInput, cycle, 0.0});
+    ++nonfinite_inputs;
+  }
+  if (peer_ok) {
+    ++cycles_with_peer;
+    const double e = (reading.position_m - config.law.peer_position_scale * input.peer_position_m).norm();
+    tracking_sq_sum += e * e;
+    tracking_max = std::max(tracking_max, e);
+  }
+  max_penetration = std::max(max_penetration, out.fixture_penetration_m);
+  if (loop.stats().overruns > reported_overruns) {
+    reported_overruns = loop.stats().overruns;
+    events.Push({Event::Kind::kOverrun, cycle, static_cast<double>(reported_overruns)});
+  }
+  if (telemetry && cycle % static_cast<std::uint64_t>(config.telemetry.decimation) == 0) {
+    runtime::TelemetryRecord r{};
+    r.cycle = cycle;
+    r.time_s = t_s;
+    r.dof = dof;
+    CopyToRecord(reading.position_m, r.position_m);
+    CopyToRecord(out.velocity_m_per_s, r.velocity_m_per_s);
+    CopyToRecord(reading.force_N, r.force_sensor_N);
+    CopyToRecord(fault ? zero_command : out.command_N, r.command_N);
+    CopyToRecord(out.fixture_force_N, r.fixture_force_N);
+    CopyToRecord(input.peer_position_m, r.peer_position_m);
+    CopyToRecord(input.peer_velocity_m_per_s, r.peer_velocity_m_per_s);
+    CopyToRecord(input.peer_force_N, r.peer_force_N);
+    r.fixture_penetration_m = out.fixture_penetration_m;
+    r.law_status = static_cast<int>(out.status);
+    r.flags = flags;
+    r.rtt_s = std::numeric_limits<double>::quiet_NaN();
+    r.compute_s = static_cast<double>(MonotonicNs() - now_ns) * 1e-9;
+    if (telemetry->Push(r)) ++telemetry_records;
+  }
+}
+
+TeleopNode::TeleopNode(const config::ProcessConfig& config, std::unique_ptr<device::Device> device,
+                       std::unique_ptr<transport::Link> link)
+    : impl_(std::make_unique<Impl>(config, std::move(device), std::move(link))) {}
+
+TeleopNode::~TeleopNode() = default;
+
+void TeleopNode::Stop() noexcept {
+  impl_->stop_requested.store(true, std::memory_order_relaxed);
+  impl_->loop.Stop();
+}
+
+RunSummary TeleopNode::Run() {
+  Impl& s = *impl_;
+  s.stop_on_peer_shutdown.store(true);
+  spdlog::info("teleop-{}: {} DOF at {:.0f} Hz, device '{}', link {}", ToString(s.config.role), s.config.dof,
+               s.config.loop.rate_hz, s.device->name(), s.link->Describe());
+  const auto wall_start = std::chrono::steady_clock::now();
+  s.loop.Run([&s](std::uint64_t cycle, double period_s) { s.Cycle(cycle, period_s); });
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+
+  // Tell the peer we are going, so it stops coupling without a watchdog fault; then hold the safe state.
+  s.outgoing.flags = proto::kFlagShutdown;
+  s.outgoing.sequence = s.sequence++;
+  (void)s.link->Send(s.outgoing);
+  s.device->SetSafe();
+
+  RunSummary summary;
+  summary.role = s.config.role;
+  summary.rate_hz = s.config.loop.rate_hz;
+  const auto& st = s.loop.stats();
+  summary.cycles = st.cycles;
+  summary.duration_s = wall_s;
+  summary.achieved_rate_hz = wall_s > 0 ? static_cast<double>(st.cycles) / wall_s : 0.0;
+  summary.overruns = st.overruns;
+  summary.period_us = FromHistogram(st.period_ns, 1e3);
+  summary.jitter_us = FromHistogram(st.jitter_ns, 1e3);
+  summary.compute_us = FromHistogram(st.compute_ns, 1e3);
+  summary.link = s.link->counters();
+  summary.rtt_ms = FromHistogram(s.rtt_ns, 1e6);
+  summary.cycles_with_peer = s.cycles_with_peer;
+  summary.watchdog_trips = s.watchdog.trips();
+  summary.device_fault_cycles = s.device_fault_cycles;
+  summary.nonfinite_inputs = s.nonfinite_inputs;
+  summary.saturated_cycles = s.saturated_cycles;
+  summary.tracking_error_rms_m =
+      s.cycles_with_peer > 0 ? std::sqrt(s.tracking_sq_sum / static_cast<double>(s.cycles_with_peer)) : 0.0;
+  summary.tracking_error_max_m = s.tracking_max;
+  summary.fixture_max_penetration_m = s.max_penetration;
+  if (s.telemetry) {
+    s.telemetry->Stop();
+    summary.telemetry_records = s.telemetry_records;
+    summary.telemetry_dropped = s.telemetry->dropped();
+  }
+  summary.dof_mismatches = s.dof_mismatches;
+  summary.stop_reason = s.stop_requested.load() ? "signal" : (s.peer_shutdown ? "peer shutdown" : "duration");
+  if (s.dof_mismatches > 0) {
+    spdlog::error("{} samples from the peer carried another DOF count than this process's {}: check both configs",
+                  s.dof_mismatches, s.config.dof);
+  }
+  s.events.Stop();
+  return summary;
+}
+
+}  // namespace teleop::node
