@@ -1,0 +1,154 @@
+#!/usr/bin/env python3
+"""Runs teleop-slave and teleop-master as real processes on 127.0.0.1 and checks their JSON summaries.
+
+Scenarios:
+  clean_run  both run; the master stops after its duration and tells the slave, which stops too.
+  sigterm    the master is stopped with SIGTERM mid-run: clean summary, exit 0; the slave sees the shutdown.
+  dead_peer  the master is killed with SIGKILL: the slave's watchdog trips, it keeps its loop running and exits 0.
+  garbage    malformed datagrams are sent to the slave's port during a run: all rejected and counted by reason,
+             the loop is not disturbed.
+"""
+import argparse
+import json
+import os
+import random
+import re
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+
+def free_udp_port():
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def write_config(src, dst, ports, extra_replacements=()):
+    text = open(src).read()
+    text = text.replace("47001", str(ports[0])).replace("47002", str(ports[1]))
+    for old, new in extra_replacements:
+        text = text.replace(old, new)
+    # Telemetry is not under test here; keep the run light.
+    text = re.sub(r"(?m)^(\s*csv:).*$", r'\1 ""', text)
+    with open(dst, "w") as f:
+        f.write(text)
+
+
+class Failure(Exception):
+    pass
+
+
+def check(cond, what):
+    if not cond:
+        raise Failure(what)
+    print(f"  ok: {what}")
+
+
+def load(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--master", required=True)
+    ap.add_argument("--slave", required=True)
+    ap.add_argument("--configs", required=True)
+    ap.add_argument("--scenario", required=True, choices=["clean_run", "sigterm", "dead_peer", "garbage"])
+    ap.add_argument("--workdir", required=True)
+    args = ap.parse_args()
+    os.makedirs(args.workdir, exist_ok=True)
+    ports = (free_udp_port(), free_udp_port())
+    mcfg = os.path.join(args.workdir, "master.yaml")
+    scfg = os.path.join(args.workdir, "slave.yaml")
+    write_config(os.path.join(args.configs, "master.yaml"), mcfg, ports)
+    write_config(os.path.join(args.configs, "slave.yaml"), scfg, ports)
+    mjson = os.path.join(args.workdir, "master.json")
+    sjson = os.path.join(args.workdir, "slave.json")
+    for p in (mjson, sjson):
+        if os.path.exists(p):
+            os.remove(p)
+
+    master_duration = 3.0
+    slave_duration = 4.0 if args.scenario == "dead_peer" else 6.0
+    slave = subprocess.Popen([args.slave, "--config", scfg, "--duration", str(slave_duration),
+                              "--summary-json", sjson], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(0.3)
+    master = subprocess.Popen([args.master, "--config", mcfg, "--duration",
+                               str(0 if args.scenario in ("sigterm", "dead_peer") else master_duration),
+                               "--summary-json", mjson], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    garbage_sent = 0
+    if args.scenario in ("sigterm", "dead_peer"):
+        time.sleep(1.5)
+        master.send_signal(signal.SIGTERM if args.scenario == "sigterm" else signal.SIGKILL)
+    elif args.scenario == "garbage":
+        rng = random.Random(7)
+        time.sleep(0.5)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            # The slave binds ports[1]; it accepts only the master's address, so send from the master's port is
+            # impossible while the master runs. Unknown sources and malformed bytes must both be rejected.
+            for i in range(200):
+                n = rng.randint(0, 120)
+                s.sendto(bytes(rng.getrandbits(8) for _ in range(n)), ("127.0.0.1", ports[1]))
+                garbage_sent += 1
+                time.sleep(0.002)
+    try:
+        mout, _ = master.communicate(timeout=20)
+        sout, _ = slave.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        master.kill()
+        slave.kill()
+        raise Failure("processes did not stop")
+    print("---- master output ----\n" + (mout or ""))
+    print("---- slave output ----\n" + (sout or ""))
+
+    check(slave.returncode == 0, f"slave exits 0 (got {slave.returncode})")
+    s = load(sjson)
+    rate = s["rate_hz"]
+    check(s["cycles"] > 0.8 * rate * 1.0, f"slave ran {s['cycles']} cycles")
+    check(s["achieved_rate_hz"] > 0.9 * rate, f"slave achieved {s['achieved_rate_hz']:.1f} Hz of {rate:.0f}")
+    check(s["packets"]["sent"] >= s["cycles"], "slave sent one sample per cycle")
+
+    if args.scenario == "dead_peer":
+        check(master.returncode == -signal.SIGKILL, "master was killed")
+        check(s["watchdog_trips"] >= 1, f"slave watchdog tripped ({s['watchdog_trips']})")
+        check(s["stop_reason"] == "duration", f"slave ran to its duration ({s['stop_reason']})")
+        check(s["cycles_with_peer"] < s["cycles"] - 0.5 * rate, "slave decoupled after the master died")
+        return
+    check(master.returncode == 0, f"master exits 0 (got {master.returncode})")
+    m = load(mjson)
+    check(s["stop_reason"] == "peer shutdown", f"slave stopped on the master's shutdown ({s['stop_reason']})")
+    expected_master = "signal" if args.scenario == "sigterm" else "duration"
+    check(m["stop_reason"] == expected_master, f"master stop reason {m['stop_reason']}")
+    check(m["achieved_rate_hz"] > 0.9 * m["rate_hz"], f"master achieved {m['achieved_rate_hz']:.1f} Hz")
+    for name, x, peer in (("master", m, s), ("slave", s, m)):
+        pk = x["packets"]
+        check(pk["accepted"] > 0.9 * x["cycles_with_peer"], f"{name} accepted {pk['accepted']} samples")
+        check(pk["lost"] <= 0.01 * pk["accepted"] + 2, f"{name} lost {pk['lost']} (loopback: ~none)")
+        check(x["rtt_ms"]["count"] > 0.5 * x["cycles_with_peer"], f"{name} measured {x['rtt_ms']['count']} RTTs")
+        check(0 < x["rtt_ms"]["p50"] < 50, f"{name} RTT p50 {x['rtt_ms']['p50']:.3f} ms is plausible")
+        check(x["tracking_error_rms_m"] < 0.005, f"{name} tracking error rms {x['tracking_error_rms_m']*1e3:.3f} mm")
+        check(x["nonfinite_inputs"] == 0 and x["device_fault_cycles"] == 0, f"{name} had no faults")
+    if args.scenario == "clean_run":
+        check(m["packets"]["rejected"] == 0 and s["packets"]["rejected"] == 0, "nothing rejected on a clean link")
+        check(m["cycles_with_peer"] > 0.9 * m["cycles"], "master coupled for the whole run")
+        check(s["fixture_max_penetration_m"] > 0, "the operator pushed the slave into its fixture")
+        check(s["fixture_max_penetration_m"] < 0.005,
+              f"the fixture held the slave within 5 mm ({s['fixture_max_penetration_m']*1e3:.3f} mm)")
+    if args.scenario == "garbage":
+        rej = s["packets"]["rejected"]
+        check(rej == garbage_sent, f"slave rejected all {garbage_sent} garbage datagrams ({rej})")
+        check(m["packets"]["rejected"] == 0, "master saw no garbage")
+        check(s["watchdog_trips"] == 0, "garbage did not disturb the coupling")
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except Failure as e:
+        print(f"FAILED: {e}")
+        sys.exit(1)
+    print("PASSED")
