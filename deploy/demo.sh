@@ -48,7 +48,7 @@ echo
 echo "==== master ===="; cat "${out}/master.log"
 echo "==== slave ====";  cat "${out}/slave.log"
 
-fixture_offset=$(awk '/offset_m:/ {print $NF; exit}' "${slave_cfg}")
+fixture_offset=$(grep -o 'offset_m: *[-+0-9.eE]*' "${slave_cfg}" | head -n 1 | awk '{print $2}')
 gnuplot -e "slave='${out}/slave.csv'; png='${out}/demo.png'; wall=${fixture_offset:-0}" \
   "${TELEOP_ROOT}/deploy/plot_demo.gp"
 echo

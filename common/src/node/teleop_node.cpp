@@ -67,10 +67,11 @@ struct TeleopNode::Impl {
     input.peer_force_N = ZeroDof(dof);
     zero_command = ZeroDof(dof);
     outgoing.sender = ToSender(config.role);
+    rate = static_cast<std::uint64_t>(config.loop.rate_hz);
     outgoing.dof = static_cast<std::uint8_t>(dof);
     if (!config.telemetry.csv_path.empty()) {
       telemetry = std::make_unique<runtime::TelemetryWriter>(config.telemetry.csv_path,
-                                                             static_cast<std::size_t>(config.telemetry.ring_capacity));
+                                                             static_cast<std::size_t>(config.telemetry.ring_capacity), dof);
     }
   }
 
@@ -109,11 +110,14 @@ struct TeleopNode::Impl {
   std::uint64_t saturated_cycles = 0;
   std::uint64_t nonfinite_inputs = 0;
   std::uint64_t reported_overruns = 0;
+  std::uint64_t overrun_event_cycle = 0;
+  std::uint64_t rate = 1000;  ///< Cycles per second, for rate-limiting events.
   double tracking_sq_sum = 0.0;
   double tracking_max = 0.0;
   double max_penetration = 0.0;
   std::uint64_t telemetry_records = 0;
   std::uint64_t dof_mismatches = 0;
+  double last_rtt_s = std::numeric_limits<double>::quiet_NaN();
   std::atomic<bool> stop_on_peer_shutdown{false};
   std::atomic<bool> stop_requested{false};
 };
@@ -141,7 +145,10 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
       if (peer.echo_time_ns != 0) {
         const std::int64_t rtt = now_ns - static_cast<std::int64_t>(peer.echo_time_ns) -
                                  static_cast<std::int64_t>(peer.echo_age_ns);
-        if (rtt >= 0) rtt_ns.Add(rtt);
+        if (rtt >= 0) {
+          rtt_ns.Add(rtt);
+          last_rtt_s = static_cast<double>(rtt) * 1e-9;
+        }
       }
       if ((peer.flags & proto::kFlagShutdown) != 0 && !peer_shutdown) {
         peer_shutdown = true;
@@ -218,8 +225,10 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
     tracking_max = std::max(tracking_max, e);
   }
   max_penetration = std::max(max_penetration, out.fixture_penetration_m);
-  if (loop.stats().overruns > reported_overruns) {
+  // Overruns are reported at most once a second so that a loaded machine does not flood the log.
+  if (loop.stats().overruns > reported_overruns && (overrun_event_cycle == 0 || cycle >= overrun_event_cycle + rate)) {
     reported_overruns = loop.stats().overruns;
+    overrun_event_cycle = cycle;
     events.Push({Event::Kind::kOverrun, cycle, static_cast<double>(reported_overruns)});
   }
   if (telemetry && cycle % static_cast<std::uint64_t>(config.telemetry.decimation) == 0) {
@@ -238,7 +247,7 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
     r.fixture_penetration_m = out.fixture_penetration_m;
     r.law_status = static_cast<int>(out.status);
     r.flags = flags;
-    r.rtt_s = std::numeric_limits<double>::quiet_NaN();
+    r.rtt_s = last_rtt_s;
     r.compute_s = static_cast<double>(MonotonicNs() - now_ns) * 1e-9;
     if (telemetry->Push(r)) ++telemetry_records;
   }
