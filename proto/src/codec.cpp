@@ -1,1 +1,177 @@
-// Filled by the wire-protocol work: see codec.hpp.
+#include "teleop/proto/codec.hpp"
+
+#include <bit>
+#include <cmath>
+
+#include "teleop/proto/crc.hpp"
+
+namespace teleop::proto {
+namespace {
+
+// Explicit little-endian access: shifts on integers, std::bit_cast for doubles. Independent of host byte order
+// and alignment; received bytes are never reinterpreted in place.
+void PutU8(std::uint8_t* p, std::uint8_t v) noexcept { p[0] = v; }
+void PutU16(std::uint8_t* p, std::uint16_t v) noexcept {
+  for (int i = 0; i < 2; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
+}
+void PutU32(std::uint8_t* p, std::uint32_t v) noexcept {
+  for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
+}
+void PutU64(std::uint8_t* p, std::uint64_t v) noexcept {
+  for (int i = 0; i < 8; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
+}
+void PutF64(std::uint8_t* p, double v) noexcept { PutU64(p, std::bit_cast<std::uint64_t>(v)); }
+
+std::uint16_t GetU16(const std::uint8_t* p) noexcept { return static_cast<std::uint16_t>(p[0] | (p[1] << 8)); }
+std::uint32_t GetU32(const std::uint8_t* p) noexcept {
+  std::uint32_t v = 0;
+  for (int i = 3; i >= 0; --i) v = (v << 8) | p[i];
+  return v;
+}
+std::uint64_t GetU64(const std::uint8_t* p) noexcept {
+  std::uint64_t v = 0;
+  for (int i = 7; i >= 0; --i) v = (v << 8) | p[i];
+  return v;
+}
+double GetF64(const std::uint8_t* p) noexcept { return std::bit_cast<double>(GetU64(p)); }
+
+bool ValidDof(int dof) noexcept { return dof >= 1 && dof <= kMaxWireDof; }
+
+// kNonFinite wins over kOutOfRange for a field that is both (NaN compares false with everything).
+DecodeStatus CheckValue(double value, double max_abs) noexcept {
+  if (!std::isfinite(value)) return DecodeStatus::kNonFinite;
+  if (std::fabs(value) > max_abs) return DecodeStatus::kOutOfRange;
+  return DecodeStatus::kOk;
+}
+
+}  // namespace
+
+const char* ToString(SenderRole role) noexcept {
+  switch (role) {
+    case SenderRole::kMaster:
+      return "master";
+    case SenderRole::kSlave:
+      return "slave";
+  }
+  return "invalid";
+}
+
+const char* ToString(DecodeStatus status) noexcept {
+  switch (status) {
+    case DecodeStatus::kOk:
+      return "ok";
+    case DecodeStatus::kTooShort:
+      return "too_short";
+    case DecodeStatus::kBadMagic:
+      return "bad_magic";
+    case DecodeStatus::kBadVersion:
+      return "bad_version";
+    case DecodeStatus::kBadType:
+      return "bad_type";
+    case DecodeStatus::kBadDof:
+      return "bad_dof";
+    case DecodeStatus::kBadLength:
+      return "bad_length";
+    case DecodeStatus::kBadCrc:
+      return "bad_crc";
+    case DecodeStatus::kNonFinite:
+      return "non_finite";
+    case DecodeStatus::kOutOfRange:
+      return "out_of_range";
+    case DecodeStatus::kCount:
+      break;
+  }
+  return "invalid";
+}
+
+std::size_t MaxEncodedSampleSize() noexcept { return EncodedSampleSize(kMaxWireDof); }
+
+std::size_t EncodedSampleSize(int dof) noexcept {
+  if (!ValidDof(dof)) return 0;
+  return wire::kHeaderSize + static_cast<std::size_t>(dof) * wire::kBytesPerDof + wire::kCrcSize;
+}
+
+DecodeStatus ValidateSample(const SampleMessage& message) noexcept {
+  if (message.sender != SenderRole::kMaster && message.sender != SenderRole::kSlave) {
+    return DecodeStatus::kOutOfRange;
+  }
+  if ((message.flags & ~kKnownFlags) != 0) return DecodeStatus::kOutOfRange;
+  if (!ValidDof(message.dof)) return DecodeStatus::kBadDof;
+  // Non-finite anywhere is reported before out-of-range anywhere, so one NaN is always kNonFinite.
+  DecodeStatus worst = DecodeStatus::kOk;
+  for (std::size_t i = 0; i < message.dof; ++i) {
+    for (const DecodeStatus s : {CheckValue(message.position_m[i], kMaxAbsPosition_m),
+                                 CheckValue(message.velocity_m_per_s[i], kMaxAbsVelocity_m_per_s),
+                                 CheckValue(message.force_N[i], kMaxAbsForce_N)}) {
+      if (s == DecodeStatus::kNonFinite) return s;
+      if (s != DecodeStatus::kOk) worst = s;
+    }
+  }
+  return worst;
+}
+
+std::size_t EncodeSample(const SampleMessage& message, std::span<std::uint8_t> out) noexcept {
+  const std::size_t size = EncodedSampleSize(message.dof);
+  if (size == 0 || out.size() < size) return 0;
+  std::uint8_t* p = out.data();
+  PutU32(p + wire::kMagicOffset, wire::kMagic);
+  PutU8(p + wire::kVersionOffset, kProtocolVersion);
+  PutU8(p + wire::kTypeOffset, static_cast<std::uint8_t>(MessageType::kSample));
+  PutU8(p + wire::kSenderOffset, static_cast<std::uint8_t>(message.sender));
+  PutU8(p + wire::kFlagsOffset, message.flags);
+  PutU8(p + wire::kDofOffset, message.dof);
+  PutU8(p + wire::kReservedOffset, 0);
+  PutU16(p + wire::kPayloadLengthOffset, static_cast<std::uint16_t>(message.dof * wire::kBytesPerDof));
+  PutU32(p + wire::kSequenceOffset, message.sequence);
+  PutU64(p + wire::kSenderTimeOffset, message.sender_time_ns);
+  PutU64(p + wire::kEchoTimeOffset, message.echo_time_ns);
+  PutU32(p + wire::kEchoAgeOffset, message.echo_age_ns);
+  std::uint8_t* q = p + wire::kHeaderSize;
+  for (std::size_t i = 0; i < message.dof; ++i, q += wire::kBytesPerDof) {
+    PutF64(q, message.position_m[i]);
+    PutF64(q + 8, message.velocity_m_per_s[i]);
+    PutF64(q + 16, message.force_N[i]);
+  }
+  const std::size_t crc_offset = size - wire::kCrcSize;
+  PutU32(p + crc_offset, Crc32c(out.first(crc_offset)));
+  return size;
+}
+
+DecodeStatus DecodeSample(std::span<const std::uint8_t> bytes, SampleMessage& out) noexcept {
+  if (bytes.size() < wire::kHeaderSize) return DecodeStatus::kTooShort;
+  const std::uint8_t* p = bytes.data();
+  if (GetU32(p + wire::kMagicOffset) != wire::kMagic) return DecodeStatus::kBadMagic;
+  if (p[wire::kVersionOffset] != kProtocolVersion) return DecodeStatus::kBadVersion;
+  if (p[wire::kTypeOffset] != static_cast<std::uint8_t>(MessageType::kSample)) return DecodeStatus::kBadType;
+  const int dof = p[wire::kDofOffset];
+  if (!ValidDof(dof)) return DecodeStatus::kBadDof;
+  const std::size_t payload = static_cast<std::size_t>(dof) * wire::kBytesPerDof;
+  if (GetU16(p + wire::kPayloadLengthOffset) != payload) return DecodeStatus::kBadLength;
+  const std::size_t size = wire::kHeaderSize + payload + wire::kCrcSize;
+  if (bytes.size() < size) return DecodeStatus::kTooShort;
+  if (bytes.size() > size) return DecodeStatus::kBadLength;
+  const std::size_t crc_offset = size - wire::kCrcSize;
+  if (GetU32(p + crc_offset) != Crc32c(bytes.first(crc_offset))) return DecodeStatus::kBadCrc;
+  if (p[wire::kReservedOffset] != 0) return DecodeStatus::kOutOfRange;
+
+  SampleMessage m{};
+  m.sender = static_cast<SenderRole>(p[wire::kSenderOffset]);
+  m.flags = p[wire::kFlagsOffset];
+  m.dof = static_cast<std::uint8_t>(dof);
+  m.sequence = GetU32(p + wire::kSequenceOffset);
+  m.sender_time_ns = GetU64(p + wire::kSenderTimeOffset);
+  m.echo_time_ns = GetU64(p + wire::kEchoTimeOffset);
+  m.echo_age_ns = GetU32(p + wire::kEchoAgeOffset);
+  const std::uint8_t* q = p + wire::kHeaderSize;
+  for (std::size_t i = 0; i < m.dof; ++i, q += wire::kBytesPerDof) {
+    m.position_m[i] = GetF64(q);
+    m.velocity_m_per_s[i] = GetF64(q + 8);
+    m.force_N[i] = GetF64(q + 16);
+  }
+  const DecodeStatus status = ValidateSample(m);
+  if (status != DecodeStatus::kOk) return status;
+  out = m;
+  return DecodeStatus::kOk;
+}
+
+}  // namespace teleop::proto

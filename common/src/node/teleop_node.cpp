@@ -18,11 +18,7 @@ namespace teleop::node {
 
 namespace {
 
-std::int64_t MonotonicNs() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
+using runtime::MonotonicNowNs;
 
 proto::SenderRole ToSender(Role role) noexcept {
   return role == Role::kMaster ? proto::SenderRole::kMaster : proto::SenderRole::kSlave;
@@ -123,7 +119,7 @@ struct TeleopNode::Impl {
 };
 
 void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
-  const std::int64_t now_ns = MonotonicNs();
+  const std::int64_t now_ns = MonotonicNowNs();
   if (cycle == 0) start_ns = now_ns;
   const double t_s = static_cast<double>(now_ns - start_ns) * 1e-9;
   const int dof = config.dof;
@@ -199,7 +195,7 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
   outgoing.sender_time_ns = static_cast<std::uint64_t>(now_ns);
   outgoing.echo_time_ns = have_peer ? peer.sender_time_ns : 0;
   outgoing.echo_age_ns =
-      have_peer ? static_cast<std::uint32_t>(std::min<std::int64_t>(MonotonicNs() - peer_rx_ns, 0xFFFFFFFF)) : 0;
+      have_peer ? static_cast<std::uint32_t>(std::min<std::int64_t>(MonotonicNowNs() - peer_rx_ns, 0xFFFFFFFF)) : 0;
   std::uint8_t flags = proto::kFlagEnabled;
   if (fault || out.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput) flags |= proto::kFlagFault;
   if (have_peer && !fresh) flags |= proto::kFlagPeerLost;
@@ -248,7 +244,7 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
     r.law_status = static_cast<int>(out.status);
     r.flags = flags;
     r.rtt_s = last_rtt_s;
-    r.compute_s = static_cast<double>(MonotonicNs() - now_ns) * 1e-9;
+    r.compute_s = static_cast<double>(MonotonicNowNs() - now_ns) * 1e-9;
     if (telemetry->Push(r)) ++telemetry_records;
   }
 }

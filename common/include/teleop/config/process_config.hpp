@@ -12,9 +12,9 @@ namespace teleop::config {
 
 /// Where per-cycle telemetry goes. Written by a non-real-time thread fed through a lock-free ring.
 struct TelemetryConfig {
-  std::string csv_path;            ///< Empty: no CSV.
-  int decimation = 1;              ///< Record every n-th cycle.
-  int ring_capacity = 65536;       ///< Records buffered between the loop and the writer.
+  std::string csv_path;       ///< Empty: no CSV.
+  int decimation = 1;         ///< Record every n-th cycle (the caller decimates before TelemetryWriter::Push).
+  int ring_capacity = 16384;  ///< Records buffered between the loop and the writer (16..2^24; ~430 B each).
 };
 
 /// Everything one process (teleop-master or teleop-slave) needs, read from one YAML file.
@@ -27,7 +27,7 @@ struct ProcessConfig {
   device::DeviceConfig device{};
   control::ThreeChannelLaw::Config law{};
   TelemetryConfig telemetry{};
-  std::string source_path;         ///< The file it was read from (for messages).
+  std::string source_path;  ///< The file it was read from (for messages).
 };
 
 }  // namespace teleop::config

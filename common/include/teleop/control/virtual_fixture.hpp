@@ -14,8 +14,12 @@ struct FixturePlane {
 };
 
 /// The forbidden-region virtual fixture of Abbott & Okamura eq. 7, generalised to N-DOF as a set of half-spaces:
-/// for every plane with penetration d = n·x - offset > 0 the fixture pushes back with K·d along -n. With one plane
-/// and n = +1 in 1-DOF this is exactly eq. 7 (F_VF = K·X for X > 0, else 0). Unilateral: no force outside.
+/// for every plane with penetration d = n·x - offset > 0 the fixture pushes back with K·d along -n; the forces of
+/// all penetrated planes add. With one plane and n = +1 in 1-DOF this is exactly eq. 7 (F_VF = K·X for X > 0,
+/// else 0). Unilateral: no force outside.
+///
+/// Sign: Output::force_N is the force ON the device, i.e. -F_VF of eqs. 8-9 (the laws subtract F_VF). In 1-DOF
+/// with n = +1 and offset 0, force_N = -K·X for X > 0.
 class ForbiddenRegionFixture {
  public:
   static constexpr int kMaxPlanes = 8;
@@ -28,15 +32,24 @@ class ForbiddenRegionFixture {
   };
 
   struct Output {
-    DofVector force_N;                ///< Force the fixture applies to the device, base frame (pushes out of the region).
-    double max_penetration_m = 0.0;   ///< Largest penetration over the planes; 0 when outside.
+    DofVector force_N;  ///< Force the fixture applies to the device, base frame (pushes out of the region).
+    double max_penetration_m = 0.0;  ///< Largest penetration over the planes; 0 when outside.
   };
 
-  ForbiddenRegionFixture() = default;
-  /// Validates and stores the config (normals are normalised). Throws teleop::Error on a bad config (set-up only).
+  /// A disabled 1-DOF fixture (no planes, zero stiffness).
+  ForbiddenRegionFixture();
+  /// Validates and stores the config (normals are normalised). Throws teleop::Error on a bad config (set-up only):
+  /// dof out of 1..kMaxDof, stiffness not finite or < 0, plane_count out of 0..kMaxPlanes, a normal of the wrong
+  /// size, non-finite or (near) zero, a non-finite offset, or a positive stiffness without any plane.
   explicit ForbiddenRegionFixture(const Config& config);
 
-  /// Fixture force for the measured position (m, base frame). Allocation-free.
+  /// The 1-DOF fixture of eq. 7 at X = 0 (forbidden X > 0) with stiffness K (N/m).
+  static Config Eq7(double stiffness_N_per_m);
+  /// A single half-space on one axis: forbidden where direction·x[axis] > direction·offset (direction = ±1).
+  static Config HalfSpace(int dof, int axis, double offset_m, double direction, double stiffness_N_per_m);
+
+  /// Fixture force for the measured position (m, base frame). Allocation-free. A position of the wrong size or
+  /// with non-finite entries gives zero force (the law rejects such input before it gets here).
   [[nodiscard]] Output Step(const DofVector& position_m) const noexcept;
 
   const Config& config() const noexcept { return config_; }

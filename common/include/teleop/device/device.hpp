@@ -10,29 +10,29 @@ namespace teleop::device {
 /// What a backend can do; the law and the start-up checks read it.
 struct Capabilities {
   int dof = 1;
-  bool renders_active_force = true;     ///< Motors: can push the operator (haptic paddle, loopback plant).
-  bool dissipative_only = false;        ///< Brakes/dampers only: can resist motion, never inject energy.
-  bool steering_constraints = false;    ///< Cobot: constrains direction of motion by steering, not by force.
-  bool measures_velocity = false;       ///< Reading::velocity is a sensor value (else the law estimates it).
-  bool measures_force = false;          ///< Reading::force_N is a handle/tool force sensor.
+  bool renders_active_force = true;   ///< Motors: can push the operator (haptic paddle, loopback plant).
+  bool dissipative_only = false;      ///< Brakes/dampers only: can resist motion, never inject energy.
+  bool steering_constraints = false;  ///< Cobot: constrains direction of motion by steering, not by force.
+  bool measures_velocity = false;     ///< Reading::velocity is a sensor value (else the law estimates it).
+  bool measures_force = false;        ///< Reading::force_N is a handle/tool force sensor.
 };
 
 /// Fault bits a backend reports. Any set bit puts the process into its safe state.
 enum FaultBits : std::uint32_t {
   kFaultNone = 0,
-  kFaultNonFiniteSensor = 1u << 0,   ///< NaN/inf read from a sensor.
-  kFaultOutOfRange = 1u << 1,        ///< Position beyond the configured workspace.
-  kFaultCommunication = 1u << 2,     ///< Driver lost its bus (CAN/Modbus).
+  kFaultNonFiniteSensor = 1u << 0,  ///< NaN/inf read from a sensor.
+  kFaultOutOfRange = 1u << 1,       ///< Position beyond the configured workspace.
+  kFaultCommunication = 1u << 2,    ///< Driver lost its bus (CAN/Modbus).
   kFaultOvertemperature = 1u << 3,
   kFaultEmergencyStop = 1u << 4,
-  kFaultDriver = 1u << 5,            ///< Any other driver-reported fault.
+  kFaultDriver = 1u << 5,  ///< Any other driver-reported fault.
 };
 
 /// One sample of a device, base frame of that device.
 struct Reading {
-  DofVector position_m;           ///< Measured position (m).
-  DofVector velocity_m_per_s;     ///< Measured velocity (m/s), valid when Capabilities::measures_velocity.
-  DofVector force_N;              ///< Handle (master) or tool (slave) force sensor (N), valid when measures_force.
+  DofVector position_m;        ///< Measured position (m).
+  DofVector velocity_m_per_s;  ///< Measured velocity (m/s), valid when Capabilities::measures_velocity.
+  DofVector force_N;           ///< Handle (master) or tool (slave) force sensor (N), valid when measures_force.
   std::uint32_t faults = kFaultNone;
 };
 

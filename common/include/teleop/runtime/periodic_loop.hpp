@@ -9,46 +9,65 @@
 namespace teleop::runtime {
 
 struct PeriodicLoopConfig {
-  double rate_hz = 1000.0;       ///< Accepted 250..4000 Hz (config validation).
-  int fifo_priority = 0;         ///< 0: normal scheduling; 1..99: SCHED_FIFO at this priority (needs root/CAP_SYS_NICE).
-  int cpu = -1;                  ///< -1: any CPU; else pin the loop thread to this CPU.
-  bool lock_memory = false;      ///< mlockall(MCL_CURRENT | MCL_FUTURE) before the first cycle.
-  double duration_s = 0.0;       ///< 0: run until Stop(); else stop after this much wall time.
+  double rate_hz = 1000.0;   ///< Accepted 250..4000 Hz (config validation); the loop itself takes 1..100000 Hz.
+  int fifo_priority = 0;     ///< 0: normal scheduling; 1..99: SCHED_FIFO at this priority (needs root/CAP_SYS_NICE).
+  int cpu = -1;              ///< -1: any CPU; else pin the loop thread to this CPU.
+  bool lock_memory = false;  ///< mlockall(MCL_CURRENT | MCL_FUTURE) before the first cycle.
+  double duration_s = 0.0;   ///< 0: run until Stop(); else stop after this much wall time.
 };
 
 /// Per-cycle timing statistics, collected without allocation.
 struct CycleStats {
-  std::uint64_t cycles = 0;
-  std::uint64_t overruns = 0;            ///< Cycles whose compute time exceeded the period (deadline missed).
-  LatencyHistogram period_ns;            ///< Measured wake-to-wake period.
-  LatencyHistogram jitter_ns;            ///< |wake time - scheduled time|.
-  LatencyHistogram compute_ns;           ///< Time spent in the cycle body.
+  std::uint64_t cycles = 0;  ///< Cycles whose body ran.
+  /// Deadline misses: cycles whose compute time exceeded the period, plus every slot skipped after a long overrun.
+  std::uint64_t overruns = 0;
+  std::uint64_t skipped_slots = 0;  ///< Slots dropped because the loop was more than a whole period late.
+  LatencyHistogram period_ns;       ///< Measured wake-to-wake period (from the second cycle on).
+  LatencyHistogram jitter_ns;       ///< Wake time - scheduled time (never negative with an absolute sleep).
+  LatencyHistogram compute_ns;      ///< Time spent in the cycle body.
 };
+
+/// Monotonic clock (CLOCK_MONOTONIC) in ns: the loop's time base. Real-time safe.
+std::int64_t MonotonicNowNs() noexcept;
 
 /// An absolute-time periodic loop on CLOCK_MONOTONIC with clock_nanosleep(TIMER_ABSTIME): the schedule does not
 /// drift with the compute time. Runs the body on the calling thread.
+///
+/// Slot k is scheduled at start + k·period. A cycle that ends late runs the next one at once (one catch-up cycle,
+/// visible in the jitter); when the loop is a whole period or more behind, the slots that are entirely in the past
+/// are skipped and counted (overruns, skipped_slots) instead of being run in a burst.
 class PeriodicLoop {
  public:
-  /// The cycle body: gets the cycle index and the nominal period. Must be noexcept and real-time safe.
+  /// The cycle body: gets the index of this cycle (0, 1, 2, ... consecutive; skipped slots do not consume an
+  /// index) and the nominal period. Must be noexcept and real-time safe. May call Stop().
   using Body = std::function<void(std::uint64_t cycle, double period_s)>;
 
+  /// Validates the config (rate finite in 1..100000 Hz, fifo_priority 0..99, cpu ≥ -1, duration finite ≥ 0);
+  /// throws teleop::Error otherwise. Touches no OS setting.
   explicit PeriodicLoop(const PeriodicLoopConfig& config);
 
-  /// Applies the scheduling settings (priority, affinity, mlockall); throws teleop::Error with the reason when the
-  /// OS refuses. Then runs until Stop() or the duration elapses.
+  /// Applies the scheduling settings to the calling thread (affinity, SCHED_FIFO priority, mlockall; they stay
+  /// applied after Run returns); throws teleop::Error with the OS reason and a hint when the OS refuses. Then
+  /// resets the statistics and runs until Stop() or the duration elapses. A loop stopped before Run() does not run.
   void Run(const Body& body);
-  /// Thread- and signal-safe.
+  /// Thread- and async-signal-safe. Takes effect before the next cycle (a pending sleep is cut short by a signal).
   void Stop() noexcept { stop_.store(true, std::memory_order_relaxed); }
   bool stopping() const noexcept { return stop_.load(std::memory_order_relaxed); }
 
+  /// Read from the body (same thread) or after Run() returned: not synchronised with other threads.
   const CycleStats& stats() const noexcept { return stats_; }
   double period_s() const noexcept { return period_s_; }
+  std::int64_t period_ns() const noexcept { return period_ns_; }
 
  private:
+  void ApplySchedulingSettings() const;
+
   PeriodicLoopConfig config_;
   double period_s_;
+  std::int64_t period_ns_;
   CycleStats stats_{};
   std::atomic<bool> stop_{false};
+  static_assert(std::atomic<bool>::is_always_lock_free, "Stop() must be async-signal-safe");
 };
 
 }  // namespace teleop::runtime

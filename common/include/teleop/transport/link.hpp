@@ -6,39 +6,26 @@
 
 #include "teleop/proto/codec.hpp"
 #include "teleop/proto/sample_message.hpp"
+#include "teleop/transport/sequence_tracker.hpp"  // IWYU pragma: export
 
 namespace teleop::transport {
 
-/// What a link counts. Every datagram/frame that is not applied is counted under exactly one reason.
+/// What a link counts. Every datagram/frame read is counted under exactly one outcome:
+///   received == accepted + superseded + reordered + duplicates + rejected
+/// and rejected == sum(rejected_by_reason) + wrong_sender.
 struct LinkCounters {
   std::uint64_t sent = 0;
-  std::uint64_t send_errors = 0;         ///< Socket/bus refused a send (buffer full, bus-off, ...).
-  std::uint64_t received = 0;            ///< Datagrams/frames read from the medium, before validation.
-  std::uint64_t accepted = 0;            ///< Decoded, from the expected peer, newer than anything before.
-  std::uint64_t lost = 0;                ///< Sequence gaps: numbers never seen (late arrivals are subtracted).
-  std::uint64_t reordered = 0;           ///< Arrived after a newer one (stale): counted, not applied.
-  std::uint64_t duplicates = 0;          ///< Same sequence as one already accepted.
-  std::uint64_t rejected = 0;            ///< Sum of rejected_by_reason.
+  std::uint64_t send_errors = 0;  ///< Socket/bus refused a send (buffer full, bus-off, ...).
+  std::uint64_t received = 0;     ///< Datagrams/frames read from the medium, before validation.
+  std::uint64_t accepted = 0;     ///< Decoded, from the expected peer, newer than anything before.
+  std::uint64_t lost = 0;         ///< Sequence gaps: numbers never seen (late arrivals are subtracted).
+  std::uint64_t reordered = 0;    ///< Arrived after a newer one (stale): counted, not applied.
+  std::uint64_t duplicates = 0;   ///< Same sequence as one already accepted.
+  std::uint64_t rejected = 0;     ///< Malformed (rejected_by_reason) or foreign (wrong_sender).
   std::array<std::uint64_t, static_cast<std::size_t>(proto::DecodeStatus::kCount)> rejected_by_reason{};
-  std::uint64_t wrong_sender = 0;        ///< Valid sample from an unexpected role or address (also in rejected).
-  std::uint64_t superseded = 0;          ///< Valid and in order, but a newer one arrived in the same drain.
-  std::uint64_t bus_errors = 0;          ///< CAN error frames and similar medium faults.
-};
-
-/// Tracks sequence numbers of accepted samples: loss, reordering, duplicates (libfranka-style "keep the newest").
-/// Wrap-around safe (serial-number arithmetic on uint32).
-class SequenceTracker {
- public:
-  enum class Verdict : std::uint8_t { kNewer, kDuplicate, kStale };
-  /// Classifies `sequence` and updates the counters in `counters` (lost / reordered / duplicates).
-  Verdict Observe(std::uint32_t sequence, LinkCounters& counters) noexcept;
-  bool has_any() const noexcept { return has_any_; }
-  std::uint32_t newest() const noexcept { return newest_; }
-  void Reset() noexcept { has_any_ = false; newest_ = 0; }
-
- private:
-  bool has_any_ = false;
-  std::uint32_t newest_ = 0;
+  std::uint64_t wrong_sender = 0;  ///< From an unexpected role or source address (also in rejected).
+  std::uint64_t superseded = 0;    ///< Valid and in order, but a newer one arrived in the same drain.
+  std::uint64_t bus_errors = 0;    ///< CAN error frames, socket receive errors and similar medium faults.
 };
 
 /// A bidirectional sample link to the peer process. Both calls are made from the real-time thread: non-blocking,

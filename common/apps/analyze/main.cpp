@@ -1,0 +1,334 @@
+// teleop-analyze: stability of forbidden-region virtual fixtures (Abbott & Okamura 2006). docs/stability.md.
+//
+//   teleop-analyze max-stiffness --side slave --rate 500 --kp 600 --kd 2 [--json]
+//   teleop-analyze sweep --side slave --kp 600 --kd 2 --variable rate --values 250,500,1000 --output fig7
+//   teleop-analyze check --config deploy/configs/slave.yaml
+//
+// Exit codes: 0 success (check: stable), 1 check: unstable, 2 bad arguments or input.
+
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "teleop/analysis/fixture_check.hpp"
+#include "teleop/analysis/human_bounds.hpp"
+#include "teleop/analysis/limit_sweep.hpp"
+#include "teleop/analysis/stability_limit.hpp"
+#include "teleop/error.hpp"
+#ifdef TELEOP_ANALYZE_HAS_CONFIG
+#include "teleop/config/yaml_config.hpp"
+#endif
+
+namespace {
+
+using namespace teleop::analysis;
+
+constexpr double kUnset = std::numeric_limits<double>::quiet_NaN();
+constexpr int kExitUnstable = 1;
+constexpr int kExitBadInput = 2;
+
+/// Options shared by the subcommands: the system and the operator set.
+struct SystemOptions {
+  std::string side = "slave";
+  bool unilateral = false;
+  double rate_hz = 1000.0;
+  double kp = 0.0;
+  double kd = 0.0;
+  double kpm = kUnset, kps = kUnset, kdm = kUnset, kds = kUnset;
+  double kvm = 0.0, kvs = 0.0, kf = 0.0;
+  double master_mass_kg = kPaperMasterDevice.mass_kg;
+  double master_damping = kPaperMasterDevice.damping_Ns_per_m;
+  double slave_mass_kg = kPaperSlaveDevice.mass_kg;
+  double slave_damping = kPaperSlaveDevice.damping_Ns_per_m;
+  double other_fixture = 0.0;
+  std::vector<double> human_mass, human_damping, human_stiffness;
+  std::string human_bounds;
+  int human_steps = 4;
+  double velocity_filter_hz = 0.0;
+  int peer_delay_samples = 0;
+  int threads = 0;
+  bool json = false;
+};
+
+void AddSystemOptions(CLI::App& app, SystemOptions& o, bool with_side) {
+  if (with_side) {
+    app.add_option("--side", o.side, "Fixture analysed: master or slave")
+        ->check(CLI::IsMember({"master", "slave"}))
+        ->required();
+  }
+  app.add_flag("--unilateral", o.unilateral,
+               "Master actuator renders nothing of the slave (K_pm = K_dm = K_fm = 0; slave side: master saturated)");
+  app.add_option("--rate", o.rate_hz, "Sampling rate (Hz)");
+  app.add_option("--kp", o.kp, "K_p on both sides (N/m), symmetric law of §4.3");
+  app.add_option("--kd", o.kd, "K_d on both sides (N·s/m)");
+  app.add_option("--kpm", o.kpm, "K_pm (N/m), overrides --kp");
+  app.add_option("--kps", o.kps, "K_ps (N/m), overrides --kp");
+  app.add_option("--kdm", o.kdm, "K_dm (N·s/m), overrides --kd");
+  app.add_option("--kds", o.kds, "K_ds (N·s/m), overrides --kd");
+  app.add_option("--kvm", o.kvm, "K_vm, master velocity damping (N·s/m)");
+  app.add_option("--kvs", o.kvs, "K_vs, slave velocity damping (N·s/m)");
+  app.add_option("--kf", o.kf, "K_fm, force feed-forward (no effect: F_e = 0 in the analysis)");
+  app.add_option("--master-mass", o.master_mass_kg, "Master mass (kg), default 0.040 (paper §4.1)");
+  app.add_option("--master-damping", o.master_damping, "Master damping (N·s/m), default 0.41");
+  app.add_option("--slave-mass", o.slave_mass_kg, "Slave mass (kg), default 0.036");
+  app.add_option("--slave-damping", o.slave_damping, "Slave damping (N·s/m), default 0.49");
+  app.add_option("--other-fixture", o.other_fixture, "Stiffness of the other side's fixture, held fixed (N/m)");
+  auto* mass = app.add_option("--human-mass", o.human_mass, "Operator masses (kg), comma-separated")->delimiter(',');
+  auto* damping =
+      app.add_option("--human-damping", o.human_damping, "Operator dampings (N·s/m), comma-separated")->delimiter(',');
+  auto* stiffness =
+      app.add_option("--human-stiffness", o.human_stiffness, "Operator stiffnesses (N/m), comma-separated")
+          ->delimiter(',');
+  auto* bounds = app.add_option("--human-bounds", o.human_bounds,
+                                "CSV of operator bounds per force level (deploy/configs/human_bounds_finger.csv)");
+  mass->needs(damping)->needs(stiffness);
+  damping->needs(mass)->needs(stiffness);
+  stiffness->needs(mass)->needs(damping);
+  bounds->excludes(mass)->excludes(damping)->excludes(stiffness);
+  app.add_option("--human-steps", o.human_steps, "Grid points per parameter between the bounds (default 4: 512 ops)")
+      ->check(CLI::Range(1, 64));
+  app.add_option("--velocity-filter-hz", o.velocity_filter_hz, "First-order velocity low-pass (Hz), 0 = none");
+  app.add_option("--peer-delay-samples", o.peer_delay_samples,
+                 "0: the paper's model; 1: peer data one sample old, as the processes over a link")
+      ->check(CLI::Range(0, 1));
+  app.add_option("--threads", o.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 64));
+  app.add_flag("--json", o.json, "Print a JSON object instead of the plain number");
+}
+
+FixtureSide SideOf(const std::string& side) { return side == "master" ? FixtureSide::kMaster : FixtureSide::kSlave; }
+
+double Or(double value, double fallback) { return std::isnan(value) ? fallback : value; }
+
+SampledTeleoperator BuildSystem(const SystemOptions& o, FixtureSide side) {
+  SampledTeleoperator s;
+  s.master = {o.master_mass_kg, o.master_damping};
+  s.slave = {o.slave_mass_kg, o.slave_damping};
+  s.rate_hz = o.rate_hz;
+  s.velocity_filter_hz = o.velocity_filter_hz;
+  s.peer_delay_samples = o.peer_delay_samples;
+  s.unilateral = o.unilateral;
+  LawGains& g = s.gains;
+  g.kpm_N_per_m = Or(o.kpm, o.kp);
+  g.kps_N_per_m = Or(o.kps, o.kp);
+  g.kdm_Ns_per_m = Or(o.kdm, o.kd);
+  g.kds_Ns_per_m = Or(o.kds, o.kd);
+  g.kvm_Ns_per_m = o.kvm;
+  g.kvs_Ns_per_m = o.kvs;
+  g.kfm = o.kf;
+  g.fixture(side == FixtureSide::kMaster ? FixtureSide::kSlave : FixtureSide::kMaster) = o.other_fixture;
+  Validate(s);
+  return s;
+}
+
+std::vector<HumanModel> BuildHumans(const SystemOptions& o) {
+  if (!o.human_mass.empty()) return MakeHumanGrid(o.human_mass, o.human_damping, o.human_stiffness);
+  if (!o.human_bounds.empty()) return MakeHumanGrid(LoadHumanBounds(o.human_bounds), o.human_steps);
+  return MakeHumanGrid(DefaultFingerBounds(), o.human_steps);
+}
+
+std::string HumanJson(const HumanModel& h) {
+  std::ostringstream out;
+  out.precision(10);
+  out << "{\"mass_kg\": " << h.mass_kg << ", \"damping_Ns_per_m\": " << h.damping_Ns_per_m
+      << ", \"stiffness_N_per_m\": " << h.stiffness_N_per_m << ", \"force_N\": " << h.force_N << "}";
+  return out.str();
+}
+
+std::string LimitJson(const StabilityLimit& l, const SampledTeleoperator& s, FixtureSide side, std::size_t operators) {
+  std::ostringstream out;
+  out.precision(10);
+  out << "{\n  \"side\": \"" << ToString(side) << "\",\n  \"rate_hz\": " << s.rate_hz
+      << ",\n  \"unilateral\": " << (s.unilateral ? "true" : "false")
+      << ",\n  \"peer_delay_samples\": " << s.peer_delay_samples
+      << ",\n  \"velocity_filter_hz\": " << s.velocity_filter_hz
+      << ",\n  \"max_stable_stiffness_N_per_m\": " << l.max_stable_stiffness_N_per_m
+      << ",\n  \"min_unstable_stiffness_N_per_m\": " << l.min_unstable_stiffness_N_per_m
+      << ",\n  \"worst_damping_ratio\": " << l.worst_damping_ratio
+      << ",\n  \"worst_human\": " << HumanJson(l.worst_human)
+      << ",\n  \"limiting_human\": " << HumanJson(l.limiting_human)
+      << ",\n  \"passivity_bound_N_per_m\": " << l.passivity_bound_N_per_m
+      << ",\n  \"unstable_without_fixture\": " << (l.unstable_without_fixture ? "true" : "false")
+      << ",\n  \"operators\": " << operators << ",\n  \"models_evaluated\": " << l.models_evaluated << "\n}";
+  return out.str();
+}
+
+int RunMaxStiffness(const SystemOptions& o) {
+  const FixtureSide side = SideOf(o.side);
+  const SampledTeleoperator system = BuildSystem(o, side);
+  const std::vector<HumanModel> humans = BuildHumans(o);
+  LimitOptions options;
+  options.threads = o.threads;
+  const StabilityLimit limit = FindMaxStableStiffness(system, side, humans, options);
+  if (o.json) {
+    std::cout << LimitJson(limit, system, side, humans.size()) << "\n";
+  } else {
+    std::printf("%.6g\n", limit.max_stable_stiffness_N_per_m);
+  }
+  return 0;
+}
+
+struct SweepOptions {
+  std::string variable = "rate";
+  std::vector<double> values;
+  std::string output = "stability_sweep";
+  bool no_plot = false;
+};
+
+void Plot(const std::string& csv, const std::string& png, SweepVariable variable, const std::string& title) {
+  const std::string script_path = png + ".gp";
+  {
+    std::ofstream gp(script_path);
+    const char* xlabel = variable == SweepVariable::kRateHz ? "sampling rate (Hz)"
+                         : variable == SweepVariable::kKp   ? "K_p (N/m)"
+                                                            : "K_d (N s/m)";
+    gp << "set terminal png size 800,600\nset output '" << png << "'\nset datafile separator ','\n"
+       << "set title '" << title << "' noenhanced\nset xlabel '" << xlabel
+       << "'\nset ylabel 'maximum stable fixture stiffness (N/m)'\nset key top left\nset grid\n"
+       << "plot '" << csv << "' skip 1 using 1:2 with linespoints title 'eigenvalue limit (worst operator)', '" << csv
+       << "' skip 1 using 1:3 with linespoints title 'passivity bound (Colgate-Schenkel)'\n";
+  }
+  const std::string command = "gnuplot '" + script_path + "' 2>&1";
+  if (std::system(command.c_str()) != 0) {
+    std::cerr << "teleop-analyze: gnuplot failed or is missing; the CSV is " << csv << " (script " << script_path
+              << ")\n";
+  }
+}
+
+int RunSweep(const SystemOptions& o, const SweepOptions& w) {
+  const FixtureSide side = SideOf(o.side);
+  const SweepVariable variable = ParseSweepVariable(w.variable);
+  const SampledTeleoperator system = BuildSystem(o, side);
+  const std::vector<HumanModel> humans = BuildHumans(o);
+  LimitOptions options;
+  options.threads = o.threads;
+  const auto points = SweepLimit(system, side, humans, variable, w.values, options);
+  const std::string csv = w.output + ".csv";
+  {
+    std::ofstream out(csv);
+    if (!out) throw teleop::Error(csv + ": cannot write the sweep CSV");
+    WriteSweepCsv(out, variable, points);
+  }
+  std::ostringstream title;
+  title << ToString(side) << " fixture, " << (system.unilateral ? "unilateral" : "bilateral") << ", K_pm "
+        << system.gains.kpm_N_per_m << " K_ps " << system.gains.kps_N_per_m << " K_dm " << system.gains.kdm_Ns_per_m
+        << " K_ds " << system.gains.kds_Ns_per_m;
+  if (variable != SweepVariable::kRateHz) title << ", " << system.rate_hz << " Hz";
+  if (!w.no_plot) Plot(csv, w.output + ".png", variable, title.str());
+  WriteSweepCsv(std::cout, variable, points);
+  return 0;
+}
+
+#ifdef TELEOP_ANALYZE_HAS_CONFIG
+int RunCheck(SystemOptions o, const std::string& config_path) {
+  const teleop::config::ProcessConfig config = teleop::config::LoadProcessConfig(config_path);
+  const FixtureSide side = config.role == teleop::Role::kMaster ? FixtureSide::kMaster : FixtureSide::kSlave;
+  const auto& law = config.law;
+  // What the process knows of itself comes from its config; the peer is the symmetric law of §4.3 with the
+  // paper's device unless the flags say otherwise. The processes exchange samples over a link: one sample delay.
+  o.rate_hz = config.loop.rate_hz;
+  o.velocity_filter_hz = law.velocity_filter_hz;
+  o.peer_delay_samples = 1;
+  int worst_exit = 0;
+  for (int axis = 0; axis < law.dof; ++axis) {
+    SystemOptions a = o;
+    const double kp = law.kp_N_per_m[axis];
+    const double kd = law.kd_Ns_per_m[axis];
+    const double kv = law.kv_Ns_per_m[axis];
+    if (side == FixtureSide::kMaster) {
+      a.kpm = kp;
+      a.kdm = kd;
+      a.kvm = kv;
+      a.kps = Or(o.kps, kp);
+      a.kds = Or(o.kds, kd);
+      if (config.device.backend == "loopback") {
+        a.master_mass_kg = config.device.loopback.mass_kg;
+        a.master_damping = config.device.loopback.damping_Ns_per_m;
+      }
+    } else {
+      a.kps = kp;
+      a.kds = kd;
+      a.kvs = kv;
+      a.kpm = Or(o.kpm, kp);
+      a.kdm = Or(o.kdm, kd);
+      if (config.device.backend == "loopback") {
+        a.slave_mass_kg = config.device.loopback.mass_kg;
+        a.slave_damping = config.device.loopback.damping_Ns_per_m;
+      }
+    }
+    SampledTeleoperator system = BuildSystem(a, side);
+    system.gains.fixture(side) = law.fixture.stiffness_N_per_m;
+    const FixtureCheck check = CheckFixture(system, side, BuildHumans(a));
+    if (o.json) {
+      std::cout << "{\"axis\": " << axis << ", \"stable\": " << (check.stable ? "true" : "false")
+                << ", \"stiffness_N_per_m\": " << check.stiffness_N_per_m
+                << ", \"worst_damping_ratio_at_stiffness\": " << check.at_configured.min_damping_ratio
+                << ", \"limit\": " << LimitJson(check.limit, system, side, 0) << "}\n";
+    } else {
+      std::cout << config_path << " axis " << axis << ": " << check.message << "\n";
+    }
+    if (!check.stable) worst_exit = kExitUnstable;
+  }
+  return worst_exit;
+}
+#endif
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Stability of forbidden-region virtual fixtures (Abbott & Okamura 2006): docs/stability.md"};
+  app.require_subcommand(1);
+
+  SystemOptions max_options;
+  CLI::App* max = app.add_subcommand("max-stiffness", "Maximum stable fixture stiffness over the operator set (N/m)");
+  AddSystemOptions(*max, max_options, true);
+
+  SystemOptions sweep_options;
+  SweepOptions sweep;
+  CLI::App* sweep_app = app.add_subcommand("sweep", "Limit against rate, K_p or K_d: CSV + PNG (paper Figs. 7-14)");
+  AddSystemOptions(*sweep_app, sweep_options, true);
+  sweep_app->add_option("--variable", sweep.variable, "rate, kp or kd")
+      ->check(CLI::IsMember({"rate", "kp", "kd"}))
+      ->required();
+  sweep_app->add_option("--values", sweep.values, "Comma-separated values of the variable")->delimiter(',')->required();
+  sweep_app->add_option("--output", sweep.output, "Output prefix: PREFIX.csv and PREFIX.png");
+  sweep_app->add_flag("--no-plot", sweep.no_plot, "CSV only");
+
+  SystemOptions check_options;
+  std::string config_path;
+  CLI::App* check = app.add_subcommand("check", "Analyse a process config's fixture: stable or not, with the limit");
+  AddSystemOptions(*check, check_options, false);
+  check->add_option("--config", config_path, "teleop-master/teleop-slave YAML config")->required();
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : kExitBadInput;
+  }
+  try {
+    if (*max) return RunMaxStiffness(max_options);
+    if (*sweep_app) return RunSweep(sweep_options, sweep);
+    if (*check) {
+#ifdef TELEOP_ANALYZE_HAS_CONFIG
+      return RunCheck(check_options, config_path);
+#else
+      std::cerr << "teleop-analyze: check needs the config library (teleop::config), not built here\n";
+      return kExitBadInput;
+#endif
+    }
+  } catch (const teleop::Error& e) {
+    std::cerr << "teleop-analyze: error: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "teleop-analyze: error: " << e.what() << "\n";
+    return kExitBadInput;
+  }
+  return kExitBadInput;
+}

@@ -1,0 +1,96 @@
+// teleop-canbus: an emulated CAN bus on UDP 127.0.0.1 (docs/can.md, "Emulated bus between processes").
+//
+//   teleop-canbus [--port 47300] [--bitrate 1000000] [--data-bitrate 5000000] [--load-ceiling 1.0]
+//   teleop-canbus --port 47300 --inject-errors 32      # destroy the next 32 transmissions (then exit)
+//   teleop-canbus --port 47300 --bus-off 0             # put node 0 bus-off; --restart 0 brings it back
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <thread>
+
+#include "teleop/error.hpp"
+#include "teleop/transport/can_bus_server.hpp"
+#include "teleop/transport/can_udp_bus_port.hpp"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+void OnSignal(int /*signal*/) { g_stop = true; }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace teleop::transport;
+  CLI::App app{"teleop-canbus: emulated CAN bus for teleop-master/teleop-slave (transport emulated-can)"};
+  CanBusServerConfig config;
+  double duration_s = 0.0;
+  double stats_every_s = 5.0;
+  int inject_errors = -1;
+  int bus_off_node = -1;
+  int restart_node = -1;
+  app.add_option("--bind", config.bind_address, "IPv4 address to listen on")->capture_default_str();
+  app.add_option("--port", config.port, "UDP port (the processes' emulated_bus_port)")->capture_default_str();
+  app.add_option("--bitrate", config.bus.nominal_bitrate_bit_per_s, "nominal bit rate, bit/s")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--data-bitrate", config.bus.data_bitrate_bit_per_s, "CAN FD data bit rate, bit/s")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--load-ceiling", config.bus.load_ceiling, "fraction of bus time the nodes get (rest: other traffic)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.01, 1.0));
+  app.add_option("--tx-queue", config.bus.tx_queue_frames, "transmit queue per node, frames")->capture_default_str();
+  app.add_option("--max-nodes", config.max_nodes, "nodes that may attach")->capture_default_str();
+  app.add_option("--duration-s", duration_s, "stop after this long (0: until SIGINT/SIGTERM)")->capture_default_str();
+  app.add_option("--stats-every-s", stats_every_s, "print bus statistics this often (0: only at exit)")
+      ->capture_default_str();
+  app.add_option("--inject-errors", inject_errors, "client mode: destroy the next N transmissions on a running bus");
+  app.add_option("--bus-off", bus_off_node, "client mode: put node N of a running bus bus-off");
+  app.add_option("--restart", restart_node, "client mode: restart bus-off node N of a running bus");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    if (inject_errors >= 0 || bus_off_node >= 0 || restart_node >= 0) {
+      UdpCanBusPort client(config.bind_address, config.port, 1000.0);
+      bool ok = true;
+      if (inject_errors >= 0)
+        ok &= client.SendControl(bus_datagram::Action::kInjectErrors, static_cast<std::uint32_t>(inject_errors));
+      if (bus_off_node >= 0)
+        ok &= client.SendControl(bus_datagram::Action::kBusOff, static_cast<std::uint32_t>(bus_off_node));
+      if (restart_node >= 0)
+        ok &= client.SendControl(bus_datagram::Action::kRestart, static_cast<std::uint32_t>(restart_node));
+      if (!ok) {
+        spdlog::error("could not send the control datagram to {}:{}", config.bind_address, config.port);
+        return 1;
+      }
+      spdlog::info("sent to teleop-canbus {}:{}", config.bind_address, config.port);
+      return 0;
+    }
+    CanBusServer server(config);
+    std::signal(SIGINT, OnSignal);
+    std::signal(SIGTERM, OnSignal);
+    spdlog::info("teleop-canbus listening on {}:{}, {:.0f} bit/s nominal, {:.0f} bit/s FD data, load ceiling {:.2f}",
+                 config.bind_address, server.port(), config.bus.nominal_bitrate_bit_per_s,
+                 config.bus.data_bitrate_bit_per_s, config.bus.load_ceiling);
+    const auto start = std::chrono::steady_clock::now();
+    auto next_stats = start + std::chrono::duration<double>(stats_every_s);
+    while (!g_stop) {
+      server.Step(20'000'000);
+      const auto now = std::chrono::steady_clock::now();
+      if (duration_s > 0 && now - start >= std::chrono::duration<double>(duration_s)) break;
+      if (stats_every_s > 0 && now >= next_stats) {
+        spdlog::info("{}", server.Describe());
+        next_stats = now + std::chrono::duration<double>(stats_every_s);
+      }
+    }
+    spdlog::info("{}", server.Describe());
+    return 0;
+  } catch (const teleop::Error& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+}

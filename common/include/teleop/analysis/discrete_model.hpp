@@ -1,0 +1,52 @@
+#pragma once
+
+#include <Eigen/Core>
+
+#include "teleop/analysis/teleoperator_model.hpp"
+
+namespace teleop::analysis {
+
+/// Number of states of the discrete model (see StateMatrix).
+inline constexpr int kModelStates = 8;
+
+/// The closed-loop state transition x(k+1) = A·x(k) of the equilibrium dual system (Abbott & Okamura §3.1, eqs.
+/// 15-19) sampled as in §3.2. State at sample k (SI units, positions along the fixture normal, relative to the
+/// equilibrium):
+///
+///   x = [ x_m, v_m, x_s, v_s, X_m(k-1), X_s(k-1), y_m(k-1), y_s(k-1) ]
+///
+/// x_m, v_m: master+operator position and true velocity; x_s, v_s: slave; X_i(k-1): the previous position sample
+/// (for the backward difference of eq. 20); y_i(k-1): the previous velocity estimate (for the low-pass and for the
+/// peer's delayed velocity). Without filter and delay the last two states only produce two zero eigenvalues — the
+/// paper's model also has eight eigenvalues, two of them identically zero. docs/stability.md derives every entry.
+using StateMatrix = Eigen::Matrix<double, kModelStates, kModelStates>;
+
+/// Exact zero-order-hold discretization of m·ẍ + b·ẋ + k·x = u over one period (eq. 27):
+/// [x; v](k+1) = phi·[x; v](k) + gamma·u(k).
+struct ZohBlock {
+  Eigen::Matrix2d phi = Eigen::Matrix2d::Identity();
+  Eigen::Vector2d gamma = Eigen::Vector2d::Zero();
+};
+
+/// ZOH discretization by the matrix exponential of the augmented 3×3 system. Requires mass > 0 and period > 0.
+ZohBlock DiscretizeMassSpringDamper(double mass_kg, double damping_Ns_per_m, double stiffness_N_per_m,
+                                    double period_s) noexcept;
+
+/// Master + operator (eq. 26: Z_hm = Z_h + Z_m) discretized.
+ZohBlock DiscretizeMasterWithHuman(const SampledTeleoperator& system, const HumanModel& human) noexcept;
+/// Slave (eq. 6) discretized.
+ZohBlock DiscretizeSlave(const SampledTeleoperator& system) noexcept;
+
+/// Assembles A from pre-discretized plant blocks and the law (eqs. 18-25), applying `unilateral` (K_pm = K_dm =
+/// K_fm = 0). Allocation-free; the stiffness search calls it for every operator at every step.
+StateMatrix AssembleStateMatrix(const SampledTeleoperator& system, const ZohBlock& master_with_human,
+                                const ZohBlock& slave) noexcept;
+
+/// Validates `system` and `human` (throws teleop::Error) and returns A.
+StateMatrix BuildStateMatrix(const SampledTeleoperator& system, const HumanModel& human);
+
+/// Coefficient of the first-order velocity low-pass, a = 1 - exp(-2π·f_c·T); 1 when f_c = 0 (no filter). The same
+/// discretization as control::VelocityEstimator.
+double VelocityFilterCoefficient(double cutoff_hz, double period_s) noexcept;
+
+}  // namespace teleop::analysis

@@ -1,0 +1,93 @@
+#pragma once
+
+#include <cstdint>
+
+namespace teleop::analysis {
+
+/// Which device's forbidden-region fixture is analysed (its stiffness is the quantity searched for).
+enum class FixtureSide : std::uint8_t { kMaster = 0, kSlave = 1 };
+
+inline const char* ToString(FixtureSide side) noexcept { return side == FixtureSide::kMaster ? "master" : "slave"; }
+
+/// A device as a mass with viscous friction (Abbott & Okamura eqs. 5-6), along the fixture normal.
+struct DeviceModel {
+  double mass_kg = 0.0;
+  double damping_Ns_per_m = 0.0;
+};
+
+/// The paper's §4.1 haptic paddles with Delrin caps, and the Velcro finger loop on the master.
+inline constexpr DeviceModel kPaperMasterDevice{0.040, 0.41};
+inline constexpr DeviceModel kPaperSlaveDevice{0.036, 0.49};
+
+/// The operator as an LTI mass-spring-damper (eq. 2), rigidly attached to the master handle. `force_N` is the
+/// nominal force level (F̄_h) the parameters belong to; it does not enter the dynamics around the equilibrium.
+struct HumanModel {
+  double mass_kg = 0.0;
+  double damping_Ns_per_m = 0.0;
+  double stiffness_N_per_m = 0.0;
+  double force_N = 0.0;
+};
+
+/// The gains of the three-channel law (eqs. 8-9) and the two fixture stiffnesses (eq. 7). Unset gains are 0.
+/// K_fm multiplies the environment force F_e, which is zero in the free-space case analysed (§3), so it never
+/// changes the result; it is kept so a law's gains can be passed through unchanged.
+struct LawGains {
+  double kpm_N_per_m = 0.0;             ///< K_pm
+  double kps_N_per_m = 0.0;             ///< K_ps
+  double kdm_Ns_per_m = 0.0;            ///< K_dm
+  double kds_Ns_per_m = 0.0;            ///< K_ds
+  double kvm_Ns_per_m = 0.0;            ///< K_vm (damping on the master's own velocity)
+  double kvs_Ns_per_m = 0.0;            ///< K_vs (damping on the slave's own velocity)
+  double kfm = 0.0;                     ///< K_fm (dimensionless; drops out, F_e = 0)
+  double master_fixture_N_per_m = 0.0;  ///< K_mVF
+  double slave_fixture_N_per_m = 0.0;   ///< K_sVF
+
+  /// Symmetric position-position law of the paper's §4.3: K_pm = K_ps = kp, K_dm = K_ds = kd, the rest 0.
+  static LawGains Symmetric(double kp_N_per_m, double kd_Ns_per_m) noexcept {
+    LawGains g;
+    g.kpm_N_per_m = g.kps_N_per_m = kp_N_per_m;
+    g.kdm_Ns_per_m = g.kds_Ns_per_m = kd_Ns_per_m;
+    return g;
+  }
+  double& fixture(FixtureSide side) noexcept {
+    return side == FixtureSide::kMaster ? master_fixture_N_per_m : slave_fixture_N_per_m;
+  }
+  double fixture(FixtureSide side) const noexcept {
+    return side == FixtureSide::kMaster ? master_fixture_N_per_m : slave_fixture_N_per_m;
+  }
+};
+
+/// Everything the analysis needs to know about the sampled teleoperator except the operator: both devices, the
+/// law, the sampling rate and how the controller sees its data.
+///
+/// `peer_delay_samples`: 0 is the paper's model (both halves of the law see the same samples X_m(k), X_s(k));
+/// 1 is what the two processes do over a link: each side's law at sample k uses the peer's position and velocity
+/// from sample k-1 (the sample that arrived during the last period). The processes' start-up check uses 1.
+///
+/// `unilateral`: the master actuator renders nothing of the slave (K_pm = K_dm = K_fm = 0; the master keeps K_vm and
+/// its own fixture): §4.5, a haptic device against a virtual wall. The stiffness search for the slave side (§4.4,
+/// master actuator saturated) also drops K_vm and K_mVF, since a saturated actuator is entirely out of the loop
+/// (see EffectiveGains).
+struct SampledTeleoperator {
+  DeviceModel master = kPaperMasterDevice;
+  DeviceModel slave = kPaperSlaveDevice;
+  LawGains gains{};
+  double rate_hz = 1000.0;
+  double velocity_filter_hz = 0.0;  ///< First-order low-pass on the backward-difference velocity; 0 = none.
+  int peer_delay_samples = 0;       ///< 0 (paper) or 1 (the processes over a link).
+  bool unilateral = false;
+
+  double period_s() const noexcept { return 1.0 / rate_hz; }
+};
+
+/// Checks ranges (masses > 0, damping ≥ 0, rate 1 Hz..1 MHz, filter ≥ 0 and below Nyquist, delay 0 or 1, gains
+/// finite, fixture and position gains ≥ 0). Throws teleop::Error naming the offending field and its value.
+void Validate(const SampledTeleoperator& system);
+/// Checks a human model (mass > 0, damping ≥ 0, stiffness ≥ 0, all finite); throws teleop::Error.
+void Validate(const HumanModel& human);
+
+/// The gains as the model uses them for the analysed side: with `unilateral`, K_pm = K_dm = K_fm = 0, and for the
+/// slave side also K_vm = K_mVF = 0 (saturated master). Without `unilateral`, the gains unchanged.
+LawGains EffectiveGains(const SampledTeleoperator& system, FixtureSide side) noexcept;
+
+}  // namespace teleop::analysis

@@ -1,0 +1,102 @@
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <thread>
+#include <type_traits>
+
+#include "teleop/runtime/spsc_ring.hpp"
+#include "teleop/types.hpp"
+
+namespace teleop::runtime {
+
+/// One cycle of one process, as it leaves the loop for the CSV file. Plain data (copied through the ring); arrays
+/// hold `dof` valid entries, the rest are 0. Local quantities are in the local device's base frame, peer quantities
+/// as received (peer frame, before scaling).
+struct TelemetryRecord {
+  std::uint64_t cycle = 0;
+  double time_s = 0.0;  ///< Since the first cycle, loop clock.
+  int dof = 0;
+  double position_m[kMaxDof] = {};        ///< Measured local position.
+  double velocity_m_per_s[kMaxDof] = {};  ///< Local velocity the law used (measured or estimated).
+  double force_sensor_N[kMaxDof] = {};    ///< Local force sensor (operator force F_h or environment F_e).
+  double command_N[kMaxDof] = {};         ///< Actuator command sent to the device (0 in the safe state).
+  double fixture_force_N[kMaxDof] = {};   ///< The virtual fixture's share of the command.
+  double peer_position_m[kMaxDof] = {};
+  double peer_velocity_m_per_s[kMaxDof] = {};
+  double peer_force_N[kMaxDof] = {};
+  double fixture_penetration_m = 0.0;
+  int law_status = 0;                                       ///< control::ThreeChannelLaw::StepStatus as an integer.
+  std::uint32_t flags = 0;                                  ///< proto::StateFlags bits of the sample sent this cycle.
+  double rtt_s = std::numeric_limits<double>::quiet_NaN();  ///< Round trip to the peer; NaN when unknown.
+  double compute_s = 0.0;                                   ///< Cycle body time so far.
+};
+static_assert(std::is_trivially_copyable_v<TelemetryRecord>);
+
+/// The CSV column names for `dof` entries per vector, in the order WriteCsvRow writes them, comma-separated, no
+/// newline. Units are in the names (`position_m_0`, `command_N_1`, ...).
+std::string TelemetryCsvHeader(int dof);
+/// One CSV row (no newline) for `record`, `dof` entries per vector. Doubles are written in the shortest form
+/// that reads back exactly; NaN as `nan`.
+std::string TelemetryCsvRow(const TelemetryRecord& record, int dof);
+
+/// Carries telemetry out of the real-time loop: Push() copies a record into a lock-free ring (never blocks,
+/// never allocates), a writer thread drains the ring into a CSV file every few milliseconds.
+///
+/// Decimation is the caller's job: push only the cycles you want recorded (config `telemetry.decimation`).
+/// A full ring drops the record and counts it (dropped()): never silent. Stop() drains, flushes and joins; the
+/// destructor calls it. Call Stop() after the producer has pushed its last record.
+class TelemetryWriter {
+ public:
+  /// Opens (truncates) `csv_path` and starts the writer thread; throws teleop::Error when the file cannot be opened
+  /// or ring_capacity is 0. `dof` (1..kMaxDof) fixes the columns per vector; 0 takes it from the first record
+  /// (kMaxDof when no record arrives).
+  TelemetryWriter(const std::string& csv_path, std::size_t ring_capacity, int dof = 0);
+  ~TelemetryWriter();
+  TelemetryWriter(const TelemetryWriter&) = delete;
+  TelemetryWriter& operator=(const TelemetryWriter&) = delete;
+
+  /// From the real-time thread (single producer). False when the ring was full and the record was dropped.
+  [[nodiscard]] bool Push(const TelemetryRecord& record) noexcept {
+    if (ring_.TryPush(record)) {
+      pushed_.fetch_add(1, std::memory_order_relaxed);
+      return true;
+    }
+    dropped_.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+
+  /// Drains what is left, flushes, closes the file, joins the thread. Idempotent. Logs (spdlog) a warning when
+  /// records were dropped or could not be written.
+  void Stop();
+
+  std::uint64_t pushed() const noexcept { return pushed_.load(std::memory_order_relaxed); }
+  std::uint64_t dropped() const noexcept { return dropped_.load(std::memory_order_relaxed); }
+  /// Rows written to the file so far.
+  std::uint64_t written() const noexcept { return written_.load(std::memory_order_relaxed); }
+  /// Rows lost to a file write error (disk full, ...).
+  std::uint64_t write_errors() const noexcept { return write_errors_.load(std::memory_order_relaxed); }
+  const std::string& path() const noexcept { return path_; }
+  std::size_t capacity() const noexcept { return ring_.capacity(); }
+
+ private:
+  void Drain();
+  void WriteLine(const std::string& line);
+
+  std::string path_;
+  std::FILE* file_ = nullptr;
+  int dof_;
+  bool header_written_ = false;
+  SpscRing<TelemetryRecord> ring_;
+  std::atomic<bool> stop_{false};
+  std::atomic<std::uint64_t> pushed_{0};
+  std::atomic<std::uint64_t> dropped_{0};
+  std::atomic<std::uint64_t> written_{0};
+  std::atomic<std::uint64_t> write_errors_{0};
+  std::thread thread_;
+};
+
+}  // namespace teleop::runtime

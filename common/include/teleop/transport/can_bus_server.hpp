@@ -1,0 +1,55 @@
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "teleop/transport/can_emulated_bus.hpp"
+
+namespace teleop::transport {
+
+struct CanBusServerConfig {
+  std::string bind_address = "127.0.0.1";
+  std::uint16_t port = 47300;  ///< 0: any free port (tests).
+  EmulatedCanBusConfig bus{};
+  int max_nodes = 8;
+};
+
+/// The core of teleop-canbus: an EmulatedCanBus on the wall clock, shared by nodes that talk to it over UDP
+/// (bus_datagram). A frame a node sends is queued on the bus and forwarded to every other node when its
+/// transmission ends (ID-order arbitration, frame time at the configured bit rates); error frames go the same way.
+/// Single-threaded: Step() waits for a datagram or the next bus event, whichever comes first.
+class CanBusServer {
+ public:
+  explicit CanBusServer(const CanBusServerConfig& config);  ///< Binds; throws teleop::Error.
+  ~CanBusServer();
+  CanBusServer(const CanBusServer&) = delete;
+  CanBusServer& operator=(const CanBusServer&) = delete;
+
+  /// One iteration: wait up to `max_wait_ns` (less when the bus has an event due), handle datagrams, deliver.
+  void Step(std::uint64_t max_wait_ns) noexcept;
+  /// Steps until `stop` is true.
+  void Run(const std::atomic<bool>& stop) noexcept;
+
+  std::uint16_t port() const noexcept { return port_; }
+  const EmulatedCanBus& bus() const noexcept { return bus_; }
+  int node_count() const noexcept;
+  std::uint64_t malformed_datagrams() const noexcept { return malformed_.load(); }
+  std::string Describe() const;
+
+ private:
+  struct Peer;
+  void HandleDatagram(std::size_t size, const void* source, unsigned source_len) noexcept;
+  void Forward() noexcept;
+
+  CanBusServerConfig config_;
+  EmulatedCanBus bus_;
+  int socket_ = -1;
+  std::uint16_t port_ = 0;
+  std::vector<Peer> nodes_;
+  std::atomic<std::uint64_t> malformed_{0};  ///< Read from other threads (tests).
+  std::uint64_t started_ns_ = 0;
+};
+
+}  // namespace teleop::transport

@@ -1,0 +1,33 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "teleop/transport/can_bus_datagram.hpp"
+#include "teleop/transport/can_port.hpp"
+
+namespace teleop::transport {
+
+/// A node of the teleop-canbus daemon (transport "emulated-can"): frames go to the daemon over UDP and come back
+/// when the emulated bus has carried them. The constructor attaches (kHello/kWelcome) and throws teleop::Error with
+/// what to run when no daemon answers within `timeout_ms`.
+class UdpCanBusPort final : public CanPort {
+ public:
+  UdpCanBusPort(const std::string& host, std::uint16_t port, double timeout_ms);
+  ~UdpCanBusPort() override;
+
+  [[nodiscard]] CanWriteStatus Write(const proto::can::CanFrame& frame) noexcept override;
+  [[nodiscard]] bool Read(proto::can::CanFrame& frame) noexcept override;
+  std::string Describe() const override;
+
+  int node() const noexcept { return node_; }
+  /// Fault injection through the daemon (tests, demos). False when the datagram could not be sent.
+  bool SendControl(bus_datagram::Action action, std::uint32_t argument) noexcept;
+
+ private:
+  int socket_ = -1;
+  int node_ = -1;
+  std::string endpoint_;
+};
+
+}  // namespace teleop::transport

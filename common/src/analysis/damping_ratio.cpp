@@ -1,0 +1,49 @@
+#include "teleop/analysis/damping_ratio.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace teleop::analysis {
+namespace {
+
+// Eigenvalues closer to the origin than this are pure delays (their s-plane image is at -∞).
+constexpr double kZeroEigenvalue = 1e-12;
+
+}  // namespace
+
+double DampingRatio(std::complex<double> z, double period_s) noexcept {
+  if (std::abs(z) < kZeroEigenvalue) return 1.0;
+  const std::complex<double> s = std::log(z) / period_s;       // eq. 30, principal branch
+  return std::sin(std::atan2(-s.real(), std::abs(s.imag())));  // eq. 31
+}
+
+ModalSummary AnalyzeEigenvalues(const StateMatrix& a, double period_s) noexcept {
+  Eigen::EigenSolver<StateMatrix> solver(a, /*computeEigenvectors=*/false);
+  ModalSummary summary;
+  if (solver.info() != Eigen::Success) {
+    // Does not happen for finite matrices; report "unstable" rather than a false "stable".
+    summary.spectral_radius = std::numeric_limits<double>::infinity();
+    summary.min_damping_ratio = -1.0;
+    return summary;
+  }
+  for (int i = 0; i < kModelStates; ++i) {
+    const std::complex<double> z = solver.eigenvalues()(i);
+    summary.spectral_radius = std::max(summary.spectral_radius, std::abs(z));
+    const double zeta = DampingRatio(z, period_s);
+    if (zeta < summary.min_damping_ratio || i == 0) {
+      summary.min_damping_ratio = zeta;
+      summary.dominant_z = z;
+    }
+  }
+  return summary;
+}
+
+double SpectralRadius(const StateMatrix& a) noexcept {
+  Eigen::EigenSolver<StateMatrix> solver(a, /*computeEigenvectors=*/false);
+  if (solver.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
+  return solver.eigenvalues().cwiseAbs().maxCoeff();
+}
+
+}  // namespace teleop::analysis

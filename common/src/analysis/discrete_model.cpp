@@ -1,0 +1,109 @@
+#include "teleop/analysis/discrete_model.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <unsupported/Eigen/MatrixFunctions>
+
+namespace teleop::analysis {
+namespace {
+
+using Row = Eigen::Matrix<double, 1, kModelStates>;
+
+// State indices (see StateMatrix); the velocities v_m = 1 and v_s = 3 only appear inside the plant blocks.
+constexpr int kXm = 0;
+constexpr int kXs = 2;
+constexpr int kXmPrev = 4;
+constexpr int kXsPrev = 5;
+constexpr int kYmPrev = 6;
+constexpr int kYsPrev = 7;
+
+Row Unit(int i) {
+  Row r = Row::Zero();
+  r(i) = 1.0;
+  return r;
+}
+
+}  // namespace
+
+double VelocityFilterCoefficient(double cutoff_hz, double period_s) noexcept {
+  if (cutoff_hz <= 0.0) return 1.0;
+  return 1.0 - std::exp(-2.0 * std::numbers::pi * cutoff_hz * period_s);
+}
+
+ZohBlock DiscretizeMassSpringDamper(double mass_kg, double damping_Ns_per_m, double stiffness_N_per_m,
+                                    double period_s) noexcept {
+  // d/dt [x, v, u] = [[0, 1, 0], [-k/m, -b/m, 1/m], [0, 0, 0]]·[x, v, u] with u held: the top-right column of the
+  // exponential over T is the ZOH input matrix, the top-left block the state transition (Franklin et al. §4.3).
+  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+  m(0, 1) = 1.0;
+  m(1, 0) = -stiffness_N_per_m / mass_kg;
+  m(1, 1) = -damping_Ns_per_m / mass_kg;
+  m(1, 2) = 1.0 / mass_kg;
+  const Eigen::Matrix3d e = (m * period_s).exp();
+  ZohBlock block;
+  block.phi = e.topLeftCorner<2, 2>();
+  block.gamma = e.topRightCorner<2, 1>();
+  return block;
+}
+
+ZohBlock DiscretizeMasterWithHuman(const SampledTeleoperator& system, const HumanModel& human) noexcept {
+  return DiscretizeMassSpringDamper(system.master.mass_kg + human.mass_kg,
+                                    system.master.damping_Ns_per_m + human.damping_Ns_per_m, human.stiffness_N_per_m,
+                                    system.period_s());
+}
+
+ZohBlock DiscretizeSlave(const SampledTeleoperator& system) noexcept {
+  return DiscretizeMassSpringDamper(system.slave.mass_kg, system.slave.damping_Ns_per_m, 0.0, system.period_s());
+}
+
+StateMatrix AssembleStateMatrix(const SampledTeleoperator& system, const ZohBlock& master_with_human,
+                                const ZohBlock& slave) noexcept {
+  const double t = system.period_s();
+  const double a = VelocityFilterCoefficient(system.velocity_filter_hz, t);
+  const bool delayed = system.peer_delay_samples > 0;
+  LawGains g = system.gains;
+  if (system.unilateral) {
+    g.kpm_N_per_m = 0.0;
+    g.kdm_Ns_per_m = 0.0;
+    g.kfm = 0.0;
+  }
+
+  // Measurements and estimates at sample k as rows over the state: eq. 20 and the optional low-pass.
+  const Row xm = Unit(kXm);
+  const Row xs = Unit(kXs);
+  const Row ym = (1.0 - a) * Unit(kYmPrev) + a * (Unit(kXm) - Unit(kXmPrev)) / t;
+  const Row ys = (1.0 - a) * Unit(kYsPrev) + a * (Unit(kXs) - Unit(kXsPrev)) / t;
+  // What each side's law sees of its peer: this sample, or the previous one over a link.
+  const Row xs_seen_by_master = delayed ? Unit(kXsPrev) : xs;
+  const Row ys_seen_by_master = delayed ? Unit(kYsPrev) : ys;
+  const Row xm_seen_by_slave = delayed ? Unit(kXmPrev) : xm;
+  const Row ym_seen_by_slave = delayed ? Unit(kYmPrev) : ym;
+
+  // Eqs. 18-19 with the fixtures lumped into the local position gains (K_pmm = K_pm + K_mVF, K_pss = K_ps + K_sVF).
+  const Row f_am = (g.kpm_N_per_m + g.master_fixture_N_per_m) * xm - g.kpm_N_per_m * xs_seen_by_master +
+                   g.kdm_Ns_per_m * (ym - ys_seen_by_master) + g.kvm_Ns_per_m * ym;
+  const Row f_as = g.kps_N_per_m * xm_seen_by_slave - (g.kps_N_per_m + g.slave_fixture_N_per_m) * xs +
+                   g.kds_Ns_per_m * (ym_seen_by_slave - ys) - g.kvs_Ns_per_m * ys;
+
+  StateMatrix a_matrix = StateMatrix::Zero();
+  // Master + operator (eq. 16 with eq. 15 folded in, eq. 26): the actuator force opposes the operator.
+  a_matrix.block<2, 2>(kXm, kXm) = master_with_human.phi;
+  a_matrix.block<2, kModelStates>(kXm, 0) -= master_with_human.gamma * f_am;
+  // Slave (eq. 17), free space.
+  a_matrix.block<2, 2>(kXs, kXs) = slave.phi;
+  a_matrix.block<2, kModelStates>(kXs, 0) += slave.gamma * f_as;
+  // Shift registers.
+  a_matrix.row(kXmPrev) = xm;
+  a_matrix.row(kXsPrev) = xs;
+  a_matrix.row(kYmPrev) = ym;
+  a_matrix.row(kYsPrev) = ys;
+  return a_matrix;
+}
+
+StateMatrix BuildStateMatrix(const SampledTeleoperator& system, const HumanModel& human) {
+  Validate(system);
+  Validate(human);
+  return AssembleStateMatrix(system, DiscretizeMasterWithHuman(system, human), DiscretizeSlave(system));
+}
+
+}  // namespace teleop::analysis

@@ -1,0 +1,423 @@
+#include "teleop/config/yaml_config.hpp"
+
+#include <arpa/inet.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cerrno>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <system_error>
+
+#include "teleop/error.hpp"
+#include "yaml_reader.hpp"
+
+// The schema of a process config. Each section has one Parse* function that lists its allowed keys (anything else
+// is an error), reads its required and optional keys and checks ranges. A new section (the lead's `stability:`,
+// a new device backend's settings) is a new allowed key in its parent plus one Parse* function. Every key is
+// documented in docs/configuration.md.
+
+namespace teleop::config {
+
+namespace {
+
+using detail::Field;
+using detail::Map;
+
+constexpr double kMinRateHz = 250.0;
+constexpr double kMaxRateHz = 4000.0;
+
+std::string Num(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+// ---- scalar checks ---------------------------------------------------------------------------------------------
+
+double Finite(const Field& f) {
+  const double v = f.AsDouble();
+  if (!std::isfinite(v)) f.Fail("must be a finite number, got " + Num(v));
+  return v;
+}
+
+double NonNegative(const Field& f, const char* unit) {
+  const double v = Finite(f);
+  if (v < 0.0) f.Fail("must be >= 0 " + std::string(unit) + ", got " + Num(v));
+  return v;
+}
+
+double Positive(const Field& f, const char* unit) {
+  const double v = Finite(f);
+  if (!(v > 0.0)) f.Fail("must be > 0 " + std::string(unit) + ", got " + Num(v));
+  return v;
+}
+
+double InRange(const Field& f, double low, double high, const char* unit) {
+  const double v = Finite(f);
+  if (v < low || v > high) f.Fail("must be in " + Num(low) + ".." + Num(high) + " " + unit + ", got " + Num(v));
+  return v;
+}
+
+int IntInRange(const Field& f, int low, int high) {
+  const int v = f.AsInt();
+  if (v < low || v > high) {
+    f.Fail("must be an integer in " + std::to_string(low) + ".." + std::to_string(high) + ", got " + std::to_string(v));
+  }
+  return v;
+}
+
+/// A per-DOF quantity: one number for every DOF, or a list of exactly `dof` numbers. `check` validates one entry.
+DofVector ReadDofVector(const Field& f, int dof, const std::function<double(const Field&)>& check) {
+  DofVector out = ZeroDof(dof);
+  if (f.IsSequence()) {
+    const std::vector<Field> items = f.AsList();
+    if (static_cast<int>(items.size()) != dof) {
+      f.Fail("expected one number (applied to every DOF) or a list of exactly " + std::to_string(dof) +
+             " numbers (dof), got a list of " + std::to_string(items.size()));
+    }
+    for (int i = 0; i < dof; ++i) out[i] = check(items[static_cast<std::size_t>(i)]);
+  } else {
+    if (!f.IsScalar()) f.Fail("expected one number or a list of " + std::to_string(dof) + " numbers");
+    out.setConstant(check(f));
+  }
+  return out;
+}
+
+DofVector ReadGain(const Map& map, std::string_view key, int dof, bool required, const char* unit) {
+  const auto check = [unit](const Field& e) { return NonNegative(e, unit); };
+  if (required) return ReadDofVector(map.Required(key), dof, check);
+  const auto field = map.Optional(key);
+  return field ? ReadDofVector(*field, dof, check) : ZeroDof(dof);
+}
+
+// ---- sections --------------------------------------------------------------------------------------------------
+
+Role ParseRole(const Field& f) {
+  const std::string role = f.AsString();
+  if (role == "master") return Role::kMaster;
+  if (role == "slave") return Role::kSlave;
+  f.Fail("must be 'master' or 'slave', got '" + role + "'");
+}
+
+void ParseRealtime(const Field& f, runtime::PeriodicLoopConfig& loop) {
+  const Map map(f, {"fifo_priority", "cpu", "lock_memory"});
+  if (auto v = map.Optional("fifo_priority")) loop.fifo_priority = IntInRange(*v, 0, 99);
+  if (auto v = map.Optional("cpu")) loop.cpu = IntInRange(*v, -1, 1023);
+  if (auto v = map.Optional("lock_memory")) loop.lock_memory = v->AsBool();
+}
+
+struct Endpoint {
+  std::string address;
+  std::uint16_t port = 0;
+};
+
+/// "A.B.C.D:PORT" or "[IPv6]:PORT", numeric addresses only (the link does not resolve host names).
+Endpoint ParseEndpoint(const Field& f) {
+  const std::string text = f.AsString();
+  const auto hint = [&](const std::string& why) {
+    f.Fail(why + " in '" + text + "'; expected \"IPv4:PORT\" like \"127.0.0.1:47001\" or \"[IPv6]:PORT\"");
+  };
+  const std::size_t colon = text.rfind(':');
+  if (colon == std::string::npos) hint("no port");
+  std::string host = text.substr(0, colon);
+  const std::string port_text = text.substr(colon + 1);
+  bool v6 = false;
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') {
+    host = host.substr(1, host.size() - 2);
+    v6 = true;
+  }
+  unsigned char buffer[16];
+  if (host.empty() || inet_pton(v6 ? AF_INET6 : AF_INET, host.c_str(), buffer) != 1) {
+    hint("'" + host + "' is not a numeric " + std::string(v6 ? "IPv6" : "IPv4") + " address");
+  }
+  if (port_text.empty() || port_text.size() > 5 || port_text.find_first_not_of("0123456789") != std::string::npos) {
+    hint("port '" + port_text + "' is not a number");
+  }
+  const int port = std::stoi(port_text);
+  if (port < 1 || port > 65535) hint("port " + std::to_string(port) + " is outside 1..65535");
+  return {host, static_cast<std::uint16_t>(port)};
+}
+
+void ParseLink(const Field& f, Role role, double rate_hz, transport::LinkConfig& link) {
+  const Map map(f, {"transport", "bind", "peer", "timeout_ms", "accept_only_peer_address", "receive_buffer_bytes"});
+  if (auto v = map.Optional("transport")) {
+    link.transport = v->AsString();
+    if (link.transport != "udp") {
+      v->Fail("unsupported transport '" + link.transport + "'; this build's config reader knows: udp");
+    }
+  }
+  const Field bind_field = map.Required("bind");
+  const Field peer_field = map.Required("peer");
+  const Endpoint bind = ParseEndpoint(bind_field);
+  const Endpoint peer = ParseEndpoint(peer_field);
+  if (bind.address == peer.address && bind.port == peer.port) {
+    peer_field.Fail("the peer is the same endpoint as bind; the other process must listen on another port");
+  }
+  if ((bind.address.find(':') != std::string::npos) != (peer.address.find(':') != std::string::npos)) {
+    peer_field.Fail("bind and peer must both be IPv4 or both IPv6");
+  }
+  link.udp.bind_address = bind.address;
+  link.udp.bind_port = bind.port;
+  link.udp.peer_address = peer.address;
+  link.udp.peer_port = peer.port;
+  link.udp.expected_peer = role == Role::kMaster ? proto::SenderRole::kSlave : proto::SenderRole::kMaster;
+  if (auto v = map.Optional("timeout_ms")) {
+    link.timeout_ms = Positive(*v, "ms");
+    const double period_ms = 1000.0 / rate_hz;
+    if (link.timeout_ms < period_ms) {
+      v->Fail("must be at least one loop period (" + Num(period_ms) + " ms at rate_hz " + Num(rate_hz) + "), got " +
+              Num(link.timeout_ms));
+    }
+  }
+  if (auto v = map.Optional("accept_only_peer_address")) link.udp.accept_only_peer_address = v->AsBool();
+  if (auto v = map.Optional("receive_buffer_bytes")) {
+    link.udp.receive_buffer_bytes = IntInRange(*v, 0, 1 << 30);
+  }
+}
+
+void ParseLaw(const Field& f, double rate_hz, control::ThreeChannelLaw::Config& law) {
+  const Map map(f, {"kp_N_per_m", "kd_Ns_per_m", "kv_Ns_per_m", "kf", "peer_position_scale", "peer_force_scale",
+                    "max_force_N", "velocity_filter_hz"});
+  const int dof = law.dof;
+  law.kp_N_per_m = ReadGain(map, "kp_N_per_m", dof, true, "N/m");
+  law.kd_Ns_per_m = ReadGain(map, "kd_Ns_per_m", dof, true, "N·s/m");
+  law.kv_Ns_per_m = ReadGain(map, "kv_Ns_per_m", dof, false, "N·s/m");
+  law.kf = ZeroDof(dof);
+  if (auto v = map.Optional("kf")) law.kf = ReadDofVector(*v, dof, Finite);
+  const auto scale = [](const Field& e) {
+    const double s = Finite(e);
+    if (s == 0.0) e.Fail("must be non-zero (negative mirrors the axis)");
+    return s;
+  };
+  if (auto v = map.Optional("peer_position_scale")) law.peer_position_scale = scale(*v);
+  if (auto v = map.Optional("peer_force_scale")) law.peer_force_scale = Finite(*v);
+  if (auto v = map.Optional("max_force_N")) law.max_force_N = NonNegative(*v, "N");
+  if (auto v = map.Optional("velocity_filter_hz")) {
+    law.velocity_filter_hz = InRange(*v, 0.0, rate_hz / 2.0, "Hz (0 = off; at most half of rate_hz)");
+  }
+}
+
+void ParseFixture(const Field& f, int dof, control::ForbiddenRegionFixture::Config& fixture) {
+  using control::ForbiddenRegionFixture;
+  const Map map(f, {"stiffness_N_per_m", "planes", "half_space"});
+  fixture.dof = dof;
+  fixture.stiffness_N_per_m = NonNegative(map.Required("stiffness_N_per_m"), "N/m");
+  const auto planes = map.Optional("planes");
+  const auto half_space = map.Optional("half_space");
+  if (planes && half_space) half_space->Fail("give either 'planes' or 'half_space', not both");
+  if (!planes && !half_space)
+    f.Fail("needs either 'planes: [{normal, offset_m}, ...]' or 'half_space: {axis, offset_m}'");
+  if (half_space) {
+    const Map hs(*half_space, {"axis", "offset_m", "direction"});
+    const int axis = IntInRange(hs.Required("axis"), 0, dof - 1);
+    const double offset_m = Finite(hs.Required("offset_m"));
+    int direction = 1;
+    if (auto v = hs.Optional("direction")) {
+      direction = v->AsInt();
+      if (direction != 1 && direction != -1) v->Fail("must be +1 (forbid x > offset) or -1 (forbid x < offset)");
+    }
+    control::FixturePlane plane;
+    plane.normal = ZeroDof(dof);
+    plane.normal[axis] = direction;
+    plane.offset_m = direction * offset_m;
+    fixture.plane_count = 1;
+    fixture.planes[0] = plane;
+    return;
+  }
+  const std::vector<Field> items = planes->AsList();
+  if (items.empty() || static_cast<int>(items.size()) > ForbiddenRegionFixture::kMaxPlanes) {
+    planes->Fail("expected 1.." + std::to_string(ForbiddenRegionFixture::kMaxPlanes) + " planes, got " +
+                 std::to_string(items.size()));
+  }
+  fixture.plane_count = static_cast<int>(items.size());
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    const Map p(items[i], {"normal", "offset_m"});
+    const Field normal_field = p.Required("normal");
+    if (!normal_field.IsSequence()) normal_field.Fail("expected a list of " + std::to_string(dof) + " numbers");
+    control::FixturePlane plane;
+    plane.normal = ReadDofVector(normal_field, dof, Finite);
+    if (!(plane.normal.norm() > 1e-9)) normal_field.Fail("the normal must not be zero");
+    plane.offset_m = Finite(p.Required("offset_m"));
+    fixture.planes[i] = plane;
+  }
+}
+
+/// The `type` of a typed mapping (script segment, environment), read before the keys are checked so that the
+/// allowed keys can depend on it. `all_keys` is the union, used when `type` itself is missing or not text.
+Field TypeOf(const Field& f, std::initializer_list<std::string_view> all_keys) {
+  if (f.node().IsMap()) {
+    const YAML::Node type = f.node()["type"];  // const access: a missing key gives an undefined node
+    if (type.IsDefined() && type.IsScalar()) {
+      return Field(type, f.path().empty() ? "type" : f.path() + ".type", &f.file());
+    }
+  }
+  return Map(f, all_keys).Required("type");
+}
+
+device::OperatorSegment ParseSegment(const Field& f, int dof) {
+  using Kind = device::OperatorSegment::Kind;
+  // The allowed keys depend on the type: a key of another segment type is rejected.
+  const Field type_field =
+      TypeOf(f, {"type", "axis", "start_s", "duration_s", "from_N", "to_N", "amplitude_N", "frequency_hz", "offset_N"});
+  const std::string type = type_field.AsString();
+  device::OperatorSegment s;
+  std::optional<Map> map;
+  if (type == "hold") {
+    s.kind = Kind::kHold;
+    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s"});
+  } else if (type == "step") {
+    s.kind = Kind::kStep;
+    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s", "to_N"});
+  } else if (type == "ramp") {
+    s.kind = Kind::kRamp;
+    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s", "from_N", "to_N"});
+  } else if (type == "sine") {
+    s.kind = Kind::kSine;
+    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s", "amplitude_N",
+                                                           "frequency_hz", "offset_N"});
+  } else {
+    type_field.Fail("must be one of hold, step, ramp, sine; got '" + type + "'");
+  }
+  if (auto v = map->Optional("axis")) s.axis = IntInRange(*v, 0, dof - 1);
+  s.start_s = NonNegative(map->Required("start_s"), "s");
+  if (s.kind == Kind::kRamp) {
+    s.duration_s = Positive(map->Required("duration_s"), "s (a ramp needs time; follow it with a hold)");
+    s.from_N = Finite(map->Required("from_N"));
+    s.to_N = Finite(map->Required("to_N"));
+  } else {
+    if (auto v = map->Optional("duration_s")) s.duration_s = NonNegative(*v, "s (0 = until the end of the run)");
+  }
+  if (s.kind == Kind::kStep) s.to_N = Finite(map->Required("to_N"));
+  if (s.kind == Kind::kSine) {
+    s.amplitude_N = Finite(map->Required("amplitude_N"));
+    s.frequency_hz = Positive(map->Required("frequency_hz"), "Hz");
+    if (auto v = map->Optional("offset_N")) s.offset_N = Finite(*v);
+  }
+  return s;
+}
+
+void ParseOperator(const Field& f, int dof, device::SimulatedOperatorConfig& human) {
+  const Map map(f, {"mass_kg", "damping_Ns_per_m", "stiffness_N_per_m", "script"});
+  human.enabled = true;
+  if (auto v = map.Optional("mass_kg")) human.mass_kg = NonNegative(*v, "kg");
+  if (auto v = map.Optional("damping_Ns_per_m")) human.damping_Ns_per_m = NonNegative(*v, "N·s/m");
+  if (auto v = map.Optional("stiffness_N_per_m")) human.stiffness_N_per_m = NonNegative(*v, "N/m");
+  if (auto script = map.Optional("script")) {
+    const std::vector<Field> items = script->AsList();
+    if (static_cast<int>(items.size()) > device::SimulatedOperatorConfig::kMaxSegments) {
+      script->Fail("at most " + std::to_string(device::SimulatedOperatorConfig::kMaxSegments) + " segments, got " +
+                   std::to_string(items.size()));
+    }
+    human.segment_count = static_cast<int>(items.size());
+    for (std::size_t i = 0; i < items.size(); ++i) human.segments[i] = ParseSegment(items[i], dof);
+  }
+}
+
+void ParseEnvironment(const Field& f, int dof, device::SimulatedEnvironmentConfig& env) {
+  using Kind = device::SimulatedEnvironmentConfig::Kind;
+  const Field type_field = TypeOf(f, {"type", "axis", "position_m", "stiffness_N_per_m", "damping_Ns_per_m"});
+  const std::string type = type_field.AsString();
+  if (type == "free") {
+    const Map map(f, {"type"});
+    env.kind = Kind::kFreeSpace;
+    return;
+  }
+  if (type != "wall") type_field.Fail("must be 'free' or 'wall', got '" + type + "'");
+  const Map map(f, {"type", "axis", "position_m", "stiffness_N_per_m", "damping_Ns_per_m"});
+  env.kind = Kind::kWall;
+  if (auto v = map.Optional("axis")) env.axis = IntInRange(*v, 0, dof - 1);
+  env.position_m = Finite(map.Required("position_m"));
+  env.stiffness_N_per_m = Positive(map.Required("stiffness_N_per_m"), "N/m");
+  if (auto v = map.Optional("damping_Ns_per_m")) env.damping_Ns_per_m = NonNegative(*v, "N·s/m");
+}
+
+void ParseLoopback(const Field& f, int dof, device::LoopbackPlantConfig& plant) {
+  const Map map(
+      f, {"mass_kg", "damping_Ns_per_m", "encoder_resolution_m", "initial_position_m", "operator", "environment"});
+  plant.dof = dof;
+  plant.mass_kg = Positive(map.Required("mass_kg"), "kg");
+  plant.damping_Ns_per_m = NonNegative(map.Required("damping_Ns_per_m"), "N·s/m");
+  if (auto v = map.Optional("encoder_resolution_m")) plant.encoder_resolution_m = NonNegative(*v, "m");
+  if (auto v = map.Optional("initial_position_m")) plant.initial_position_m = ReadDofVector(*v, dof, Finite);
+  if (auto v = map.Optional("operator")) ParseOperator(*v, dof, plant.human);
+  if (auto v = map.Optional("environment")) ParseEnvironment(*v, dof, plant.environment);
+}
+
+void ParseDevice(const Field& f, int dof, device::DeviceConfig& device) {
+  const Map map(f, {"backend", "loopback"});
+  const Field backend = map.Required("backend");
+  device.backend = backend.AsString();
+  device.dof = dof;
+  if (device.backend != "loopback") {
+    backend.Fail("unknown backend '" + device.backend + "'; this build's config reader knows: loopback");
+  }
+  ParseLoopback(map.Required("loopback"), dof, device.loopback);
+}
+
+void ParseTelemetry(const Field& f, TelemetryConfig& telemetry) {
+  const Map map(f, {"csv", "decimation", "ring_capacity"});
+  if (auto v = map.Optional("csv")) telemetry.csv_path = v->AsString();
+  if (auto v = map.Optional("decimation")) telemetry.decimation = IntInRange(*v, 1, 1'000'000);
+  if (auto v = map.Optional("ring_capacity")) telemetry.ring_capacity = IntInRange(*v, 16, 1 << 24);
+}
+
+ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
+  const Field root(root_node, "", &name);
+  if (root_node.IsNull() || !root_node.IsDefined()) {
+    throw Error(name + ": the config is empty; it needs at least role, dof, rate_hz, link, law and device");
+  }
+  const Map map(root,
+                {"role", "dof", "rate_hz", "duration_s", "realtime", "link", "law", "fixture", "device", "telemetry"});
+  ProcessConfig config;
+  config.source_path = name;
+  config.role = ParseRole(map.Required("role"));
+  config.dof = IntInRange(map.Required("dof"), 1, kMaxDof);
+  config.loop.rate_hz = InRange(map.Required("rate_hz"), kMinRateHz, kMaxRateHz, "Hz");
+  if (auto v = map.Optional("duration_s")) config.loop.duration_s = NonNegative(*v, "s (0 = until stopped)");
+  if (auto v = map.Optional("realtime")) ParseRealtime(*v, config.loop);
+
+  ParseLink(map.Required("link"), config.role, config.loop.rate_hz, config.link);
+
+  config.law.role = config.role;
+  config.law.dof = config.dof;
+  ParseLaw(map.Required("law"), config.loop.rate_hz, config.law);
+  config.law.fixture.dof = config.dof;
+  if (auto v = map.Optional("fixture")) ParseFixture(*v, config.dof, config.law.fixture);
+
+  ParseDevice(map.Required("device"), config.dof, config.device);
+  if (auto v = map.Optional("telemetry")) ParseTelemetry(*v, config.telemetry);
+  return config;
+}
+
+}  // namespace
+
+ProcessConfig ParseProcessConfig(const std::string& yaml_text, const std::string& name) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw Error(detail::Located(name, e.mark, "", "YAML syntax error: " + e.msg));
+  }
+  try {
+    return Parse(root, name);
+  } catch (const YAML::Exception& e) {
+    // Not expected (every access is checked), but never let a yaml-cpp exception escape as something else.
+    throw Error(detail::Located(name, e.mark, "", "cannot read the config: " + e.msg));
+  }
+}
+
+ProcessConfig LoadProcessConfig(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) {
+    const int err = errno;
+    throw Error("cannot read config file '" + path + "': " + std::system_category().message(err));
+  }
+  std::stringstream text;
+  text << in.rdbuf();
+  return ParseProcessConfig(text.str(), path);
+}
+
+}  // namespace teleop::config

@@ -1,0 +1,172 @@
+#include "yaml_reader.hpp"
+
+#include <algorithm>
+#include <string>
+
+#include "teleop/error.hpp"
+
+namespace teleop::config::detail {
+
+namespace {
+
+std::string Describe(const YAML::Node& node) {
+  switch (node.Type()) {
+    case YAML::NodeType::Null:
+      return "nothing (null)";
+    case YAML::NodeType::Scalar:
+      return "'" + node.Scalar() + "'";
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Map:
+      return "a mapping";
+    case YAML::NodeType::Undefined:
+      break;
+  }
+  return "an undefined value";
+}
+
+YAML::Mark MarkOf(const YAML::Node& node) noexcept {
+  try {
+    return node.Mark();
+  } catch (...) {
+    return YAML::Mark::null_mark();
+  }
+}
+
+std::size_t EditDistance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
+
+std::string Located(const std::string& file, const YAML::Mark& mark, const std::string& path,
+                    const std::string& reason) {
+  std::string out = file;
+  if (!mark.is_null()) out += ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
+  out += ": ";
+  if (!path.empty()) out += "key '" + path + "': ";
+  return out + reason;
+}
+
+void Field::Fail(const std::string& reason) const { throw Error(Located(*file_, MarkOf(node_), path_, reason)); }
+
+double Field::AsDouble() const {
+  double value = 0.0;
+  if (!node_.IsScalar() || !YAML::convert<double>::decode(node_, value)) {
+    Fail("expected a number, got " + Describe(node_));
+  }
+  return value;
+}
+
+int Field::AsInt() const {
+  int value = 0;
+  if (!node_.IsScalar() || !YAML::convert<int>::decode(node_, value)) {
+    Fail("expected an integer, got " + Describe(node_));
+  }
+  return value;
+}
+
+bool Field::AsBool() const {
+  bool value = false;
+  if (!node_.IsScalar() || !YAML::convert<bool>::decode(node_, value)) {
+    Fail("expected true or false, got " + Describe(node_));
+  }
+  return value;
+}
+
+std::string Field::AsString() const {
+  if (!node_.IsScalar()) Fail("expected a text value, got " + Describe(node_));
+  return node_.Scalar();
+}
+
+std::vector<Field> Field::AsList() const {
+  if (!node_.IsSequence()) Fail("expected a list, got " + Describe(node_));
+  std::vector<Field> out;
+  out.reserve(node_.size());
+  for (std::size_t i = 0; i < node_.size(); ++i) {
+    out.emplace_back(node_[i], path_ + "[" + std::to_string(i) + "]", file_);
+  }
+  return out;
+}
+
+Map::Map(const Field& field, std::initializer_list<std::string_view> allowed) : self_(field) {
+  const YAML::Node& node = field.node();
+  if (!node.IsMap()) {
+    std::string keys;
+    for (std::string_view k : allowed) keys += (keys.empty() ? "" : ", ") + std::string(k);
+    field.Fail("expected a mapping (with keys among: " + keys + "), got " + Describe(node));
+  }
+  for (YAML::const_iterator it = node.begin(); it != node.end(); ++it) {
+    // Copies: the iterator hands out a temporary pair.
+    const YAML::Node key_node = it->first;
+    const YAML::Node value_node = it->second;
+    if (!key_node.IsScalar()) {
+      throw Error(Located(field.file(), MarkOf(key_node), field.path(), "keys must be plain names"));
+    }
+    const std::string& key = key_node.Scalar();
+    const std::string path = PathOf(key);
+    if (Find(key) != nullptr) {
+      throw Error(Located(field.file(), MarkOf(key_node), path, "duplicate key (it is already set above)"));
+    }
+    if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
+      std::string reason = "unknown key";
+      std::string_view best;
+      std::size_t best_distance = key.size();
+      std::string keys;
+      for (std::string_view k : allowed) {
+        keys += (keys.empty() ? "" : ", ") + std::string(k);
+        const std::size_t d = EditDistance(key, k);
+        if (d < best_distance) {
+          best_distance = d;
+          best = k;
+        }
+      }
+      if (!best.empty() && best_distance <= std::max<std::size_t>(2, key.size() / 3)) {
+        reason += " (did you mean '" + std::string(best) + "'?)";
+      }
+      reason += "; allowed here: " + keys;
+      throw Error(Located(field.file(), MarkOf(key_node), path, reason));
+    }
+    entries_.push_back({key, value_node});
+  }
+}
+
+const Map::Entry* Map::Find(std::string_view key) const noexcept {
+  for (const Entry& e : entries_) {
+    if (e.key == key) return &e;
+  }
+  return nullptr;
+}
+
+std::string Map::PathOf(std::string_view key) const {
+  return self_.path().empty() ? std::string(key) : self_.path() + "." + std::string(key);
+}
+
+Field Map::Required(std::string_view key) const {
+  const Entry* e = Find(key);
+  if (e == nullptr) {
+    throw Error(Located(
+        self_.file(), MarkOf(self_.node()), PathOf(key),
+        "missing required key" + (self_.path().empty() ? std::string() : " in the '" + self_.path() + "' section")));
+  }
+  return Field(e->value, PathOf(key), &self_.file());
+}
+
+std::optional<Field> Map::Optional(std::string_view key) const {
+  const Entry* e = Find(key);
+  if (e == nullptr) return std::nullopt;
+  return Field(e->value, PathOf(key), &self_.file());
+}
+
+}  // namespace teleop::config::detail

@@ -1,0 +1,172 @@
+#include "teleop/runtime/periodic_loop.hpp"
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <ctime>
+#include <limits>
+#include <string>
+#include <system_error>
+
+#include "teleop/error.hpp"
+
+namespace teleop::runtime {
+
+namespace {
+
+constexpr std::int64_t kNsPerS = 1'000'000'000;
+constexpr double kMinRateHz = 1.0;
+constexpr double kMaxRateHz = 100'000.0;
+/// Stack pre-faulted after mlockall so the first cycles do not take page faults on a fresh stack.
+constexpr std::size_t kPrefaultStackBytes = std::size_t{256} * 1024;
+
+std::string OsReason(int error_number) {
+  return std::system_category().message(error_number) + " (errno " + std::to_string(error_number) + ")";
+}
+
+timespec ToTimespec(std::int64_t ns) noexcept {
+  timespec ts{};
+  ts.tv_sec = static_cast<time_t>(ns / kNsPerS);
+  ts.tv_nsec = static_cast<long>(ns % kNsPerS);
+  return ts;
+}
+
+/// Sleeps until the absolute monotonic time `wake_ns`. Returns false when a signal interrupted the sleep and the
+/// loop is stopping.
+bool SleepUntil(std::int64_t wake_ns, const std::atomic<bool>& stop) noexcept {
+  const timespec wake = ToTimespec(wake_ns);
+  while (true) {
+    const int rc = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &wake, nullptr);
+    if (rc == 0) return true;
+    if (rc != EINTR) return true;  // EINVAL cannot happen with a normalised timespec; do not spin.
+    if (stop.load(std::memory_order_relaxed)) return false;
+  }
+}
+
+void PrefaultStack() noexcept {
+  unsigned char stack[kPrefaultStackBytes];
+  std::memset(stack, 0, sizeof(stack));
+  asm volatile("" : : "r"(stack) : "memory");  // keep the writes: the point is to touch the pages
+}
+
+}  // namespace
+
+std::int64_t MonotonicNowNs() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * kNsPerS + ts.tv_nsec;
+}
+
+PeriodicLoop::PeriodicLoop(const PeriodicLoopConfig& config) : config_(config), period_s_(0.0), period_ns_(0) {
+  if (!std::isfinite(config.rate_hz) || config.rate_hz < kMinRateHz || config.rate_hz > kMaxRateHz) {
+    throw Error("periodic loop: rate_hz " + std::to_string(config.rate_hz) + " is outside 1..100000 Hz");
+  }
+  if (config.fifo_priority < 0 || config.fifo_priority > 99) {
+    throw Error("periodic loop: fifo_priority " + std::to_string(config.fifo_priority) +
+                " is outside 0..99 (0 = normal scheduling)");
+  }
+  if (config.cpu < -1) {
+    throw Error("periodic loop: cpu " + std::to_string(config.cpu) + " is invalid (-1 = any CPU, else a CPU index)");
+  }
+  if (!std::isfinite(config.duration_s) || config.duration_s < 0.0) {
+    throw Error("periodic loop: duration_s " + std::to_string(config.duration_s) +
+                " must be finite and >= 0 (0 = until stopped)");
+  }
+  period_ns_ = std::llround(1e9 / config.rate_hz);
+  period_s_ = static_cast<double>(period_ns_) * 1e-9;
+}
+
+void PeriodicLoop::ApplySchedulingSettings() const {
+  if (config_.cpu >= 0) {
+    const long configured = sysconf(_SC_NPROCESSORS_CONF);
+    if (config_.cpu >= CPU_SETSIZE || (configured > 0 && config_.cpu >= configured)) {
+      throw Error("periodic loop: cpu " + std::to_string(config_.cpu) + " does not exist (this machine has " +
+                  std::to_string(configured) + " CPUs, numbered from 0); set realtime.cpu to -1 or a valid index");
+    }
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(static_cast<std::size_t>(config_.cpu), &set);
+    const int rc = pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
+    if (rc != 0) {
+      throw Error("periodic loop: cannot pin the loop thread to cpu " + std::to_string(config_.cpu) + ": " +
+                  OsReason(rc) + ". The CPU may be offline or outside this process's cpuset (see taskset -p " +
+                  std::to_string(getpid()) + "); set realtime.cpu to -1 to run on any CPU");
+    }
+  }
+  if (config_.fifo_priority > 0) {
+    const int max_priority = sched_get_priority_max(SCHED_FIFO);
+    if (max_priority >= 0 && config_.fifo_priority > max_priority) {
+      throw Error("periodic loop: fifo_priority " + std::to_string(config_.fifo_priority) +
+                  " exceeds the SCHED_FIFO maximum " + std::to_string(max_priority));
+    }
+    sched_param param{};
+    param.sched_priority = config_.fifo_priority;
+    const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);
+    if (rc != 0) {
+      throw Error("periodic loop: cannot switch to SCHED_FIFO priority " + std::to_string(config_.fifo_priority) +
+                  ": " + OsReason(rc) +
+                  ". Run as root or grant CAP_SYS_NICE (sudo setcap cap_sys_nice+ep <binary>, or an rtprio "
+                  "limit in /etc/security/limits.conf), or set realtime.fifo_priority: 0 for normal scheduling");
+    }
+  }
+  if (config_.lock_memory) {
+    if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
+      const int err = errno;
+      throw Error("periodic loop: mlockall failed: " + OsReason(err) +
+                  ". Run as root or grant CAP_IPC_LOCK, or raise the locked-memory limit (ulimit -l unlimited, "
+                  "LimitMEMLOCK=infinity in a systemd unit); or set realtime.lock_memory: false");
+    }
+    PrefaultStack();
+  }
+}
+
+void PeriodicLoop::Run(const Body& body) {
+  ApplySchedulingSettings();
+  stats_.cycles = 0;
+  stats_.overruns = 0;
+  stats_.skipped_slots = 0;
+  stats_.period_ns.Reset();
+  stats_.jitter_ns.Reset();
+  stats_.compute_ns.Reset();
+
+  const std::int64_t period = period_ns_;
+  const std::int64_t start = MonotonicNowNs();
+  const std::int64_t end = config_.duration_s > 0.0 ? start + std::llround(config_.duration_s * 1e9)
+                                                    : std::numeric_limits<std::int64_t>::max();
+  std::int64_t scheduled = start;
+  std::int64_t previous_wake = start;
+  std::uint64_t cycle = 0;
+  while (!stop_.load(std::memory_order_relaxed) && scheduled < end) {
+    if (!SleepUntil(scheduled, stop_)) break;
+    const std::int64_t wake = MonotonicNowNs();
+    stats_.jitter_ns.Add(wake - scheduled);
+    if (cycle > 0) stats_.period_ns.Add(wake - previous_wake);
+    previous_wake = wake;
+
+    body(cycle, period_s_);
+
+    const std::int64_t done = MonotonicNowNs();
+    const std::int64_t compute = done - wake;
+    stats_.compute_ns.Add(compute);
+    ++stats_.cycles;
+    ++cycle;
+    if (compute > period) ++stats_.overruns;
+
+    scheduled += period;
+    // Slots whose whole period is already over are skipped, not run back to back.
+    const std::int64_t late = done - scheduled;
+    if (late >= period) {
+      const std::int64_t missed = late / period;
+      scheduled += missed * period;
+      stats_.overruns += static_cast<std::uint64_t>(missed);
+      stats_.skipped_slots += static_cast<std::uint64_t>(missed);
+    }
+  }
+}
+
+}  // namespace teleop::runtime

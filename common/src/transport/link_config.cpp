@@ -1,0 +1,48 @@
+#include "teleop/transport/link_config.hpp"
+
+#include <array>
+#include <cmath>
+#include <string>
+
+#include "teleop/error.hpp"
+
+namespace teleop::transport {
+namespace {
+
+using Factory = std::unique_ptr<Link> (*)(const LinkConfig&, proto::SenderRole);
+
+std::unique_ptr<Link> MakeUdp(const LinkConfig& config, proto::SenderRole local_role) {
+  if (config.udp.peer_port == 0) {
+    throw Error("link 'udp': peer port must be 1..65535 (where the other process listens), got 0");
+  }
+  UdpLinkConfig udp = config.udp;
+  udp.expected_peer = proto::PeerOf(local_role);
+  return std::make_unique<UdpLink>(udp);
+}
+
+struct Backend {
+  const char* name;
+  Factory make;
+};
+
+// One entry per transport; "can" and "emulated-can" join here.
+constexpr std::array<Backend, 1> kBackends = {{{"udp", &MakeUdp}}};
+
+}  // namespace
+
+std::unique_ptr<Link> MakeLink(const LinkConfig& config, proto::SenderRole local_role) {
+  if (!std::isfinite(config.timeout_ms) || config.timeout_ms <= 0.0) {
+    throw Error("link: timeout_ms must be a finite number > 0, got " + std::to_string(config.timeout_ms));
+  }
+  if (local_role != proto::SenderRole::kMaster && local_role != proto::SenderRole::kSlave) {
+    throw Error("link: the local role must be master or slave");
+  }
+  std::string known;
+  for (const Backend& backend : kBackends) {
+    if (config.transport == backend.name) return backend.make(config, local_role);
+    known += (known.empty() ? "" : ", ") + std::string("'") + backend.name + "'";
+  }
+  throw Error("link: unknown transport '" + config.transport + "'; known transports: " + known);
+}
+
+}  // namespace teleop::transport

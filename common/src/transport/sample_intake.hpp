@@ -1,0 +1,67 @@
+#pragma once
+
+// Private to teleop_transport: the receive path every link shares (UDP, emulated), so that each one validates,
+// counts and keeps the newest sample in exactly the same way.
+
+#include <cstdint>
+#include <span>
+
+#include "teleop/proto/codec.hpp"
+#include "teleop/transport/link.hpp"
+
+namespace teleop::transport::detail {
+
+/// One Poll: Begin(), then Offer() or OfferForeign() per datagram read, then Finish(). No allocation, no throw.
+class SampleIntake {
+ public:
+  explicit SampleIntake(proto::SenderRole expected_peer) noexcept : expected_peer_(expected_peer) {}
+
+  void Begin() noexcept { has_pending_ = false; }
+
+  /// A datagram from the expected source: decode, check the role, classify its sequence.
+  void Offer(std::span<const std::uint8_t> bytes, LinkCounters& counters) noexcept {
+    ++counters.received;
+    const proto::DecodeStatus status = proto::DecodeSample(bytes, scratch_);
+    if (status != proto::DecodeStatus::kOk) {
+      ++counters.rejected;
+      ++counters.rejected_by_reason[static_cast<std::size_t>(status)];
+      return;
+    }
+    if (scratch_.sender != expected_peer_) {
+      ++counters.rejected;
+      ++counters.wrong_sender;
+      return;
+    }
+    if (tracker_.Observe(scratch_.sequence, counters) != SequenceTracker::Verdict::kNewer) return;
+    if (has_pending_) ++counters.superseded;
+    pending_ = scratch_;
+    has_pending_ = true;
+  }
+
+  /// A datagram from a source address other than the peer's: not even decoded.
+  void OfferForeign(LinkCounters& counters) noexcept {
+    ++counters.received;
+    ++counters.rejected;
+    ++counters.wrong_sender;
+  }
+
+  /// Hands back the newest sample of this drain, if any.
+  bool Finish(proto::SampleMessage& newest, LinkCounters& counters) noexcept {
+    if (!has_pending_) return false;
+    ++counters.accepted;
+    newest = pending_;
+    has_pending_ = false;
+    return true;
+  }
+
+  proto::SenderRole expected_peer() const noexcept { return expected_peer_; }
+
+ private:
+  proto::SenderRole expected_peer_;
+  SequenceTracker tracker_{};
+  proto::SampleMessage scratch_{};
+  proto::SampleMessage pending_{};
+  bool has_pending_ = false;
+};
+
+}  // namespace teleop::transport::detail

@@ -1,0 +1,121 @@
+#include "teleop/transport/can_udp_bus_port.hpp"
+
+#include <arpa/inet.h>
+#include <fmt/format.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+
+#include "teleop/error.hpp"
+
+namespace teleop::transport {
+
+namespace {
+
+bool SendMessage(int socket, const bus_datagram::Message& m) noexcept {
+  std::array<std::uint8_t, bus_datagram::kMaxSize> out{};
+  const std::size_t size = bus_datagram::Encode(m, out);
+  return size > 0 && ::send(socket, out.data(), size, 0) == static_cast<ssize_t>(size);
+}
+
+}  // namespace
+
+UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double timeout_ms)
+    : endpoint_(fmt::format("{}:{}", host, port)) {
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(port);
+  if (::inet_pton(AF_INET, host.c_str(), &addr.sin_addr) != 1) {
+    throw Error("emulated-can: bus host '" + host + "' is not an IPv4 address (teleop-canbus listens on IPv4)");
+  }
+  socket_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (socket_ < 0) throw Error(std::string("emulated-can: socket: ") + std::strerror(errno));
+  if (::connect(socket_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) < 0) {  // NOLINT: sockets API
+    const std::string reason = std::strerror(errno);
+    ::close(socket_);
+    throw Error("emulated-can: connect to " + endpoint_ + ": " + reason);
+  }
+  // Attach: hello until welcome, for up to timeout_ms.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double, std::milli>(timeout_ms);
+  bus_datagram::Message hello{};
+  hello.type = bus_datagram::Type::kHello;
+  while (node_ < 0 && std::chrono::steady_clock::now() < deadline) {
+    SendMessage(socket_, hello);
+    pollfd pfd{socket_, POLLIN, 0};
+    ::poll(&pfd, 1, 50);
+    std::array<std::uint8_t, bus_datagram::kMaxSize> in{};
+    for (;;) {
+      const ssize_t n = ::recv(socket_, in.data(), in.size(), 0);
+      if (n < 0) break;
+      bus_datagram::Message m{};
+      if (bus_datagram::Decode(std::span<const std::uint8_t>(in.data(), static_cast<std::size_t>(n)), m) &&
+          m.type == bus_datagram::Type::kWelcome) {
+        node_ = m.node;
+        break;
+      }
+    }
+  }
+  if (node_ < 0) {
+    ::close(socket_);
+    throw Error(fmt::format(
+        "emulated-can: no teleop-canbus answered at {} within {:g} ms: start it first (teleop-canbus --port {}) "
+        "or use transport udp",
+        endpoint_, timeout_ms, port));
+  }
+}
+
+UdpCanBusPort::~UdpCanBusPort() {
+  if (socket_ >= 0) {
+    bus_datagram::Message bye{};
+    bye.type = bus_datagram::Type::kBye;
+    SendMessage(socket_, bye);
+    ::close(socket_);
+  }
+}
+
+CanWriteStatus UdpCanBusPort::Write(const proto::can::CanFrame& frame) noexcept {
+  bus_datagram::Message m{};
+  m.type = bus_datagram::Type::kFrame;
+  m.frame = frame;
+  std::array<std::uint8_t, bus_datagram::kMaxSize> out{};
+  const std::size_t size = bus_datagram::Encode(m, out);
+  if (size == 0) return CanWriteStatus::kError;
+  const ssize_t n = ::send(socket_, out.data(), size, 0);
+  if (n == static_cast<ssize_t>(size)) return CanWriteStatus::kOk;
+  if (n < 0 && (errno == EAGAIN || errno == ENOBUFS)) return CanWriteStatus::kBufferFull;
+  return CanWriteStatus::kError;  // e.g. ECONNREFUSED: the daemon is gone
+}
+
+bool UdpCanBusPort::Read(proto::can::CanFrame& frame) noexcept {
+  std::array<std::uint8_t, bus_datagram::kMaxSize + 1> in{};
+  for (;;) {
+    const ssize_t n = ::recv(socket_, in.data(), in.size(), 0);
+    if (n < 0) return false;  // EAGAIN, or ECONNREFUSED for an earlier send (the daemon is gone)
+    bus_datagram::Message m{};
+    if (bus_datagram::Decode(std::span<const std::uint8_t>(in.data(), static_cast<std::size_t>(n)), m) &&
+        m.type == bus_datagram::Type::kFrame) {
+      frame = m.frame;
+      return true;
+    }
+    // Late welcomes and malformed datagrams: skip.
+  }
+}
+
+bool UdpCanBusPort::SendControl(bus_datagram::Action action, std::uint32_t argument) noexcept {
+  bus_datagram::Message m{};
+  m.type = bus_datagram::Type::kControl;
+  m.action = action;
+  m.argument = argument;
+  return SendMessage(socket_, m);
+}
+
+std::string UdpCanBusPort::Describe() const { return fmt::format("emulated-can {} node {}", endpoint_, node_); }
+
+}  // namespace teleop::transport

@@ -1,0 +1,342 @@
+#!/usr/bin/env python3
+"""Checks a candump -L capture of a teleop CAN run against proto/teleop.dbc and the processes' JSON summaries.
+
+    can_capture_check.py --dbc proto/teleop.dbc --log candump.log --dof 3 [--fd] --rate-hz 500
+                         [--master-summary master.json] [--slave-summary slave.json] [--injected injected.txt]
+                         [--min-rate-fraction 0.8] [--report report.json]
+
+Independent of the C++ code: the frame layout is derived from the DBC alone (signals whose name ends in a DOF index
+>= --dof are not sent; a classic frame is as long as its last used signal; an FD frame is rounded up to an FD length
+and zero-padded). Every captured frame must be one of the configured identifiers, have the expected length and frame
+format, carry 0 in every bit no used signal covers, decode to values inside the DBC ranges and never the "NaN" code;
+the slots of a cycle carry one counter, and consecutive cycles count up by one (mod 16): a gap is a lost cycle.
+
+--injected lists the frames a test put on the bus on purpose, one per line: `<process> <reason> <candump frame>`,
+e.g. `master bad_length 184##0112233`. Each must appear exactly once in the capture (it is then exempt from the
+checks), and `<process>`'s summary must count it under packets.rejected_by_reason.<reason> (`-` as reason: the
+kernel's receive filter drops it, so no process may count it). Nothing else may be rejected, no sample lost, no
+watchdog trip: the injections did not disturb the loop.
+
+Exit status 0 when everything holds, 1 with one line per violation otherwise. Python 3 standard library only.
+"""
+
+import argparse
+import json
+import re
+import sys
+from collections import Counter, defaultdict
+
+FD_LENGTHS = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64]
+COUNTER_MODULO = 16
+
+
+class Signal:
+    def __init__(self, name, start, length, little_endian, signed, factor, offset, minimum, maximum, unit):
+        self.name, self.start, self.length = name, start, length
+        self.little_endian, self.signed = little_endian, signed
+        self.factor, self.offset, self.minimum, self.maximum, self.unit = factor, offset, minimum, maximum, unit
+        self.nan_code = None
+        match = re.search(r"(\d+)$", name)
+        self.dof = int(match.group(1)) if match and not name.startswith("Counter") else None
+        match = re.match(r"Counter_S(\d+)$", name)
+        self.slot = int(match.group(1)) if match else (0 if name == "Counter" else None)
+
+    def raw(self, data):
+        word = int.from_bytes(data, "little")
+        value = (word >> self.start) & ((1 << self.length) - 1)
+        if self.signed and value & (1 << (self.length - 1)):
+            value -= 1 << self.length
+        return value
+
+
+class Message:
+    def __init__(self, frame_id, name, dlc, sender):
+        self.id, self.name, self.dlc, self.sender = frame_id, name, dlc, sender
+        self.signals = []
+        self.fd = False
+
+
+def parse_dbc(path):
+    """The subset of DBC that teleop.dbc uses: BO_, SG_ (Intel order), VAL_ NaN codes, BA_ VFrameFormat."""
+    messages = {}
+    current = None
+    bo = re.compile(r"^BO_ (\d+) (\w+) *: *(\d+) (\w+)")
+    sg = re.compile(r"^\s*SG_ (\w+) *: *(\d+)\|(\d+)@([01])([+-]) \(([^,]+),([^)]+)\) \[([^|]+)\|([^\]]+)\] \"([^\"]*)\"")
+    val = re.compile(r"^VAL_ (\d+) (\w+) (.*);")
+    frame_format = re.compile(r'^BA_ "VFrameFormat" BO_ (\d+) (\d+);')
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            if m := bo.match(line):
+                current = Message(int(m.group(1)), m.group(2), int(m.group(3)), m.group(4))
+                messages[current.id] = current
+            elif (m := sg.match(line)) and current is not None:
+                if m.group(4) != "1":
+                    raise ValueError(f"{path}: signal {m.group(1)} is Motorola order; teleop uses Intel only")
+                current.signals.append(Signal(m.group(1), int(m.group(2)), int(m.group(3)), True, m.group(5) == "-",
+                                              float(m.group(6)), float(m.group(7)), float(m.group(8)),
+                                              float(m.group(9)), m.group(10)))
+            elif m := val.match(line):
+                for code, label in re.findall(r"(-?\d+) \"([^\"]*)\"", m.group(3)):
+                    if label == "NaN":
+                        for s in messages[int(m.group(1))].signals:
+                            if s.name == m.group(2):
+                                s.nan_code = int(code)
+            elif m := frame_format.match(line):
+                messages[int(m.group(1))].fd = int(m.group(2)) in (14, 15)
+    return messages
+
+
+def used_signals(message, dof, slots):
+    """Signals sent for `dof` DOF: per-DOF signals below dof, counters of the slots in use, the flags."""
+    out = []
+    for s in message.signals:
+        if s.dof is not None and s.dof >= dof:
+            continue
+        if s.slot is not None and s.slot >= slots:
+            continue
+        out.append(s)
+    return out
+
+
+class Layout:
+    """What one direction sends per cycle, derived from the DBC for a DOF count and frame format."""
+
+    def __init__(self, messages, sender, dof, fd):
+        mine = sorted((m for m in messages.values() if m.sender == sender and m.fd == fd), key=lambda m: m.id)
+        self.fd = fd
+        self.frames = {}  # id -> (slot index, used signals, expected length)
+        for slot, message in enumerate(mine):
+            signals = used_signals(message, dof, slots=99)
+            if not fd and not any(s.dof is not None for s in signals):
+                continue  # a classic slot with no DOF of ours is not sent
+            if fd:
+                slots = 1 + max(s.start // 64 for s in signals if s.dof is not None)
+                signals = used_signals(message, dof, slots)
+                end = (max(s.start + s.length for s in signals) + 7) // 8
+                length = next(n for n in FD_LENGTHS if n >= end)
+            else:
+                length = (max(s.start + s.length for s in signals) + 7) // 8
+            self.frames[message.id] = (slot, signals, length)
+        self.slot_count = len(self.frames)
+
+
+def normalize(text):
+    """A frame's text as cansend takes it, for matching: upper case; for FD frames, the FDF flag (0x4) that kernels
+    since 6.0 set on every received FD frame dropped (BRS 0x1 and ESI 0x2 kept)."""
+    text = text.upper()
+    if "##" in text:
+        head, tail = text.split("##", 1)
+        if tail:
+            text = f"{head}##{int(tail[0], 16) & ~0x4:X}{tail[1:]}"
+    return text
+
+
+def parse_candump(path):
+    """candump -L lines: (time) iface ID#DATA, ID##<flags>DATA (FD), ID#R (remote); error frames have the ERR flag."""
+    line_re = re.compile(r"^\((\d+\.\d+)\) (\S+) ([0-9A-Fa-f]{3}|[0-9A-Fa-f]{8})(##?)(.*)$")
+    frames, malformed = [], []
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for number, line in enumerate(f, 1):
+            line = line.rstrip("\n")
+            m = line_re.match(line)
+            if not m:
+                malformed.append((number, line))
+                continue
+            fd = m.group(4) == "##"
+            body = m.group(5)
+            if fd:
+                body = body[1:]
+            remote = body.startswith("R")
+            if remote or len(body) % 2 or not re.fullmatch(r"[0-9A-Fa-f]*", body):
+                frames.append(dict(t=float(m.group(1)), text=f"{m.group(3)}{m.group(4)}{m.group(5)}", id=None,
+                                   fd=fd, data=b"", line=number, bad=("remote frame" if remote else "bad data")))
+                continue
+            raw_id = int(m.group(3), 16)
+            frames.append(dict(t=float(m.group(1)), text=normalize(f"{m.group(3)}{m.group(4)}{m.group(5)}"),
+                               id=raw_id & 0x1FFFFFFF, extended=len(m.group(3)) == 8, error=bool(raw_id & 0x20000000),
+                               fd=fd, data=bytes.fromhex(body), line=number, bad=None))
+    return frames, malformed
+
+
+def check_frame(frame, layout, violations):
+    """Returns the counter of a valid frame's slots (one value), or None after recording the violation."""
+    where = f"line {frame['line']} {frame['text']}"
+    entry = layout.frames.get(frame["id"])
+    if frame["bad"] or frame.get("error") or entry is None:
+        violations.append(f"{where}: {frame['bad'] or ('error frame' if frame.get('error') else 'unexpected id')}")
+        return None
+    slot, signals, length = entry
+    if frame["fd"] != layout.fd or frame.get("extended"):
+        violations.append(f"{where}: {'FD' if frame['fd'] else 'classic'}{' 29-bit' if frame.get('extended') else ''}"
+                          f" frame, the layout is {'FD' if layout.fd else 'classic'} 11-bit")
+        return None
+    if len(frame["data"]) != length:
+        violations.append(f"{where}: length {len(frame['data'])}, the DBC layout needs {length}")
+        return None
+    data = frame["data"]
+    covered = 0
+    for s in signals:
+        covered |= ((1 << s.length) - 1) << s.start
+    word = int.from_bytes(data, "little")
+    if word & ~covered & ((1 << (8 * len(data))) - 1):
+        violations.append(f"{where}: reserved bits set (0x{word & ~covered:x})")
+        return None
+    counters = set()
+    for s in signals:
+        raw = s.raw(data)
+        if s.name.startswith("Counter"):
+            counters.add(raw)
+            continue
+        if s.nan_code is not None and raw == s.nan_code:
+            violations.append(f"{where}: {s.name} carries the NaN code")
+            continue
+        value = raw * s.factor + s.offset
+        if not s.minimum - 1e-9 <= value <= s.maximum + 1e-9:
+            violations.append(f"{where}: {s.name} = {value:g} {s.unit} outside [{s.minimum:g}, {s.maximum:g}]")
+    if len(counters) != 1:
+        violations.append(f"{where}: slots carry different counters {sorted(counters)}")
+        return None
+    return counters.pop()
+
+
+def check_direction(name, frames, layout, rate_hz, min_rate_fraction, violations, report):
+    """Groups a direction's frames into cycles (one counter, every slot once) and checks their sequence."""
+    cycles, open_cycle, open_counter = [], {}, None
+    for frame in frames:
+        counter = check_frame(frame, layout, violations)
+        if counter is None:
+            continue
+        slot = layout.frames[frame["id"]][0]
+        if open_cycle and (counter != open_counter or slot in open_cycle):
+            violations.append(f"{name}: cycle {open_counter} incomplete before line {frame['line']}")
+            open_cycle = {}
+        open_cycle[slot], open_counter = frame, counter
+        if len(open_cycle) == layout.slot_count:
+            cycles.append((counter, min(f["t"] for f in open_cycle.values())))
+            open_cycle = {}
+    if open_cycle:
+        violations.append(f"{name}: the last cycle is incomplete")
+    gaps = 0
+    for (previous, _), (counter, t) in zip(cycles, cycles[1:]):
+        step = (counter - previous) % COUNTER_MODULO
+        if step != 1:
+            gaps += 1
+            violations.append(f"{name}: counter {previous} -> {counter} at t={t:.6f}: {(step - 1) % 16} cycle(s) lost")
+    rate = 0.0
+    if len(cycles) >= 2:
+        rate = (len(cycles) - 1) / (cycles[-1][1] - cycles[0][1])
+    if rate < min_rate_fraction * rate_hz:
+        violations.append(f"{name}: {rate:.1f} cycles/s on the bus, below {min_rate_fraction:.2f} x {rate_hz:g} Hz")
+    report[name] = dict(frames=len(frames), cycles=len(cycles), counter_gaps=gaps, rate_hz=round(rate, 2))
+    return len(cycles)
+
+
+def check_summary(role, summary, injected, captured_sent_cycles, bus_rate_hz, violations, report):
+    packets = summary.get("packets", {})
+    achieved = summary.get("achieved_rate_hz") or 0.0
+    if abs(bus_rate_hz - achieved) > 0.1 * max(achieved, 1e-9):
+        violations.append(f"{role}: reports {achieved} Hz achieved, its frames came at {bus_rate_hz} cycles/s")
+    expected = Counter(reason for process, reason, _ in injected if process == role and reason != "-")
+    counted = {k: v for k, v in packets.get("rejected_by_reason", {}).items() if v}
+    for reason in sorted(set(expected) | set(counted)):
+        if counted.get(reason, 0) != expected.get(reason, 0):
+            violations.append(f"{role}: rejected_by_reason.{reason} = {counted.get(reason, 0)}, "
+                              f"expected {expected.get(reason, 0)} (injected)")
+    if packets.get("rejected", 0) != sum(expected.values()):
+        violations.append(f"{role}: {packets.get('rejected')} rejected, {sum(expected.values())} injected")
+    for key in ("lost", "send_errors", "bus_errors", "wrong_sender"):
+        if packets.get(key, 0) != 0:
+            violations.append(f"{role}: packets.{key} = {packets.get(key)}, expected 0")
+    for key in ("watchdog_trips", "nonfinite_inputs", "dof_mismatches", "device_fault_cycles"):
+        if summary.get(key, 0) != 0:
+            violations.append(f"{role}: {key} = {summary.get(key)}, expected 0")
+    if packets.get("sent") != captured_sent_cycles:
+        violations.append(f"{role}: sent {packets.get('sent')} samples, the capture holds {captured_sent_cycles} cycles")
+    report[role] = dict(cycles=summary.get("cycles"), achieved_rate_hz=summary.get("achieved_rate_hz"),
+                        sent=packets.get("sent"), accepted=packets.get("accepted"), lost=packets.get("lost"),
+                        rejected=packets.get("rejected"), rejected_by_reason=counted,
+                        watchdog_trips=summary.get("watchdog_trips"), stop_reason=summary.get("stop_reason"))
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--dbc", required=True)
+    parser.add_argument("--log", required=True, help="candump -L capture")
+    parser.add_argument("--dof", type=int, required=True)
+    parser.add_argument("--fd", action="store_true", help="one CAN FD frame per cycle (default: classic)")
+    parser.add_argument("--rate-hz", type=float, required=True)
+    parser.add_argument("--min-rate-fraction", type=float, default=0.8,
+                        help="cycles/s on the bus must reach this fraction of --rate-hz (default 0.8)")
+    parser.add_argument("--master-summary")
+    parser.add_argument("--slave-summary")
+    parser.add_argument("--injected", help="frames injected on purpose: '<process> <reason> <frame>' per line")
+    parser.add_argument("--report", help="write what was measured as JSON")
+    args = parser.parse_args(argv)
+
+    violations, report = [], {}
+    messages = parse_dbc(args.dbc)
+    layouts = {role: Layout(messages, sender, args.dof, args.fd) for role, sender in
+               (("master_to_slave", "MASTER"), ("slave_to_master", "SLAVE"))}
+    for role, layout in layouts.items():
+        if not layout.frames:
+            violations.append(f"{args.dbc}: no {role} frames for dof {args.dof}, fd {args.fd}")
+    frames, malformed = parse_candump(args.log)
+    for number, line in malformed:
+        violations.append(f"line {number}: not a candump -L frame: {line[:80]}")
+
+    injected = []
+    if args.injected:
+        with open(args.injected, encoding="utf-8") as f:
+            for line in f:
+                if line.strip() and not line.startswith("#"):
+                    process, reason, text = line.split()
+                    injected.append((process, reason, normalize(text)))
+    by_text = defaultdict(list)
+    for index, frame in enumerate(frames):
+        by_text[frame["text"]].append(index)
+    exempt = set()
+    for process, reason, text in injected:
+        hits = by_text.get(text, [])
+        if len(hits) != 1:
+            violations.append(f"injected {text} ({process} {reason}) appears {len(hits)} times in the capture")
+        exempt.update(hits)
+    report["injected"] = len(injected)
+
+    owner = {}
+    for role, layout in layouts.items():
+        for frame_id in layout.frames:
+            owner[frame_id] = role
+    streams = defaultdict(list)
+    for index, frame in enumerate(frames):
+        if index in exempt:
+            continue
+        role = owner.get(frame["id"])
+        if role is None:
+            violations.append(f"line {frame['line']} {frame['text']}: not a configured identifier")
+            continue
+        streams[role].append(frame)
+    cycles = {}
+    for role, layout in layouts.items():
+        cycles[role] = check_direction(role, streams[role], layout, args.rate_hz, args.min_rate_fraction, violations,
+                                       report)
+
+    for role, path, direction in (("master", args.master_summary, "master_to_slave"),
+                                  ("slave", args.slave_summary, "slave_to_master")):
+        if path:
+            with open(path, encoding="utf-8") as f:
+                check_summary(role, json.load(f), injected, cycles[direction], report[direction]["rate_hz"],
+                              violations, report)
+
+    if args.report:
+        with open(args.report, "w", encoding="utf-8") as f:
+            json.dump(dict(report, violations=violations), f, indent=2)
+    print(json.dumps(report, sort_keys=True))
+    for v in violations[:50]:
+        print("VIOLATION", v)
+    if len(violations) > 50:
+        print(f"... and {len(violations) - 50} more violations")
+    return 1 if violations else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,120 @@
+#include "teleop/runtime/periodic_loop.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <ctime>
+#include <vector>
+
+#include "teleop/error.hpp"
+#include "test_utilities/limit_malloc.hpp"
+
+namespace teleop::runtime {
+namespace {
+
+// Timing quality is not asserted (shared, noisy machines): only counts, indices and that the statistics are
+// filled consistently.
+
+TEST(PeriodicLoop, RunsUntilStoppedFromTheBodyAndFillsStats) {
+  constexpr std::uint64_t kCycles = 100;
+  PeriodicLoop loop({.rate_hz = 1000.0});
+  EXPECT_DOUBLE_EQ(loop.period_s(), 1e-3);
+  std::vector<std::uint64_t> seen;
+  seen.reserve(kCycles);
+  double seen_period_s = 0.0;
+  loop.Run([&](std::uint64_t cycle, double period_s) {
+    seen.push_back(cycle);
+    seen_period_s = period_s;
+    if (cycle + 1 == kCycles) loop.Stop();
+  });
+  const CycleStats& stats = loop.stats();
+  ASSERT_EQ(seen.size(), kCycles);
+  for (std::uint64_t i = 0; i < kCycles; ++i) EXPECT_EQ(seen[i], i) << "consecutive cycle indices";
+  EXPECT_DOUBLE_EQ(seen_period_s, 1e-3);
+  EXPECT_EQ(stats.cycles, kCycles);
+  EXPECT_EQ(stats.jitter_ns.count(), kCycles);
+  EXPECT_EQ(stats.compute_ns.count(), kCycles);
+  EXPECT_EQ(stats.period_ns.count(), kCycles - 1) << "wake-to-wake needs two wakes";
+  EXPECT_GT(stats.period_ns.mean_ns(), 0.0);
+  EXPECT_GE(stats.jitter_ns.min_ns(), 0) << "an absolute sleep never wakes early";
+  EXPECT_LE(stats.overruns, stats.cycles + stats.skipped_slots);
+  EXPECT_TRUE(loop.stopping());
+}
+
+TEST(PeriodicLoop, DurationStopsAfterItsSlots) {
+  // 50 ms at 1 kHz = slots 0..49. Without skipped slots exactly 50 cycles run; with skips, the skipped slots make
+  // up the difference.
+  PeriodicLoop loop({.rate_hz = 1000.0, .duration_s = 0.05});
+  std::uint64_t calls = 0;
+  loop.Run([&](std::uint64_t, double) { ++calls; });
+  const CycleStats& stats = loop.stats();
+  EXPECT_EQ(calls, stats.cycles);
+  EXPECT_LE(stats.cycles, 50u);
+  EXPECT_GE(stats.cycles + stats.skipped_slots, 50u);
+  if (stats.skipped_slots == 0) {
+    EXPECT_EQ(stats.cycles, 50u);
+  }
+}
+
+TEST(PeriodicLoop, LongOverrunSkipsMissedSlotsAndCountsThem) {
+  // Cycle 5 takes 3.5 periods: its own deadline is missed (1 overrun) and the slots that passed entirely while it
+  // ran (at least 2) are skipped and counted instead of being run back to back.
+  PeriodicLoop loop({.rate_hz = 1000.0});
+  loop.Run([&](std::uint64_t cycle, double) {
+    if (cycle == 5) {
+      const timespec busy{0, 3'500'000};
+      nanosleep(&busy, nullptr);
+    }
+    if (cycle == 20) loop.Stop();
+  });
+  const CycleStats& stats = loop.stats();
+  EXPECT_EQ(stats.cycles, 21u);
+  EXPECT_GE(stats.skipped_slots, 2u);
+  EXPECT_GE(stats.overruns, stats.skipped_slots + 1);
+  EXPECT_GE(stats.compute_ns.max_ns(), 3'500'000);
+}
+
+TEST(PeriodicLoop, StoppedBeforeRunDoesNotRun) {
+  PeriodicLoop loop({.rate_hz = 1000.0});
+  loop.Stop();
+  int calls = 0;
+  loop.Run([&](std::uint64_t, double) { ++calls; });
+  EXPECT_EQ(calls, 0);
+  EXPECT_EQ(loop.stats().cycles, 0u);
+}
+
+TEST(PeriodicLoop, TheLoopItselfDoesNotAllocate) {
+  PeriodicLoop loop({.rate_hz = 2000.0});
+  const PeriodicLoop::Body body = [&loop](std::uint64_t cycle, double) {
+    if (cycle == 30) loop.Stop();
+  };
+  test::AllocationCounter counter;
+  loop.Run(body);
+  EXPECT_EQ(counter.count(), 0u);
+  EXPECT_EQ(loop.stats().cycles, 31u);
+}
+
+TEST(PeriodicLoop, RejectsBadConfig) {
+  EXPECT_THROW(PeriodicLoop({.rate_hz = 0.0}), Error);
+  EXPECT_THROW(PeriodicLoop({.rate_hz = -1000.0}), Error);
+  EXPECT_THROW(PeriodicLoop({.rate_hz = 1.0 / 0.0}), Error);
+  EXPECT_THROW(PeriodicLoop({.rate_hz = 1000.0, .fifo_priority = 100}), Error);
+  EXPECT_THROW(PeriodicLoop({.rate_hz = 1000.0, .cpu = -2}), Error);
+  EXPECT_THROW(PeriodicLoop({.rate_hz = 1000.0, .duration_s = -1.0}), Error);
+}
+
+TEST(PeriodicLoop, NonexistentCpuFailsAtSetUpWithAHint) {
+  PeriodicLoop loop({.rate_hz = 1000.0, .cpu = 4096});
+  int calls = 0;
+  try {
+    loop.Run([&](std::uint64_t, double) { ++calls; });
+    FAIL() << "expected teleop::Error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cpu 4096"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("realtime.cpu"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(calls, 0);
+}
+
+}  // namespace
+}  // namespace teleop::runtime

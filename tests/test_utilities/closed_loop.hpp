@@ -1,0 +1,166 @@
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "teleop/control/three_channel_law.hpp"
+#include "teleop/control/velocity_estimator.hpp"
+#include "teleop/device/loopback_plant.hpp"
+#include "teleop/types.hpp"
+
+namespace teleop::test {
+
+/// An in-process bilateral teleoperator: master plant (+ simulated operator) and slave plant (+ environment), one
+/// ThreeChannelLaw per side, both stepped at the same rate, each side's sample reaching the other `delay_cycles`
+/// cycles after it was taken (1 = what a real link gives: the peer data used at cycle k were sent at cycle k-1;
+/// 0 = the paper's single-computer model, both laws see the other's cycle-k sample).
+///
+/// One cycle k (t_k = k·T), for both sides, mirroring the processes:
+///   Read() → outgoing sample {position read, velocity by eq. 20 (+ the law's low-pass), force sensor} into the
+///   link → law Step() with the peer sample that arrives at k (peer_valid = false until the first one arrives) →
+///   Write() → Update(T).
+/// Deterministic: simulated time only.
+struct ClosedLoopConfig {
+  double rate_hz = 1000.0;
+  int delay_cycles = 1;  ///< Per direction, 0..1000.
+  control::ThreeChannelLaw::Config master_law = control::ThreeChannelLaw::ZeroGains(Role::kMaster, 1);
+  control::ThreeChannelLaw::Config slave_law = control::ThreeChannelLaw::ZeroGains(Role::kSlave, 1);
+  device::LoopbackPlantConfig master_plant = device::LoopbackPlantConfig::PaperMaster();
+  device::LoopbackPlantConfig slave_plant = device::LoopbackPlantConfig::PaperSlave();
+};
+
+/// 1-DOF set-up in the paper's terms (eqs. 7-9), for tests and the stability cross-checks. Unset gains are 0.
+/// Fixtures are eq. 7 at X = 0 (forbidden X > 0) on the side(s) with a non-zero stiffness.
+/// The operator is enabled with (m_h, b_h, k_h) and pushes F_h* = operator_force_N, ramped from 0 over
+/// operator_ramp_s (0 = a step at t = 0), then held.
+struct OneDofSetup {
+  double rate_hz = 1000.0;
+  int delay_cycles = 1;
+  double kpm_N_per_m = 0.0;
+  double kps_N_per_m = 0.0;
+  double kdm_Ns_per_m = 0.0;
+  double kds_Ns_per_m = 0.0;
+  double kvm_Ns_per_m = 0.0;
+  double kvs_Ns_per_m = 0.0;
+  double kfm = 0.0;
+  double master_fixture_N_per_m = 0.0;
+  double slave_fixture_N_per_m = 0.0;
+  double velocity_filter_hz = 0.0;  ///< Both laws.
+  double max_force_N = 0.0;         ///< Both laws; 0 = no saturation.
+  double master_mass_kg = 0.040;
+  double master_damping_Ns_per_m = 0.41;
+  double slave_mass_kg = 0.036;
+  double slave_damping_Ns_per_m = 0.49;
+  double human_mass_kg = 0.0;
+  double human_damping_Ns_per_m = 0.0;
+  double human_stiffness_N_per_m = 0.0;
+  double operator_force_N = 0.0;
+  double operator_ramp_s = 0.0;
+  double encoder_resolution_m = 0.0;  ///< Both plants.
+};
+
+/// Builds the ClosedLoopConfig of a OneDofSetup (throws teleop::Error via the laws/plants on bad values later).
+ClosedLoopConfig MakeOneDofConfig(const OneDofSetup& setup);
+
+/// What both sides saw and did in one cycle. Positions/velocities are the plants' TRUE states at t_k (before the
+/// cycle's Update); forces are the sensors' readings at t_k; commands are the laws' outputs at t_k.
+struct ClosedLoopSample {
+  std::uint64_t cycle = 0;
+  double time_s = 0.0;
+  DofVector master_position_m;
+  DofVector slave_position_m;
+  DofVector master_velocity_m_per_s;
+  DofVector slave_velocity_m_per_s;
+  DofVector master_command_N;
+  DofVector slave_command_N;
+  DofVector operator_target_force_N;  ///< F_h*(t_k).
+  DofVector operator_force_N;         ///< F_h, the master's force sensor.
+  DofVector environment_force_N;      ///< F_e, the slave's force sensor.
+  double master_penetration_m = 0.0;  ///< Master fixture penetration.
+  double slave_penetration_m = 0.0;   ///< Slave fixture penetration.
+  control::ThreeChannelLaw::StepStatus master_status = control::ThreeChannelLaw::StepStatus::kOk;
+  control::ThreeChannelLaw::StepStatus slave_status = control::ThreeChannelLaw::StepStatus::kOk;
+  std::uint32_t master_faults = 0;
+  std::uint32_t slave_faults = 0;
+};
+
+class ClosedLoop {
+ public:
+  /// Validates through the law and plant constructors (teleop::Error); rate_hz must be > 0, delay 0..1000.
+  explicit ClosedLoop(const ClosedLoopConfig& config);
+
+  /// Runs one cycle and returns its record.
+  const ClosedLoopSample& Step();
+  /// Runs round(duration_s · rate_hz) cycles and returns every record.
+  std::vector<ClosedLoopSample> Run(double duration_s);
+  /// Runs round(duration_s · rate_hz) cycles, handing each record to `observer` (no trace kept).
+  void Run(double duration_s, const std::function<void(const ClosedLoopSample&)>& observer);
+
+  double period_s() const noexcept { return period_s_; }
+  double time_s() const noexcept { return master_plant_.time_s(); }
+  const ClosedLoopConfig& config() const noexcept { return config_; }
+  const ClosedLoopSample& last() const noexcept { return last_; }
+  /// Direct access, e.g. to SetDisturbance() on a plant between cycles.
+  device::LoopbackPlant& master_plant() noexcept { return master_plant_; }
+  device::LoopbackPlant& slave_plant() noexcept { return slave_plant_; }
+  const control::ThreeChannelLaw& master_law() const noexcept { return master_law_; }
+  const control::ThreeChannelLaw& slave_law() const noexcept { return slave_law_; }
+
+ private:
+  struct WireSample {
+    DofVector position_m;
+    DofVector velocity_m_per_s;
+    DofVector force_N;
+  };
+  /// Fixed ring of delay+1 samples, one per direction.
+  struct DelayLine {
+    std::vector<WireSample> ring;
+    std::uint64_t pushed = 0;
+    void Push(const WireSample& sample);
+    /// The sample pushed `delay` pushes ago, or nullptr if none yet.
+    const WireSample* Delayed(int delay) const;
+  };
+
+  ClosedLoopConfig config_;
+  double period_s_;
+  control::ThreeChannelLaw master_law_;
+  control::ThreeChannelLaw slave_law_;
+  device::LoopbackPlant master_plant_;
+  device::LoopbackPlant slave_plant_;
+  control::VelocityEstimator master_sender_velocity_;
+  control::VelocityEstimator slave_sender_velocity_;
+  DelayLine master_to_slave_;
+  DelayLine slave_to_master_;
+  ClosedLoopSample last_;
+  std::uint64_t cycle_ = 0;
+};
+
+/// Which scalar of a record to analyse.
+enum class Signal : std::uint8_t {
+  kMasterPosition,
+  kSlavePosition,
+  kTrackingError,  ///< slave - master position (m).
+  kMasterCommand,
+  kSlaveCommand,
+  kOperatorForce,
+  kEnvironmentForce,
+  kSlavePenetration,
+  kMasterPenetration,
+};
+double Value(const ClosedLoopSample& sample, Signal signal, int axis = 0);
+
+/// Statistics of one signal over the records with from_s ≤ time_s < to_s.
+struct WindowStats {
+  int count = 0;
+  double mean = 0.0;
+  double rms = 0.0;      ///< Root mean square of the value itself.
+  double std_dev = 0.0;  ///< RMS about the mean (oscillation size).
+  double min = 0.0;
+  double max = 0.0;
+  double peak_to_peak = 0.0;  ///< max - min.
+  double max_abs = 0.0;
+};
+WindowStats Stats(const std::vector<ClosedLoopSample>& trace, Signal signal, double from_s, double to_s, int axis = 0);
+
+}  // namespace teleop::test

@@ -1,0 +1,78 @@
+// Cost of one cycle's link work: Send + Poll on UDP loopback and on the emulated link, and SequenceTracker.
+// Prints ns per iteration; not a test.
+#include <benchmark/benchmark.h>
+
+#include "teleop/transport/emulated_link.hpp"
+#include "teleop/transport/udp_link.hpp"
+
+namespace {
+
+using teleop::proto::SampleMessage;
+using teleop::proto::SenderRole;
+
+SampleMessage Sample(SenderRole sender, int dof) {
+  SampleMessage m;
+  m.sender = sender;
+  m.dof = static_cast<std::uint8_t>(dof);
+  return m;
+}
+
+// One loopback datagram per iteration: master Send, slave Poll (drain, decode, classify).
+void BM_UdpSendPoll(benchmark::State& state) {
+  teleop::transport::UdpLinkConfig master_config;
+  master_config.expected_peer = SenderRole::kSlave;
+  teleop::transport::UdpLinkConfig slave_config;
+  slave_config.expected_peer = SenderRole::kMaster;
+  teleop::transport::UdpLink master(master_config);
+  teleop::transport::UdpLink slave(slave_config);
+  master.SetPeer("127.0.0.1", slave.local_port());
+  slave.SetPeer("127.0.0.1", master.local_port());
+  SampleMessage m = Sample(SenderRole::kMaster, static_cast<int>(state.range(0)));
+  SampleMessage got;
+  std::int64_t fresh = 0;
+  for (auto _ : state) {
+    ++m.sequence;
+    benchmark::DoNotOptimize(master.Send(m));
+    fresh += slave.Poll(got) ? 1 : 0;
+  }
+  state.counters["fresh_per_poll"] = static_cast<double>(fresh) / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_UdpSendPoll)->Arg(1)->Arg(6);
+
+// An empty Poll: the cost of finding the socket empty (one recvfrom returning EAGAIN).
+void BM_UdpEmptyPoll(benchmark::State& state) {
+  teleop::transport::UdpLink link(teleop::transport::UdpLinkConfig{});
+  SampleMessage got;
+  for (auto _ : state) benchmark::DoNotOptimize(link.Poll(got));
+}
+BENCHMARK(BM_UdpEmptyPoll);
+
+void BM_EmulatedSendAdvancePoll(benchmark::State& state) {
+  teleop::transport::EmulatedLinkConfig config;
+  config.delay_s = 0.002;
+  auto pair = teleop::transport::MakeEmulatedLinkPair(config);
+  SampleMessage m = Sample(SenderRole::kMaster, 6);
+  SampleMessage got;
+  for (auto _ : state) {
+    ++m.sequence;
+    benchmark::DoNotOptimize(pair.master->Send(m));
+    pair.medium->Advance(0.001);
+    benchmark::DoNotOptimize(pair.slave->Poll(got));
+  }
+}
+BENCHMARK(BM_EmulatedSendAdvancePoll);
+
+void BM_SequenceTracker(benchmark::State& state) {
+  teleop::transport::SequenceTracker tracker;
+  teleop::transport::LinkCounters counters;
+  std::uint32_t s = 0;
+  for (auto _ : state) {
+    s += (s % 17 == 0) ? 2 : 1;
+    benchmark::DoNotOptimize(tracker.Observe(s, counters));
+  }
+}
+BENCHMARK(BM_SequenceTracker);
+
+}  // namespace
+
+BENCHMARK_MAIN();
