@@ -20,7 +20,7 @@ dof=3
 for program in teleop-master teleop-slave; do
   [[ -x "${bin_dir}/${program}" ]] || { echo "FAIL: ${bin_dir}/${program} is not built" >&2; exit 1; }
 done
-python="$(command -v python3 || true)"
+python="$( [[ -x /usr/bin/python3 ]] && echo /usr/bin/python3 || command -v python3 || true)"
 [[ -n "${python}" ]] || { echo "FAIL: python3 not found (sudo apt-get install python3)" >&2; exit 1; }
 
 status=0

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iostream>
 
+#include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/error.hpp"
 #include "teleop/node/teleop_node.hpp"
@@ -25,6 +26,31 @@ proto::SenderRole ToSender(Role role) noexcept {
   return role == Role::kMaster ? proto::SenderRole::kMaster : proto::SenderRole::kSlave;
 }
 
+/// The start-up stability check of this process's own fixture (docs/stability.md, "In the processes"): false when
+/// the process must not start. Runs before the device and the link are opened, so a refused start touches nothing.
+bool StabilityAllowsStart(const config::ProcessConfig& config, bool allow_unstable) {
+  if (!config.stability.check) {
+    spdlog::warn(
+        "stability check skipped (stability.check is false in {}): the fixture stiffness is NOT checked "
+        "against the predicted limit",
+        config.source_path);
+    return true;
+  }
+  const config::StabilityReport report = config::CheckProcessStability(config);
+  if (report.stable()) {
+    spdlog::info("{}", config::DescribePass(config, report));
+    return true;
+  }
+  const std::string failure = config::DescribeFailure(config, report);
+  if (!allow_unstable) {
+    spdlog::critical("refusing to start: {}; or pass --allow-unstable to start anyway (experiments only)", failure);
+    return false;
+  }
+  spdlog::warn("--allow-unstable: STARTING A CONFIGURATION PREDICTED UNSTABLE: {}", failure);
+  spdlog::warn("--allow-unstable: expect sustained vibration at the fixture; keep a hand on the stop");
+  return true;
+}
+
 }  // namespace
 
 int ProcessMain(int argc, char** argv, Role role) {
@@ -36,16 +62,21 @@ int ProcessMain(int argc, char** argv, Role role) {
   std::string summary_json;
   std::string telemetry_csv;
   std::string log_level = "info";
+  bool allow_unstable = false;
   app.add_option("-c,--config", config_path, "Process configuration (YAML); see docs/configuration.md")
       ->required()
       ->check(CLI::ExistingFile);
-  app.add_option("-d,--duration", duration_s, "Stop after this many seconds (overrides the config; 0 = run until "
-                                              "SIGINT/SIGTERM)")
+  app.add_option("-d,--duration", duration_s,
+                 "Stop after this many seconds (overrides the config; 0 = run until "
+                 "SIGINT/SIGTERM)")
       ->check(CLI::Range(0.0, 1e6));
   app.add_option("--summary-json", summary_json, "Also write the end-of-run summary to this file as JSON");
   app.add_option("--telemetry-csv", telemetry_csv, "Per-cycle telemetry CSV (overrides telemetry.csv in the config)");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical, off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
+  app.add_flag("--allow-unstable", allow_unstable,
+               "Start even when the fixture stiffness is above the predicted stability limit (experiments only; "
+               "docs/stability.md)");
   CLI11_PARSE(app, argc, argv);
 
   spdlog::set_level(spdlog::level::from_str(log_level));
@@ -58,6 +89,7 @@ int ProcessMain(int argc, char** argv, Role role) {
     }
     if (duration_s >= 0.0) config.loop.duration_s = duration_s;
     if (!telemetry_csv.empty()) config.telemetry.csv_path = telemetry_csv;
+    if (!StabilityAllowsStart(config, allow_unstable)) return 2;
 
     auto device = device::MakeDevice(config.device);
     auto link = transport::MakeLink(config.link, ToSender(role));

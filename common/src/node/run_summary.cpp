@@ -21,6 +21,25 @@ namespace {
 // JSON has no NaN/inf: write null for them.
 std::string Num(double v) { return std::isfinite(v) ? fmt::format("{:.9g}", v) : std::string("null"); }
 
+std::string JsonString(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    switch (c) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\n': out += "\\n"; break;
+      case '\t': out += "\\t"; break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20) {
+          out += fmt::format("\\u{:04x}", static_cast<unsigned>(c));
+        } else {
+          out += c;
+        }
+    }
+  }
+  return out + "\"";
+}
+
 std::string DistJson(const Distribution& d) {
   return fmt::format(R"({{"count": {}, "p50": {}, "p99": {}, "max": {}}})", d.count, Num(d.p50), Num(d.p99),
                      Num(d.max));
@@ -52,6 +71,8 @@ std::string FormatSummaryText(const RunSummary& s) {
   out += fmt::format("  packets           sent {}, received {}, accepted {}, lost {}, reordered {}, duplicates {}, "
                      "rejected {}, send errors {}\n",
                      l.sent, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors);
+  if (!s.link_detail.empty()) out += fmt::format("  link detail       {}\n", s.link_detail);
+  if (s.link_fault_cycles > 0) out += fmt::format("  link faults       medium down in {} cycles\n", s.link_fault_cycles);
   out += fmt::format("  round trip        p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms ({} samples)\n", s.rtt_ms.p50,
                      s.rtt_ms.p99, s.rtt_ms.max, s.rtt_ms.count);
   out += fmt::format("  peer              fresh in {} cycles, watchdog trips {}\n", s.cycles_with_peer,
@@ -68,12 +89,12 @@ std::string FormatSummaryText(const RunSummary& s) {
 std::string FormatSummaryJson(const RunSummary& s) {
   const auto& l = s.link;
   std::string out = "{\n";
-  out += fmt::format(R"(  "role": "{}",)"
+  out += fmt::format(R"(  "role": {},)"
                      "\n",
-                     ToString(s.role));
-  out += fmt::format(R"(  "stop_reason": "{}",)"
+                     JsonString(ToString(s.role)));
+  out += fmt::format(R"(  "stop_reason": {},)"
                      "\n",
-                     s.stop_reason);
+                     JsonString(s.stop_reason));
   out += fmt::format(R"(  "rate_hz": {}, "duration_s": {}, "cycles": {}, "achieved_rate_hz": {}, "overruns": {},)"
                      "\n",
                      Num(s.rate_hz), Num(s.duration_s), s.cycles, Num(s.achieved_rate_hz), s.overruns);
@@ -86,6 +107,9 @@ std::string FormatSummaryJson(const RunSummary& s) {
                      "\n",
                      l.sent, l.send_errors, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected,
                      l.wrong_sender, l.superseded, l.bus_errors, RejectedJson(l));
+  out += fmt::format(R"(  "link_detail": {}, "link_fault_cycles": {},)"
+                     "\n",
+                     JsonString(s.link_detail), s.link_fault_cycles);
   out += fmt::format(R"(  "rtt_ms": {},)"
                      "\n",
                      DistJson(s.rtt_ms));

@@ -113,6 +113,7 @@ struct TeleopNode::Impl {
   double max_penetration = 0.0;
   std::uint64_t telemetry_records = 0;
   std::uint64_t dof_mismatches = 0;
+  std::uint64_t link_fault_cycles = 0;
   double last_rtt_s = std::numeric_limits<double>::quiet_NaN();
   std::atomic<bool> stop_on_peer_shutdown{false};
   std::atomic<bool> stop_requested{false};
@@ -158,7 +159,9 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
     }
   }
   const bool fresh = have_peer && watchdog.Fresh(t_s);
-  const bool peer_ok = fresh && !peer_shutdown && (peer.flags & proto::kFlagFault) == 0;
+  const bool link_faulted = link->faulted();  // e.g. CAN bus-off: decouple now, not after the watchdog timeout
+  if (link_faulted) ++link_fault_cycles;
+  const bool peer_ok = fresh && !link_faulted && !peer_shutdown && (peer.flags & proto::kFlagFault) == 0;
   if (have_peer && peer_was_valid && !fresh) events.Push({Event::Kind::kPeerLost, cycle, 0.0});
   if (have_peer && !peer_was_valid && fresh && cycle > 0 && watchdog.trips() > 0) {
     events.Push({Event::Kind::kPeerRecovered, cycle, 0.0});
@@ -198,7 +201,7 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
       have_peer ? static_cast<std::uint32_t>(std::min<std::int64_t>(MonotonicNowNs() - peer_rx_ns, 0xFFFFFFFF)) : 0;
   std::uint8_t flags = proto::kFlagEnabled;
   if (fault || out.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput) flags |= proto::kFlagFault;
-  if (have_peer && !fresh) flags |= proto::kFlagPeerLost;
+  if ((have_peer && !fresh) || link_faulted) flags |= proto::kFlagPeerLost;
   if (out.status == control::ThreeChannelLaw::StepStatus::kSaturated) flags |= proto::kFlagSaturated;
   if (out.fixture_penetration_m > 0.0) flags |= proto::kFlagInFixture;
   if (loop.stopping()) flags |= proto::kFlagShutdown;
@@ -303,6 +306,8 @@ RunSummary TeleopNode::Run() {
     summary.telemetry_dropped = s.telemetry->dropped();
   }
   summary.dof_mismatches = s.dof_mismatches;
+  summary.link_fault_cycles = s.link_fault_cycles;
+  summary.link_detail = s.link->Summary();
   summary.stop_reason = s.stop_requested.load() ? "signal" : (s.peer_shutdown ? "peer shutdown" : "duration");
   if (s.dof_mismatches > 0) {
     spdlog::error("{} samples from the peer carried another DOF count than this process's {}: check both configs",

@@ -68,8 +68,9 @@ class CanLink final : public Link {
   const CanLinkCounters& can_counters() const noexcept { return can_; }
   /// Link fault: the controller is bus-off (latched until it reports a restart).
   bool bus_off() const noexcept { return bus_off_; }
+  bool faulted() const noexcept override { return bus_off_; }
   /// One line with the CAN-specific counters for the run summary.
-  std::string Summary() const;
+  std::string Summary() const override;
   CanPort& port() noexcept { return *port_; }
 
  private:

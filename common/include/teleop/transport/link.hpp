@@ -46,6 +46,11 @@ class Link {
   virtual const LinkCounters& counters() const noexcept = 0;
   /// Short description for logs ("udp 127.0.0.1:47001 -> 127.0.0.1:47002").
   virtual std::string Describe() const = 0;
+  /// True while the medium itself is down (CAN bus-off): the node treats the peer as lost at once instead of
+  /// waiting for the watchdog. Real-time safe.
+  virtual bool faulted() const noexcept { return false; }
+  /// Medium-specific counters for the end-of-run summary (CAN frames by status, bus load); empty when none.
+  virtual std::string Summary() const { return {}; }
 };
 
 }  // namespace teleop::transport

@@ -3,15 +3,19 @@
 #include <memory>
 #include <string>
 
+#include "teleop/transport/can_link_config.hpp"
 #include "teleop/transport/link.hpp"
 #include "teleop/transport/udp_link.hpp"
 
 namespace teleop::transport {
 
-/// Per-process link selection. `transport` is "udp" (later also "can", "emulated-can").
+/// Per-process link selection. `transport` is "udp", "can" (SocketCAN) or "emulated-can" (the teleop-canbus daemon,
+/// for hosts without CAN).
 struct LinkConfig {
   std::string transport = "udp";
   UdpLinkConfig udp{};
+  CanLinkConfig can{};        ///< Used by "can" and "emulated-can"; its dof is the process's dof.
+  double rate_hz = 1000.0;    ///< The loop rate, for the CAN bus-load budget (set from the process config).
   double timeout_ms = 50.0;  ///< Watchdog: no accepted sample for this long → peer lost → safe state.
 };
 

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "teleop/error.hpp"
+#include "teleop/transport/can_link.hpp"
 
 namespace teleop::transport {
 namespace {
@@ -20,13 +21,28 @@ std::unique_ptr<Link> MakeUdp(const LinkConfig& config, proto::SenderRole local_
   return std::make_unique<UdpLink>(udp);
 }
 
+std::unique_ptr<Link> MakeCan(const LinkConfig& config, proto::SenderRole local_role, CanMedium medium) {
+  CanLinkConfig can = config.can;
+  can.medium = medium;
+  return MakeCanLink(can, local_role, config.rate_hz);
+}
+
+std::unique_ptr<Link> MakeSocketCan(const LinkConfig& config, proto::SenderRole local_role) {
+  return MakeCan(config, local_role, CanMedium::kSocketCan);
+}
+
+std::unique_ptr<Link> MakeEmulatedCan(const LinkConfig& config, proto::SenderRole local_role) {
+  return MakeCan(config, local_role, CanMedium::kEmulatedBus);
+}
+
 struct Backend {
   const char* name;
   Factory make;
 };
 
-// One entry per transport; "can" and "emulated-can" join here.
-constexpr std::array<Backend, 1> kBackends = {{{"udp", &MakeUdp}}};
+// One entry per transport.
+constexpr std::array<Backend, 3> kBackends = {
+    {{"udp", &MakeUdp}, {"can", &MakeSocketCan}, {"emulated-can", &MakeEmulatedCan}}};
 
 }  // namespace
 
