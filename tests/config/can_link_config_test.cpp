@@ -57,7 +57,6 @@ TEST(CanLinkConfig, EmulatedBusNeedsNoInterfaceAndTakesTheDaemonAddress) {
 }
 
 TEST(CanLinkConfig, ErrorsNameFileLineAndKey) {
-
   EXPECT_NE(ErrorOf(Config("  transport: can\n")).find("can.yaml:5:3: key 'link.can'"), std::string::npos);
   EXPECT_NE(ErrorOf(Config("  transport: can\n  can: {fd: true}\n")).find("interface"), std::string::npos);
   EXPECT_NE(ErrorOf(Config("  transport: can\n  can: {interface: vcan0, speed: 5}\n")).find("speed"),

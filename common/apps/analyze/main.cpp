@@ -23,6 +23,9 @@
 #include "teleop/analysis/stability_limit.hpp"
 #include "teleop/error.hpp"
 #ifdef TELEOP_ANALYZE_HAS_CONFIG
+#include <filesystem>
+
+#include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
 #endif
 
@@ -226,56 +229,50 @@ int RunSweep(const SystemOptions& o, const SweepOptions& w) {
 }
 
 #ifdef TELEOP_ANALYZE_HAS_CONFIG
-int RunCheck(SystemOptions o, const std::string& config_path) {
-  const teleop::config::ProcessConfig config = teleop::config::LoadProcessConfig(config_path);
-  const FixtureSide side = config.role == teleop::Role::kMaster ? FixtureSide::kMaster : FixtureSide::kSlave;
-  const auto& law = config.law;
-  // What the process knows of itself comes from its config; the peer is the symmetric law of §4.3 with the
-  // paper's device unless the flags say otherwise. The processes exchange samples over a link: one sample delay.
-  o.rate_hz = config.loop.rate_hz;
-  o.velocity_filter_hz = law.velocity_filter_hz;
-  o.peer_delay_samples = 1;
-  int worst_exit = 0;
-  for (int axis = 0; axis < law.dof; ++axis) {
-    SystemOptions a = o;
-    const double kp = law.kp_N_per_m[axis];
-    const double kd = law.kd_Ns_per_m[axis];
-    const double kv = law.kv_Ns_per_m[axis];
-    if (side == FixtureSide::kMaster) {
-      a.kpm = kp;
-      a.kdm = kd;
-      a.kvm = kv;
-      a.kps = Or(o.kps, kp);
-      a.kds = Or(o.kds, kd);
-      if (config.device.backend == "loopback") {
-        a.master_mass_kg = config.device.loopback.mass_kg;
-        a.master_damping = config.device.loopback.damping_Ns_per_m;
-      }
-    } else {
-      a.kps = kp;
-      a.kds = kd;
-      a.kvs = kv;
-      a.kpm = Or(o.kpm, kp);
-      a.kdm = Or(o.kdm, kd);
-      if (config.device.backend == "loopback") {
-        a.slave_mass_kg = config.device.loopback.mass_kg;
-        a.slave_damping = config.device.loopback.damping_Ns_per_m;
-      }
-    }
-    SampledTeleoperator system = BuildSystem(a, side);
-    system.gains.fixture(side) = law.fixture.stiffness_N_per_m;
-    const FixtureCheck check = CheckFixture(system, side, BuildHumans(a));
+/// Analyses the process's own fixture exactly as the process does at start-up (config::CheckProcessStability, with
+/// the config's `stability:` section). Flags given on the command line override that section: the peer's gains
+/// (--kps/--kds/--kvs for a master config, --kpm/--kdm/--kvm for a slave config), either device, the peer's fixture
+/// (--other-fixture), --unilateral, --peer-delay-samples and the operator set.
+int RunCheck(const SystemOptions& o, const CLI::App& app, const std::string& config_path) {
+  namespace config = teleop::config;
+  config::ProcessConfig process = config::LoadProcessConfig(config_path);
+  config::StabilityConfig& st = process.stability;
+  const bool master = process.role == teleop::Role::kMaster;
+  const auto given = [&app](const char* flag) { return app.count(flag) > 0; };
+  const auto dof_value = [&process](double value) { return teleop::DofVector::Constant(process.dof, value); };
+  if (given(master ? "--kps" : "--kpm")) st.peer.kp_N_per_m = dof_value(master ? o.kps : o.kpm);
+  if (given(master ? "--kds" : "--kdm")) st.peer.kd_Ns_per_m = dof_value(master ? o.kds : o.kdm);
+  if (given(master ? "--kvs" : "--kvm")) st.peer.kv_Ns_per_m = dof_value(master ? o.kvs : o.kvm);
+  if (given("--master-mass")) (master ? st.device.mass_kg : st.peer.mass_kg) = o.master_mass_kg;
+  if (given("--master-damping")) (master ? st.device.damping_Ns_per_m : st.peer.damping_Ns_per_m) = o.master_damping;
+  if (given("--slave-mass")) (master ? st.peer.mass_kg : st.device.mass_kg) = o.slave_mass_kg;
+  if (given("--slave-damping")) (master ? st.peer.damping_Ns_per_m : st.device.damping_Ns_per_m) = o.slave_damping;
+  if (given("--other-fixture")) st.peer.fixture_stiffness_N_per_m = o.other_fixture;
+  if (o.unilateral) st.unilateral = true;
+  if (given("--peer-delay-samples")) st.peer_delay_samples = o.peer_delay_samples;
+  if (given("--human-bounds")) st.human_bounds = std::filesystem::absolute(o.human_bounds).string();
+  if (given("--human-steps")) st.human_grid_steps = o.human_steps;
+  std::vector<HumanModel> humans;
+  if (!o.human_mass.empty()) humans = BuildHumans(o);
+
+  const config::StabilityReport report = config::CheckProcessStability(process, humans);
+  for (int axis = 0; axis < process.dof; ++axis) {
+    const FixtureCheck& check = report.axes[static_cast<std::size_t>(axis)];
     if (o.json) {
+      const SampledTeleoperator system = config::StabilityModel(process, axis);
       std::cout << "{\"axis\": " << axis << ", \"stable\": " << (check.stable ? "true" : "false")
                 << ", \"stiffness_N_per_m\": " << check.stiffness_N_per_m
                 << ", \"worst_damping_ratio_at_stiffness\": " << check.at_configured.min_damping_ratio
-                << ", \"limit\": " << LimitJson(check.limit, system, side, 0) << "}\n";
+                << ", \"limit\": "
+                << LimitJson(check.limit, system, check.side, static_cast<std::size_t>(report.operators)) << "}\n";
     } else {
       std::cout << config_path << " axis " << axis << ": " << check.message << "\n";
     }
-    if (!check.stable) worst_exit = kExitUnstable;
   }
-  return worst_exit;
+  if (!o.json && !st.check) {
+    std::cout << config_path << ": note: stability.check is false, the process will start without this check\n";
+  }
+  return report.stable() ? 0 : kExitUnstable;
 }
 #endif
 
@@ -317,7 +314,7 @@ int main(int argc, char** argv) {
     if (*sweep_app) return RunSweep(sweep_options, sweep);
     if (*check) {
 #ifdef TELEOP_ANALYZE_HAS_CONFIG
-      return RunCheck(check_options, config_path);
+      return RunCheck(check_options, *check, config_path);
 #else
       std::cerr << "teleop-analyze: check needs the config library (teleop::config), not built here\n";
       return kExitBadInput;

@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <fstream>
@@ -141,28 +142,94 @@ Endpoint ParseEndpoint(const Field& f) {
   return {host, static_cast<std::uint16_t>(port)};
 }
 
-void ParseLink(const Field& f, Role role, double rate_hz, transport::LinkConfig& link) {
-  const Map map(f, {"transport", "bind", "peer", "timeout_ms", "accept_only_peer_address", "receive_buffer_bytes"});
+// The `link.can` section (docs/can.md): used by transport "can" (SocketCAN) and "emulated-can" (teleop-canbus).
+void ParseCan(const Field& f, bool emulated, transport::CanLinkConfig& can) {
+  const Map map(
+      f, {"interface", "bus", "fd", "bit_rate_switch", "nominal_bitrate_bit_per_s", "data_bitrate_bit_per_s",
+          "extended_id", "master_to_slave_base_id", "slave_to_master_base_id", "max_bus_load", "connect_timeout_ms"});
+  if (auto v = map.Optional("interface")) {
+    can.interface_name = v->AsString();
+    if (can.interface_name.empty() || can.interface_name.size() > 15) {
+      v->Fail("must be a network interface name of 1..15 characters (e.g. can0, vcan0), got '" + can.interface_name +
+              "'");
+    }
+  } else if (!emulated) {
+    map.Required("interface");  // fails with the key's name
+  }
+  if (auto v = map.Optional("bus")) {
+    if (!emulated) v->Fail("only for transport emulated-can (the teleop-canbus daemon's address)");
+    const Endpoint bus = ParseEndpoint(*v);
+    can.emulated_bus_host = bus.address;
+    can.emulated_bus_port = bus.port;
+  }
+  if (auto v = map.Optional("fd")) can.fd = v->AsBool();
+  if (auto v = map.Optional("bit_rate_switch")) can.bit_rate_switch = v->AsBool();
+  if (auto v = map.Optional("nominal_bitrate_bit_per_s")) {
+    can.nominal_bitrate_bit_per_s = InRange(*v, 10'000.0, 1'000'000.0, "bit/s");
+  }
+  if (auto v = map.Optional("data_bitrate_bit_per_s")) {
+    can.data_bitrate_bit_per_s = InRange(*v, 10'000.0, 12'000'000.0, "bit/s");
+  }
+  if (auto v = map.Optional("extended_id")) can.extended_id = v->AsBool();
+  const int max_id = can.extended_id ? 0x1FFFFFFF : 0x7FF;
+  const auto base_id = [max_id](const Field& e) {
+    // Each direction uses base .. base + 4 (docs/can.md).
+    return static_cast<std::uint32_t>(IntInRange(e, 0, max_id - 4));
+  };
+  if (auto v = map.Optional("master_to_slave_base_id")) can.master_to_slave_base_id = base_id(*v);
+  if (auto v = map.Optional("slave_to_master_base_id")) can.slave_to_master_base_id = base_id(*v);
+  const auto lo = std::min(can.master_to_slave_base_id, can.slave_to_master_base_id);
+  const auto hi = std::max(can.master_to_slave_base_id, can.slave_to_master_base_id);
+  if (hi - lo < 5) {
+    f.Fail(
+        "master_to_slave_base_id and slave_to_master_base_id must be at least 5 apart (each direction uses "
+        "base .. base + 4)");
+  }
+  if (auto v = map.Optional("max_bus_load")) {
+    can.max_bus_load = InRange(*v, 0.01, 1.0, "(fraction of bus time)");
+  }
+  if (auto v = map.Optional("connect_timeout_ms")) can.connect_timeout_ms = Positive(*v, "ms");
+}
+
+void ParseLink(const Field& f, Role role, double rate_hz, int dof, transport::LinkConfig& link) {
+  const Map map(f,
+                {"transport", "bind", "peer", "timeout_ms", "accept_only_peer_address", "receive_buffer_bytes", "can"});
   if (auto v = map.Optional("transport")) {
     link.transport = v->AsString();
-    if (link.transport != "udp") {
-      v->Fail("unsupported transport '" + link.transport + "'; this build's config reader knows: udp");
+    if (link.transport != "udp" && link.transport != "can" && link.transport != "emulated-can") {
+      v->Fail("unsupported transport '" + link.transport + "'; known: udp, can, emulated-can");
     }
   }
-  const Field bind_field = map.Required("bind");
-  const Field peer_field = map.Required("peer");
-  const Endpoint bind = ParseEndpoint(bind_field);
-  const Endpoint peer = ParseEndpoint(peer_field);
-  if (bind.address == peer.address && bind.port == peer.port) {
-    peer_field.Fail("the peer is the same endpoint as bind; the other process must listen on another port");
+  link.rate_hz = rate_hz;
+  link.can.dof = dof;
+  if (link.transport == "udp") {
+    if (auto v = map.Optional("can")) v->Fail("only for transport can or emulated-can");
+    const Field bind_field = map.Required("bind");
+    const Field peer_field = map.Required("peer");
+    const Endpoint bind = ParseEndpoint(bind_field);
+    const Endpoint peer = ParseEndpoint(peer_field);
+    if (bind.address == peer.address && bind.port == peer.port) {
+      peer_field.Fail("the peer is the same endpoint as bind; the other process must listen on another port");
+    }
+    if ((bind.address.find(':') != std::string::npos) != (peer.address.find(':') != std::string::npos)) {
+      peer_field.Fail("bind and peer must both be IPv4 or both IPv6");
+    }
+    link.udp.bind_address = bind.address;
+    link.udp.bind_port = bind.port;
+    link.udp.peer_address = peer.address;
+    link.udp.peer_port = peer.port;
+  } else {
+    for (const char* udp_only : {"bind", "peer", "accept_only_peer_address", "receive_buffer_bytes"}) {
+      if (auto v = map.Optional(udp_only)) v->Fail("only for transport udp");
+    }
+    const bool emulated = link.transport == "emulated-can";
+    link.can.medium = emulated ? transport::CanMedium::kEmulatedBus : transport::CanMedium::kSocketCan;
+    if (auto v = map.Optional("can")) {
+      ParseCan(*v, emulated, link.can);
+    } else if (!emulated) {
+      map.Required("can");  // SocketCAN needs at least the interface name
+    }
   }
-  if ((bind.address.find(':') != std::string::npos) != (peer.address.find(':') != std::string::npos)) {
-    peer_field.Fail("bind and peer must both be IPv4 or both IPv6");
-  }
-  link.udp.bind_address = bind.address;
-  link.udp.bind_port = bind.port;
-  link.udp.peer_address = peer.address;
-  link.udp.peer_port = peer.port;
   link.udp.expected_peer = role == Role::kMaster ? proto::SenderRole::kSlave : proto::SenderRole::kMaster;
   if (auto v = map.Optional("timeout_ms")) {
     link.timeout_ms = Positive(*v, "ms");
@@ -196,7 +263,11 @@ void ParseLaw(const Field& f, double rate_hz, control::ThreeChannelLaw::Config& 
   if (auto v = map.Optional("peer_force_scale")) law.peer_force_scale = Finite(*v);
   if (auto v = map.Optional("max_force_N")) law.max_force_N = NonNegative(*v, "N");
   if (auto v = map.Optional("velocity_filter_hz")) {
-    law.velocity_filter_hz = InRange(*v, 0.0, rate_hz / 2.0, "Hz (0 = off; at most half of rate_hz)");
+    law.velocity_filter_hz = InRange(*v, 0.0, rate_hz / 2.0, "Hz (0 = off; below half of rate_hz)");
+    if (law.velocity_filter_hz >= rate_hz / 2.0) {
+      v->Fail("must be below half of rate_hz (" + Num(rate_hz / 2.0) + " Hz, the Nyquist frequency), got " +
+              Num(law.velocity_filter_hz));
+    }
   }
 }
 
@@ -364,13 +435,41 @@ void ParseTelemetry(const Field& f, TelemetryConfig& telemetry) {
   if (auto v = map.Optional("ring_capacity")) telemetry.ring_capacity = IntInRange(*v, 16, 1 << 24);
 }
 
+/// The start-up stability check (docs/stability.md, "In the processes"). Absent keys keep StabilityConfig's defaults.
+void ParseStability(const Field& f, int dof, StabilityConfig& stability) {
+  const Map map(f, {"check", "peer_delay_samples", "unilateral", "human_bounds", "human_grid_steps", "peer", "device"});
+  if (auto v = map.Optional("check")) stability.check = v->AsBool();
+  if (auto v = map.Optional("peer_delay_samples")) stability.peer_delay_samples = IntInRange(*v, 0, 1);
+  if (auto v = map.Optional("unilateral")) stability.unilateral = v->AsBool();
+  if (auto v = map.Optional("human_bounds")) stability.human_bounds = v->AsString();
+  // 8 steps = 8^3 operators per force level: about 8x the default's start-up time.
+  if (auto v = map.Optional("human_grid_steps")) stability.human_grid_steps = IntInRange(*v, 1, 8);
+  if (auto v = map.Optional("peer")) {
+    const Map peer(*v, {"mass_kg", "damping_Ns_per_m", "kp_N_per_m", "kd_Ns_per_m", "kv_Ns_per_m", "kf",
+                        "fixture_stiffness_N_per_m"});
+    StabilityConfig::Peer& p = stability.peer;
+    if (auto m = peer.Optional("mass_kg")) p.mass_kg = Positive(*m, "kg");
+    if (auto b = peer.Optional("damping_Ns_per_m")) p.damping_Ns_per_m = NonNegative(*b, "N·s/m");
+    if (peer.Has("kp_N_per_m")) p.kp_N_per_m = ReadGain(peer, "kp_N_per_m", dof, true, "N/m");
+    if (peer.Has("kd_Ns_per_m")) p.kd_Ns_per_m = ReadGain(peer, "kd_Ns_per_m", dof, true, "N·s/m");
+    if (peer.Has("kv_Ns_per_m")) p.kv_Ns_per_m = ReadGain(peer, "kv_Ns_per_m", dof, true, "N·s/m");
+    if (auto k = peer.Optional("kf")) p.kf = ReadDofVector(*k, dof, Finite);
+    if (auto k = peer.Optional("fixture_stiffness_N_per_m")) p.fixture_stiffness_N_per_m = NonNegative(*k, "N/m");
+  }
+  if (auto v = map.Optional("device")) {
+    const Map device(*v, {"mass_kg", "damping_Ns_per_m"});
+    if (auto m = device.Optional("mass_kg")) stability.device.mass_kg = Positive(*m, "kg");
+    if (auto b = device.Optional("damping_Ns_per_m")) stability.device.damping_Ns_per_m = NonNegative(*b, "N·s/m");
+  }
+}
+
 ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
   const Field root(root_node, "", &name);
   if (root_node.IsNull() || !root_node.IsDefined()) {
     throw Error(name + ": the config is empty; it needs at least role, dof, rate_hz, link, law and device");
   }
-  const Map map(root,
-                {"role", "dof", "rate_hz", "duration_s", "realtime", "link", "law", "fixture", "device", "telemetry"});
+  const Map map(root, {"role", "dof", "rate_hz", "duration_s", "realtime", "link", "law", "fixture", "device",
+                       "telemetry", "stability"});
   ProcessConfig config;
   config.source_path = name;
   config.role = ParseRole(map.Required("role"));
@@ -379,7 +478,7 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
   if (auto v = map.Optional("duration_s")) config.loop.duration_s = NonNegative(*v, "s (0 = until stopped)");
   if (auto v = map.Optional("realtime")) ParseRealtime(*v, config.loop);
 
-  ParseLink(map.Required("link"), config.role, config.loop.rate_hz, config.link);
+  ParseLink(map.Required("link"), config.role, config.loop.rate_hz, config.dof, config.link);
 
   config.law.role = config.role;
   config.law.dof = config.dof;
@@ -389,6 +488,7 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
 
   ParseDevice(map.Required("device"), config.dof, config.device);
   if (auto v = map.Optional("telemetry")) ParseTelemetry(*v, config.telemetry);
+  if (auto v = map.Optional("stability")) ParseStability(*v, config.dof, config.stability);
   return config;
 }
 

@@ -6,13 +6,14 @@
 
 namespace teleop::node {
 
-EventLog::EventLog(std::size_t capacity) : ring_(capacity), thread_([this] {
-  while (!stop_.load(std::memory_order_acquire)) {
-    Drain();
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  Drain();
-}) {}
+EventLog::EventLog(std::size_t capacity)
+    : ring_(capacity), thread_([this] {
+        while (!stop_.load(std::memory_order_acquire)) {
+          Drain();
+          std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+        Drain();
+      }) {}
 
 EventLog::~EventLog() { Stop(); }
 
@@ -26,19 +27,33 @@ void EventLog::Drain() {
   Event e;
   while (ring_.TryPop(e)) {
     switch (e.kind) {
-      case Event::Kind::kPeerConnected: spdlog::info("cycle {}: peer connected", e.cycle); break;
-      case Event::Kind::kPeerLost: spdlog::warn("cycle {}: peer lost (watchdog), coupling off", e.cycle); break;
-      case Event::Kind::kPeerRecovered: spdlog::info("cycle {}: peer back, coupling on", e.cycle); break;
-      case Event::Kind::kPeerShutdown: spdlog::info("cycle {}: peer is shutting down", e.cycle); break;
-      case Event::Kind::kPeerFault: spdlog::warn("cycle {}: peer reports a fault, coupling off", e.cycle); break;
+      case Event::Kind::kPeerConnected:
+        spdlog::info("cycle {}: peer connected", e.cycle);
+        break;
+      case Event::Kind::kPeerLost:
+        spdlog::warn("cycle {}: peer lost (watchdog), coupling off", e.cycle);
+        break;
+      case Event::Kind::kPeerRecovered:
+        spdlog::info("cycle {}: peer back, coupling on", e.cycle);
+        break;
+      case Event::Kind::kPeerShutdown:
+        spdlog::info("cycle {}: peer is shutting down", e.cycle);
+        break;
+      case Event::Kind::kPeerFault:
+        spdlog::warn("cycle {}: peer reports a fault, coupling off", e.cycle);
+        break;
       case Event::Kind::kDeviceFault:
         spdlog::error("cycle {}: device fault 0x{:x}, safe state", e.cycle, static_cast<unsigned>(e.value));
         break;
-      case Event::Kind::kDeviceFaultCleared: spdlog::info("cycle {}: device fault cleared", e.cycle); break;
+      case Event::Kind::kDeviceFaultCleared:
+        spdlog::info("cycle {}: device fault cleared", e.cycle);
+        break;
       case Event::Kind::kNonFiniteInput:
         spdlog::error("cycle {}: non-finite law input, zero command", e.cycle);
         break;
-      case Event::Kind::kOverrun: spdlog::warn("cycle {}: overrun ({} so far)", e.cycle, e.value); break;
+      case Event::Kind::kOverrun:
+        spdlog::warn("cycle {}: overrun ({} so far)", e.cycle, e.value);
+        break;
     }
   }
 }

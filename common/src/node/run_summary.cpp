@@ -25,10 +25,18 @@ std::string JsonString(const std::string& text) {
   std::string out = "\"";
   for (const char c : text) {
     switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20) {
           out += fmt::format("\\u{:04x}", static_cast<unsigned>(c));
@@ -68,15 +76,17 @@ std::string FormatSummaryText(const RunSummary& s) {
                      s.jitter_us.p99, s.jitter_us.max);
   out += fmt::format("  compute time      p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us\n", s.compute_us.p50,
                      s.compute_us.p99, s.compute_us.max);
-  out += fmt::format("  packets           sent {}, received {}, accepted {}, lost {}, reordered {}, duplicates {}, "
-                     "rejected {}, send errors {}\n",
-                     l.sent, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors);
+  out += fmt::format(
+      "  packets           sent {}, received {}, accepted {}, lost {}, reordered {}, duplicates {}, "
+      "rejected {}, send errors {}\n",
+      l.sent, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors);
   if (!s.link_detail.empty()) out += fmt::format("  link detail       {}\n", s.link_detail);
-  if (s.link_fault_cycles > 0) out += fmt::format("  link faults       medium down in {} cycles\n", s.link_fault_cycles);
+  if (s.link_fault_cycles > 0)
+    out += fmt::format("  link faults       medium down in {} cycles\n", s.link_fault_cycles);
   out += fmt::format("  round trip        p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms ({} samples)\n", s.rtt_ms.p50,
                      s.rtt_ms.p99, s.rtt_ms.max, s.rtt_ms.count);
-  out += fmt::format("  peer              fresh in {} cycles, watchdog trips {}\n", s.cycles_with_peer,
-                     s.watchdog_trips);
+  out +=
+      fmt::format("  peer              fresh in {} cycles, watchdog trips {}\n", s.cycles_with_peer, s.watchdog_trips);
   out += fmt::format("  tracking error    rms {:.3f} mm, max {:.3f} mm\n", s.tracking_error_rms_m * 1e3,
                      s.tracking_error_max_m * 1e3);
   out += fmt::format("  fixture           max penetration {:.3f} mm\n", s.fixture_max_penetration_m * 1e3);

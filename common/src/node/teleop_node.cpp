@@ -66,8 +66,8 @@ struct TeleopNode::Impl {
     rate = static_cast<std::uint64_t>(config.loop.rate_hz);
     outgoing.dof = static_cast<std::uint8_t>(dof);
     if (!config.telemetry.csv_path.empty()) {
-      telemetry = std::make_unique<runtime::TelemetryWriter>(config.telemetry.csv_path,
-                                                             static_cast<std::size_t>(config.telemetry.ring_capacity), dof);
+      telemetry = std::make_unique<runtime::TelemetryWriter>(
+          config.telemetry.csv_path, static_cast<std::size_t>(config.telemetry.ring_capacity), dof);
     }
   }
 
@@ -140,8 +140,8 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
       have_peer = true;
       watchdog.Feed(t_s);
       if (peer.echo_time_ns != 0) {
-        const std::int64_t rtt = now_ns - static_cast<std::int64_t>(peer.echo_time_ns) -
-                                 static_cast<std::int64_t>(peer.echo_age_ns);
+        const std::int64_t rtt =
+            now_ns - static_cast<std::int64_t>(peer.echo_time_ns) - static_cast<std::int64_t>(peer.echo_age_ns);
         if (rtt >= 0) {
           rtt_ns.Add(rtt);
           last_rtt_s = static_cast<double>(rtt) * 1e-9;

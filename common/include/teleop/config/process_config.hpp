@@ -1,5 +1,6 @@
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "teleop/control/three_channel_law.hpp"
@@ -17,6 +18,35 @@ struct TelemetryConfig {
   int ring_capacity = 16384;  ///< Records buffered between the loop and the writer (16..2^24; ~430 B each).
 };
 
+/// The start-up stability check of this process's own fixture (docs/stability.md, "In the processes"). An absent
+/// value means "the documented default": the peer is the paper's §4.1 device of the other role running the same
+/// gains as this process, without a fixture; this device is the loopback plant (the paper's device for other
+/// backends).
+struct StabilityConfig {
+  /// What this process assumes of the other side (the analysis needs both halves of the teleoperator).
+  struct Peer {
+    std::optional<double> mass_kg;
+    std::optional<double> damping_Ns_per_m;
+    std::optional<DofVector> kp_N_per_m;  ///< Per DOF; absent: this process's law.kp_N_per_m.
+    std::optional<DofVector> kd_Ns_per_m;
+    std::optional<DofVector> kv_Ns_per_m;
+    std::optional<DofVector> kf;  ///< Dimensionless; drops out of the analysis (free space), kept for symmetry.
+    double fixture_stiffness_N_per_m = 0.0;  ///< The peer's own fixture, held fixed in the search.
+  };
+  /// This device along the fixture normal, when the backend does not describe it (absent: loopback plant / paper).
+  struct Device {
+    std::optional<double> mass_kg;
+    std::optional<double> damping_Ns_per_m;
+  };
+  bool check = true;           ///< false: skip the check (logged as a warning).
+  int peer_delay_samples = 1;  ///< 1: peer data one sample old, as over a link; 0: the paper's model.
+  bool unilateral = false;     ///< Analyse with the master actuator rendering nothing of the slave.
+  std::string human_bounds;    ///< Operator bounds CSV; empty: the built-in finger table. Relative: to the config.
+  int human_grid_steps = 4;    ///< Grid points per parameter per force level (4: 512 operators).
+  Peer peer{};
+  Device device{};
+};
+
 /// Everything one process (teleop-master or teleop-slave) needs, read from one YAML file.
 /// See docs/configuration.md for every key, its unit and range.
 struct ProcessConfig {
@@ -27,6 +57,7 @@ struct ProcessConfig {
   device::DeviceConfig device{};
   control::ThreeChannelLaw::Config law{};
   TelemetryConfig telemetry{};
+  StabilityConfig stability{};
   std::string source_path;  ///< The file it was read from (for messages).
 };
 

@@ -20,30 +20,30 @@ struct Distribution {
 /// What a process prints at the end of a run and writes with --summary-json. The field names are the JSON keys.
 struct RunSummary {
   Role role = Role::kMaster;
-  double rate_hz = 0.0;                 ///< Configured.
-  double duration_s = 0.0;              ///< Wall time from first to last cycle.
+  double rate_hz = 0.0;     ///< Configured.
+  double duration_s = 0.0;  ///< Wall time from first to last cycle.
   std::uint64_t cycles = 0;
-  double achieved_rate_hz = 0.0;        ///< cycles / duration.
+  double achieved_rate_hz = 0.0;  ///< cycles / duration.
   std::uint64_t overruns = 0;
-  Distribution period_us{};             ///< Wake-to-wake period.
-  Distribution jitter_us{};             ///< |wake - scheduled|.
-  Distribution compute_us{};            ///< Cycle body time.
+  Distribution period_us{};   ///< Wake-to-wake period.
+  Distribution jitter_us{};   ///< |wake - scheduled|.
+  Distribution compute_us{};  ///< Cycle body time.
   transport::LinkCounters link{};
   std::string link_detail;              ///< Medium-specific counters (CAN frames by status, bus load); may be empty.
   std::uint64_t link_fault_cycles = 0;  ///< Cycles in which the medium itself was down (CAN bus-off).
   Distribution rtt_ms{};                ///< Round trip to the peer and back (NTP-style, peer hold time removed).
   std::uint64_t cycles_with_peer = 0;   ///< Cycles in which the peer's sample was fresh (watchdog ok).
   std::uint64_t watchdog_trips = 0;
-  std::uint64_t dof_mismatches = 0;     ///< Valid samples whose DOF count differs from ours: never applied.
+  std::uint64_t dof_mismatches = 0;  ///< Valid samples whose DOF count differs from ours: never applied.
   std::uint64_t device_fault_cycles = 0;
   std::uint64_t nonfinite_inputs = 0;
   std::uint64_t saturated_cycles = 0;
-  double tracking_error_rms_m = 0.0;    ///< |local - peer| in the local frame over cycles with a fresh peer.
+  double tracking_error_rms_m = 0.0;  ///< |local - peer| in the local frame over cycles with a fresh peer.
   double tracking_error_max_m = 0.0;
   double fixture_max_penetration_m = 0.0;
   std::uint64_t telemetry_records = 0;
   std::uint64_t telemetry_dropped = 0;
-  std::string stop_reason;              ///< "duration", "signal", "peer shutdown", ...
+  std::string stop_reason;  ///< "duration", "signal", "peer shutdown", ...
 };
 
 /// Fills a Distribution from a histogram of nanoseconds, scaled to the given unit (1e3 → µs, 1e6 → ms).

@@ -14,8 +14,8 @@ namespace teleop::transport {
 struct LinkConfig {
   std::string transport = "udp";
   UdpLinkConfig udp{};
-  CanLinkConfig can{};        ///< Used by "can" and "emulated-can"; its dof is the process's dof.
-  double rate_hz = 1000.0;    ///< The loop rate, for the CAN bus-load budget (set from the process config).
+  CanLinkConfig can{};       ///< Used by "can" and "emulated-can"; its dof is the process's dof.
+  double rate_hz = 1000.0;   ///< The loop rate, for the CAN bus-load budget (set from the process config).
   double timeout_ms = 50.0;  ///< Watchdog: no accepted sample for this long → peer lost → safe state.
 };
 

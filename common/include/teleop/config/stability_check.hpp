@@ -1,0 +1,54 @@
+#pragma once
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include "teleop/analysis/fixture_check.hpp"
+#include "teleop/analysis/teleoperator_model.hpp"
+#include "teleop/config/process_config.hpp"
+
+namespace teleop::config {
+
+/// The stability check of a process config: what teleop-master and teleop-slave run at start-up, and what
+/// `teleop-analyze check --config` prints. One function builds the model from a config, so both agree.
+/// docs/stability.md ("In the processes") and docs/configuration.md (`stability`).
+
+/// The analysed fixture side of a process: its own (the master checks the master fixture, the slave the slave's).
+analysis::FixtureSide FixtureSideOf(Role role) noexcept;
+
+/// The sampled teleoperator seen along DOF `axis` of this process: its law gains for that DOF, its fixture
+/// stiffness (0 when no plane's normal has a component on `axis`), rate, velocity filter, its device (stability.device,
+/// else the loopback plant, else the paper's device of its role), and the peer of `config.stability.peer` (defaults:
+/// the paper's device of the other role, the same gains, no fixture), with `stability.peer_delay_samples` and
+/// `stability.unilateral`. Throws teleop::Error when `axis` is outside 0..dof-1 or the model is invalid.
+analysis::SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis);
+
+/// The operator set of `config.stability`: the `human_bounds` CSV (a relative path is relative to the config file's
+/// directory) or the built-in finger table, with `human_grid_steps`. Throws teleop::Error on a bad file.
+std::vector<analysis::HumanModel> StabilityOperators(const ProcessConfig& config);
+
+/// The check of every DOF of a process.
+struct StabilityReport {
+  std::vector<analysis::FixtureCheck> axes;  ///< One per DOF (axes with identical models share one analysis).
+  int operators = 0;                         ///< Size of the operator set.
+  double elapsed_ms = 0.0;                   ///< Wall time of the analysis.
+
+  bool stable() const noexcept;
+  /// The axis that fails, or the one with the smallest limit / stiffness margin when all pass.
+  int worst_axis() const noexcept;
+  const analysis::FixtureCheck& worst() const noexcept { return axes[static_cast<std::size_t>(worst_axis())]; }
+};
+
+/// Analyses this process's own fixture on every DOF against the predicted limit (analysis::CheckFixture with the
+/// model of StabilityModel). `humans` empty: StabilityOperators(config). Runs whether or not
+/// `config.stability.check` is set (the caller decides what to do with it). Throws teleop::Error on invalid input.
+StabilityReport CheckProcessStability(const ProcessConfig& config, std::span<const analysis::HumanModel> humans = {});
+
+/// One line for the log when the check passed: stiffness, limit, margin, worst damping ratio, assumptions.
+std::string DescribePass(const ProcessConfig& config, const StabilityReport& report);
+/// Why it did not pass: the config file, the configured stiffness, the predicted limit (N/m), the assumptions and what
+/// to change. Names the "unstable even without a fixture" case separately. The caller adds its override hint.
+std::string DescribeFailure(const ProcessConfig& config, const StabilityReport& report);
+
+}  // namespace teleop::config

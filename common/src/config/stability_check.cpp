@@ -1,0 +1,266 @@
+#include "teleop/config/stability_check.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include "teleop/analysis/human_bounds.hpp"
+#include "teleop/error.hpp"
+
+namespace teleop::config {
+
+namespace {
+
+using analysis::DeviceModel;
+using analysis::FixtureSide;
+using analysis::SampledTeleoperator;
+
+DeviceModel PaperDevice(Role role) noexcept {
+  return role == Role::kMaster ? analysis::kPaperMasterDevice : analysis::kPaperSlaveDevice;
+}
+
+Role Other(Role role) noexcept { return role == Role::kMaster ? Role::kSlave : Role::kMaster; }
+
+double At(const std::optional<DofVector>& override_value, const DofVector& own, int axis) {
+  return override_value ? (*override_value)[axis] : own[axis];
+}
+
+bool SameModel(const SampledTeleoperator& a, const SampledTeleoperator& b) noexcept {
+  const analysis::LawGains& g = a.gains;
+  const analysis::LawGains& h = b.gains;
+  return a.master.mass_kg == b.master.mass_kg && a.master.damping_Ns_per_m == b.master.damping_Ns_per_m &&
+         a.slave.mass_kg == b.slave.mass_kg && a.slave.damping_Ns_per_m == b.slave.damping_Ns_per_m &&
+         g.kpm_N_per_m == h.kpm_N_per_m && g.kps_N_per_m == h.kps_N_per_m && g.kdm_Ns_per_m == h.kdm_Ns_per_m &&
+         g.kds_Ns_per_m == h.kds_Ns_per_m && g.kvm_Ns_per_m == h.kvm_Ns_per_m && g.kvs_Ns_per_m == h.kvs_Ns_per_m &&
+         g.kfm == h.kfm && g.master_fixture_N_per_m == h.master_fixture_N_per_m &&
+         g.slave_fixture_N_per_m == h.slave_fixture_N_per_m && a.rate_hz == b.rate_hz &&
+         a.velocity_filter_hz == b.velocity_filter_hz && a.peer_delay_samples == b.peer_delay_samples &&
+         a.unilateral == b.unilateral;
+}
+
+/// N/m values are printed whole: "4120 N/m".
+std::string Whole(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.0f", value);
+  return text;
+}
+
+std::string Plain(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", value);
+  return text;
+}
+
+std::string Short(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", value);
+  return text;
+}
+
+std::string Assumptions(const ProcessConfig& config, const SampledTeleoperator& system, int operators) {
+  const DeviceModel& peer = config.role == Role::kMaster ? system.slave : system.master;
+  std::ostringstream out;
+  out << Plain(system.rate_hz) << " Hz, " << (system.unilateral ? "unilateral" : "bilateral") << ", peer delay "
+      << system.peer_delay_samples << " sample" << (system.peer_delay_samples == 1 ? "" : "s") << ", peer "
+      << ToString(Other(config.role)) << " " << Short(peer.mass_kg) << " kg " << Short(peer.damping_Ns_per_m)
+      << " N·s/m with fixture " << Whole(system.gains.fixture(FixtureSideOf(Other(config.role)))) << " N/m, "
+      << operators << " operators";
+  return out.str();
+}
+
+std::string Operator(const analysis::HumanModel& h) {
+  return "m=" + Short(h.mass_kg) + " kg b=" + Short(h.damping_Ns_per_m) + " N·s/m k=" + Short(h.stiffness_N_per_m) +
+         " N/m";
+}
+
+}  // namespace
+
+analysis::FixtureSide FixtureSideOf(Role role) noexcept {
+  return role == Role::kMaster ? FixtureSide::kMaster : FixtureSide::kSlave;
+}
+
+SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis) {
+  if (axis < 0 || axis >= config.law.dof) {
+    throw Error("stability model: axis " + std::to_string(axis) + " is outside 0.." +
+                std::to_string(config.law.dof - 1));
+  }
+  const StabilityConfig& st = config.stability;
+  const control::ThreeChannelLaw::Config& law = config.law;
+  const FixtureSide side = FixtureSideOf(config.role);
+  const FixtureSide peer_side = FixtureSideOf(Other(config.role));
+
+  DeviceModel own = PaperDevice(config.role);
+  if (config.device.backend == "loopback") {
+    own = {config.device.loopback.mass_kg, config.device.loopback.damping_Ns_per_m};
+  }
+  if (st.device.mass_kg) own.mass_kg = *st.device.mass_kg;
+  if (st.device.damping_Ns_per_m) own.damping_Ns_per_m = *st.device.damping_Ns_per_m;
+  DeviceModel peer = PaperDevice(Other(config.role));
+  if (st.peer.mass_kg) peer.mass_kg = *st.peer.mass_kg;
+  if (st.peer.damping_Ns_per_m) peer.damping_Ns_per_m = *st.peer.damping_Ns_per_m;
+
+  const auto too_short = [axis](const DofVector& v) { return v.size() <= axis; };
+  if (too_short(law.kp_N_per_m) || too_short(law.kd_Ns_per_m) || too_short(law.kv_Ns_per_m) || too_short(law.kf) ||
+      (st.peer.kp_N_per_m && too_short(*st.peer.kp_N_per_m)) ||
+      (st.peer.kd_Ns_per_m && too_short(*st.peer.kd_Ns_per_m)) ||
+      (st.peer.kv_Ns_per_m && too_short(*st.peer.kv_Ns_per_m)) || (st.peer.kf && too_short(*st.peer.kf))) {
+    throw Error("stability model: a law or stability.peer gain has fewer than dof = " + std::to_string(law.dof) +
+                " entries");
+  }
+  const double kp = law.kp_N_per_m[axis];
+  const double kd = law.kd_Ns_per_m[axis];
+  const double kv = law.kv_Ns_per_m[axis];
+  const double kf = law.kf[axis];
+  const double peer_kp = At(st.peer.kp_N_per_m, law.kp_N_per_m, axis);
+  const double peer_kd = At(st.peer.kd_Ns_per_m, law.kd_Ns_per_m, axis);
+  const double peer_kv = At(st.peer.kv_Ns_per_m, law.kv_Ns_per_m, axis);
+  const double peer_kf = At(st.peer.kf, law.kf, axis);
+
+  SampledTeleoperator s;
+  s.rate_hz = config.loop.rate_hz;
+  s.velocity_filter_hz = law.velocity_filter_hz;
+  s.peer_delay_samples = st.peer_delay_samples;
+  s.unilateral = st.unilateral;
+  analysis::LawGains& g = s.gains;
+  if (config.role == Role::kMaster) {
+    s.master = own;
+    s.slave = peer;
+    g.kpm_N_per_m = kp;
+    g.kdm_Ns_per_m = kd;
+    g.kvm_Ns_per_m = kv;
+    g.kfm = kf;
+    g.kps_N_per_m = peer_kp;
+    g.kds_Ns_per_m = peer_kd;
+    g.kvs_Ns_per_m = peer_kv;
+  } else {
+    s.master = peer;
+    s.slave = own;
+    g.kps_N_per_m = kp;
+    g.kds_Ns_per_m = kd;
+    g.kvs_Ns_per_m = kv;
+    g.kpm_N_per_m = peer_kp;
+    g.kdm_Ns_per_m = peer_kd;
+    g.kvm_Ns_per_m = peer_kv;
+    g.kfm = peer_kf;
+  }
+  // The fixture acts along `axis` when a plane's normal has a component on it (a stiffness without planes renders
+  // nothing). Along the normal of a diagonal plane the analysis per axis is exact when the axes share their gains.
+  bool fixture_on_axis = false;
+  for (int p = 0; p < law.fixture.plane_count; ++p) {
+    const DofVector& normal = law.fixture.planes[static_cast<std::size_t>(p)].normal;
+    if (axis < normal.size() && normal[axis] != 0.0) fixture_on_axis = true;
+  }
+  g.fixture(side) = fixture_on_axis ? law.fixture.stiffness_N_per_m : 0.0;
+  g.fixture(peer_side) = st.peer.fixture_stiffness_N_per_m;
+  analysis::Validate(s);
+  return s;
+}
+
+std::vector<analysis::HumanModel> StabilityOperators(const ProcessConfig& config) {
+  const StabilityConfig& st = config.stability;
+  if (st.human_bounds.empty()) return analysis::MakeHumanGrid(analysis::DefaultFingerBounds(), st.human_grid_steps);
+  std::filesystem::path path(st.human_bounds);
+  if (path.is_relative() && !config.source_path.empty()) {
+    path = std::filesystem::path(config.source_path).parent_path() / path;
+  }
+  return analysis::MakeHumanGrid(analysis::LoadHumanBounds(path.string()), st.human_grid_steps);
+}
+
+bool StabilityReport::stable() const noexcept {
+  for (const analysis::FixtureCheck& check : axes) {
+    if (!check.stable) return false;
+  }
+  return !axes.empty();
+}
+
+int StabilityReport::worst_axis() const noexcept {
+  // A failing axis is worse than a passing one; among equals, the smaller limit - stiffness is worse.
+  const auto worse = [](const analysis::FixtureCheck& a, const analysis::FixtureCheck& b) {
+    if (a.stable != b.stable) return !a.stable;
+    return a.limit.max_stable_stiffness_N_per_m - a.stiffness_N_per_m <
+           b.limit.max_stable_stiffness_N_per_m - b.stiffness_N_per_m;
+  };
+  std::size_t worst = 0;
+  for (std::size_t i = 1; i < axes.size(); ++i) {
+    if (worse(axes[i], axes[worst])) worst = i;
+  }
+  return static_cast<int>(worst);
+}
+
+StabilityReport CheckProcessStability(const ProcessConfig& config, std::span<const analysis::HumanModel> humans) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<analysis::HumanModel> own_humans;
+  if (humans.empty()) {
+    own_humans = StabilityOperators(config);
+    humans = own_humans;
+  }
+  StabilityReport report;
+  report.operators = static_cast<int>(humans.size());
+  std::vector<SampledTeleoperator> models;
+  for (int axis = 0; axis < config.law.dof; ++axis) {
+    const SampledTeleoperator model = StabilityModel(config, axis);
+    bool reused = false;
+    for (std::size_t i = 0; i < models.size(); ++i) {
+      if (SameModel(models[i], model)) {
+        report.axes.push_back(report.axes[i]);
+        reused = true;
+        break;
+      }
+    }
+    if (!reused) report.axes.push_back(analysis::CheckFixture(model, FixtureSideOf(config.role), humans));
+    models.push_back(model);
+  }
+  report.elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+std::string DescribePass(const ProcessConfig& config, const StabilityReport& report) {
+  const int axis = report.worst_axis();
+  const analysis::FixtureCheck& c = report.worst();
+  const double limit = c.limit.max_stable_stiffness_N_per_m;
+  std::ostringstream out;
+  out << "stability check passed: " << ToString(config.role) << " fixture " << Whole(c.stiffness_N_per_m)
+      << " N/m, predicted limit " << Whole(limit) << " N/m";
+  if (c.stiffness_N_per_m > 0.0) {
+    out << " (margin " << Whole(100.0 * (1.0 - c.stiffness_N_per_m / limit)) << " %, limit/stiffness "
+        << Short(limit / c.stiffness_N_per_m) << ")";
+  } else {
+    out << " (no fixture; the coupling alone is stable)";
+  }
+  if (config.law.dof > 1) out << " on axis " << axis << " (smallest margin of " << config.law.dof << " DOF)";
+  out << "; worst damping ratio " << Short(c.at_configured.min_damping_ratio) << " for operator "
+      << Operator(c.at_configured.human) << "; " << Assumptions(config, StabilityModel(config, axis), report.operators)
+      << "; " << Whole(report.elapsed_ms) << " ms";
+  return out.str();
+}
+
+std::string DescribeFailure(const ProcessConfig& config, const StabilityReport& report) {
+  const int axis = report.worst_axis();
+  const analysis::FixtureCheck& c = report.worst();
+  const SampledTeleoperator model = StabilityModel(config, axis);
+  const double limit = c.limit.max_stable_stiffness_N_per_m;
+  std::ostringstream out;
+  out << config.source_path << ": ";
+  if (c.limit.unstable_without_fixture) {
+    out << "the " << ToString(config.role) << "'s coupling is predicted UNSTABLE even without a fixture (predicted "
+        << "limit " << Whole(limit) << " N/m, configured fixture " << Whole(c.stiffness_N_per_m) << " N/m";
+  } else {
+    out << ToString(config.role) << " fixture " << Whole(c.stiffness_N_per_m)
+        << " N/m is above the predicted stability limit " << Whole(limit) << " N/m (";
+  }
+  if (config.law.dof > 1) out << "axis " << axis << ", ";
+  out << Assumptions(config, model, report.operators) << "; worst damping ratio "
+      << Short(c.at_configured.min_damping_ratio) << " for operator " << Operator(c.at_configured.human) << "). ";
+  if (c.limit.unstable_without_fixture) {
+    out << "Raise rate_hz, raise law.kd_Ns_per_m or law.kv_Ns_per_m, or lower law.kp_N_per_m";
+  } else {
+    out << "Lower fixture.stiffness_N_per_m to at most " << Whole(std::floor(limit))
+        << " N/m, or raise rate_hz or law.kd_Ns_per_m";
+  }
+  out << " (try it with teleop-analyze check --config " << config.source_path << ")";
+  return out.str();
+}
+
+}  // namespace teleop::config

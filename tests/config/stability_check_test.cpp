@@ -1,0 +1,268 @@
+// The start-up stability check of a process config (config::CheckProcessStability): the model it builds from a
+// config, the verdicts and limits for the shipped configs, the refusal text, and the operator set.
+
+#include "teleop/config/stability_check.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "teleop/config/yaml_config.hpp"
+#include "teleop/error.hpp"
+
+namespace teleop::config {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path);
+  EXPECT_TRUE(in) << path;
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::string Deploy(const char* name) { return std::string(TELEOP_SOURCE_DIR) + "/deploy/configs/" + name; }
+
+std::string Replace(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << "test bug: '" << from << "' not in the config";
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
+
+/// The shipped slave config without its stability section (the defaults apply).
+std::string SlaveWithoutStability() {
+  const std::string text = ReadFile(Deploy("slave.yaml"));
+  const auto at = text.find("\nstability:");
+  EXPECT_NE(at, std::string::npos);
+  return text.substr(0, at + 1);
+}
+
+std::string Whole(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.0f", value);
+  return text;
+}
+
+// The demo slave: 2000 N/m at 1 kHz, K_p 600, K_d 2, 200 Hz filter, one-sample delay. docs/stability.md reports a
+// limit of about 4120 N/m for it (the search stops within 0.1 %).
+TEST(StabilityCheck, ShippedSlaveIsStableBelowTheDocumentedLimit) {
+  const ProcessConfig config = LoadProcessConfig(Deploy("slave.yaml"));
+  const StabilityReport report = CheckProcessStability(config);
+  ASSERT_EQ(report.axes.size(), 1u);
+  EXPECT_TRUE(report.stable());
+  EXPECT_EQ(report.operators, 512);
+  const analysis::FixtureCheck& c = report.axes[0];
+  EXPECT_EQ(c.side, analysis::FixtureSide::kSlave);
+  EXPECT_EQ(c.stiffness_N_per_m, 2000.0);
+  EXPECT_NEAR(c.limit.max_stable_stiffness_N_per_m, 4120.0, 0.005 * 4120.0);
+  EXPECT_GT(c.at_configured.min_damping_ratio, 0.0);
+  const std::string line = DescribePass(config, report);
+  EXPECT_THAT(line, HasSubstr("stability check passed: slave fixture 2000 N/m, predicted limit " +
+                              Whole(c.limit.max_stable_stiffness_N_per_m) + " N/m"));
+  EXPECT_THAT(line, HasSubstr("margin "));
+  EXPECT_THAT(line, HasSubstr("1000 Hz"));
+  EXPECT_THAT(line, HasSubstr("peer delay 1 sample"));
+}
+
+TEST(StabilityCheck, ShippedMasterIsStable) {
+  const ProcessConfig config = LoadProcessConfig(Deploy("master.yaml"));
+  const StabilityReport report = CheckProcessStability(config);
+  ASSERT_EQ(report.axes.size(), 1u);
+  EXPECT_TRUE(report.stable());
+  EXPECT_EQ(report.axes[0].side, analysis::FixtureSide::kMaster);
+  EXPECT_EQ(report.axes[0].stiffness_N_per_m, 0.0);
+  EXPECT_GT(report.axes[0].limit.max_stable_stiffness_N_per_m, 4000.0);
+  EXPECT_THAT(DescribePass(config, report), HasSubstr("no fixture"));
+}
+
+// The defaults (section absent) are what the shipped section spells out: the same model, the same limit, bit for bit.
+TEST(StabilityCheck, AbsentSectionMeansPaperPeerWithTheSameGains) {
+  const ProcessConfig explicit_section = LoadProcessConfig(Deploy("slave.yaml"));
+  const ProcessConfig defaults = ParseProcessConfig(SlaveWithoutStability(), "slave.yaml");
+  const analysis::SampledTeleoperator m = StabilityModel(defaults, 0);
+  EXPECT_EQ(m.master.mass_kg, analysis::kPaperMasterDevice.mass_kg);
+  EXPECT_EQ(m.master.damping_Ns_per_m, analysis::kPaperMasterDevice.damping_Ns_per_m);
+  EXPECT_EQ(m.slave.mass_kg, 0.036);  // the loopback plant
+  EXPECT_EQ(m.slave.damping_Ns_per_m, 0.49);
+  EXPECT_EQ(m.gains.kps_N_per_m, 600.0);
+  EXPECT_EQ(m.gains.kpm_N_per_m, 600.0);
+  EXPECT_EQ(m.gains.kds_Ns_per_m, 2.0);
+  EXPECT_EQ(m.gains.kdm_Ns_per_m, 2.0);
+  EXPECT_EQ(m.gains.slave_fixture_N_per_m, 2000.0);
+  EXPECT_EQ(m.gains.master_fixture_N_per_m, 0.0);
+  EXPECT_EQ(m.rate_hz, 1000.0);
+  EXPECT_EQ(m.velocity_filter_hz, 200.0);
+  EXPECT_EQ(m.peer_delay_samples, 1);
+  EXPECT_FALSE(m.unilateral);
+  EXPECT_EQ(CheckProcessStability(defaults).axes[0].limit.max_stable_stiffness_N_per_m,
+            CheckProcessStability(explicit_section).axes[0].limit.max_stable_stiffness_N_per_m);
+}
+
+TEST(StabilityCheck, PeerDescriptionEntersTheModel) {
+  const std::string text = ReadFile(Deploy("master.yaml"));
+  const ProcessConfig with_fixture = ParseProcessConfig(text, "master.yaml");
+  const ProcessConfig without =
+      ParseProcessConfig(Replace(Replace(text, "fixture_stiffness_N_per_m: 2000", "fixture_stiffness_N_per_m: 0"),
+                                 "kd_Ns_per_m: 2\n    kv", "kd_Ns_per_m: 5\n    kv"),
+                         "master.yaml");
+  const analysis::SampledTeleoperator a = StabilityModel(with_fixture, 0);
+  EXPECT_EQ(a.gains.slave_fixture_N_per_m, 2000.0);
+  EXPECT_EQ(a.slave.mass_kg, 0.036);
+  EXPECT_EQ(a.gains.kds_Ns_per_m, 2.0);
+  const analysis::SampledTeleoperator b = StabilityModel(without, 0);
+  EXPECT_EQ(b.gains.slave_fixture_N_per_m, 0.0);
+  EXPECT_EQ(b.gains.kds_Ns_per_m, 5.0);
+  EXPECT_EQ(b.gains.kdm_Ns_per_m, 2.0) << "the master's own gain is its law's";
+  const double limit_a = CheckProcessStability(with_fixture).axes[0].limit.max_stable_stiffness_N_per_m;
+  const double limit_b = CheckProcessStability(without).axes[0].limit.max_stable_stiffness_N_per_m;
+  EXPECT_GT(std::abs(limit_a - limit_b), 0.01 * limit_a) << limit_a << " vs " << limit_b;
+}
+
+TEST(StabilityCheck, AboveTheLimitFailsAndTheMessageNamesLimitStiffnessAndRemedy) {
+  const ProcessConfig config = ParseProcessConfig(
+      Replace(ReadFile(Deploy("slave.yaml")), "stiffness_N_per_m: 2000", "stiffness_N_per_m: 6000"), "slave.yaml");
+  const StabilityReport report = CheckProcessStability(config);
+  EXPECT_FALSE(report.stable());
+  const analysis::FixtureCheck& c = report.worst();
+  EXPECT_LT(c.at_configured.min_damping_ratio, 0.0);
+  EXPECT_FALSE(c.limit.unstable_without_fixture);
+  const std::string text = DescribeFailure(config, report);
+  EXPECT_THAT(text, HasSubstr("slave.yaml: slave fixture 6000 N/m is above the predicted stability limit " +
+                              Whole(c.limit.max_stable_stiffness_N_per_m) + " N/m"));
+  EXPECT_THAT(text, HasSubstr("Lower fixture.stiffness_N_per_m to at most " +
+                              Whole(std::floor(c.limit.max_stable_stiffness_N_per_m)) + " N/m"));
+}
+
+TEST(StabilityCheck, JustBelowAndJustAboveTheLimit) {
+  const std::string text = ReadFile(Deploy("slave.yaml"));
+  const double limit =
+      CheckProcessStability(LoadProcessConfig(Deploy("slave.yaml"))).axes[0].limit.max_stable_stiffness_N_per_m;
+  const auto verdict = [&](double stiffness) {
+    const ProcessConfig c =
+        ParseProcessConfig(Replace(text, "stiffness_N_per_m: 2000", "stiffness_N_per_m: " + Whole(stiffness)), "s");
+    return CheckProcessStability(c).stable();
+  };
+  EXPECT_TRUE(verdict(0.99 * limit));
+  EXPECT_FALSE(verdict(1.01 * limit));
+}
+
+// At 250 Hz with the one-sample delay the coupling itself is unstable (docs/stability.md): refused even at 0 N/m.
+TEST(StabilityCheck, CouplingUnstableWithoutFixtureIsRefused) {
+  std::string text = SlaveWithoutStability();
+  text = Replace(text, "rate_hz: 1000", "rate_hz: 250");
+  text = Replace(text, "velocity_filter_hz: 200", "velocity_filter_hz: 100");
+  text = Replace(text, "stiffness_N_per_m: 2000", "stiffness_N_per_m: 0");
+  const ProcessConfig config = ParseProcessConfig(text, "slow.yaml");
+  const StabilityReport report = CheckProcessStability(config);
+  EXPECT_FALSE(report.stable());
+  EXPECT_TRUE(report.worst().limit.unstable_without_fixture);
+  EXPECT_EQ(report.worst().limit.max_stable_stiffness_N_per_m, 0.0);
+  const std::string message = DescribeFailure(config, report);
+  EXPECT_THAT(message, HasSubstr("UNSTABLE even without a fixture (predicted limit 0 N/m, configured fixture 0 N/m"));
+  EXPECT_THAT(message, HasSubstr("Raise rate_hz"));
+}
+
+// Per DOF: each axis with its own gains; the fixture only along the axes its planes touch; identical axes analysed
+// once; the worst axis is the failing one.
+TEST(StabilityCheck, EveryAxisWithItsOwnGains) {
+  std::string text = Replace(ReadFile(Deploy("slave.yaml")), "dof: 1", "dof: 3");
+  text = Replace(text, "kd_Ns_per_m: 2\n  kv", "kd_Ns_per_m: [1, 2, 2]\n  kv");
+  text = Replace(text, "half_space: {axis: 0", "half_space: {axis: 2");
+  text = Replace(text, "stiffness_N_per_m: 2000", "stiffness_N_per_m: 3000");
+  const ProcessConfig config = ParseProcessConfig(text, "s3.yaml");
+  EXPECT_EQ(StabilityModel(config, 0).gains.slave_fixture_N_per_m, 0.0);
+  EXPECT_EQ(StabilityModel(config, 1).gains.slave_fixture_N_per_m, 0.0);
+  EXPECT_EQ(StabilityModel(config, 2).gains.slave_fixture_N_per_m, 3000.0);
+  EXPECT_EQ(StabilityModel(config, 0).gains.kds_Ns_per_m, 1.0);
+  EXPECT_EQ(StabilityModel(config, 0).gains.kdm_Ns_per_m, 2.0) << "the peer's K_d comes from the stability section";
+  EXPECT_THROW(StabilityModel(config, 3), Error);
+  const StabilityReport report = CheckProcessStability(config);
+  ASSERT_EQ(report.axes.size(), 3u);
+  EXPECT_TRUE(report.stable());
+  // K_d matters (docs/stability.md: K_d strongly): axis 0 has the lower limit.
+  EXPECT_LT(report.axes[0].limit.max_stable_stiffness_N_per_m, 0.9 * report.axes[1].limit.max_stable_stiffness_N_per_m);
+  // Axes 1 and 2 differ only in their own fixture, which the search ignores: the same limit.
+  EXPECT_EQ(report.axes[1].limit.max_stable_stiffness_N_per_m, report.axes[2].limit.max_stable_stiffness_N_per_m);
+  int smallest_margin = 0;
+  for (int i = 1; i < 3; ++i) {
+    const auto margin = [&](int a) {
+      const analysis::FixtureCheck& c = report.axes[static_cast<std::size_t>(a)];
+      return c.limit.max_stable_stiffness_N_per_m - c.stiffness_N_per_m;
+    };
+    if (margin(i) < margin(smallest_margin)) smallest_margin = i;
+  }
+  EXPECT_EQ(report.worst_axis(), smallest_margin);
+
+  text = Replace(text, "stiffness_N_per_m: 3000", "stiffness_N_per_m: 4500");
+  const StabilityReport above = CheckProcessStability(ParseProcessConfig(text, "s3.yaml"));
+  EXPECT_FALSE(above.stable());
+  EXPECT_EQ(above.worst_axis(), 2);
+  EXPECT_THAT(DescribeFailure(ParseProcessConfig(text, "s3.yaml"), above), HasSubstr("axis 2"));
+}
+
+class TempDir {
+ public:
+  TempDir() : path_(std::filesystem::temp_directory_path() / ("teleop_stability_" + std::to_string(getpid()))) {
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() { std::filesystem::remove_all(path_); }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// human_bounds is relative to the config file; the shipped CSV is the built-in table, so the limit is the same.
+TEST(StabilityCheck, HumanBoundsFileRelativeToTheConfig) {
+  const TempDir dir;
+  std::filesystem::copy_file(Deploy("human_bounds_finger.csv"), dir.path() / "finger.csv");
+  const std::string text =
+      Replace(ReadFile(Deploy("slave.yaml")), "human_bounds: \"\"", "human_bounds: \"finger.csv\"");
+  const std::string config_path = (dir.path() / "slave.yaml").string();
+  std::ofstream(config_path) << text;
+  const ProcessConfig config = LoadProcessConfig(config_path);
+  EXPECT_EQ(StabilityOperators(config).size(), 512u);
+  EXPECT_EQ(CheckProcessStability(config).axes[0].limit.max_stable_stiffness_N_per_m,
+            CheckProcessStability(LoadProcessConfig(Deploy("slave.yaml"))).axes[0].limit.max_stable_stiffness_N_per_m);
+
+  std::ofstream(config_path) << Replace(text, "finger.csv", "missing.csv");
+  try {
+    CheckProcessStability(LoadProcessConfig(config_path));
+    ADD_FAILURE() << "a missing bounds file must be an error";
+  } catch (const Error& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("missing.csv"));
+  }
+}
+
+TEST(StabilityCheck, GridStepsSetTheOperatorCount) {
+  const ProcessConfig config = ParseProcessConfig(
+      Replace(ReadFile(Deploy("slave.yaml")), "human_grid_steps: 4", "human_grid_steps: 2"), "slave.yaml");
+  EXPECT_EQ(StabilityOperators(config).size(), 8u * 2u * 2u * 2u);
+  EXPECT_EQ(CheckProcessStability(config).operators, 64);
+}
+
+// The reader allows velocity_filter_hz up to rate/2; the model needs it strictly below Nyquist. That config is an
+// error at start-up with a message, never a crash.
+TEST(StabilityCheck, ModelOutsideTheAnalysisRangeIsAnError) {
+  std::string text = Replace(ReadFile(Deploy("slave.yaml")), "rate_hz: 1000", "rate_hz: 400");
+  const ProcessConfig config = ParseProcessConfig(text, "slave.yaml");
+  try {
+    CheckProcessStability(config);
+    ADD_FAILURE() << "expected teleop::Error";
+  } catch (const Error& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("velocity_filter_hz"));
+  }
+}
+
+}  // namespace
+}  // namespace teleop::config
