@@ -26,7 +26,7 @@ if [[ "${variant}" == "can" ]]; then
   master_cfg="${cfg}/master-can.yaml"
   slave_cfg="${cfg}/slave-can.yaml"
   teleop::build --target teleop-canbus
-  "${TELEOP_BUILD}/bin/teleop-canbus" --config "${cfg}/canbus.yaml" --duration 9 > "${out}/canbus.log" 2>&1 &
+  "${TELEOP_BUILD}/bin/teleop-canbus" --port 47300 --bitrate 1000000 --duration-s 12 > "${out}/canbus.log" 2>&1 &
   pids+=($!)
   sleep 0.3
 fi
@@ -37,11 +37,13 @@ echo "[demo] starting teleop-slave and teleop-master (${variant}, 1 kHz, loopbac
 slave_pid=$!
 pids+=("${slave_pid}")
 sleep 0.3
+master_rc=0
 "${TELEOP_BUILD}/bin/teleop-master" --config "${master_cfg}" --duration 5 \
-  --summary-json "${out}/master-summary.json" --telemetry-csv "${out}/master.csv" > "${out}/master.log" 2>&1
-master_rc=$?
-wait "${slave_pid}"
-slave_rc=$?
+  --summary-json "${out}/master-summary.json" --telemetry-csv "${out}/master.csv" > "${out}/master.log" 2>&1 ||
+  master_rc=$?
+slave_rc=0
+wait "${slave_pid}" || slave_rc=$?
+cleanup  # the emulated bus daemon, if any
 pids=()
 
 echo
@@ -49,7 +51,7 @@ echo "==== master ===="; cat "${out}/master.log"
 echo "==== slave ====";  cat "${out}/slave.log"
 
 fixture_offset=$(grep -o 'offset_m: *[-+0-9.eE]*' "${slave_cfg}" | head -n 1 | awk '{print $2}')
-gnuplot -e "slave='${out}/slave.csv'; png='${out}/demo.png'; wall=${fixture_offset:-0}" \
+gnuplot -e "slave='${out}/slave.csv'; png='${out}/demo.png'; wall=${fixture_offset:-0}; link='${variant}'" \
   "${TELEOP_ROOT}/deploy/plot_demo.gp"
 echo
 echo "[demo] telemetry: ${out}/master.csv ${out}/slave.csv"

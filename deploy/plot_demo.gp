@@ -1,10 +1,11 @@
 # Plot of a demo run, all on the slave's clock: the master position as the slave received it, the slave position and
 # its fixture surface; then the operator force the master measured, the slave's command and its fixture force.
-# gnuplot -e "slave='s.csv'; png='out.png'; wall=0.01" deploy/plot_demo.gp
+# gnuplot -e "slave='s.csv'; png='out.png'; wall=0.01; link='udp'" deploy/plot_demo.gp
 set datafile separator ","
 set terminal pngcairo size 1200,900 noenhanced font ",10"
 set output png
-set multiplot layout 2,1 title "teleop demo: master and slave on the loopback plant (UDP, 1 kHz)"
+if (!exists("link")) link = "UDP"
+set multiplot layout 2,1 title sprintf("teleop demo: master and slave on the loopback plant (%s, 1 kHz)", link)
 set grid
 set key top left
 set ylabel "position (mm)"

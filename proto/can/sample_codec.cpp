@@ -125,7 +125,7 @@ EncodeResult EncodeCycle(const SampleMessage& message, const CanWireFormat& form
     f.len = static_cast<std::uint8_t>(RoundUpToFdLength(static_cast<std::size_t>(FdDataBytes(dof))));
     for (int k = 0; k < slots; ++k) {
       const std::uint64_t word = EncodeSlot(message, k, dof, result);
-      StoreLittleEndian(word, &f.data[static_cast<std::size_t>(8 * k)], 8);
+      StoreLittleEndian(word, &f.data[8 * static_cast<std::size_t>(k)], 8);
     }
   } else {
     for (int k = 0; k < slots; ++k) {
@@ -272,7 +272,7 @@ FrameStatus CycleAssembler::PushFd(const CanFrame& frame, SampleMessage& out) no
   }
   std::array<std::uint64_t, kMaxSlots> slots{};
   for (int k = 0; k < slots_; ++k) {
-    const auto offset = static_cast<std::size_t>(8 * k);
+    const std::size_t offset = 8 * static_cast<std::size_t>(k);
     const std::size_t bytes = k < slots_ - 1 ? 8 : data_bytes - offset;
     const std::uint64_t word = LoadLittleEndian(&frame.data[offset], bytes);
     if ((word & reserved_mask_[static_cast<std::size_t>(k)]) != 0) return FrameStatus::kReservedBits;

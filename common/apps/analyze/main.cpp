@@ -278,7 +278,7 @@ int RunCheck(const SystemOptions& o, const CLI::App& app, const std::string& con
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int Run(int argc, char** argv) {
   CLI::App app{"Stability of forbidden-region virtual fixtures (Abbott & Okamura 2006): docs/stability.md"};
   app.require_subcommand(1);
 
@@ -328,4 +328,18 @@ int main(int argc, char** argv) {
     return kExitBadInput;
   }
   return kExitBadInput;
+}
+
+int main(int argc, char** argv) {
+  // Everything expected is handled in Run(); this only keeps an unexpected exception (e.g. out of memory while
+  // setting up) from ending the program without a message.
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "teleop-analyze: unexpected error: " << e.what() << "\n";
+    return 3;
+  } catch (...) {
+    std::cerr << "unexpected error\n";
+    return 3;
+  }
 }

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <iostream>
 #include <thread>
 
 #include "teleop/error.hpp"
@@ -23,7 +24,7 @@ void OnSignal(int /*signal*/) { g_stop = true; }
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int Run(int argc, char** argv) {
   using namespace teleop::transport;
   CLI::App app{"teleop-canbus: emulated CAN bus for teleop-master/teleop-slave (transport emulated-can)"};
   CanBusServerConfig config;
@@ -92,5 +93,19 @@ int main(int argc, char** argv) {
   } catch (const teleop::Error& e) {
     spdlog::error("{}", e.what());
     return 2;
+  }
+}
+
+int main(int argc, char** argv) {
+  // Everything expected is handled in Run(); this only keeps an unexpected exception (e.g. out of memory while
+  // setting up) from ending the program without a message.
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "teleop-canbus: unexpected error: " << e.what() << "\n";
+    return 3;
+  } catch (...) {
+    std::cerr << "unexpected error\n";
+    return 3;
   }
 }

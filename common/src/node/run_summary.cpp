@@ -83,8 +83,12 @@ std::string FormatSummaryText(const RunSummary& s) {
   if (!s.link_detail.empty()) out += fmt::format("  link detail       {}\n", s.link_detail);
   if (s.link_fault_cycles > 0)
     out += fmt::format("  link faults       medium down in {} cycles\n", s.link_fault_cycles);
-  out += fmt::format("  round trip        p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms ({} samples)\n", s.rtt_ms.p50,
-                     s.rtt_ms.p99, s.rtt_ms.max, s.rtt_ms.count);
+  if (s.rtt_ms.count > 0) {
+    out += fmt::format("  round trip        p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms ({} samples)\n", s.rtt_ms.p50,
+                       s.rtt_ms.p99, s.rtt_ms.max, s.rtt_ms.count);
+  } else {
+    out += "  round trip        not measured (no echo from the peer; CAN frames carry no timestamps)\n";
+  }
   out +=
       fmt::format("  peer              fresh in {} cycles, watchdog trips {}\n", s.cycles_with_peer, s.watchdog_trips);
   out += fmt::format("  tracking error    rms {:.3f} mm, max {:.3f} mm\n", s.tracking_error_rms_m * 1e3,

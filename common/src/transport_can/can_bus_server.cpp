@@ -72,8 +72,11 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
   for (int i = 0; i < 1024; ++i) {
     sockaddr_in source{};
     socklen_t source_len = sizeof(source);
-    const ssize_t n = ::recvfrom(socket_, buffer.data(), buffer.size(), 0, reinterpret_cast<sockaddr*>(&source),
-                                 &source_len);  // NOLINT: sockets API
+    // The sockets API takes the address as sockaddr*; sockaddr_in is the documented way to pass it.
+    const ssize_t n =
+        ::recvfrom(socket_, buffer.data(), buffer.size(), 0,
+                   reinterpret_cast<sockaddr*>(&source),  // NOLINT(cppcoreguidelines-pro-type-reinterpret-cast)
+                   &source_len);
     if (n < 0) break;
     bus_datagram::Message m{};
     if (!bus_datagram::Decode(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), m)) {
