@@ -17,6 +17,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 
 
@@ -39,6 +40,38 @@ def write_config(src, dst, ports, extra_replacements=()):
 
 class Failure(Exception):
     pass
+
+
+class Output:
+    """Collects a process's output on a thread, so the test can wait for a line without blocking on the pipe."""
+
+    def __init__(self, proc):
+        self.lines = []
+        self.cond = threading.Condition()
+        self.thread = threading.Thread(target=self._read, args=(proc,), daemon=True)
+        self.thread.start()
+
+    def _read(self, proc):
+        for line in proc.stdout:
+            with self.cond:
+                self.lines.append(line)
+                self.cond.notify_all()
+
+    def wait_for(self, text, timeout_s):
+        """True once a line containing `text` was printed. The timeout is generous: a sanitizer build spends
+        seconds in the start-up stability check before the loop starts."""
+        deadline = time.monotonic() + timeout_s
+        with self.cond:
+            while not any(text in line for line in self.lines):
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return False
+                self.cond.wait(left)
+        return True
+
+    def text(self):
+        self.thread.join(timeout=5)
+        return "".join(self.lines)
 
 
 def check(cond, what):
@@ -73,37 +106,45 @@ def main():
             os.remove(p)
 
     master_duration = 3.0
-    slave_duration = 4.0 if args.scenario == "dead_peer" else 6.0
+    slave_duration = 6.0 if args.scenario == "dead_peer" else 8.0
     slave = subprocess.Popen([args.slave, "--config", scfg, "--duration", str(slave_duration),
                               "--summary-json", sjson], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    slave_out = Output(slave)
     time.sleep(0.3)
     master = subprocess.Popen([args.master, "--config", mcfg, "--duration",
                                str(0 if args.scenario in ("sigterm", "dead_peer") else master_duration),
                                "--summary-json", mjson], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    master_out = Output(master)
     garbage_sent = 0
+    # Act only once both loops run and are coupled (not on a fixed delay: start-up takes longer in sanitizer builds).
+    coupled = master_out.wait_for("peer connected", 120) and slave_out.wait_for("peer connected", 10)
+    if not coupled:
+        master.kill()
+        slave.kill()
+        print(master_out.text(), slave_out.text())
+        raise Failure("the two processes never coupled")
     if args.scenario in ("sigterm", "dead_peer"):
-        time.sleep(1.5)
+        time.sleep(1.0)
         master.send_signal(signal.SIGTERM if args.scenario == "sigterm" else signal.SIGKILL)
     elif args.scenario == "garbage":
         rng = random.Random(7)
-        time.sleep(0.5)
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-            # The slave binds ports[1]; it accepts only the master's address, so send from the master's port is
-            # impossible while the master runs. Unknown sources and malformed bytes must both be rejected.
+            # The slave accepts only the master's address, so garbage from another port is rejected as a foreign
+            # sender and malformed bytes by their decode reason; both are counted.
             for i in range(200):
                 n = rng.randint(0, 120)
                 s.sendto(bytes(rng.getrandbits(8) for _ in range(n)), ("127.0.0.1", ports[1]))
                 garbage_sent += 1
                 time.sleep(0.002)
     try:
-        mout, _ = master.communicate(timeout=20)
-        sout, _ = slave.communicate(timeout=20)
+        master.wait(timeout=60)
+        slave.wait(timeout=60)
     except subprocess.TimeoutExpired:
         master.kill()
         slave.kill()
         raise Failure("processes did not stop")
-    print("---- master output ----\n" + (mout or ""))
-    print("---- slave output ----\n" + (sout or ""))
+    print("---- master output ----\n" + master_out.text())
+    print("---- slave output ----\n" + slave_out.text())
 
     check(slave.returncode == 0, f"slave exits 0 (got {slave.returncode})")
     s = load(sjson)
