@@ -14,6 +14,19 @@
 namespace teleop::analysis {
 namespace {
 
+// Runs scan(t) for t = 0..threads-1: on the calling thread when threads == 1, else one thread each.
+template <typename ScanFn>
+void RunOnThreads(int threads, const ScanFn& scan) {
+  if (threads == 1) {
+    scan(0);
+    return;
+  }
+  std::vector<std::thread> pool;
+  pool.reserve(static_cast<std::size_t>(threads));
+  for (int t = 0; t < threads; ++t) pool.emplace_back(scan, t);
+  for (std::thread& thread : pool) thread.join();
+}
+
 // |z| above 1 by more than this is unstable; the margin keeps a marginal free-mass mode (z = 1 exactly, e.g. a
 // slave with no position coupling) from being called unstable by rounding.
 constexpr double kUnstableMargin = 1e-9;
@@ -92,14 +105,7 @@ Probe FindUnstableOperator(const PreparedSystem& p, double stiffness, int first,
       if (radius > best.first) best = {radius, i};
     }
   };
-  if (threads == 1) {
-    scan(0);
-  } else {
-    std::vector<std::thread> pool;
-    pool.reserve(static_cast<std::size_t>(threads));
-    for (int t = 0; t < threads; ++t) pool.emplace_back(scan, t);
-    for (std::thread& thread : pool) thread.join();
-  }
+  RunOnThreads(threads, scan);
   for (int c : counts) evaluated += c;
   probe.unstable = found.load();
   if (probe.unstable < 0) probe.most_critical = std::max_element(critical.begin(), critical.end())->second;
@@ -123,14 +129,7 @@ Scan ScanAll(const PreparedSystem& p, double stiffness, int threads, int& evalua
       if (best.index < 0 || radius > best.max_radius) best = {radius, i};
     }
   };
-  if (threads == 1) {
-    scan(0);
-  } else {
-    std::vector<std::thread> pool;
-    pool.reserve(static_cast<std::size_t>(threads));
-    for (int t = 0; t < threads; ++t) pool.emplace_back(scan, t);
-    for (std::thread& thread : pool) thread.join();
-  }
+  RunOnThreads(threads, scan);
   evaluated += n;
   return *std::max_element(partial.begin(), partial.end(),
                            [](const Scan& a, const Scan& b) { return a.max_radius < b.max_radius; });
@@ -160,14 +159,7 @@ WorstCase Worst(const PreparedSystem& p, std::span<const HumanModel> humans, dou
       }
     }
   };
-  if (threads == 1) {
-    scan(0);
-  } else {
-    std::vector<std::thread> pool;
-    pool.reserve(static_cast<std::size_t>(threads));
-    for (int t = 0; t < threads; ++t) pool.emplace_back(scan, t);
-    for (std::thread& thread : pool) thread.join();
-  }
+  RunOnThreads(threads, scan);
   WorstCase worst;
   worst.min_damping_ratio = 2.0;
   for (const Partial& part : partial) {

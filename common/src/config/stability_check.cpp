@@ -124,27 +124,24 @@ SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis) {
   s.peer_delay_samples = st.peer_delay_samples;
   s.unilateral = st.unilateral;
   analysis::LawGains& g = s.gains;
-  if (config.role == Role::kMaster) {
-    s.master = own;
-    s.slave = peer;
-    g.kpm_N_per_m = kp;
-    g.kdm_Ns_per_m = kd;
-    g.kvm_Ns_per_m = kv;
-    g.kfm = kf;
-    g.kps_N_per_m = peer_kp;
-    g.kds_Ns_per_m = peer_kd;
-    g.kvs_Ns_per_m = peer_kv;
-  } else {
-    s.master = peer;
-    s.slave = own;
-    g.kps_N_per_m = kp;
-    g.kds_Ns_per_m = kd;
-    g.kvs_Ns_per_m = kv;
-    g.kpm_N_per_m = peer_kp;
-    g.kdm_Ns_per_m = peer_kd;
-    g.kvm_Ns_per_m = peer_kv;
-    g.kfm = peer_kf;
-  }
+  // One side's gains into the model; eq. 9 (slave) has no K_f.
+  const auto set_gains = [&g](Role r, double p, double d, double v, double f) {
+    if (r == Role::kMaster) {
+      g.kpm_N_per_m = p;
+      g.kdm_Ns_per_m = d;
+      g.kvm_Ns_per_m = v;
+      g.kfm = f;
+    } else {
+      g.kps_N_per_m = p;
+      g.kds_Ns_per_m = d;
+      g.kvs_Ns_per_m = v;
+    }
+  };
+  const Role peer_role = config.role == Role::kMaster ? Role::kSlave : Role::kMaster;
+  set_gains(config.role, kp, kd, kv, kf);
+  set_gains(peer_role, peer_kp, peer_kd, peer_kv, peer_kf);
+  s.master = config.role == Role::kMaster ? own : peer;
+  s.slave = config.role == Role::kMaster ? peer : own;
   // The fixture acts along `axis` when a plane's normal has a component on it (a stiffness without planes renders
   // nothing). Along the normal of a diagonal plane the analysis per axis is exact when the axes share their gains.
   bool fixture_on_axis = false;
