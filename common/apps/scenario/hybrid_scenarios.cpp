@@ -1,0 +1,7 @@
+#include "scenarios.hpp"
+
+namespace teleop::scenario {
+
+void AddHybridScenarios(CLI::App& /*app*/) {}
+
+}  // namespace teleop::scenario

@@ -1,0 +1,23 @@
+// teleop-scenario: runs the papers' experiments on the simulated rigs and prints their metrics.
+#include <CLI/CLI.hpp>
+
+#include <exception>
+#include <iostream>
+
+#include "scenarios.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"teleop-scenario: the papers' experiments on the simulated rigs (CSV, PNG, metrics)"};
+  app.require_subcommand(1);
+  teleop::scenario::AddHybridScenarios(app);
+  teleop::scenario::AddCobotScenarios(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    std::cerr << "teleop-scenario: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
