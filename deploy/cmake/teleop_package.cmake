@@ -27,14 +27,13 @@ file(GLOB TELEOP_DOCS ${PROJECT_SOURCE_DIR}/docs/*.md)
 install(FILES ${TELEOP_DOCS} DESTINATION ${CMAKE_INSTALL_DOCDIR})
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/rigs DESTINATION ${CMAKE_INSTALL_DOCDIR} FILES_MATCHING PATTERN "*.md")
 
-# /etc/teleop: decided at install time, from the prefix the install runs with (cpack installs with prefix /usr).
-set(TELEOP_ETC_SOURCES ${TELEOP_DEPLOY_SOURCE}/configs/loopback/master-udp.yaml
-                       ${TELEOP_DEPLOY_SOURCE}/configs/loopback/slave-udp.yaml)
+# /etc/teleop: decided at install time, from the prefix the install runs with (cpack installs with prefix /usr into
+# DESTDIR, which file(INSTALL) prepends to the absolute path).
 install(CODE "
   if(CMAKE_INSTALL_PREFIX STREQUAL \"/usr\")
-    set(teleop_etc \"\$ENV{DESTDIR}/etc/teleop\")
+    set(teleop_etc /etc/teleop)
   else()
-    set(teleop_etc \"\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/etc/teleop\")
+    set(teleop_etc \"\${CMAKE_INSTALL_PREFIX}/etc/teleop\")
   endif()
   file(INSTALL \"${TELEOP_DEPLOY_SOURCE}/configs/loopback/master-udp.yaml\" DESTINATION \"\${teleop_etc}\"
        RENAME master.yaml)
@@ -55,6 +54,7 @@ set(CPACK_PACKAGE_DESCRIPTION
     "(emulated CAN bus), teleop-plot, systemd units, rig configs, the static library and CMake package.")
 set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
+set(CPACK_INSTALL_PREFIX /usr)
 set(CPACK_SET_DESTDIR ON)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION science)

@@ -113,7 +113,9 @@ def main():
               f"{role}: ExecStart runs /usr/bin/teleop-{role} on /etc/teleop/{role}.yaml")
         check(s["Restart"] == ["always"], f"{role}: Restart=always (a clean stop comes back to wait for the peer)")
         prevent = " ".join(s["RestartPreventExitStatus"]).split()
-        numbers = {int(x) for x in prevent if x.isdigit()}
+        numbers = {int(x) for x in prevent if x.isdigit() and int(x) < 100}
+        cli = {int(x) for x in prevent if x.isdigit() and int(x) >= 100}
+        check(cli == {105, 106, 109}, f"{role}: a bad command line (CLI11 105, 106, 109) is not restarted")
         check(numbers == never, f"{role}: never restarted after statuses {sorted(never)} (set-up error, unexpected, "
               f"latched fault), got {sorted(numbers)}")
         check(codes["kExitOk"] not in numbers, f"{role}: a clean stop (status 0) is restarted")
