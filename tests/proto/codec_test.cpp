@@ -307,6 +307,39 @@ TEST_F(MalformedTest, NonFinite) {
   ExpectStatus(Encode(m), DecodeStatus::kNonFinite);
 }
 
+// The rule "non-finite before out-of-range" holds whichever field comes first on the wire: every pair of
+// distinct value slots (DOF × position/velocity/force), with the NaN (or inf) in one and an out-of-range value in
+// the other, is kNonFinite.
+TEST_F(MalformedTest, NonFiniteWinsOverOutOfRangeInEitherOrder) {
+  constexpr int kSlots = 3 * kMaxWireDof;
+  auto slot = [](SampleMessage& m, int s) -> double& {
+    const auto dof = static_cast<std::size_t>(s / 3);
+    if (s % 3 == 0) return m.position_m[dof];
+    if (s % 3 == 1) return m.velocity_m_per_s[dof];
+    return m.force_N[dof];
+  };
+  auto out_of_range = [](int s) {
+    if (s % 3 == 0) return 2.0 * kMaxAbsPosition_m;
+    if (s % 3 == 1) return -2.0 * kMaxAbsVelocity_m_per_s;
+    return 2.0 * kMaxAbsForce_N;
+  };
+  int pairs = 0;
+  for (int bad = 0; bad < kSlots; ++bad) {
+    for (int wide = 0; wide < kSlots; ++wide) {
+      if (bad == wide) continue;
+      SampleMessage m = SixDofGoldenMessage();
+      slot(m, bad) =
+          (bad % 2 == 0) ? std::numeric_limits<double>::quiet_NaN() : std::numeric_limits<double>::infinity();
+      slot(m, wide) = out_of_range(wide);
+      SCOPED_TRACE("non-finite in slot " + std::to_string(bad) + ", out of range in slot " + std::to_string(wide));
+      ExpectStatus(Encode(m), DecodeStatus::kNonFinite);
+      EXPECT_EQ(ValidateSample(m), DecodeStatus::kNonFinite);
+      ++pairs;
+    }
+  }
+  EXPECT_EQ(pairs, kSlots * (kSlots - 1));
+}
+
 TEST_F(MalformedTest, OutOfRangeValues) {
   SampleMessage m = SixDofGoldenMessage();
   m.position_m[0] = std::nextafter(kMaxAbsPosition_m, 100.0);
