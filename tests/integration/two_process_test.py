@@ -254,10 +254,18 @@ def main():
 def check_physics(mc, sc, m, s, mt, st):
     """The physics of a run, predicted from the two configs with the equations written out here.
 
-    mc/sc: the master's and slave's config scalars; m/s: their summaries; mt/st: their telemetry records."""
+    mc/sc: the master's and slave's config scalars; m/s: their summaries; mt/st: their telemetry records.
+    Every check runs (a failure is reported, not raised, until the end), so one run shows each one that a broken
+    law trips."""
+    failures = []
+
+    def expect(cond, what):
+        print(f"  {'ok' if cond else 'FAILED'}: {what}")
+        if not cond:
+            failures.append(what)
     period = 1.0 / mc["rate_hz"]
     kp, kd = mc["law.kp_N_per_m"], mc["law.kd_Ns_per_m"]
-    check(kp == sc["law.kp_N_per_m"] and kd == sc["law.kd_Ns_per_m"], "symmetric K_p, K_d (the predictions need it)")
+    expect(kp == sc["law.kp_N_per_m"] and kd == sc["law.kd_Ns_per_m"], "symmetric K_p, K_d (the predictions need it)")
     kvm, kfm = mc["law.kv_Ns_per_m"], mc["law.kf"]
     kvs = sc["law.kv_Ns_per_m"]
     b_s = sc["device.loopback.damping_Ns_per_m"]
@@ -268,7 +276,7 @@ def check_physics(mc, sc, m, s, mt, st):
     k_w = sc["device.loopback.environment.stiffness_N_per_m"] if wall else 0.0
     wall_at = sc["device.loopback.environment.position_m"] if wall else 0.0
     contact_at = fixture_at if k_vf > 0 else wall_at
-    check(k_vf == 0 or not wall or fixture_at == wall_at, "fixture and wall at the same place (test assumption)")
+    expect(k_vf == 0 or not wall or fixture_at == wall_at, "fixture and wall at the same place (test assumption)")
     f_hold = 3.0  # N: the scripts' hold level from 2.0 to 3.0 s (master*.yaml, device.loopback.operator.script)
 
     # 1. The command, term by term (eqs. 8-9 as the header of three_channel_law.hpp writes them), on every cycle the
@@ -282,9 +290,9 @@ def check_physics(mc, sc, m, s, mt, st):
     for name, rows, kv, kf, k_fixture, at in (("master", mt, kvm, kfm, 0.0, 0.0),
                                               ("slave", st, kvs, 0.0, k_vf, fixture_at)):
         coupled = [r for r in rows if r["law_status"] == 0]
-        check(len(coupled) > 0.5 * len(rows), f"{name}: {len(coupled)} of {len(rows)} records coupled and unsaturated")
+        expect(len(coupled) > 0.5 * len(rows), f"{name}: {len(coupled)} of {len(rows)} records coupled and unsaturated")
         worst = max(abs(r["command_N_0"] - expected_command(r, kv, kf, k_fixture, at)) for r in coupled)
-        check(worst < 1e-9, f"{name}: command = eq. {8 if name == 'master' else 9} on every coupled cycle "
+        expect(worst < 1e-9, f"{name}: command = eq. {8 if name == 'master' else 9} on every coupled cycle "
               f"(worst difference {worst:.2e} N)")
 
     # 2. Free-space ramp (master script time 0.7-1.3 s: F_h* rises 2 N/s, the handle follows at
@@ -300,14 +308,14 @@ def check_physics(mc, sc, m, s, mt, st):
     lag = median([(r["peer_position_m_0"] - r["position_m_0"]) / r["velocity_m_per_s_0"] for r in slave_ramp])
     # ±20 %: the median over the ramp of an estimate that the velocity filter and the loops' jitter disturb by a few
     # per cent (measured: within 3 %); a halved K_p or a lost K_vs changes it by 50 % or more.
-    check(abs(lag / lag_s - 1) < 0.2, f"slave lag on the ramp {lag*1e3:.3f} ms of velocity, predicted "
+    expect(abs(lag / lag_s - 1) < 0.2, f"slave lag on the ramp {lag*1e3:.3f} ms of velocity, predicted "
           f"(b_s + K_vs)/K_p = {lag_s*1e3:.3f} ms ({len(slave_ramp)} samples)")
     master_ramp = [r for r in mt if r["law_status"] == 0 and contact_at * 0.2 < r["position_m_0"] < contact_at * 0.8
                    and r["velocity_m_per_s_0"] > 2e-3]
     delay = median([(r["position_m_0"] - r["peer_position_m_0"]) / r["velocity_m_per_s_0"] - lag_s
                     for r in master_ramp])
     # 0.8..2.2 periods: D is one or two periods (above), ±20 % for the same estimate noise as the slave's.
-    check(0.8 * period < delay < 2.2 * period, f"master sees the slave {delay/period:.2f} samples late on the ramp "
+    expect(0.8 * period < delay < 2.2 * period, f"master sees the slave {delay/period:.2f} samples late on the ramp "
           f"(one-sample-delay prediction: 1..2 periods; error = lag + v·D)")
 
     # 3. Static balance in contact, during the hold (F_h* = 3 N). Positions from the contact point, p = x_s - x_c:
@@ -322,32 +330,34 @@ def check_physics(mc, sc, m, s, mt, st):
     # The last 0.65 s of the hold (from 2.3 s): the contact mode settles with time constant 2 m_s / b_s ≈ 0.15 s,
     # so 0.3 s after the ramp ends the transient (measured: < 2 % of p at the ramp's end) is below 0.1 %.
     hold = [r for r in mt if r["law_status"] == 0 and 2.3 <= r["cycle"] * period <= 2.95]
-    check(len(hold) > 300, f"master recorded {len(hold)} cycles of the settled hold")
+    expect(len(hold) > 300, f"master recorded {len(hold)} cycles of the settled hold")
     p_hold = median([r["peer_position_m_0"] - contact_at for r in hold])
     e_hold = median([r["position_m_0"] - r["peer_position_m_0"] for r in hold])
     # 2 %: settled (above) and still (v ≈ 0, so the one-sample delay adds nothing); the planted bugs move p by
     # 19 % (K_p halved) to 87 % (fixture force halved).
-    check(abs(p_hold / p_static - 1) < 0.02, f"held penetration {p_hold*1e3:.4f} mm, static balance "
+    expect(abs(p_hold / p_static - 1) < 0.02, f"held penetration {p_hold*1e3:.4f} mm, static balance "
           f"{p_static*1e3:.4f} mm")
-    check(abs(e_hold / e_static - 1) < 0.02, f"held tracking error {e_hold*1e3:.4f} mm, static balance "
+    expect(abs(e_hold / e_static - 1) < 0.02, f"held tracking error {e_hold*1e3:.4f} mm, static balance "
           f"{e_static*1e3:.4f} mm")
     if k_w > 0:
         f_e = median([r["peer_force_N_0"] for r in hold])
-        check(abs(f_e / (k_w * p_static) - 1) < 0.02, f"the master receives the slave's F_e {f_e:.4f} N "
+        expect(abs(f_e / (k_w * p_static) - 1) < 0.02, f"the master receives the slave's F_e {f_e:.4f} N "
               f"(k_w p = {k_w*p_static:.4f} N)")
     # The summaries: the maximum is the settled hold plus the overshoot when the ramp stops (measured +1.8 %) and
     # what a late sample adds while the contact still moves (≤ 3 mm/s × a 25 ms stall ≈ 6 % of e); below, at most
     # the 2 % settling tolerance. K_d deleted rings the contact mode: 3.4 mm instead of 0.35 mm.
     for name, x in (("master", m), ("slave", s)):
         e_max = x["tracking_error_max_m"]
-        check(0.98 * e_static < e_max < 1.10 * e_static, f"{name} max tracking error {e_max*1e3:.4f} mm, "
+        expect(0.98 * e_static < e_max < 1.10 * e_static, f"{name} max tracking error {e_max*1e3:.4f} mm, "
               f"static balance {e_static*1e3:.4f} mm (-2 %, +10 %)")
     pen = s["fixture_max_penetration_m"]
     if k_vf > 0:
-        check(0.98 * p_static < pen < 1.10 * p_static, f"slave fixture max penetration {pen*1e3:.4f} mm, static "
+        expect(0.98 * p_static < pen < 1.10 * p_static, f"slave fixture max penetration {pen*1e3:.4f} mm, static "
               f"balance {p_static*1e3:.4f} mm (-2 %, +10 %)")
     else:
-        check(pen == 0, "no fixture, no fixture penetration")
+        expect(pen == 0, "no fixture, no fixture penetration")
+    if failures:
+        raise Failure(f"{len(failures)} physics check(s) failed: " + "; ".join(failures))
 
 
 if __name__ == "__main__":
