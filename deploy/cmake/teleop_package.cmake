@@ -3,7 +3,7 @@
 # (`cpack -G DEB` in the build directory, tests/deploy/package_test.sh).
 #
 # Layout under the install prefix (the .deb's prefix is /usr):
-#   bin/teleop-plot                           run CSV -> PNGs
+#   bin/teleop-plot, bin/teleop-canlog        run CSV -> PNGs; emulated-bus capture -> candump log
 #   lib/systemd/system/teleop-*.service       the units (they name /usr/bin/teleop-* and /etc/teleop/*.yaml)
 #   share/teleop/configs/**.yaml              every rig config
 #   share/teleop/can-up.sh, rt-check.sh       host scripts
@@ -21,7 +21,8 @@ install(DIRECTORY ${TELEOP_DEPLOY_SOURCE}/configs/ DESTINATION ${CMAKE_INSTALL_D
         FILES_MATCHING PATTERN "*.yaml" PATTERN "*.csv")
 install(PROGRAMS ${TELEOP_DEPLOY_SOURCE}/can-up.sh ${TELEOP_DEPLOY_SOURCE}/rt-check.sh
         DESTINATION ${CMAKE_INSTALL_DATADIR}/teleop)
-install(PROGRAMS ${TELEOP_DEPLOY_SOURCE}/teleop-plot DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(PROGRAMS ${TELEOP_DEPLOY_SOURCE}/teleop-plot ${TELEOP_DEPLOY_SOURCE}/teleop-canlog
+        DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(FILES ${TELEOP_DEPLOY_SOURCE}/wireshark/teleop.lua DESTINATION ${CMAKE_INSTALL_DATADIR}/teleop/wireshark)
 file(GLOB TELEOP_DOCS ${PROJECT_SOURCE_DIR}/docs/*.md)
 install(FILES ${TELEOP_DOCS} DESTINATION ${CMAKE_INSTALL_DOCDIR})

@@ -16,7 +16,7 @@ deb=$(ls "${work}"/out/teleop_*_amd64.deb 2>/dev/null | head -n 1)
 ok "built $(basename "${deb}")"
 dpkg-deb -c "${deb}" | awk '{print $6}' >"${work}/contents.txt"
 for f in ./usr/bin/teleop-master ./usr/bin/teleop-slave ./usr/bin/teleop-analyze ./usr/bin/teleop-canbus \
-         ./usr/bin/teleop-plot ./etc/teleop/master.yaml ./etc/teleop/slave.yaml \
+         ./usr/bin/teleop-plot ./usr/bin/teleop-canlog ./etc/teleop/master.yaml ./etc/teleop/slave.yaml \
          ./usr/lib/systemd/system/teleop-master.service ./usr/lib/systemd/system/teleop-slave.service \
          ./usr/lib/systemd/system/teleop-can-up@.service ./usr/share/teleop/can-up.sh ./usr/share/teleop/rt-check.sh \
          ./usr/share/teleop/configs/loopback/slave-can.yaml ./usr/share/teleop/wireshark/teleop.lua \
