@@ -21,6 +21,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import threading
@@ -136,7 +137,23 @@ def load(path):
         return json.load(f)
 
 
+def remove_stale_namespaces():
+    """Namespaces a killed earlier run left behind (tlp<pid>..): removed when that process is gone."""
+    listing = run(["ip", "netns", "list"], check_rc=False).stdout
+    for name in re.findall(r"(?m)^(tlp(\d+)[uc][ms])\b", listing):
+        ns, pid = name
+        if not os.path.exists(f"/proc/{pid}"):
+            subprocess.run(["ip", "netns", "del", ns], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            print(f"removed namespace {ns} left by an earlier run")
+
+
+def stop_on_signal(signum, _frame):
+    raise Failure(f"stopped by signal {signum} (ctest timeout?)")
+
+
 def main():
+    signal.signal(signal.SIGTERM, stop_on_signal)
+    signal.signal(signal.SIGINT, stop_on_signal)
     ap = argparse.ArgumentParser()
     ap.add_argument("--master", required=True)
     ap.add_argument("--slave", required=True)
@@ -150,7 +167,8 @@ def main():
         print("SKIPPED: iproute2 (ip) is not installed, so no network namespaces can be created")
         return SKIP
     os.makedirs(args.workdir, exist_ok=True)
-    ns = Namespaces(f"{os.getpid() % 100000}{'u' if args.transport == 'udp' else 'c'}")
+    remove_stale_namespaces()
+    ns = Namespaces(f"{os.getpid()}{'u' if args.transport == 'udp' else 'c'}")
     procs = []
     try:
         err = ns.create()
@@ -243,12 +261,14 @@ def run_pair(args, ns, procs):
         check(pk["lost"] <= 0.01 * pk["accepted"] + 2, f"{name} lost {pk['lost']} of {pk['accepted']} (a veth: ~none)")
         check(x["nonfinite_inputs"] == 0 and x["device_fault_cycles"] == 0, f"{name} had no faults")
         check(x["tracking_error_rms_m"] < 0.005, f"{name} tracking error rms {x['tracking_error_rms_m'] * 1e3:.3f} mm")
-    # Delivery: what one side sent, the other received (less what was still in flight at the end, and what the
-    # slave sent after the master had gone).
+    # Delivery: what one side sent, the other received (less what was still in flight at the end).
     check(s["packets"]["received"] >= 0.98 * m["packets"]["sent"],
           f"the slave received {s['packets']['received']} of the master's {m['packets']['sent']} samples")
-    check(m["packets"]["received"] >= 0.98 * m["cycles"],
-          f"the master received {m['packets']['received']} samples in its {m['cycles']} cycles")
+    # The slave sent one sample per cycle while the master was there (its cycles with a fresh peer): the master must
+    # have received them (not "one per master cycle": on a loaded machine the slave's loop can run slower).
+    check(m["packets"]["received"] >= 0.98 * s["cycles_with_peer"] - 5,
+          f"the master received {m['packets']['received']} samples; the slave ran {s['cycles_with_peer']} cycles "
+          "coupled to it")
     if args.transport == "udp":
         for name, x in (("master", m), ("slave", s)):
             check(x["rtt_ms"]["count"] >= 0.9 * x["packets"]["accepted"],
