@@ -51,4 +51,19 @@ echo "${out}"
 grep -q "registered backends: example-spring loopback" <<<"${out}" || fail "example-spring is not registered beside loopback"
 grep -q "x = 10.0000 mm" <<<"${out}" || fail "the example backend did not reach 10 mm"
 ok "the out-of-tree backend registers, is created by name through MakeDevice and runs"
+# Every exported target resolves in a consumer: its dependencies are found by teleopConfig.cmake (a target that
+# names, say, CLI11::CLI11 without a find_dependency fails here at generate time).
+targets=$(grep -o 'add_library(teleop::[a-z_]*' "${prefix}/lib/cmake/teleop/teleopTargets.cmake" | sed 's/add_library(//' | sort -u)
+mkdir -p "${work}/all-targets"
+cat >"${work}/all-targets/CMakeLists.txt" <<CMAKE
+cmake_minimum_required(VERSION 3.25)
+project(teleop_all_targets LANGUAGES CXX)
+find_package(teleop REQUIRED)
+file(WRITE \${CMAKE_BINARY_DIR}/main.cpp "int main() { return 0; }\\n")
+add_executable(all_targets \${CMAKE_BINARY_DIR}/main.cpp)
+target_link_libraries(all_targets PRIVATE $(echo ${targets}))
+CMAKE
+cmake -S "${work}/all-targets" -B "${work}/all-targets/build" -G Ninja -DCMAKE_PREFIX_PATH="${prefix}" \
+      >"${work}/all-targets.log" 2>&1 || { cat "${work}/all-targets.log"; fail "an exported target does not resolve"; }
+ok "all $(wc -w <<<"${targets}") exported targets resolve in a consumer: $(echo ${targets})"
 echo PASSED
