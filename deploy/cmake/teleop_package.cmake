@@ -69,3 +69,9 @@ set(CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA ${PROJECT_BINARY_DIR}/debian/conffiles ${
 set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 set(CPACK_OUTPUT_FILE_PREFIX ${PROJECT_BINARY_DIR}/packages)
 include(CPack)
+
+# build/bin/teleop-plot and build/bin/teleop-canlog beside the executables (links to deploy/, so edits need no rebuild).
+foreach(tool teleop-plot teleop-canlog)
+  file(MAKE_DIRECTORY ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+  file(CREATE_LINK ${TELEOP_DEPLOY_SOURCE}/${tool} ${CMAKE_RUNTIME_OUTPUT_DIRECTORY}/${tool} SYMBOLIC)
+endforeach()
