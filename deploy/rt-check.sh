@@ -49,7 +49,7 @@ expand_cpus() {
   echo "${out[@]:-}"
 }
 
-echo "rt-check: real-time readiness of $( [[ -n "${root}" ]] && echo "the host under ${root}" || hostname )"
+echo "rt-check: real-time readiness of $( [[ -n "${root}" ]] && echo "the host under ${root}" || cat /proc/sys/kernel/hostname 2>/dev/null )"
 cmdline=$(readf /proc/cmdline)
 
 # 1. Preemption model.
