@@ -81,15 +81,17 @@ std::string UnknownBackendMessage(std::string_view name);
 
 }  // namespace teleop::device
 
-/// Registers a backend from its own .cpp at static-initialisation time:
-///   TELEOP_REGISTER_DEVICE(loopback, teleop::device::LoopbackBackend());
-/// The object file must reach the program: in-tree backends are linked whole-archive through teleop::devices
-/// (common/src/device/CMakeLists.txt); an out-of-tree backend compiled into the executable (or linked with
-/// $<LINK_LIBRARY:WHOLE_ARCHIVE,...>) registers the same way, or calls RegisterDevice from main.
-#define TELEOP_REGISTER_DEVICE(id, backend_expression)             \
-  namespace {                                                      \
-  [[maybe_unused]] const bool teleop_device_registered_##id = [] { \
-    ::teleop::device::RegisterDevice(backend_expression);          \
-    return true;                                                   \
-  }();                                                             \
+/// Registers a backend from its own .cpp at static-initialisation time (at namespace scope):
+///   TELEOP_REGISTER_DEVICE(loopback, teleop::device::LoopbackBackend())
+/// It defines the symbol `teleop_device_backend_<id>`. The object file must reach the program: for an in-tree
+/// backend (`id` = its folder name) teleop::devices passes `-Wl,--undefined=teleop_device_backend_<id>`, so the
+/// linker takes that object out of the static library (common/src/device/CMakeLists.txt). An out-of-tree backend
+/// compiled into the executable registers the same way, or calls RegisterDevice from main.
+#define TELEOP_REGISTER_DEVICE(id, backend_expression)    \
+  extern "C" {                                            \
+  extern const bool teleop_device_backend_##id;           \
+  const bool teleop_device_backend_##id = [] {            \
+    ::teleop::device::RegisterDevice(backend_expression); \
+    return true;                                          \
+  }();                                                    \
   }
