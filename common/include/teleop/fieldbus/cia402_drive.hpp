@@ -134,11 +134,11 @@ class Cia402Drive {
 
   /// Set-up: NMT reset (node or communication), waits for the boot-up (boot_timeout_ms), checks the device type,
   /// writes the heartbeat times, the cycle period, the PDO mappings (and reads them back), mode 10, max torque,
-  /// option codes, the rated torque check; then NMT Start. Throws teleop::Error with the object and the decoded SDO
-  /// abort code, the timeout, or the mismatch.
+  /// option codes, the rated torque check. The drive stays pre-operational. Throws teleop::Error with the object and
+  /// the decoded SDO abort code, the timeout, or the mismatch.
   void Configure();
-  /// Set-up: target torque 0, then the state machine to Operation Enabled by SDO on 0x6040/0x6041, with a fault
-  /// reset (rising edge of bit 7) when the drive is in Fault; reads 0x1001/0x603F when it faults. Throws
+  /// Set-up: NMT Start, target torque 0, then the state machine to Operation Enabled by SDO on 0x6040/0x6041, with a
+  /// fault reset (rising edge of bit 7) when the drive is in Fault; reads 0x1001/0x603F when it faults. Throws
   /// teleop::Error with the state it got stuck in. After it, Read/Write run the cycle.
   void Activate();
   /// Cycle: drains the port (TPDOs, heartbeat, EMCY, error frames), checks the heartbeat and staleness, fills
@@ -169,7 +169,11 @@ class Cia402Drive {
   std::string Describe() const;
 
  private:
-  struct Layout;  // where the mapped objects sit in the PDOs
+  /// Where a mapped object sits: PDO slot (0..3 in rpdo_/tpdo_) and entry; pdo < 0 when not mapped.
+  struct Slot {
+    int pdo = -1;
+    int entry = -1;
+  };
   void HandleFrame(const proto::can::CanFrame& frame) noexcept;
   void ServiceSetup() noexcept;
   bool SendHeartbeatIfDue(std::uint64_t now_ns) noexcept;
@@ -191,6 +195,11 @@ class Cia402Drive {
   std::array<std::array<std::uint32_t, canopen::kMaxPdoEntries>, 4> tpdo_values_{};
   std::array<std::array<std::uint32_t, canopen::kMaxPdoEntries>, 4> rpdo_values_{};
   std::array<std::uint64_t, 4> tpdo_stamp_ns_{};
+  Slot statusword_slot_{}, position_slot_{}, velocity_slot_{}, torque_slot_{};
+  Slot controlword_slot_{}, target_torque_slot_{};
+  unsigned tpdo_seen_mask_ = 0;  ///< TPDOs received since the last Read (bit per slot).
+  bool configured_ = false;
+  bool heartbeat_lost_ = false;
 
   bool active_ = false;
   bool quick_stop_requested_ = false;
