@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <string>
 
 #include "can_test_helpers.hpp"
 #include "teleop/error.hpp"
@@ -52,11 +53,14 @@ TEST(SocketCan, ExchangesSamplesOnARealInterface) {
       master_port = std::make_unique<SocketCanPort>(iface, format, proto::SenderRole::kMaster);
       slave_port = std::make_unique<SocketCanPort>(iface, format, proto::SenderRole::kSlave);
     } catch (const Error& e) {
-      if (fd) {
+      // CAN_EXPECT_FD=1 (the qemu guest switches vcan0 to MTU 72): an FD interface that cannot be opened is a
+      // failure, not a skip.
+      const char* expect_fd = std::getenv("CAN_EXPECT_FD");
+      if (fd && (expect_fd == nullptr || std::string(expect_fd) != "1")) {
         std::printf("FD skipped: %s\n", e.what());
         continue;
       }
-      throw;
+      FAIL() << (fd ? "fd" : "classic") << " SocketCAN port on " << iface << ": " << e.what();
     }
     CanLink master(format, proto::SenderRole::kMaster, std::move(master_port));
     CanLink slave(format, proto::SenderRole::kSlave, std::move(slave_port));

@@ -30,5 +30,10 @@ if grep -q "^\[  SKIPPED \] SocketCan.ExchangesSamplesOnARealInterface" "${log}"
   echo "FAIL: the exchange test skipped in the guest" >&2
   exit 1
 fi
+# vcan0 is CAN FD in the guest: the FD half must have run (its summary line), never been skipped.
+if grep -q "^FD skipped" "${log}" || ! grep -q "^fd: CAN frames sent" "${log}"; then
+  echo "FAIL: the CAN FD exchange did not run in the guest" >&2
+  exit 1
+fi
 cat "${out}/timing.env"
 echo "PASS"
