@@ -20,7 +20,8 @@ if [[ ${status} -ne 0 ]]; then
   exit 1
 fi
 # On a kernel with AF_CAN: the missing-interface and exchange tests must run (not skip); the no-AF_CAN test skips.
-for name in SocketCan.MissingInterfaceIsNamed SocketCan.ExchangesSamplesOnARealInterface; do
+for name in SocketCan.MissingInterfaceIsNamed SocketCan.ExchangesSamplesOnARealInterface \
+  SocketCan.ReceiveFiltersOnARealInterface; do
   if ! grep -q "^\[       OK \] ${name} " "${log}"; then
     echo "FAIL: ${name} did not run and pass in the guest" >&2
     exit 1
