@@ -317,7 +317,8 @@ void Cia402Drive::WritePdo(const PdoMapping& m, bool tpdo) {
   const auto comm = static_cast<std::uint16_t>((tpdo ? obj301::kTpdoCommunication : obj301::kRpdoCommunication) + n);
   const auto map = static_cast<std::uint16_t>((tpdo ? obj301::kTpdoMapping : obj301::kRpdoMapping) + n);
   const std::uint32_t cob = canopen::PdoCobId(m, tpdo, config_.node_id);
-  // CiA 301 §7.5.2.36: invalidate the PDO, clear the count, write the entries, set the count, make it valid.
+  // CiA 301 PDO mapping procedure: invalidate the PDO, clear the count, write the entries, set the count, make it
+  // valid.
   sdo_.Download(comm, 1, cob | canopen::cob::kInvalidBit, 4);
   sdo_.Download(map, 0, 0, 1);
   for (int k = 0; k < m.entry_count; ++k) {

@@ -325,7 +325,7 @@ void SimulatedCia402Drive::HandleRpdo(int n, const CanFrame& frame) noexcept {
 
 void SimulatedCia402Drive::HandleSync() noexcept {
   ++counters_.syncs;
-  // Synchronous RPDOs take effect at the SYNC after their reception (CiA 301 §7.2.2.2).
+  // Synchronous RPDOs take effect at the SYNC after their reception (CiA 301, synchronous transmission).
   if (pending_rpdo_) {
     pending_rpdo_ = false;
     target_torque_ = pending_target_torque_;
@@ -471,7 +471,7 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame) noexcept {
       if (sub == 0) return reply(static_cast<std::uint32_t>(map.entry_count), 1);
       return reply(map.entries[sub - 1u].MappingValue(), 4);
     }
-    // CiA 301 §7.5.2.36: the mapping changes only while the PDO is invalid; entries only while sub 0 is 0.
+    // CiA 301 PDO mapping procedure: the mapping changes only while the PDO is invalid; entries only while sub 0 is 0.
     if (valid) return abort(abort_code::kCannotStoreState);
     if (sub == 0) {
       if (!length_ok(1)) return;

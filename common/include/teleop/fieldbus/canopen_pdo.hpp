@@ -1,7 +1,7 @@
 #pragma once
 
-// Process data objects (CiA 301 §7.2.2, §7.5.2.35-38): a PDO's mapping (object, subindex, bit length per entry)
-// and the packing of the mapped values into one classic CAN frame, little-endian, entry after entry. Only whole
+// Process data objects (CiA 301: PDO service, objects 0x1400-0x1BFF): a PDO's mapping (object, subindex, bit length per
+// entry) and the packing of the mapped values into one classic CAN frame, little-endian, entry after entry. Only whole
 // bytes of 8, 16 or 32 bits are mapped here. Pure: no I/O, no allocation, no exceptions.
 
 #include <array>

@@ -1,6 +1,6 @@
 #pragma once
 
-// Expedited SDO transfers (CiA 301 §7.2.4.3): the subset a drive's set-up needs, values of 1..4 bytes in one frame
+// Expedited SDO transfers (CiA 301, SDO service): the subset a drive's set-up needs, values of 1..4 bytes in one frame
 // each way. Segmented and block transfers are not implemented: a server that answers with one is refused with a
 // clear error (and a server here aborts a request it cannot serve expeditedly). Pure encode/decode: no I/O,
 // no allocation, no exceptions.
@@ -11,7 +11,7 @@
 
 namespace teleop::fieldbus::canopen {
 
-/// SDO abort codes (CiA 301 §7.2.4.3.17, Table 22).
+/// SDO abort codes (CiA 301, "SDO abort codes").
 namespace sdo_abort {
 inline constexpr std::uint32_t kToggleBit = 0x0503'0000;
 inline constexpr std::uint32_t kTimeout = 0x0504'0000;
@@ -38,7 +38,7 @@ inline constexpr std::uint32_t kCannotStoreLocal = 0x0800'0021;
 inline constexpr std::uint32_t kCannotStoreState = 0x0800'0022;  ///< Because of the present device state.
 }  // namespace sdo_abort
 /// The standard's text for an abort code ("Object does not exist in the object dictionary"), or
-/// "unknown abort code" for anything not in Table 22.
+/// "unknown abort code" for anything not in that table.
 const char* DescribeSdoAbort(std::uint32_t code) noexcept;
 
 /// One expedited SDO frame, decoded. Byte 0 is the command specifier (ccs/scs in bits 7..5), bytes 1..2 the index

@@ -7,7 +7,7 @@
 
 namespace teleop::fieldbus::cia402 {
 
-/// The states of CiA 402 §6.2 (Figure "State machine"), as decoded from the statusword.
+/// The states of CiA 402 (figure "State machine"), as decoded from the statusword.
 enum class DriveState : std::uint8_t {
   kNotReadyToSwitchOn,
   kSwitchOnDisabled,
@@ -104,7 +104,7 @@ inline constexpr std::int8_t kModeCyclicSynchronousTorque = 10;
 inline constexpr std::uint32_t kDeviceProfile402 = 0x0192;
 
 /// The drive side of the state machine (the simulated drive; a test oracle). Transitions are numbered as in
-/// CiA 402 §6.2. No allocation, no exceptions.
+/// CiA 402. No allocation, no exceptions.
 class DriveStateMachine {
  public:
   DriveState state() const noexcept { return state_; }
