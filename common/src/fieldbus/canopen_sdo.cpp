@@ -18,12 +18,12 @@ CanFrame SdoFrame(std::uint32_t cob_id, std::uint8_t command, std::uint16_t inde
 }
 
 void PutValue(CanFrame& f, std::uint32_t value) noexcept {
-  for (int i = 0; i < 4; ++i) f.data[static_cast<std::size_t>(4 + i)] = static_cast<std::uint8_t>(value >> (8 * i));
+  for (std::size_t i = 0; i < 4; ++i) f.data[4 + i] = static_cast<std::uint8_t>(value >> (8 * i));
 }
 
 std::uint32_t GetValue(const CanFrame& f) noexcept {
   std::uint32_t v = 0;
-  for (int i = 3; i >= 0; --i) v = v << 8 | f.data[static_cast<std::size_t>(4 + i)];
+  for (std::size_t i = 4; i > 0; --i) v = v << 8 | f.data[3 + i];
   return v;
 }
 

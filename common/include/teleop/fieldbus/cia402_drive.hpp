@@ -209,7 +209,6 @@ class Cia402Drive {
   bool boot_seen_ = false;
   std::uint64_t last_heartbeat_ns_ = 0;
   std::uint64_t next_host_heartbeat_ns_ = 0;
-  std::uint64_t last_data_ns_ = 0;
   std::uint16_t statusword_ = 0;
   std::uint16_t controlword_ = 0;
   double commanded_torque_Nm_ = 0.0;
