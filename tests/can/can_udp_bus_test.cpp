@@ -106,8 +106,10 @@ TEST_F(UdpBusTest, TwoLinksExchangeSamples) {
   CanLink slave(format, proto::SenderRole::kSlave, Attach());
   proto::SampleMessage out{};
   int slave_got = 0, master_got = 0;
-  // Each cycle polls both ends until each has the other's cycle, or 2 s passed (a loaded machine): no fixed sleeps,
-  // so every cycle must arrive, intact and in order.
+  // Each cycle polls both ends until each has the other's cycle, or 2 s passed (a loaded machine), so every cycle
+  // must arrive, intact and in order. The polls are 1 ms apart, as in a 1 kHz loop: a CanLink drops a partial
+  // cycle untouched for CycleAssembler::kExpiryTicks polls, so polling much faster than the loop would drop a cycle
+  // whose second frame is merely a few hundred µs behind its first.
   for (std::uint32_t s = 0; s < 50; ++s) {
     ASSERT_TRUE(master.Send(test::MakeSample(proto::SenderRole::kMaster, 3, s)));
     ASSERT_TRUE(slave.Send(test::MakeSample(proto::SenderRole::kSlave, 3, s)));
@@ -124,7 +126,7 @@ TEST_F(UdpBusTest, TwoLinksExchangeSamples) {
         at_master = out.sequence == s;
         master_got += at_master ? 1 : 0;
       }
-      if (!(at_slave && at_master)) std::this_thread::sleep_for(std::chrono::microseconds(50));
+      if (!(at_slave && at_master)) std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
   }
   EXPECT_EQ(slave_got, 50);
@@ -165,11 +167,12 @@ TEST_F(UdpBusTest, ControlDatagramsInjectErrorsAndBusOff) {
   auto a = Attach();
   auto b = Attach();
   const int a_node = a->node();
+  UdpCanBusPort* a_port = a.get();
   proto::can::CanWireFormat format{};
   format.dof = 1;
   CanLink master(format, proto::SenderRole::kMaster, std::move(a));
-  ASSERT_TRUE(b->SendControl(bus_datagram::Action::kInjectErrors, 1));
-  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  // The control datagram and the frame leave the same socket, so the daemon handles them in that order: no sleep.
+  ASSERT_TRUE(a_port->SendControl(bus_datagram::Action::kInjectErrors, 1));
   ASSERT_TRUE(master.Send(test::MakeSample(proto::SenderRole::kMaster, 1, 0)));
   const auto frames = ReadFrames(*b, 2);  // error frame, then the retransmitted frame
   ASSERT_EQ(frames.size(), 2u);
