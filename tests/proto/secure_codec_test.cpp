@@ -28,8 +28,8 @@ Bytes Append(Bytes head, std::span<const std::uint8_t> tail) {
 }
 
 // The hello of docs/protocol.md: master, ephemeral key 00..1F, tag A0..BF.
-const Bytes kGoldenHello = Append(Append({0x54, 0x4C, 0x4F, 0x50, 0x02, 0x02, 0x00, 0x00}, Ramp<32>(0x00)),
-                                  Ramp<32>(0xA0));
+const Bytes kGoldenHello =
+    Append(Append({0x54, 0x4C, 0x4F, 0x50, 0x02, 0x02, 0x00, 0x00}, Ramp<32>(0x00)), Ramp<32>(0xA0));
 // The confirm: master, session id 0x0102030405060708, tag C0..DF.
 const Bytes kGoldenConfirm = Append(
     {0x54, 0x4C, 0x4F, 0x50, 0x02, 0x04, 0x00, 0x00, 0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01}, Ramp<32>(0xC0));
@@ -114,7 +114,9 @@ TEST(SecureCodec, FrameDecodeGivesViewsIntoTheDatagram) {
     buffer[24] = static_cast<std::uint8_t>(n);
     buffer[25] = static_cast<std::uint8_t>(n >> 8);
     const bool sample_size = n >= 64 && n <= 184 && (n - 64) % 24 == 0;
-    EXPECT_EQ(DecodeSecureFrame(std::span(buffer).first(28 + n + 16), view), sample_size ? DecodeStatus::kOk : DecodeStatus::kBadLength) << n;
+    EXPECT_EQ(DecodeSecureFrame(std::span(buffer).first(28 + n + 16), view),
+              sample_size ? DecodeStatus::kOk : DecodeStatus::kBadLength)
+        << n;
   }
 }
 

@@ -30,7 +30,8 @@ SecureSessionConfig Config(SenderRole role, int dof) {
 }
 
 struct Pair {
-  explicit Pair(int dof) : master(Config(SenderRole::kMaster, dof), Key()), slave(Config(SenderRole::kSlave, dof), Key()) {
+  explicit Pair(int dof)
+      : master(Config(SenderRole::kMaster, dof), Key()), slave(Config(SenderRole::kSlave, dof), Key()) {
     std::array<std::uint8_t, teleop::proto::kMaxSecureMessageSize> a{};
     std::array<std::uint8_t, teleop::proto::kMaxSecureMessageSize> b{};
     teleop::proto::SampleMessage unused{};

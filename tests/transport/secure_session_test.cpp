@@ -335,8 +335,7 @@ TEST_F(EstablishedPair, ReplaysAreRejectedAtOnceAndAfterAnyDelay) {
     ASSERT_EQ(slave_.Feed(master_.Seal(Sample(SenderRole::kMaster, n))).status, S::kSample);
   }
   for (const Bytes& old : captured) EXPECT_EQ(slave_.Feed(old).status, S::kTooOld);
-  ExpectOnly(slave_.session.counters(),
-             {{S::kHandshake, 2}, {S::kSample, 320}, {S::kReplayed, 21}, {S::kTooOld, 20}});
+  ExpectOnly(slave_.session.counters(), {{S::kHandshake, 2}, {S::kSample, 320}, {S::kReplayed, 21}, {S::kTooOld, 20}});
 }
 
 TEST_F(EstablishedPair, ReorderingWithinTheWindowIsAcceptedOnceBeyondItRefused) {
@@ -528,8 +527,8 @@ TEST(SecureSession, InboundFloodsAreRateLimitedBeforeAnyParsing) {
   now += 1'000'000'000;
   std::vector<S> statuses;
   for (int i = 0; i < 5; ++i) statuses.push_back(slave.Receive(Hello(master), now, reply, out).status);
-  EXPECT_EQ(statuses, (std::vector<S>{S::kHandshake, S::kHandshake, S::kHandshakeRateLimited,
-                                      S::kHandshakeRateLimited, S::kHandshakeRateLimited}));
+  EXPECT_EQ(statuses, (std::vector<S>{S::kHandshake, S::kHandshake, S::kHandshakeRateLimited, S::kHandshakeRateLimited,
+                                      S::kHandshakeRateLimited}));
 }
 
 TEST(SecureSession, RejectsInvalidConfigs) {

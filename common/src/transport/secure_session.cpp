@@ -124,8 +124,9 @@ SecureSession::SecureSession(const SecureSessionConfig& config, const PreSharedK
   const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
   if (!positive(config.max_speed_m_per_s) || !positive(config.max_force_N) || !std::isfinite(config.position_slack_m) ||
       config.position_slack_m < 0.0) {
-    throw Error("secure session: plausibility bounds must be finite and positive (max_speed_m_per_s, max_force_N; "
-                "position_slack_m >= 0)");
+    throw Error(
+        "secure session: plausibility bounds must be finite and positive (max_speed_m_per_s, max_force_N; "
+        "position_slack_m >= 0)");
   }
   if (!positive(config.max_datagrams_per_s) || !positive(config.max_handshakes_per_s) ||
       !(config.datagram_burst >= 1.0) || !(config.handshake_burst >= 1.0)) {
@@ -387,10 +388,8 @@ SecureReceiveResult SecureSession::OnFrame(std::span<const std::uint8_t> datagra
 }
 
 bool SecureSession::Plausible(const Keys& keys, const proto::SampleMessage& sample, bool newest) const noexcept {
-  const bool check_step =
-      newest && keys.have_newest && sample.sender_time_ns > keys.newest.sender_time_ns;
-  const double dt_s =
-      check_step ? static_cast<double>(sample.sender_time_ns - keys.newest.sender_time_ns) * 1e-9 : 0.0;
+  const bool check_step = newest && keys.have_newest && sample.sender_time_ns > keys.newest.sender_time_ns;
+  const double dt_s = check_step ? static_cast<double>(sample.sender_time_ns - keys.newest.sender_time_ns) * 1e-9 : 0.0;
   for (std::size_t i = 0; i < sample.dof; ++i) {
     if (std::fabs(sample.velocity_m_per_s[i]) > config_.max_speed_m_per_s) return false;
     if (std::fabs(sample.force_N[i]) > config_.max_force_N) return false;
@@ -430,10 +429,9 @@ std::size_t SecureSession::Seal(const proto::SampleMessage& sample, std::span<st
     return 0;
   }
   const auto nonce = proto::FrameNonce(header.sender, sequence);
-  crypto_aead_chacha20poly1305_ietf_encrypt_detached(out.data() + sw::kFrameHeaderSize,
-                                                     out.data() + sw::kFrameHeaderSize + plain_size, nullptr,
-                                                     plaintext_.data(), plain_size, out.data(), sw::kFrameHeaderSize,
-                                                     nullptr, nonce.data(), current_.tx.data());
+  crypto_aead_chacha20poly1305_ietf_encrypt_detached(
+      out.data() + sw::kFrameHeaderSize, out.data() + sw::kFrameHeaderSize + plain_size, nullptr, plaintext_.data(),
+      plain_size, out.data(), sw::kFrameHeaderSize, nullptr, nonce.data(), current_.tx.data());
   current_.next_tx_sequence = sequence + 1;
   ++counters_.sealed;
   return total;
