@@ -4,7 +4,11 @@
 
 #include <array>
 #include <cstdint>
+#include <cstdio>
 
+#include "teleop/proto/can/bus_load.hpp"
+#include "teleop/proto/can/can_frame.hpp"
+#include "teleop/proto/can/frame_layout.hpp"
 #include "teleop/transport/secure_session.hpp"
 
 namespace {
@@ -104,6 +108,47 @@ void BM_Handshake(benchmark::State& state) {
 }
 BENCHMARK(BM_Handshake)->Unit(benchmark::kMicrosecond);
 
+// What authentication would cost on CAN (docs/security.md, "CAN"): the bus load of the plain layout (docs/can.md)
+// and of the two options that fit the frame budget: classic CAN adds one 8-byte frame per cycle (2 bytes of
+// sequence extension + a 48-bit truncated MAC); CAN FD adds 12 bytes to its one frame (4 bytes of sequence + a
+// 64-bit truncated MAC), rounded up to an FD length. Both directions, worst-case stuffing, at `rate_hz`.
+void PrintCanBudget() {
+  namespace can = teleop::proto::can;
+  const can::CanBitrates rates{};
+  std::printf("CAN bus load, both directions, worst-case stuffing (limit 70 %%)\n");
+  std::printf("%-22s %4s %8s %10s %14s %10s\n", "bus", "DOF", "rate", "plain", "authenticated", "auth bytes");
+  for (const bool fd : {false, true}) {
+    for (const int dof : {1, 2, 3, 6}) {
+      for (const double rate_hz : {500.0, 1000.0}) {
+        can::CanWireFormat format{};
+        format.dof = dof;
+        format.fd = fd;
+        const can::BusLoad plain = can::ComputeBusLoad(format, rates, rate_hz);
+        double auth_time_s = plain.wire_time_per_cycle_s;
+        int auth_bytes = 0;
+        if (fd) {
+          const std::size_t bytes = can::RoundUpToFdLength(static_cast<std::size_t>(can::FdDataBytes(dof)) + 12);
+          auth_time_s = can::FrameTime_s(true, true, false, bytes, rates);
+          auth_bytes = static_cast<int>(bytes) - plain.data_bytes_per_cycle;
+        } else {
+          auth_time_s += can::FrameTime_s(false, false, false, 8, rates);
+          auth_bytes = 8;
+        }
+        std::printf("%-22s %4d %6.0f Hz %8.1f %% %12.1f %% %10d\n", fd ? "FD 1/5 Mbit/s" : "classic 1 Mbit/s", dof,
+                    rate_hz, 100.0 * plain.load, 100.0 * 2.0 * auth_time_s * rate_hz, auth_bytes);
+      }
+    }
+  }
+  std::printf("\n");
+}
+
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  PrintCanBudget();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
