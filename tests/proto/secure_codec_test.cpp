@@ -4,7 +4,11 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cstdint>
+#include <fstream>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include "teleop/proto/codec.hpp"
@@ -161,6 +165,38 @@ TEST(SecureCodec, DecodersRejectInTheDocumentedOrder) {
   EXPECT_EQ(kind.version, kProtocolVersion);
   EXPECT_EQ(kind.type, 1u);
   EXPECT_EQ(ClassifyDatagram(Bytes{0x54, 0x4C, 0x4F, 0x50, 0x02}).status, DecodeStatus::kTooShort);
+}
+
+// The hex dumps in docs/protocol.md ("Authenticated session") are these golden bytes: the leading run of two-digit
+// hex tokens of each line of the fenced block after `marker`.
+Bytes DocDump(const std::string& marker) {
+  std::ifstream in(std::string(TELEOP_SOURCE_DIR) + "/docs/protocol.md");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string doc = text.str();
+  const std::size_t at = doc.find(marker);
+  if (at == std::string::npos) return {};
+  const std::size_t begin = doc.find("```\n", at);
+  const std::size_t end = doc.find("```", begin + 4);
+  if (begin == std::string::npos || end == std::string::npos) return {};
+  Bytes out;
+  std::istringstream lines(doc.substr(begin + 4, end - begin - 4));
+  for (std::string line; std::getline(lines, line);) {
+    std::istringstream tokens(line);
+    for (std::string t; tokens >> t;) {
+      if (t.size() != 2 || !std::isxdigit(static_cast<unsigned char>(t[0])) ||
+          !std::isxdigit(static_cast<unsigned char>(t[1]))) {
+        break;
+      }
+      out.push_back(static_cast<std::uint8_t>(std::stoul(t, nullptr, 16)));
+    }
+  }
+  return out;
+}
+
+TEST(SecureCodec, TheProtocolPageShowsTheGoldenBytes) {
+  EXPECT_EQ(DocDump("Example hello"), kGoldenHello);
+  EXPECT_EQ(DocDump("Example frame header"), kGoldenFrameHeader);
 }
 
 }  // namespace
