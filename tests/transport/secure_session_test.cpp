@@ -546,6 +546,47 @@ TEST(SecureSession, RejectsInvalidConfigs) {
 }
 
 // ---------------------------------------------------------------------------------------------------------------
+// The two small pieces on their own
+
+TEST(SecureReplayWindow, SlidesAndForgetsExactlyAtItsWidth) {
+  SecureReplayWindow w;
+  EXPECT_EQ(w.Classify(~std::uint64_t{0}), SecureReplayWindow::Check::kFresh);  // nothing seen yet
+  EXPECT_TRUE(w.Mark(1000));
+  EXPECT_EQ(w.Classify(1000), SecureReplayWindow::Check::kReplayed);
+  EXPECT_EQ(w.Classify(1000 - 255), SecureReplayWindow::Check::kFresh);
+  EXPECT_EQ(w.Classify(1000 - 256), SecureReplayWindow::Check::kTooOld);
+  EXPECT_FALSE(w.Mark(990));  // late, inside: accepted once
+  EXPECT_EQ(w.Classify(990), SecureReplayWindow::Check::kReplayed);
+  // Advancing by less than the width keeps the marks still inside, clears the slots it reuses.
+  EXPECT_TRUE(w.Mark(1100));
+  EXPECT_EQ(w.Classify(990), SecureReplayWindow::Check::kReplayed);
+  EXPECT_EQ(w.Classify(1000), SecureReplayWindow::Check::kReplayed);
+  EXPECT_EQ(w.Classify(1099), SecureReplayWindow::Check::kFresh);
+  EXPECT_EQ(w.Classify(1000 + 256 - 1), SecureReplayWindow::Check::kFresh);
+  // A jump of the full width or more forgets everything behind.
+  EXPECT_TRUE(w.Mark(1100 + 256));
+  EXPECT_EQ(w.Classify(1100), SecureReplayWindow::Check::kTooOld);
+  EXPECT_EQ(w.Classify(1101), SecureReplayWindow::Check::kFresh);
+  EXPECT_TRUE(w.Mark(~std::uint64_t{0}));
+  EXPECT_EQ(w.Classify(~std::uint64_t{0}), SecureReplayWindow::Check::kReplayed);
+  EXPECT_EQ(w.newest(), ~std::uint64_t{0});
+}
+
+TEST(SecureRateLimiter, RefillsAtItsRateUpToItsBurstAndIgnoresAClockGoingBack) {
+  SecureRateLimiter bucket(1000.0, 3.0);  // 1 token per ms
+  const std::uint64_t t0 = 7'000'000'000;
+  int taken = 0;
+  for (int i = 0; i < 10; ++i) taken += bucket.TryTake(t0) ? 1 : 0;
+  EXPECT_EQ(taken, 3);
+  EXPECT_FALSE(bucket.TryTake(t0 + 999'000));   // 0.999 tokens
+  EXPECT_TRUE(bucket.TryTake(t0 + 1'100'000));  // 1.1 tokens
+  EXPECT_FALSE(bucket.TryTake(t0 - 5'000'000'000)) << "a clock going back must not add tokens";
+  taken = 0;
+  for (int i = 0; i < 10; ++i) taken += bucket.TryTake(t0 + 60'000'000'000) ? 1 : 0;
+  EXPECT_EQ(taken, 3) << "a long pause refills to the burst, not beyond";
+}
+
+// ---------------------------------------------------------------------------------------------------------------
 // Real time
 
 TEST_F(EstablishedPair, SealAndReceiveDoNotAllocate) {
