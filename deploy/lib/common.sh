@@ -10,7 +10,7 @@ TELEOP_PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev libboost-dev libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev libsodium-dev libmodbus-dev
-  clang-format clang-tidy
+  clang-format clang-tidy clang libclang-rt-14-dev
   gnuplot-nox python3
   iproute2 can-utils
   qemu-system-x86 busybox-static cpio kmod
