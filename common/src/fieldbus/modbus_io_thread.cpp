@@ -226,6 +226,7 @@ std::uint32_t ModbusIoThread::LatestReading(ModbusReading& out, double now_s) no
     out.faults |= device::kFaultCommunication;
     counters_->stale_readings.fetch_add(1, std::memory_order_relaxed);
   }
+  out.stale = stale;
   loop_stale_ = stale;
   return out.faults;
 }
@@ -462,6 +463,7 @@ void ModbusIoThread::Run() noexcept {
     }
 
     bus.reading.faults = bus.faulted ? device::kFaultCommunication : device::kFaultNone;
+    bus.reading.failed_cycles = bus.faulted ? bus.reading.failed_cycles + 1 : 0;
     bus.reading.outputs_safe = bus.outputs_safe;
     readings_.Write(bus.reading);
 

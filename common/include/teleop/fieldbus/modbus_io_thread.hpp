@@ -33,6 +33,11 @@ struct ModbusReading {
   std::uint32_t faults = device::kFaultNone;
   /// True when the I/O thread wrote the outputs' safe values in its newest cycle (no fresh command from the loop).
   bool outputs_safe = true;
+  /// Set by LatestReading(): the newest good poll is older than stale_after_ms (or there is none); faults then
+  /// holds kFaultCommunication whatever the I/O thread last said.
+  bool stale = true;
+  /// I/O thread cycles in a row that failed (0 while healthy), when this reading was published.
+  std::uint32_t failed_cycles = 0;
 };
 
 /// Every failure kind, counted (monotonic since Start()). Read with ModbusIoThread::counters() from any thread.
