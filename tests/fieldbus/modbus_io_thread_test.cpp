@@ -51,7 +51,7 @@ ModbusConfig TcpConfig(int port) {
   c.transport = ModbusTransport::kTcp;
   c.tcp.port = port;
   c.poll_period_ms = 10.0;
-  c.response_timeout_ms = 100.0;
+  c.response_timeout_ms = 300.0;  // generous: a loaded machine must not time out a healthy server
   c.connect_timeout_ms = 500.0;
   c.reconnect_initial_ms = 50.0;
   c.reconnect_max_ms = 200.0;
@@ -150,9 +150,11 @@ TEST(ModbusIoThread, SafeValuesBeforeTheFirstCommandAfterCommandTimeoutAndOnStop
   // The loop stops publishing: after command_timeout_ms the thread falls back to the safe values, once.
   ASSERT_TRUE(WaitFor([&] { return server.Control("get hr 10 3") == "0 250 0"; }));
   EXPECT_EQ(io.counters().command_timeouts, 1u);
-  ModbusReading r;
-  (void)io.LatestReading(r);
-  EXPECT_TRUE(r.outputs_safe);
+  EXPECT_TRUE(WaitFor([&] {  // published at the end of the cycle that wrote them
+    ModbusReading r;
+    (void)io.LatestReading(r);
+    return r.outputs_safe;
+  }));
   // A new command takes over again; Stop() writes the safe values on the way out.
   io.PublishCommand(command);
   ASSERT_TRUE(WaitFor([&] { return server.Control("get hr 10 3") == "0 1000 3"; }));
@@ -229,9 +231,9 @@ TEST(ModbusIoThread, IllegalAddressExceptionCode) {
 
 TEST(ModbusIoThread, LateAnswersAreTimeoutFaults) {
   ModbusTestServer server = ModbusTestServer::Tcp();
-  ModbusIoThread io(TcpConfig(server.modbus_port()));  // response timeout 100 ms
+  ModbusIoThread io(TcpConfig(server.modbus_port()));  // response timeout 300 ms
   io.Start();
-  const ModbusCounters c = FaultThenRecovery(server, io, "late 400");
+  const ModbusCounters c = FaultThenRecovery(server, io, "late 1000");
   EXPECT_GE(c.timeouts, 1u);
   EXPECT_EQ(c.exceptions, 0u);
   EXPECT_EQ(c.protocol_errors, 0u) << "the late answer arrives on a closed connection, never misread";
@@ -265,20 +267,20 @@ TEST(ModbusIoThread, DeadServerIsRetriedWithBackoff) {
 TEST(ModbusIoThread, StaleReadingIsAFaultAfterTheConfiguredAgeWhateverTheThreadDoes) {
   ModbusTestServer server = ModbusTestServer::Tcp();
   ModbusConfig config = TcpConfig(server.modbus_port());
-  config.stale_after_ms = 300.0;
+  config.stale_after_ms = 400.0;
   ModbusIoThread io(config);
   io.Start();
   ASSERT_TRUE(WaitFor([&] { return Healthy(io); }));
   const ModbusReading good = ThreadView(io);
   ModbusReading r;
   // On the loop's clock, relative to the reading's own stamp: deterministic.
-  EXPECT_EQ(io.LatestReading(r, good.stamp_s + 0.299), device::kFaultNone);
+  EXPECT_EQ(io.LatestReading(r, good.stamp_s + 0.399), device::kFaultNone);
   EXPECT_FALSE(r.stale);
-  EXPECT_EQ(io.LatestReading(r, good.stamp_s + 0.300), device::kFaultNone) << "age == bound is still fresh";
+  EXPECT_EQ(io.LatestReading(r, good.stamp_s + 0.400 - 1e-6), device::kFaultNone) << "just inside the bound";
   const std::uint64_t stale_before = io.counters().stale_readings;
-  // (The thread keeps polling: ask about a reading at least as new as `good`, at 301 ms past its own stamp.)
+  // (The thread keeps polling: ask about a reading at least as new as `good`, at 401 ms past its own stamp.)
   (void)io.LatestReading(r, -std::numeric_limits<double>::infinity());
-  EXPECT_NE(io.LatestReading(r, r.stamp_s + 0.301) & device::kFaultCommunication, 0u);
+  EXPECT_NE(io.LatestReading(r, r.stamp_s + 0.401) & device::kFaultCommunication, 0u);
   EXPECT_TRUE(r.stale);
   EXPECT_NE(io.LatestReading(r, std::numeric_limits<double>::quiet_NaN()) & device::kFaultCommunication, 0u);
   EXPECT_EQ(io.counters().stale_readings, stale_before + 2);
@@ -292,8 +294,9 @@ TEST(ModbusIoThread, BlockedThreadIsCaughtByStalenessBeforeItNotices) {
   ModbusIoThread io(config);
   io.Start();
   ASSERT_TRUE(WaitFor([&] { return Healthy(io); }));
-  ASSERT_EQ(server.Control("mode stop"), "ok");
+  // Counted before the switch: the first request to go unanswered comes after it.
   const std::uint64_t requests = std::stoull(server.Control("requests"));
+  ASSERT_EQ(server.Control("mode stop"), "ok");
   ASSERT_TRUE(WaitFor([&] { return std::stoull(server.Control("requests")) > requests; }));
   // The thread now waits for an answer that does not come: no timeout counted yet, no fault from the thread...
   const ModbusReading r = ThreadView(io);
