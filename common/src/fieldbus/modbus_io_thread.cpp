@@ -233,25 +233,25 @@ std::uint32_t ModbusIoThread::LatestReading(ModbusReading& out, double now_s) no
 
 ModbusCounters ModbusIoThread::counters() const noexcept {
   const AtomicCounters& c = *counters_;
-  constexpr auto r = std::memory_order_relaxed;
+  constexpr auto kRelaxed = std::memory_order_relaxed;
   ModbusCounters out;
-  out.cycles = c.cycles.load(r);
-  out.polls_ok = c.polls_ok.load(r);
-  out.transactions = c.transactions.load(r);
-  out.timeouts = c.timeouts.load(r);
-  out.exceptions = c.exceptions.load(r);
-  out.last_exception_code = c.last_exception_code.load(r);
-  out.protocol_errors = c.protocol_errors.load(r);
-  out.disconnects = c.disconnects.load(r);
-  out.connects = c.connects.load(r);
-  out.connect_failures = c.connect_failures.load(r);
-  out.fault_entries = c.fault_entries.load(r);
-  out.watchdog_trips = c.watchdog_trips.load(r);
-  out.command_timeouts = c.command_timeouts.load(r);
-  out.clamped_commands = c.clamped_commands.load(r);
-  out.non_finite_commands = c.non_finite_commands.load(r);
-  out.commands_received = c.commands_received.load(r);
-  out.stale_readings = c.stale_readings.load(r);
+  out.cycles = c.cycles.load(kRelaxed);
+  out.polls_ok = c.polls_ok.load(kRelaxed);
+  out.transactions = c.transactions.load(kRelaxed);
+  out.timeouts = c.timeouts.load(kRelaxed);
+  out.exceptions = c.exceptions.load(kRelaxed);
+  out.last_exception_code = c.last_exception_code.load(kRelaxed);
+  out.protocol_errors = c.protocol_errors.load(kRelaxed);
+  out.disconnects = c.disconnects.load(kRelaxed);
+  out.connects = c.connects.load(kRelaxed);
+  out.connect_failures = c.connect_failures.load(kRelaxed);
+  out.fault_entries = c.fault_entries.load(kRelaxed);
+  out.watchdog_trips = c.watchdog_trips.load(kRelaxed);
+  out.command_timeouts = c.command_timeouts.load(kRelaxed);
+  out.clamped_commands = c.clamped_commands.load(kRelaxed);
+  out.non_finite_commands = c.non_finite_commands.load(kRelaxed);
+  out.commands_received = c.commands_received.load(kRelaxed);
+  out.stale_readings = c.stale_readings.load(kRelaxed);
   return out;
 }
 
@@ -275,9 +275,10 @@ class Worker {
       for (const Block::Member& m : b.members) {
         const ModbusPoint& p = config_.outputs[static_cast<std::size_t>(m.point)];
         const auto& w = words[static_cast<std::size_t>(m.point)];
-        for (int k = 0; k < RegisterCount(p); ++k) {
-          registers_[static_cast<std::size_t>(m.offset + k)] = w[static_cast<std::size_t>(k)];
-          bits_[static_cast<std::size_t>(m.offset + k)] = static_cast<std::uint8_t>(w[0] != 0 ? 1 : 0);
+        const auto first = static_cast<std::size_t>(m.offset);
+        for (std::size_t k = 0; k < static_cast<std::size_t>(RegisterCount(p)); ++k) {
+          registers_[first + k] = w[k];
+          bits_[first + k] = static_cast<std::uint8_t>(w[0] != 0 ? 1 : 0);
         }
       }
       transactions.fetch_add(1, std::memory_order_relaxed);
@@ -322,7 +323,7 @@ class Worker {
           words[0] = bits_[static_cast<std::size_t>(m.offset)];
         } else {
           words[0] = registers_[static_cast<std::size_t>(m.offset)];
-          if (RegisterCount(p) == 2) words[1] = registers_[static_cast<std::size_t>(m.offset + 1)];
+          if (RegisterCount(p) == 2) words[1] = registers_[static_cast<std::size_t>(m.offset) + 1];
         }
         values[static_cast<std::size_t>(m.point)] = DecodePoint(p, words);
       }
@@ -344,7 +345,7 @@ class Worker {
 void ModbusIoThread::Run() noexcept {
   Bus& bus = *bus_;
   AtomicCounters& c = *counters_;
-  constexpr auto relaxed = std::memory_order_relaxed;
+  constexpr auto kRelaxed = std::memory_order_relaxed;
   const double period_s = config_.poll_period_ms * 1e-3;
   const double command_timeout_s = config_.command_timeout_ms * 1e-3;
   runtime::LinkWatchdog watchdog(config_.stale_after_ms * 1e-3);
@@ -352,7 +353,7 @@ void ModbusIoThread::Run() noexcept {
   std::array<double, kMaxModbusPoints> values{};
 
   const auto enter_fault = [&] {
-    if (!bus.faulted) c.fault_entries.fetch_add(1, relaxed);
+    if (!bus.faulted) c.fault_entries.fetch_add(1, kRelaxed);
     bus.faulted = true;
   };
   const auto disconnect = [&] {
@@ -362,7 +363,7 @@ void ModbusIoThread::Run() noexcept {
   const auto count_failure = [&](int err) {
     switch (Classify(err)) {
       case Failure::kTimeout:
-        c.timeouts.fetch_add(1, relaxed);
+        c.timeouts.fetch_add(1, kRelaxed);
         // TCP: a late answer would arrive in the next transaction's place; a new connection drops it. RTU: flush.
         if (config_.transport == ModbusTransport::kTcp) {
           disconnect();
@@ -371,11 +372,11 @@ void ModbusIoThread::Run() noexcept {
         }
         break;
       case Failure::kException:
-        c.exceptions.fetch_add(1, relaxed);
-        c.last_exception_code.store(static_cast<std::uint32_t>(err - MODBUS_ENOBASE), relaxed);
+        c.exceptions.fetch_add(1, kRelaxed);
+        c.last_exception_code.store(static_cast<std::uint32_t>(err - MODBUS_ENOBASE), kRelaxed);
         break;  // a complete, well-formed answer: the link is in step
       case Failure::kProtocol:
-        c.protocol_errors.fetch_add(1, relaxed);
+        c.protocol_errors.fetch_add(1, kRelaxed);
         if (config_.transport == ModbusTransport::kTcp) {
           disconnect();
         } else {
@@ -384,7 +385,7 @@ void ModbusIoThread::Run() noexcept {
         break;
       case Failure::kDisconnect:
       case Failure::kNone:
-        c.disconnects.fetch_add(1, relaxed);
+        c.disconnects.fetch_add(1, kRelaxed);
         disconnect();
         break;
     }
@@ -392,8 +393,8 @@ void ModbusIoThread::Run() noexcept {
   };
 
   double cycle_start_s = NowS();
-  while (!stop_.load(relaxed)) {
-    c.cycles.fetch_add(1, relaxed);
+  while (!stop_.load(kRelaxed)) {
+    c.cycles.fetch_add(1, kRelaxed);
     const double now_s = NowS();
 
     // The loop's newest command, or the safe values when it has none / it went stale.
@@ -401,10 +402,10 @@ void ModbusIoThread::Run() noexcept {
       bus.have_command = true;
       bus.last_command_s = now_s;
       bus.outputs_encoded = false;
-      c.commands_received.fetch_add(1, relaxed);
+      c.commands_received.fetch_add(1, kRelaxed);
     }
     const bool safe = !bus.have_command || (command_timeout_s > 0.0 && now_s - bus.last_command_s > command_timeout_s);
-    if (safe && !bus.outputs_safe && bus.have_command) c.command_timeouts.fetch_add(1, relaxed);
+    if (safe && !bus.outputs_safe && bus.have_command) c.command_timeouts.fetch_add(1, kRelaxed);
     if (safe != bus.outputs_safe) bus.outputs_encoded = false;
     bus.outputs_safe = safe;
     if (!bus.outputs_encoded) {
@@ -412,8 +413,8 @@ void ModbusIoThread::Run() noexcept {
         const ModbusPoint& p = config_.outputs[i];
         const double v = safe ? p.safe_value : bus.command.values[i];
         const ModbusEncodeStatus s = EncodePoint(p, v, bus.output_words[i].data());
-        if (s == ModbusEncodeStatus::kClamped) c.clamped_commands.fetch_add(1, relaxed);
-        if (s == ModbusEncodeStatus::kNonFinite) c.non_finite_commands.fetch_add(1, relaxed);
+        if (s == ModbusEncodeStatus::kClamped) c.clamped_commands.fetch_add(1, kRelaxed);
+        if (s == ModbusEncodeStatus::kNonFinite) c.non_finite_commands.fetch_add(1, kRelaxed);
       }
       bus.outputs_encoded = true;
     }
@@ -424,9 +425,9 @@ void ModbusIoThread::Run() noexcept {
       if (modbus_connect(bus.ctx) == 0) {
         bus.connected = true;
         bus.connect_failures_in_a_row = 0;
-        c.connects.fetch_add(1, relaxed);
+        c.connects.fetch_add(1, kRelaxed);
       } else {
-        c.connect_failures.fetch_add(1, relaxed);
+        c.connect_failures.fetch_add(1, kRelaxed);
         modbus_close(bus.ctx);  // releases a half-opened socket/descriptor
         const double backoff_ms =
             std::min(config_.reconnect_max_ms,
@@ -449,7 +450,7 @@ void ModbusIoThread::Run() noexcept {
         bus.reading.stamp_s = done_s;
         bus.faulted = false;
         watchdog.Feed(done_s);
-        c.polls_ok.fetch_add(1, relaxed);
+        c.polls_ok.fetch_add(1, kRelaxed);
       } else {
         count_failure(err);
       }
@@ -458,7 +459,7 @@ void ModbusIoThread::Run() noexcept {
     // The thread's own watchdog: no good poll for stale_after_ms is a fault even if no transaction said so.
     const std::uint64_t trips_before = watchdog.trips();
     if (!watchdog.Fresh(NowS())) {
-      if (watchdog.trips() != trips_before) c.watchdog_trips.fetch_add(1, relaxed);
+      if (watchdog.trips() != trips_before) c.watchdog_trips.fetch_add(1, kRelaxed);
       if (watchdog.expired()) enter_fault();
     }
 
