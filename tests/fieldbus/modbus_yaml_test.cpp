@@ -74,6 +74,13 @@ TEST(ModbusYaml, ReadsAFullSection) {
   EXPECT_EQ(c.outputs[1].table, ModbusTable::kCoil);
 }
 
+TEST(ModbusYaml, PointsAreFoundByName) {
+  const ModbusConfig c = ParseModbusConfig(kFull, "amp.yaml");
+  EXPECT_EQ(FindPoint(c.inputs, "position_m"), 1);
+  EXPECT_EQ(FindPoint(c.outputs, "enable"), 1);
+  EXPECT_EQ(FindPoint(c.outputs, "force_N"), -1);
+}
+
 TEST(ModbusYaml, RtuWithDefaults) {
   const ModbusConfig c = ParseModbusConfig(R"(transport: rtu
 rtu: {device: /dev/ttyUSB0, parity: none, stop_bits: 2}
@@ -123,6 +130,9 @@ TEST(ModbusYaml, ErrorsNameTheFileLineColumnAndKey) {
   EXPECT_THAT(ErrorOf("transport: tcp\ntcp: {host: a}\npoll_period_ms: .nan\n"),
               HasSubstr("key 'poll_period_ms': must be a finite number"));
   EXPECT_THAT(ErrorOf("transport: [tcp\n"), HasSubstr("amp.yaml:"));
+  EXPECT_THAT(ErrorOf("transport: tcp\ntcp: {host: a}\ninputs: [{name: f, table: coil, address: 0}, {name: f, table: "
+                      "coil, address: 1}]\n"),
+              HasSubstr("two inputs are called 'f'"));
 }
 
 TEST(ModbusYaml, ReadsANestedSectionWithItsPath) {

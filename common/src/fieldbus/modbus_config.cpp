@@ -84,6 +84,13 @@ const char* ToString(ModbusWordOrder order) noexcept {
   return "?";
 }
 
+int FindPoint(const std::vector<ModbusPoint>& points, std::string_view name) noexcept {
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (points[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
 void Validate(const ModbusConfig& c) {
   if (c.transport == ModbusTransport::kTcp) {
     Require(!c.tcp.host.empty(), "tcp.host is empty");
@@ -121,10 +128,16 @@ void Validate(const ModbusConfig& c) {
           "at most " + std::to_string(kMaxModbusPoints) + " inputs, got " + std::to_string(c.inputs.size()));
   Require(static_cast<int>(c.outputs.size()) <= kMaxModbusPoints,
           "at most " + std::to_string(kMaxModbusPoints) + " outputs, got " + std::to_string(c.outputs.size()));
-  for (const ModbusPoint& p : c.inputs) ValidatePoint(p, "input", false);
+  for (std::size_t i = 0; i < c.inputs.size(); ++i) {
+    ValidatePoint(c.inputs[i], "input", false);
+    Require(FindPoint(c.inputs, c.inputs[i].name) == static_cast<int>(i),
+            "two inputs are called '" + c.inputs[i].name + "' (names must be unique)");
+  }
   for (std::size_t i = 0; i < c.outputs.size(); ++i) {
     const ModbusPoint& a = c.outputs[i];
     ValidatePoint(a, "output", true);
+    Require(FindPoint(c.outputs, a.name) == static_cast<int>(i),
+            "two outputs are called '" + a.name + "' (names must be unique)");
     for (std::size_t j = 0; j < i; ++j) {
       const ModbusPoint& b = c.outputs[j];
       const bool overlap =

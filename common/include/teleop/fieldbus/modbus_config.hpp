@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace teleop::fieldbus {
@@ -93,7 +94,8 @@ struct ModbusConfig {
 };
 
 /// Throws teleop::Error naming the field when the config is unusable: ranges, timing relations, an output in a
-/// read-only table, more than kMaxModbusPoints points, a point past address 65535, overlapping outputs.
+/// read-only table, more than kMaxModbusPoints points, a point past address 65535, overlapping outputs, two points
+/// of one direction with the same name.
 void Validate(const ModbusConfig& config);
 
 /// "holding_register", "int32", "high_word_first", ... (the YAML spellings).
@@ -102,5 +104,8 @@ const char* ToString(ModbusValueType type) noexcept;
 const char* ToString(ModbusWordOrder order) noexcept;
 /// Registers a point occupies (1 for 16-bit values and bits, 2 for 32-bit values).
 int RegisterCount(const ModbusPoint& point) noexcept;
+/// Index of the point called `name` in `points` (its slot in ModbusReading/ModbusCommand::values); -1 when absent.
+/// Set-up only: a backend looks its points up once by name.
+int FindPoint(const std::vector<ModbusPoint>& points, std::string_view name) noexcept;
 
 }  // namespace teleop::fieldbus
