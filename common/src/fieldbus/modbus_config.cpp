@@ -111,10 +111,12 @@ void Validate(const ModbusConfig& c) {
   }
   const auto positive = [](double v) { return Finite(v) && v > 0.0; };
   Require(positive(c.poll_period_ms), "poll_period_ms must be > 0, got " + Num(c.poll_period_ms));
-  Require(positive(c.response_timeout_ms), "response_timeout_ms must be > 0, got " + Num(c.response_timeout_ms));
+  Require(Finite(c.response_timeout_ms) && c.response_timeout_ms >= 1.0,
+          "response_timeout_ms must be >= 1, got " + Num(c.response_timeout_ms));
   Require(Finite(c.byte_timeout_ms) && c.byte_timeout_ms >= 0.0,
           "byte_timeout_ms must be >= 0, got " + Num(c.byte_timeout_ms));
-  Require(positive(c.connect_timeout_ms), "connect_timeout_ms must be > 0, got " + Num(c.connect_timeout_ms));
+  Require(Finite(c.connect_timeout_ms) && c.connect_timeout_ms >= 1.0,
+          "connect_timeout_ms must be >= 1, got " + Num(c.connect_timeout_ms));
   Require(positive(c.reconnect_initial_ms), "reconnect_initial_ms must be > 0, got " + Num(c.reconnect_initial_ms));
   Require(Finite(c.reconnect_max_ms) && c.reconnect_max_ms >= c.reconnect_initial_ms,
           "reconnect_max_ms must be >= reconnect_initial_ms, got " + Num(c.reconnect_max_ms));

@@ -190,7 +190,9 @@ void ModbusIoThread::Start() {
                 " refused by libmodbus: " + modbus_strerror(errno));
   }
   modbus_set_error_recovery(ctx, MODBUS_ERROR_RECOVERY_NONE);
-  if (config_.byte_timeout_ms > 0.0) SetTimeout(ctx, config_.byte_timeout_ms, true);
+  // 0 disables libmodbus's byte timeout (its default is 500 ms): then the whole answer must arrive within the response
+  // timeout, which is what bounds a transaction.
+  SetTimeout(ctx, config_.byte_timeout_ms, true);
   stop_.store(false);
   try {
     thread_ = std::thread([this] { Run(); });

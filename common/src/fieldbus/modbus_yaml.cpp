@@ -43,6 +43,12 @@ double NonNegative(const Field& f, const char* unit) {
   return v;
 }
 
+double AtLeast(const Field& f, double low, const char* unit) {
+  const double v = Finite(f);
+  if (v < low) f.Fail("must be >= " + Num(low) + " " + std::string(unit) + ", got " + Num(v));
+  return v;
+}
+
 int IntInRange(const Field& f, int low, int high) {
   const int v = f.AsInt();
   if (v < low || v > high) {
@@ -146,9 +152,9 @@ ModbusConfig Read(const Field& section) {
     c.unit_id = c.transport == ModbusTransport::kRtu ? IntInRange(*v, 1, 247) : IntInRange(*v, 0, 255);
   }
   if (auto v = map.Optional("poll_period_ms")) c.poll_period_ms = Positive(*v, "ms");
-  if (auto v = map.Optional("response_timeout_ms")) c.response_timeout_ms = Positive(*v, "ms");
+  if (auto v = map.Optional("response_timeout_ms")) c.response_timeout_ms = AtLeast(*v, 1.0, "ms");
   if (auto v = map.Optional("byte_timeout_ms")) c.byte_timeout_ms = NonNegative(*v, "ms (0 = off)");
-  if (auto v = map.Optional("connect_timeout_ms")) c.connect_timeout_ms = Positive(*v, "ms");
+  if (auto v = map.Optional("connect_timeout_ms")) c.connect_timeout_ms = AtLeast(*v, 1.0, "ms");
   if (auto v = map.Optional("reconnect_initial_ms")) c.reconnect_initial_ms = Positive(*v, "ms");
   if (auto v = map.Optional("reconnect_max_ms")) {
     c.reconnect_max_ms = Positive(*v, "ms");

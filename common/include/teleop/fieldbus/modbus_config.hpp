@@ -75,9 +75,11 @@ struct ModbusConfig {
   int unit_id = 1;  ///< Unit (slave) address: 1..247 on RTU; 0..255 on TCP (gateways often want 255 or 1).
 
   double poll_period_ms = 10.0;       ///< One cycle: write all outputs, then read all inputs.
-  double response_timeout_ms = 50.0;  ///< Bound of one transaction (libmodbus response timeout).
-  double byte_timeout_ms = 0.0;       ///< Gap allowed between bytes of one answer (0 = libmodbus default off).
-  double connect_timeout_ms = 500.0;  ///< Bound of one TCP connect / serial open.
+  double response_timeout_ms = 50.0;  ///< Bound of one transaction (libmodbus response timeout), >= 1 ms.
+  /// 0 (default): the whole answer must arrive within response_timeout_ms, the strict bound. > 0: libmodbus waits
+  /// response_timeout_ms for the first byte only, then up to this long for each further byte (a looser bound).
+  double byte_timeout_ms = 0.0;
+  double connect_timeout_ms = 500.0;  ///< Bound of one TCP connect / serial open, >= 1 ms.
   /// A lost connection is retried at once; after a failed connect the thread waits this long, doubling the wait with
   /// each further failure in a row...
   double reconnect_initial_ms = 50.0;
