@@ -1,13 +1,11 @@
 #include "teleop/config/yaml_config.hpp"
 
-#include <arpa/inet.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <fstream>
-#include <functional>
 #include <sstream>
 #include <string>
 #include <system_error>

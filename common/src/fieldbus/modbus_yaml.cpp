@@ -9,7 +9,7 @@
 #include <string_view>
 #include <utility>
 
-#include "config/yaml_reader.hpp"  // the config library's Field/Map helpers (file:line:col errors)
+#include "teleop/config/yaml_reader.hpp"  // the config reader's Field/Map helpers (file:line:col errors)
 #include "teleop/error.hpp"
 
 namespace teleop::fieldbus {
@@ -19,41 +19,16 @@ namespace {
 using config::detail::Field;
 using config::detail::Map;
 
-std::string Num(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
-}
-
-double Finite(const Field& f) {
-  const double v = f.AsDouble();
-  if (!std::isfinite(v)) f.Fail("must be a finite number, got " + Num(v));
-  return v;
-}
-
-double Positive(const Field& f, const char* unit) {
-  const double v = Finite(f);
-  if (!(v > 0.0)) f.Fail("must be > 0 " + std::string(unit) + ", got " + Num(v));
-  return v;
-}
-
-double NonNegative(const Field& f, const char* unit) {
-  const double v = Finite(f);
-  if (v < 0.0) f.Fail("must be >= 0 " + std::string(unit) + ", got " + Num(v));
-  return v;
-}
+// The shared checks of the public reader (teleop/config/yaml_reader.hpp), the same messages as every section.
+using config::Finite;
+using config::IntInRange;
+using config::NonNegative;
+using config::Num;
+using config::Positive;
 
 double AtLeast(const Field& f, double low, const char* unit) {
   const double v = Finite(f);
   if (v < low) f.Fail("must be >= " + Num(low) + " " + std::string(unit) + ", got " + Num(v));
-  return v;
-}
-
-int IntInRange(const Field& f, int low, int high) {
-  const int v = f.AsInt();
-  if (v < low || v > high) {
-    f.Fail("must be an integer in " + std::to_string(low) + ".." + std::to_string(high) + ", got " + std::to_string(v));
-  }
   return v;
 }
 
