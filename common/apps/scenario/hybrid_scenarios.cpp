@@ -116,13 +116,13 @@ int RunFme(const FmeOptions& o) {
 void WriteSamples(const std::string& csv, const hy::ScenarioResult& r) {
   std::ofstream out = OpenCsv(csv);
   out << "t_s,x_mm,y_mm,vx_mm_s,vy_mm_s,depth_mm,rendered_normal_N,motor_normal_N,brake_normal_N,hand_normal_N,"
-         "hand_tangent_N,rendered_tangent_N,friction_target_N,brake_capacity_1_Nm,brake_capacity_2_Nm\n";
+         "hand_tangent_N,rendered_tangent_N,friction_target_N,brake_capacity_1_Nm,brake_capacity_2_Nm,desired_normal_N\n";
   for (const auto& s : r.samples) {
     out << s.time_s << ',' << 1e3 * s.position_m.x() << ',' << 1e3 * s.position_m.y() << ','
         << 1e3 * s.velocity_m_per_s.x() << ',' << 1e3 * s.velocity_m_per_s.y() << ',' << 1e3 * s.depth_m << ','
         << s.rendered_normal_N << ',' << s.motor_normal_N << ',' << s.brake_normal_N << ',' << s.hand_normal_N << ','
         << s.hand_tangent_N << ',' << s.rendered_tangent_N << ',' << s.friction_target_N << ','
-        << s.brake_capacity_1_Nm << ',' << s.brake_capacity_2_Nm << '\n';
+        << s.brake_capacity_1_Nm << ',' << s.brake_capacity_2_Nm << ',' << s.desired_normal_N << '\n';
   }
 }
 
@@ -184,6 +184,7 @@ void PlotContact(const std::string& prefix, const std::string& title, bool frict
 
 struct WallOptions {
   std::string model = "hybrid";
+  double motor_time_constant_ms = 7.0;
   double speed_mm_s = 250.0;
   std::string output;
   bool json = false;
@@ -194,14 +195,19 @@ int RunWall(const WallOptions& o) {
   hy::WallKind kind{};
   if (!hy::ParseWallKind(o.model.c_str(), kind)) throw Error("--model must be spring, popc or hybrid");
   if (!(o.speed_mm_s > 0.0 && o.speed_mm_s <= 3000.0)) throw Error("--speed-mm-s must be in (0, 3000]");
-  const hy::WallScenarioConfig config = hy::PaperWallScenario(kind, o.speed_mm_s * 1e-3);
+  hy::WallScenarioConfig config = hy::PaperWallScenario(kind, o.speed_mm_s * 1e-3);
+  config.rig.motor.time_constant_s = o.motor_time_constant_ms * 1e-3;
+  config.allocation.motor.time_constant_s = config.rig.motor.time_constant_s;
+  config.wall.popc.actuator_time_constant_s = config.rig.motor.time_constant_s;
   const hy::ScenarioResult r = hy::RunWallScenario(config);
   std::ostringstream name;
   name << "hybrid_wall_" << o.model << "_" << o.speed_mm_s;
   const std::string prefix = o.output.empty() ? name.str() : o.output;
   WriteSamples(prefix + ".csv", r);
-  if (!o.no_plot) PlotContact(prefix, "wall contact: " + o.model + " at " + name.str().substr(name.str().rfind('_') + 1) + " mm/s", false);
-  PrintMetrics(r.metrics, o.json, false, "hybrid-wall " + o.model + " " + name.str().substr(name.str().rfind('_') + 1) + " mm/s");
+  std::ostringstream label;
+  label << "hybrid-wall " << o.model << " " << o.speed_mm_s << " mm/s";
+  if (!o.no_plot) PlotContact(prefix, label.str(), false);
+  PrintMetrics(r.metrics, o.json, false, label.str());
   return 0;
 }
 
@@ -225,7 +231,7 @@ int RunFriction(const FrictionOptions& o) {
   WriteSamples(prefix + ".csv", r);
   std::ostringstream label;
   label << "hybrid-friction " << o.display << " " << o.normal_N << " N";
-  if (!o.no_plot) PlotContact(prefix, "friction display by " + o.display + ", normal force " + label.str().substr(label.str().rfind(' ', label.str().size() - 3) + 1), true);
+  if (!o.no_plot) PlotContact(prefix, label.str(), true);
   PrintMetrics(r.metrics, o.json, true, label.str());
   return 0;
 }
@@ -245,6 +251,8 @@ void AddHybridScenarios(CLI::App& app) {
   auto* w = app.add_subcommand("hybrid-wall", "Contact with a hard virtual wall (§4, Figs. 8-9, Table 1)");
   w->add_option("--model", wall.model, "spring | popc | hybrid")->check(CLI::IsMember({"spring", "popc", "hybrid"}));
   w->add_option("--speed-mm-s", wall.speed_mm_s, "Operator's approach speed (mm/s): 250 weak, 1500 strong");
+  w->add_option("--motor-time-constant-ms", wall.motor_time_constant_ms, "Motor torque lag (ms; paper 7)")
+      ->check(CLI::Range(0.0, 100.0));
   w->add_option("--output", wall.output, "Output prefix (default hybrid_wall_<model>_<speed>)");
   w->add_flag("--json", wall.json, "One JSON object on stdout");
   w->add_flag("--no-plot", wall.no_plot, "CSV only");

@@ -67,6 +67,7 @@ ScenarioResult Run(HybridRigConfig rig_config, const AllocationConfig& allocatio
     x.position_m = after.position_m;
     x.velocity_m_per_s = after.velocity_m_per_s;
     x.rendered_normal_N = -after.rendered_force_N.dot(normal);
+    x.desired_normal_N = -demand.desired_N.dot(normal);
     x.motor_normal_N = -(jt_inv * after.motor_joint_Nm).dot(normal);
     x.brake_normal_N = -(jt_inv * after.brake_joint_Nm).dot(normal);
     x.hand_normal_N = measured.dot(normal);
@@ -144,7 +145,7 @@ WallScenarioConfig PaperWallScenario(WallKind kind, double speed_m_per_s) {
   c.allocation.brake = c.rig.brake;
   c.allocation.use_brakes = kind == WallKind::kHybrid;
   const bool strong = speed_m_per_s > 1.0;
-  c.hand.start_m = {0.0, 0.130};
+  c.hand.start_m = {0.0, strong ? 0.130 : 0.200};
   c.hand.direction = {0.0, 1.0};
   c.hand.speed_m_per_s = speed_m_per_s;
   c.hand.max_force_N = strong ? 80.0 : 25.0;

@@ -12,7 +12,7 @@ void FrictionConfig::Validate() const {
   if (!point_m.allFinite() || !normal.allFinite() || std::abs(normal.norm() - 1.0) > 1e-6) {
     throw Error("hybrid friction: point_m must be finite and normal a unit vector");
   }
-  for (double v : {stiffness_N_per_m, max_normal_force_N, static_coefficient, kinetic_coefficient, rest_speed_m_per_s}) {
+  for (double v : {stiffness_N_per_m, damping_Ns_per_m, max_normal_force_N, static_coefficient, kinetic_coefficient, rest_speed_m_per_s}) {
     if (!std::isfinite(v) || v < 0.0) {
       throw Error("hybrid friction: stiffness, force limit, coefficients and rest speed must be finite and >= 0");
     }
@@ -36,7 +36,9 @@ FrictionOutput FrictionStep(const FrictionConfig& config, const Eigen::Vector2d&
   if (!out.in_contact) {
     return out;
   }
-  const double normal_reaction = std::min(config.stiffness_N_per_m * depth, config.max_normal_force_N);
+  const double normal_reaction =
+      std::clamp(config.stiffness_N_per_m * depth + config.damping_Ns_per_m * velocity_m_per_s.dot(n), 0.0,
+                 config.max_normal_force_N);
   out.desired_force_N = -normal_reaction * n;
   out.normal_force_N = std::max(0.0, measured_hand_force_N.dot(n));
   const double v_t = velocity_m_per_s.dot(t);

@@ -19,6 +19,7 @@ struct ScenarioSample {
   Eigen::Vector2d velocity_m_per_s{0.0, 0.0};
   double depth_m = 0.0;                 ///< Signed penetration (p − point)·n; < 0 outside.
   double rendered_normal_N = 0.0;       ///< Actuators' force on the handle, −n component (the wall's push-back).
+  double desired_normal_N = 0.0;        ///< What the environment asked for (−n component of desired + dissipative).
   double motor_normal_N = 0.0;          ///< Motor part of it.
   double brake_normal_N = 0.0;          ///< Brake part of it.
   double hand_normal_N = 0.0;           ///< Sensor: the operator's push along n.
@@ -64,7 +65,7 @@ struct WallScenarioConfig {
 };
 
 /// The §4 experiment: the hand pushes the handle into the wall at `speed_m_per_s` with up to `hand_force_N`.
-/// Defaults: wall at y = 250 mm (normal +y), start at y = 130 mm, x = 0; weak (250 mm/s, 25 N) or strong
+/// Defaults: wall at y = 250 mm (normal +y), start at x = 0, y = 200 mm (weak) or 130 mm (strong, to reach the speed); weak (250 mm/s, 25 N) or strong
 /// (1500 mm/s, 80 N) contact as in Figs. 8 and 9.
 [[nodiscard]] WallScenarioConfig PaperWallScenario(WallKind kind, double speed_m_per_s);
 [[nodiscard]] ScenarioResult RunWallScenario(const WallScenarioConfig& config);
