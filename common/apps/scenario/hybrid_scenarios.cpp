@@ -46,9 +46,9 @@ struct FmeOptions {
 int RunFme(const FmeOptions& o) {
   const hy::HybridRigConfig rig{};
   const hy::FiveBar kinematics(rig.geometry);
-  const hy::FmeMap map = hy::MapForceManipulability(kinematics, rig.motor.MaxJointTorqueNm(),
-                                                    rig.brake.max_torque_Nm * rig.brake.pulley_ratio,
-                                                    o.grid_step_mm * 1e-3);
+  const hy::FmeMap map =
+      hy::MapForceManipulability(kinematics, rig.motor.MaxJointTorqueNm(),
+                                 rig.brake.max_torque_Nm * rig.brake.pulley_ratio, o.grid_step_mm * 1e-3);
   const std::string csv = o.output + ".csv";
   {
     std::ofstream out = OpenCsv(csv);
@@ -116,21 +116,22 @@ int RunFme(const FmeOptions& o) {
 void WriteSamples(const std::string& csv, const hy::ScenarioResult& r) {
   std::ofstream out = OpenCsv(csv);
   out << "t_s,x_mm,y_mm,vx_mm_s,vy_mm_s,depth_mm,rendered_normal_N,motor_normal_N,brake_normal_N,hand_normal_N,"
-         "hand_tangent_N,rendered_tangent_N,friction_target_N,brake_capacity_1_Nm,brake_capacity_2_Nm,desired_normal_N\n";
+         "hand_tangent_N,rendered_tangent_N,friction_target_N,brake_capacity_1_Nm,brake_capacity_2_Nm,desired_normal_"
+         "N\n";
   for (const auto& s : r.samples) {
     out << s.time_s << ',' << 1e3 * s.position_m.x() << ',' << 1e3 * s.position_m.y() << ','
         << 1e3 * s.velocity_m_per_s.x() << ',' << 1e3 * s.velocity_m_per_s.y() << ',' << 1e3 * s.depth_m << ','
         << s.rendered_normal_N << ',' << s.motor_normal_N << ',' << s.brake_normal_N << ',' << s.hand_normal_N << ','
-        << s.hand_tangent_N << ',' << s.rendered_tangent_N << ',' << s.friction_target_N << ','
-        << s.brake_capacity_1_Nm << ',' << s.brake_capacity_2_Nm << ',' << s.desired_normal_N << '\n';
+        << s.hand_tangent_N << ',' << s.rendered_tangent_N << ',' << s.friction_target_N << ',' << s.brake_capacity_1_Nm
+        << ',' << s.brake_capacity_2_Nm << ',' << s.desired_normal_N << '\n';
   }
 }
 
 void PrintMetrics(const hy::ContactMetrics& m, bool json, bool friction, const std::string& label) {
   std::cout << std::setprecision(5);
   if (json) {
-    std::cout << "{\"scenario\": \"" << label << "\", \"bounces\": " << m.bounces << ", \"transient_s\": "
-              << m.transient_s << ", \"steady_state_error_mm\": " << m.steady_state_error_mm
+    std::cout << "{\"scenario\": \"" << label << "\", \"bounces\": " << m.bounces
+              << ", \"transient_s\": " << m.transient_s << ", \"steady_state_error_mm\": " << m.steady_state_error_mm
               << ", \"peak_force_N\": " << m.peak_force_N << ", \"peak_hand_force_N\": " << m.peak_hand_force_N
               << ", \"max_depth_mm\": " << m.max_depth_mm << ", \"contact_speed_mm_s\": " << m.contact_speed_mm_s
               << ", \"contact_time_s\": " << m.contact_time_s << ", \"brake_energy_J\": " << m.brake_energy_J
@@ -173,8 +174,8 @@ void PlotContact(const std::string& prefix, const std::string& title, bool frict
     gp << "set ylabel 'mm'\nset title 'position (depth into the wall)'\nplot '" << csv
        << "' skip 1 using 1:6 w l t 'depth', 0 w l dt 2 lc rgb 'gray' t 'surface'\n"
        << "set ylabel 'mm/s'\nset title 'velocity'\nplot '" << csv << "' skip 1 using 1:5 w l t 'v_y'\n"
-       << "set ylabel 'N'\nset title 'force'\nplot '" << csv << "' skip 1 using 1:7 w l t 'wall (rendered)', '"
-       << csv << "' skip 1 using 1:8 w l t 'motors', '" << csv << "' skip 1 using 1:9 w l t 'brakes', '" << csv
+       << "set ylabel 'N'\nset title 'force'\nplot '" << csv << "' skip 1 using 1:7 w l t 'wall (rendered)', '" << csv
+       << "' skip 1 using 1:8 w l t 'motors', '" << csv << "' skip 1 using 1:9 w l t 'brakes', '" << csv
        << "' skip 1 using 1:10 w l t 'hand'\n"
        << "set xlabel 'depth (mm)'\nset ylabel 'N'\nset title 'force vs position'\nplot '" << csv
        << "' skip 1 using 6:7 w l t 'wall (rendered)'\nunset multiplot\n";

@@ -1,13 +1,11 @@
-#include "teleop/device/hybrid/motor_brake_allocation.hpp"
-
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
-
 #include <cmath>
 #include <random>
 
 #include "teleop/device/hybrid/five_bar.hpp"
+#include "teleop/device/hybrid/motor_brake_allocation.hpp"
 
 namespace teleop::device::hybrid {
 namespace {
@@ -28,8 +26,8 @@ AllocationInput WallInput(const Eigen::Matrix2d& jac, const Eigen::Vector2d& v_m
   AllocationInput in;
   in.jacobian_m_per_rad = jac;
   in.joint_velocity_rad_per_s = jac.inverse() * v_m_per_s;
-  in.hand_force_N = {0.0, 20.0};       // the operator pushes into the wall (+y)
-  in.desired_force_N = {0.0, -50.0};   // the wall pushes back, perpendicular to it (Fig. 5)
+  in.hand_force_N = {0.0, 20.0};      // the operator pushes into the wall (+y)
+  in.desired_force_N = {0.0, -50.0};  // the wall pushes back, perpendicular to it (Fig. 5)
   return in;
 }
 

@@ -2,7 +2,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
-
 #include <cmath>
 #include <cstdlib>
 #include <random>

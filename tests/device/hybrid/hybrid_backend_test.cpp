@@ -43,7 +43,7 @@ TEST(HybridBackend, RendersCommandsThroughTheAllocation) {
   EXPECT_GT(r.position_m(1), 0.001);
   EXPECT_GT(r.velocity_m_per_s(1), 0.0);
   EXPECT_NEAR(r.rendered_force_N(1), 10.0 - 2.5, 2.5);  // minus brake drag and friction
-  f << 0.0, -30.0;  // now resist the +y motion: dissipative, the brakes take part
+  f << 0.0, -30.0;                                      // now resist the +y motion: dissipative, the brakes take part
   dev.Write(Command::Force(f));
   dev.Update(1e-3);
   EXPECT_TRUE(dev.last_allocation().brake_engaged[0] || dev.last_allocation().brake_engaged[1]);

@@ -22,9 +22,9 @@ struct Demand {
 
 /// The shared loop: hand → sensor → environment → allocation → rig, at period_s.
 template <typename Environment>
-ScenarioResult Run(HybridRigConfig rig_config, const AllocationConfig& allocation, const OperatorHandConfig& hand_config,
-                   double hand_mass_kg, const Eigen::Vector2d& normal, double period_s, double duration_s,
-                   Environment&& environment) {
+ScenarioResult Run(HybridRigConfig rig_config, const AllocationConfig& allocation,
+                   const OperatorHandConfig& hand_config, double hand_mass_kg, const Eigen::Vector2d& normal,
+                   double period_s, double duration_s, Environment&& environment) {
   if (!(period_s > 0.0) || !(duration_s > 0.0) || !(hand_mass_kg >= 0.0)) {
     throw Error("hybrid scenario: period, duration must be > 0 and hand mass >= 0");
   }
@@ -157,16 +157,16 @@ WallScenarioConfig PaperWallScenario(WallKind kind, double speed_m_per_s) {
 ScenarioResult RunWallScenario(const WallScenarioConfig& config) {
   WallModel wall(config.wall);
   const bool hybrid = config.wall.kind == WallKind::kHybrid;
-  ScenarioResult r = Run(config.rig, config.allocation, config.hand, config.hand_mass_kg, config.wall.normal,
-                         config.period_s, config.duration_s,
-                         [&](const Eigen::Vector2d& p, const Eigen::Vector2d& v, const Eigen::Vector2d& /*hand*/) {
-                           const WallOutput w = wall.Step(p, v, config.period_s);
-                           Demand d;
-                           d.desired_N = w.desired_force_N;
-                           d.dissipative_N = w.dissipative_force_N;
-                           d.brakes_for_desired = hybrid;
-                           return d;
-                         });
+  ScenarioResult r =
+      Run(config.rig, config.allocation, config.hand, config.hand_mass_kg, config.wall.normal, config.period_s,
+          config.duration_s, [&](const Eigen::Vector2d& p, const Eigen::Vector2d& v, const Eigen::Vector2d& /*hand*/) {
+            const WallOutput w = wall.Step(p, v, config.period_s);
+            Demand d;
+            d.desired_N = w.desired_force_N;
+            d.dissipative_N = w.dissipative_force_N;
+            d.brakes_for_desired = hybrid;
+            return d;
+          });
   ContactMetricsFrom(r, config.wall.point_m, config.wall.normal);
   return r;
 }
@@ -195,17 +195,17 @@ FrictionScenarioConfig PaperFrictionScenario(FrictionDisplay display, double nor
 ScenarioResult RunFrictionScenario(const FrictionScenarioConfig& config) {
   const Eigen::Vector2d n = config.friction.normal;
   const Eigen::Vector2d t{n.y(), -n.x()};
-  ScenarioResult r = Run(config.rig, config.allocation, config.hand, config.hand_mass_kg, n, config.period_s,
-                         config.duration_s,
-                         [&](const Eigen::Vector2d& p, const Eigen::Vector2d& v, const Eigen::Vector2d& hand) {
-                           const FrictionOutput f = FrictionStep(config.friction, p, v, hand);
-                           Demand d;
-                           d.desired_N = f.desired_force_N;
-                           d.dissipative_N = f.dissipative_force_N;
-                           d.brakes_for_desired = false;  // §5: the normal reaction by the motors.
-                           d.friction_target_N = f.friction_target_N;
-                           return d;
-                         });
+  ScenarioResult r =
+      Run(config.rig, config.allocation, config.hand, config.hand_mass_kg, n, config.period_s, config.duration_s,
+          [&](const Eigen::Vector2d& p, const Eigen::Vector2d& v, const Eigen::Vector2d& hand) {
+            const FrictionOutput f = FrictionStep(config.friction, p, v, hand);
+            Demand d;
+            d.desired_N = f.desired_force_N;
+            d.dissipative_N = f.dissipative_force_N;
+            d.brakes_for_desired = false;  // §5: the normal reaction by the motors.
+            d.friction_target_N = f.friction_target_N;
+            return d;
+          });
   ContactMetricsFrom(r, config.friction.point_m, n);
   ContactMetrics& m = r.metrics;
   double err2 = 0.0;

@@ -62,8 +62,8 @@ FmeMap MapForceManipulability(const FiveBar& kinematics, double motor_joint_torq
       s.position_m = {c.workspace_x_min_m + col * grid_step_m, c.workspace_y_min_m + r * grid_step_m};
       Eigen::Vector2d q;
       Eigen::Matrix2d jac;
-      s.in_workspace = kinematics.InWorkspace(s.position_m) && kinematics.Inverse(s.position_m, q) &&
-                       kinematics.Jacobian(q, jac);
+      s.in_workspace =
+          kinematics.InWorkspace(s.position_m) && kinematics.Inverse(s.position_m, q) && kinematics.Jacobian(q, jac);
       if (s.in_workspace) {
         s.motor_min_force_N = ForceManipulability(jac, motor_joint_torque_Nm).min_force_N;
         s.brake_min_force_N = ForceManipulability(jac, brake_joint_torque_Nm).min_force_N;

@@ -12,7 +12,8 @@ void FrictionConfig::Validate() const {
   if (!point_m.allFinite() || !normal.allFinite() || std::abs(normal.norm() - 1.0) > 1e-6) {
     throw Error("hybrid friction: point_m must be finite and normal a unit vector");
   }
-  for (double v : {stiffness_N_per_m, damping_Ns_per_m, max_normal_force_N, static_coefficient, kinetic_coefficient, rest_speed_m_per_s}) {
+  for (double v : {stiffness_N_per_m, damping_Ns_per_m, max_normal_force_N, static_coefficient, kinetic_coefficient,
+                   rest_speed_m_per_s}) {
     if (!std::isfinite(v) || v < 0.0) {
       throw Error("hybrid friction: stiffness, force limit, coefficients and rest speed must be finite and >= 0");
     }

@@ -12,7 +12,8 @@ void HandleForceSensorConfig::Validate() const {
   }
 }
 
-Eigen::Vector2d MeasureHandleForce(const HandleForceSensorConfig& config, const Eigen::Vector2d& true_force_N) noexcept {
+Eigen::Vector2d MeasureHandleForce(const HandleForceSensorConfig& config,
+                                   const Eigen::Vector2d& true_force_N) noexcept {
   Eigen::Vector2d out = true_force_N + config.bias_N;
   if (config.resolution_N > 0.0) {
     for (int i = 0; i < 2; ++i) {

@@ -65,9 +65,9 @@ void ReadWall(const Map& m, WallConfig& w) {
 }
 
 void ReadEffect(const Field& f, HybridEffectConfig& e) {
-  const Field type_field = config::TypeOf(f, {"type", "model", "display", "point_m", "normal", "stiffness_N_per_m",
-                                              "damper_coefficient", "max_force_N", "static_coefficient",
-                                              "kinetic_coefficient"});
+  const Field type_field =
+      config::TypeOf(f, {"type", "model", "display", "point_m", "normal", "stiffness_N_per_m", "damper_coefficient",
+                         "max_force_N", "static_coefficient", "kinetic_coefficient"});
   const std::string type = type_field.AsString();
   if (type == "none") {
     const Map m(f, {"type"});
@@ -77,8 +77,8 @@ void ReadEffect(const Field& f, HybridEffectConfig& e) {
     e.kind = HybridEffectConfig::Kind::kWall;
     ReadWall(m, e.wall);
   } else if (type == "friction") {
-    const Map m(f, {"type", "display", "point_m", "normal", "stiffness_N_per_m", "static_coefficient",
-                    "kinetic_coefficient"});
+    const Map m(
+        f, {"type", "display", "point_m", "normal", "stiffness_N_per_m", "static_coefficient", "kinetic_coefficient"});
     e.kind = HybridEffectConfig::Kind::kFriction;
     FrictionConfig& fr = e.friction;
     if (auto v = m.Optional("display")) {
@@ -89,7 +89,8 @@ void ReadEffect(const Field& f, HybridEffectConfig& e) {
     if (auto v = m.Optional("stiffness_N_per_m")) fr.stiffness_N_per_m = NonNegative(*v, "N/m");
     if (auto v = m.Optional("static_coefficient")) fr.static_coefficient = NonNegative(*v, "");
     if (auto v = m.Optional("kinetic_coefficient")) fr.kinetic_coefficient = NonNegative(*v, "");
-    if (fr.kinetic_coefficient > fr.static_coefficient) f.Fail("kinetic_coefficient must not exceed static_coefficient");
+    if (fr.kinetic_coefficient > fr.static_coefficient)
+      f.Fail("kinetic_coefficient must not exceed static_coefficient");
   } else {
     type_field.Fail("must be none, wall or friction; got '" + type + "'");
   }
@@ -123,7 +124,8 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
   if (auto v = m.Optional("allocation")) {
     const Map mm(*v, {"use_brakes", "rest_velocity_rad_per_s"});
     if (auto x = mm.Optional("use_brakes")) c.allocation.use_brakes = x->AsBool();
-    if (auto x = mm.Optional("rest_velocity_rad_per_s")) c.allocation.rest_velocity_rad_per_s = NonNegative(*x, "rad/s");
+    if (auto x = mm.Optional("rest_velocity_rad_per_s"))
+      c.allocation.rest_velocity_rad_per_s = NonNegative(*x, "rad/s");
   }
   if (auto v = m.Optional("effect")) ReadEffect(*v, c.effect);
   if (auto v = m.Optional("operator")) {
@@ -167,9 +169,10 @@ DeviceBackend HybridBackend() {
   b.nominal.measures_force = true;
   b.keys = {
       {"initial_position_m", "handle start [x, y] (m, base frame); readings are relative to it; default [0, 0.2]"},
-      {"geometry", "five-bar: proximal_1_m, proximal_2_m, distal_1_m, distal_2_m (0.2), base_separation_m (0), "
-                   "joint_1_min_deg/max (-40/110), joint_2_min_deg/max (70/220), workspace_x_m [-0.19, 0.19], "
-                   "workspace_y_m [0.09, 0.32]"},
+      {"geometry",
+       "five-bar: proximal_1_m, proximal_2_m, distal_1_m, distal_2_m (0.2), base_separation_m (0), "
+       "joint_1_min_deg/max (-40/110), joint_2_min_deg/max (70/220), workspace_x_m [-0.19, 0.19], "
+       "workspace_y_m [0.09, 0.32]"},
       {"motor", "max_torque_Nm (4.44, after the reducer), time_constant_s (0.007), pulley_ratio (5)"},
       {"brake", "max_torque_Nm (4), time_constant_s (0.05), drag_Nm (0.08), hysteresis_Nm (0), pulley_ratio (5)"},
       {"joint_inertia_kgm2", "reflected actuator + pulley inertia per joint (kg·m²), > 0; default 0.02"},
@@ -177,11 +180,13 @@ DeviceBackend HybridBackend() {
       {"joint_damping_Nms_per_rad", "viscous friction per joint (N·m·s/rad), >= 0; default 0.01"},
       {"substeps", "integration sub-steps per period, 1..1000; default 10"},
       {"allocation", "use_brakes (true; false = motors only), rest_velocity_rad_per_s (0.02)"},
-      {"effect", "local haptic effect: type none | wall (model spring|popc|hybrid, point_m, normal, "
-                 "stiffness_N_per_m, damper_coefficient, max_force_N) | friction (display motor|brake, point_m, "
-                 "normal, stiffness_N_per_m, static_coefficient, kinetic_coefficient)"},
-      {"operator", "simulated hand (master): direction, speed_m_per_s, travel_m, stiffness_N_per_m, damping_Ns_per_m, "
-                   "max_force_N, mass_kg"},
+      {"effect",
+       "local haptic effect: type none | wall (model spring|popc|hybrid, point_m, normal, "
+       "stiffness_N_per_m, damper_coefficient, max_force_N) | friction (display motor|brake, point_m, "
+       "normal, stiffness_N_per_m, static_coefficient, kinetic_coefficient)"},
+      {"operator",
+       "simulated hand (master): direction, speed_m_per_s, travel_m, stiffness_N_per_m, damping_Ns_per_m, "
+       "max_force_N, mass_kg"},
       {"environment", "simulated wall on the handle (slave): point_m, normal, stiffness_N_per_m, damping_Ns_per_m"},
   };
   b.section_required = false;
@@ -194,11 +199,13 @@ DeviceBackend HybridBackend() {
   };
   b.make = [](const DeviceConfig& config) -> std::unique_ptr<Device> {
     if (config.dof != 2) throw Error("device.hybrid: the hybrid device has 2 DOF; set dof: 2");
-    const HybridDeviceConfig c = config.section.has_value() ? config.Section<HybridDeviceConfig>() : HybridDeviceConfig{};
+    const HybridDeviceConfig c =
+        config.section.has_value() ? config.Section<HybridDeviceConfig>() : HybridDeviceConfig{};
     return std::make_unique<HybridDevice>(c);
   };
   b.model = [](const DeviceConfig& config) {
-    const HybridDeviceConfig c = config.section.has_value() ? config.Section<HybridDeviceConfig>() : HybridDeviceConfig{};
+    const HybridDeviceConfig c =
+        config.section.has_value() ? config.Section<HybridDeviceConfig>() : HybridDeviceConfig{};
     // Effective handle mass Λ = (J M⁻¹ Jᵀ)⁻¹ and damping J⁻ᵀ B J⁻¹ at the initial position, diagonal per axis.
     const FiveBar fb(c.rig.geometry);
     Eigen::Vector2d q;

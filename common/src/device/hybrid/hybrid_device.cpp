@@ -13,7 +13,8 @@ void HybridDeviceConfig::Validate() const {
   allocation.Validate();
   effect.wall.Validate();
   effect.friction.Validate();
-  if (!(std::isfinite(hand_mass_kg) && hand_mass_kg >= 0.0)) throw Error("device.hybrid: operator.mass_kg must be >= 0");
+  if (!(std::isfinite(hand_mass_kg) && hand_mass_kg >= 0.0))
+    throw Error("device.hybrid: operator.mass_kg must be >= 0");
   if (!environment.point_m.allFinite() || !environment.normal.allFinite() ||
       std::abs(environment.normal.norm() - 1.0) > 1e-6 || !(environment.stiffness_N_per_m >= 0.0) ||
       !(environment.damping_Ns_per_m >= 0.0)) {
@@ -129,7 +130,8 @@ void HybridDevice::Update(double period_s) noexcept {
         break;
       }
       case HybridEffectConfig::Kind::kFriction: {
-        const FrictionOutput f = FrictionStep(config_.effect.friction, s.position_m, s.velocity_m_per_s, in.hand_force_N);
+        const FrictionOutput f =
+            FrictionStep(config_.effect.friction, s.position_m, s.velocity_m_per_s, in.hand_force_N);
         in.desired_force_N += f.desired_force_N;
         in.dissipative_force_N = f.dissipative_force_N;
         break;

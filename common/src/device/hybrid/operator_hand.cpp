@@ -4,12 +4,13 @@
 
 namespace teleop::device::hybrid {
 
-void OperatorHand::Reference(double t_s, Eigen::Vector2d& position_m, Eigen::Vector2d& velocity_m_per_s) const noexcept {
+void OperatorHand::Reference(double t_s, Eigen::Vector2d& position_m,
+                             Eigen::Vector2d& velocity_m_per_s) const noexcept {
   const double push_time = config_.speed_m_per_s > 0.0 ? config_.travel_m / config_.speed_m_per_s : 0.0;
   const double tp = std::clamp(t_s, 0.0, push_time);
   position_m = config_.start_m + config_.direction * config_.speed_m_per_s * tp;
-  velocity_m_per_s = t_s < push_time ? Eigen::Vector2d(config_.direction * config_.speed_m_per_s)
-                                     : Eigen::Vector2d::Zero();
+  velocity_m_per_s =
+      t_s < push_time ? Eigen::Vector2d(config_.direction * config_.speed_m_per_s) : Eigen::Vector2d::Zero();
   if (config_.side_speed_m_per_s > 0.0 && t_s > config_.side_start_s) {
     const double side_time = config_.side_travel_m / config_.side_speed_m_per_s;
     const double ts = std::min(t_s - config_.side_start_s, side_time);

@@ -20,7 +20,8 @@ void BrakeConfig::Validate() const {
 ParticleBrake::ParticleBrake(const BrakeConfig& config) : config_(config) { config_.Validate(); }
 
 double ParticleBrake::Step(double command_shaft_Nm, double period_s) noexcept {
-  const double target = std::isfinite(command_shaft_Nm) ? std::clamp(command_shaft_Nm, 0.0, config_.max_torque_Nm) : 0.0;
+  const double target =
+      std::isfinite(command_shaft_Nm) ? std::clamp(command_shaft_Nm, 0.0, config_.max_torque_Nm) : 0.0;
   if (config_.time_constant_s <= 0.0) {
     lagged_shaft_Nm_ = target;
   } else {

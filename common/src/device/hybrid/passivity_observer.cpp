@@ -37,9 +37,8 @@ Eigen::Vector2d PassivityObserver::Step(const Eigen::Vector2d& environment_force
     command -= alpha_Ns_per_m_ * velocity_m_per_s;
     energy_J_ += alpha_Ns_per_m_ * v2 * period_s;
   }
-  const double a = config_.actuator_time_constant_s > 0.0
-                       ? 1.0 - std::exp(-period_s / config_.actuator_time_constant_s)
-                       : 1.0;
+  const double a =
+      config_.actuator_time_constant_s > 0.0 ? 1.0 - std::exp(-period_s / config_.actuator_time_constant_s) : 1.0;
   delivered_N_ += a * (command - delivered_N_);
   return command;
 }

@@ -7,8 +7,8 @@ namespace teleop::device::hybrid {
 
 /// Frictional surface of Kwon & Song §5 (Fig. 10). The surface occupies {p : (p − point)·n ≥ 0}; the motors render
 /// its normal reaction as a spring–damper that only pushes (stiffness_N_per_m, damping_Ns_per_m; the paper gives no
-/// values: 10 N/mm and 100 N·s/m keep it stable under the 7 ms motor lag); the friction force along the tangent t (n rotated by −90°)
-/// is μ·F_N with F_N = F_h·n, the operator's push into the surface measured by the handle force sensor
+/// values: 10 N/mm and 100 N·s/m keep it stable under the 7 ms motor lag); the friction force along the tangent t (n
+/// rotated by −90°) is μ·F_N with F_N = F_h·n, the operator's push into the surface measured by the handle force sensor
 /// (μ = static_coefficient at rest, kinetic_coefficient sliding, rest below rest_speed_m_per_s).
 /// - kMotor: the motors render the friction too, clipped to the operator's tangential force |F_h·t| so it can never
 ///   drive the handle (§5: "restricted to less than or equal to F_hx").

@@ -33,17 +33,17 @@ struct AllocationConfig {
 struct AllocationInput {
   Eigen::Matrix2d jacobian_m_per_rad = Eigen::Matrix2d::Identity();
   Eigen::Vector2d joint_velocity_rad_per_s{0.0, 0.0};
-  Eigen::Vector2d hand_force_N{0.0, 0.0};          ///< Measured by the handle sensor, base frame.
-  Eigen::Vector2d desired_force_N{0.0, 0.0};       ///< On the handle, motors and brakes, base frame.
-  Eigen::Vector2d dissipative_force_N{0.0, 0.0};   ///< On the handle, brakes only, base frame.
+  Eigen::Vector2d hand_force_N{0.0, 0.0};         ///< Measured by the handle sensor, base frame.
+  Eigen::Vector2d desired_force_N{0.0, 0.0};      ///< On the handle, motors and brakes, base frame.
+  Eigen::Vector2d dissipative_force_N{0.0, 0.0};  ///< On the handle, brakes only, base frame.
   bool brakes_for_desired = true;  ///< False: desired_force_N goes to the motors only (brakes serve the request).
 };
 
 struct AllocationOutput {
-  Eigen::Vector2d motor_joint_Nm{0.0, 0.0};          ///< Motor command, joint side.
-  Eigen::Vector2d brake_shaft_Nm{0.0, 0.0};          ///< Brake command, shaft side, 0…max.
-  Eigen::Vector2d brake_estimate_joint_Nm{0.0, 0.0}; ///< Signed torque the brakes are expected to exert now.
-  Eigen::Vector2d desired_joint_Nm{0.0, 0.0};        ///< Jᵀ·desired_force_N.
+  Eigen::Vector2d motor_joint_Nm{0.0, 0.0};           ///< Motor command, joint side.
+  Eigen::Vector2d brake_shaft_Nm{0.0, 0.0};           ///< Brake command, shaft side, 0…max.
+  Eigen::Vector2d brake_estimate_joint_Nm{0.0, 0.0};  ///< Signed torque the brakes are expected to exert now.
+  Eigen::Vector2d desired_joint_Nm{0.0, 0.0};         ///< Jᵀ·desired_force_N.
   bool brake_engaged[2] = {false, false};
 };
 

@@ -21,8 +21,8 @@ class PassivityObserver {
   explicit PassivityObserver(const PassivityObserverConfig& config);
   /// Given the environment's force for this cycle (before the controller), the handle velocity and the period,
   /// returns the force to command (environment force + controller damping). Real-time safe.
-  [[nodiscard]] Eigen::Vector2d Step(const Eigen::Vector2d& environment_force_N, const Eigen::Vector2d& velocity_m_per_s,
-                                     double period_s) noexcept;
+  [[nodiscard]] Eigen::Vector2d Step(const Eigen::Vector2d& environment_force_N,
+                                     const Eigen::Vector2d& velocity_m_per_s, double period_s) noexcept;
   double energy_J() const noexcept { return energy_J_; }
   double damping_Ns_per_m() const noexcept { return alpha_Ns_per_m_; }
   void Reset() noexcept;
