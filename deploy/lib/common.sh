@@ -13,6 +13,7 @@ TELEOP_PACKAGES=(
   clang-format clang-tidy
   gnuplot-nox python3
   iproute2 can-utils
+  python3-pymodbus python3-serial python3-serial-asyncio mbpoll socat
   qemu-system-x86 busybox-static cpio kmod
 )
 
