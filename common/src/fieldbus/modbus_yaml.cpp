@@ -9,7 +9,7 @@
 #include <string_view>
 #include <utility>
 
-#include "config/yaml_reader.hpp"  // the config library's Field/Map helpers (file:line:col errors)
+#include "teleop/config/yaml_reader.hpp"  // the config library's Field/Map helpers (file:line:col errors)
 #include "teleop/error.hpp"
 
 namespace teleop::fieldbus {
