@@ -16,8 +16,8 @@ namespace teleop::fieldbus {
 
 namespace {
 
-using config::detail::Field;
-using config::detail::Map;
+using config::Field;
+using config::Map;
 
 std::string Num(double value) {
   std::ostringstream out;
@@ -25,25 +25,25 @@ std::string Num(double value) {
   return out.str();
 }
 
-double Finite(const Field& f) {
+double LocalFinite(const Field& f) {
   const double v = f.AsDouble();
   if (!std::isfinite(v)) f.Fail("must be a finite number, got " + Num(v));
   return v;
 }
 
-double Positive(const Field& f, const char* unit) {
-  const double v = Finite(f);
+double LocalPositive(const Field& f, const char* unit) {
+  const double v = LocalFinite(f);
   if (!(v > 0.0)) f.Fail("must be > 0 " + std::string(unit) + ", got " + Num(v));
   return v;
 }
 
-double NonNegative(const Field& f, const char* unit) {
-  const double v = Finite(f);
+double LocalNonNegative(const Field& f, const char* unit) {
+  const double v = LocalFinite(f);
   if (v < 0.0) f.Fail("must be >= 0 " + std::string(unit) + ", got " + Num(v));
   return v;
 }
 
-int IntInRange(const Field& f, int low, int high) {
+int LocalIntInRange(const Field& f, int low, int high) {
   const int v = f.AsInt();
   if (v < low || v > high) {
     f.Fail("must be an integer in " + std::to_string(low) + ".." + std::to_string(high) + ", got " + std::to_string(v));
@@ -76,7 +76,7 @@ ModbusPoint ReadPoint(const Field& f, bool output) {
                                                 {"input_register", ModbusTable::kInputRegister},
                                                 {"coil", ModbusTable::kCoil},
                                                 {"discrete_input", ModbusTable::kDiscreteInput}});
-  p.address = IntInRange(map.Required("address"), 0, 65535);
+  p.address = LocalIntInRange(map.Required("address"), 0, 65535);
   const bool bit = p.table == ModbusTable::kCoil || p.table == ModbusTable::kDiscreteInput;
   if (auto v = map.Optional("type")) {
     if (bit) v->Fail("a coil or discrete input is one bit: it takes no type");
@@ -95,15 +95,15 @@ ModbusPoint ReadPoint(const Field& f, bool output) {
   }
   if (auto v = map.Optional("scale")) {
     if (bit) v->Fail("a bit reads as 0 or 1: it takes no scale");
-    p.scale = Finite(*v);
+    p.scale = LocalFinite(*v);
     if (p.scale == 0.0) v->Fail("must not be 0 (SI units per raw count)");
   }
   if (auto v = map.Optional("offset")) {
     if (bit) v->Fail("a bit reads as 0 or 1: it takes no offset");
-    p.offset = Finite(*v);
+    p.offset = LocalFinite(*v);
   }
   if (output) {
-    if (auto v = map.Optional("safe_value")) p.safe_value = Finite(*v);
+    if (auto v = map.Optional("safe_value")) p.safe_value = LocalFinite(*v);
   }
   return p;
 }
@@ -131,27 +131,27 @@ ModbusConfig Read(const Field& section) {
     const Map tcp(map.Required("tcp"), {"host", "port"});
     c.tcp.host = tcp.Required("host").AsString();
     if (c.tcp.host.empty()) tcp.Required("host").Fail("must not be empty");
-    if (auto v = tcp.Optional("port")) c.tcp.port = IntInRange(*v, 1, 65535);
+    if (auto v = tcp.Optional("port")) c.tcp.port = LocalIntInRange(*v, 1, 65535);
   } else {
     if (auto v = map.Optional("tcp")) v->Fail("transport is rtu: remove the tcp section (or set transport: tcp)");
     const Map rtu(map.Required("rtu"), {"device", "baud", "parity", "data_bits", "stop_bits"});
     c.rtu.device = rtu.Required("device").AsString();
     if (c.rtu.device.empty()) rtu.Required("device").Fail("must not be empty");
-    if (auto v = rtu.Optional("baud")) c.rtu.baud = IntInRange(*v, 300, 4'000'000);
+    if (auto v = rtu.Optional("baud")) c.rtu.baud = LocalIntInRange(*v, 300, 4'000'000);
     if (auto v = rtu.Optional("parity")) c.rtu.parity = OneOf<char>(*v, {{"none", 'N'}, {"even", 'E'}, {"odd", 'O'}});
-    if (auto v = rtu.Optional("data_bits")) c.rtu.data_bits = IntInRange(*v, 5, 8);
-    if (auto v = rtu.Optional("stop_bits")) c.rtu.stop_bits = IntInRange(*v, 1, 2);
+    if (auto v = rtu.Optional("data_bits")) c.rtu.data_bits = LocalIntInRange(*v, 5, 8);
+    if (auto v = rtu.Optional("stop_bits")) c.rtu.stop_bits = LocalIntInRange(*v, 1, 2);
   }
   if (auto v = map.Optional("unit_id")) {
-    c.unit_id = c.transport == ModbusTransport::kRtu ? IntInRange(*v, 1, 247) : IntInRange(*v, 0, 255);
+    c.unit_id = c.transport == ModbusTransport::kRtu ? LocalIntInRange(*v, 1, 247) : LocalIntInRange(*v, 0, 255);
   }
-  if (auto v = map.Optional("poll_period_ms")) c.poll_period_ms = Positive(*v, "ms");
-  if (auto v = map.Optional("response_timeout_ms")) c.response_timeout_ms = Positive(*v, "ms");
-  if (auto v = map.Optional("byte_timeout_ms")) c.byte_timeout_ms = NonNegative(*v, "ms (0 = off)");
-  if (auto v = map.Optional("connect_timeout_ms")) c.connect_timeout_ms = Positive(*v, "ms");
-  if (auto v = map.Optional("reconnect_initial_ms")) c.reconnect_initial_ms = Positive(*v, "ms");
+  if (auto v = map.Optional("poll_period_ms")) c.poll_period_ms = LocalPositive(*v, "ms");
+  if (auto v = map.Optional("response_timeout_ms")) c.response_timeout_ms = LocalPositive(*v, "ms");
+  if (auto v = map.Optional("byte_timeout_ms")) c.byte_timeout_ms = LocalNonNegative(*v, "ms (0 = off)");
+  if (auto v = map.Optional("connect_timeout_ms")) c.connect_timeout_ms = LocalPositive(*v, "ms");
+  if (auto v = map.Optional("reconnect_initial_ms")) c.reconnect_initial_ms = LocalPositive(*v, "ms");
   if (auto v = map.Optional("reconnect_max_ms")) {
-    c.reconnect_max_ms = Positive(*v, "ms");
+    c.reconnect_max_ms = LocalPositive(*v, "ms");
     if (c.reconnect_max_ms < c.reconnect_initial_ms) {
       v->Fail("must be >= reconnect_initial_ms (" + Num(c.reconnect_initial_ms) + " ms)");
     }
@@ -159,13 +159,13 @@ ModbusConfig Read(const Field& section) {
     c.reconnect_max_ms = std::max(c.reconnect_max_ms, c.reconnect_initial_ms);
   }
   if (auto v = map.Optional("stale_after_ms")) {
-    c.stale_after_ms = Positive(*v, "ms");
+    c.stale_after_ms = LocalPositive(*v, "ms");
     if (!(c.stale_after_ms > c.poll_period_ms + c.response_timeout_ms)) {
       v->Fail("must exceed poll_period_ms + response_timeout_ms (" + Num(c.poll_period_ms + c.response_timeout_ms) +
               " ms), or a healthy bus would read as stale");
     }
   }
-  if (auto v = map.Optional("command_timeout_ms")) c.command_timeout_ms = NonNegative(*v, "ms (0 = off)");
+  if (auto v = map.Optional("command_timeout_ms")) c.command_timeout_ms = LocalNonNegative(*v, "ms (0 = off)");
   if (auto v = map.Optional("inputs")) c.inputs = ReadPoints(*v, false);
   if (auto v = map.Optional("outputs")) c.outputs = ReadPoints(*v, true);
   try {
