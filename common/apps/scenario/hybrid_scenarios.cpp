@@ -55,7 +55,8 @@ int RunFme(const FmeOptions& o) {
     out << "x_mm,y_mm,in_workspace,motor_min_force_N,brake_min_force_N,singularity_margin\n";
     for (int r = 0; r < map.rows; ++r) {
       for (int c = 0; c < map.columns; ++c) {
-        const hy::FmeSample& s = map.samples[static_cast<std::size_t>(r * map.columns + c)];
+        const hy::FmeSample& s = map.samples[static_cast<std::size_t>(r) * static_cast<std::size_t>(map.columns) +
+                                             static_cast<std::size_t>(c)];
         out << 1e3 * s.position_m.x() << ',' << 1e3 * s.position_m.y() << ',' << (s.in_workspace ? 1 : 0) << ','
             << s.motor_min_force_N << ',' << s.brake_min_force_N << ',' << s.singularity_margin << '\n';
       }

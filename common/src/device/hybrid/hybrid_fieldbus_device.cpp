@@ -43,7 +43,7 @@ const char* ToString(RigFaultSource source) noexcept {
 }
 
 HybridFieldbusDevice::HybridFieldbusDevice(const HybridFieldbusConfig& config, transport::CanPort& drive_1_port,
-                                           transport::CanPort& drive_2_port, fieldbus::Timebase timebase)
+                                           transport::CanPort& drive_2_port, const fieldbus::Timebase& timebase)
     : config_(config), kinematics_(config.geometry), allocator_(config.allocation) {
   config_.Validate();
   drives_[0] = std::make_unique<fieldbus::Cia402Drive>(config_.drives[0], drive_1_port, timebase);

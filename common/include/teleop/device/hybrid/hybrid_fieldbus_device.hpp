@@ -47,7 +47,8 @@ const char* ToString(RigFaultSource source) noexcept;
 class HybridFieldbusDevice final : public Device {
  public:
   HybridFieldbusDevice(const HybridFieldbusConfig& config, transport::CanPort& drive_1_port,
-                       transport::CanPort& drive_2_port, fieldbus::Timebase timebase = fieldbus::Timebase::Steady());
+                       transport::CanPort& drive_2_port,
+                       const fieldbus::Timebase& timebase = fieldbus::Timebase::Steady());
   ~HybridFieldbusDevice() override;
 
   const Capabilities& capabilities() const noexcept override { return capabilities_; }
