@@ -15,6 +15,11 @@ TELEOP_PACKAGES=(
   iproute2 can-utils
   python3-pymodbus python3-serial python3-serial-asyncio mbpoll socat
   qemu-system-x86 busybox-static cpio kmod
+  # deployment (docs/deployment.md): teleop-plot, the Wireshark dissector test, the unit check, the .deb inspection
+  python3-matplotlib
+  tshark
+  systemd
+  dpkg-dev
 )
 
 teleop::missing_packages() {
