@@ -1,0 +1,87 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "teleop/device/hybrid/friction_display.hpp"
+#include "teleop/device/hybrid/hybrid_rig.hpp"
+#include "teleop/device/hybrid/motor_brake_allocation.hpp"
+#include "teleop/device/hybrid/operator_hand.hpp"
+#include "teleop/device/hybrid/wall_model.hpp"
+
+namespace teleop::device::hybrid {
+
+/// One control cycle of a scenario run (base frame; "normal" components along the wall/surface normal n, positive
+/// into the wall; "tangent" along t).
+struct ScenarioSample {
+  double time_s = 0.0;
+  Eigen::Vector2d position_m{0.0, 0.0};
+  Eigen::Vector2d velocity_m_per_s{0.0, 0.0};
+  double depth_m = 0.0;              ///< Signed penetration (p − point)·n; < 0 outside.
+  double rendered_normal_N = 0.0;    ///< Actuators' force on the handle, −n component (the wall's push-back).
+  double desired_normal_N = 0.0;     ///< What the environment asked for (−n component of desired + dissipative).
+  double motor_normal_N = 0.0;       ///< Motor part of it.
+  double brake_normal_N = 0.0;       ///< Brake part of it.
+  double hand_normal_N = 0.0;        ///< Sensor: the operator's push along n.
+  double hand_tangent_N = 0.0;       ///< Sensor: the operator's push along t.
+  double rendered_tangent_N = 0.0;   ///< Actuators' force along −t (friction shown), N.
+  double friction_target_N = 0.0;    ///< μ·F_N (friction scenario).
+  double brake_capacity_1_Nm = 0.0;  ///< Joint side.
+  double brake_capacity_2_Nm = 0.0;
+};
+
+/// The numbers the paper reads off Figs. 8, 9, 11, 12 (definitions in docs/hybrid.md).
+struct ContactMetrics {
+  int bounces = 0;                     ///< Separations: in contact, then more than 0.1 mm outside the surface.
+  double transient_s = 0.0;            ///< First contact → last time the depth is outside final ± max(0.5 mm, 10 %).
+  double steady_state_error_mm = 0.0;  ///< Mean depth over the last 0.1 s.
+  double peak_force_N = 0.0;           ///< Largest push-back of the actuators on the handle.
+  double peak_hand_force_N = 0.0;
+  double max_depth_mm = 0.0;
+  double contact_speed_mm_s = 0.0;  ///< Inward speed at first contact.
+  double contact_time_s = -1.0;     ///< −1: never touched.
+  double brake_energy_J = 0.0;      ///< Work of the brakes on the linkage (≤ 0).
+  double motor_energy_J = 0.0;
+  // Friction scenario only.
+  double friction_rms_error_N = 0.0;      ///< RMS of (shown friction − μ·F_N) while sliding.
+  double friction_positive_work_J = 0.0;  ///< Work the shown friction did on the handle where it was positive.
+  double normal_force_std_N = 0.0;        ///< Spread of the operator's normal push while sliding.
+  double slide_mm = 0.0;                  ///< Tangential travel.
+};
+
+struct ScenarioResult {
+  std::vector<ScenarioSample> samples;
+  ContactMetrics metrics;
+};
+
+struct WallScenarioConfig {
+  HybridRigConfig rig{};
+  AllocationConfig allocation{};
+  WallConfig wall{};
+  OperatorHandConfig hand{};
+  double hand_mass_kg = 0.5;  ///< Added to the handle mass.
+  double period_s = 0.001;
+  double duration_s = 0.8;
+};
+
+/// The §4 experiment: the hand pushes the handle into the wall at `speed_m_per_s` with up to `hand_force_N`.
+/// Defaults: wall at y = 250 mm (normal +y), start at x = 0, y = 200 mm (weak) or 130 mm (strong, to reach the speed);
+/// weak (250 mm/s, 25 N) or strong (1500 mm/s, 80 N) contact as in Figs. 8 and 9.
+[[nodiscard]] WallScenarioConfig PaperWallScenario(WallKind kind, double speed_m_per_s);
+[[nodiscard]] ScenarioResult RunWallScenario(const WallScenarioConfig& config);
+
+struct FrictionScenarioConfig {
+  HybridRigConfig rig{};
+  AllocationConfig allocation{};
+  FrictionConfig friction{};
+  OperatorHandConfig hand{};
+  double hand_mass_kg = 0.5;
+  double period_s = 0.001;
+  double duration_s = 1.6;
+};
+
+/// The §5 experiment: press onto the surface with `normal_force_N`, then drag along it (Figs. 11, 12).
+[[nodiscard]] FrictionScenarioConfig PaperFrictionScenario(FrictionDisplay display, double normal_force_N);
+[[nodiscard]] ScenarioResult RunFrictionScenario(const FrictionScenarioConfig& config);
+
+}  // namespace teleop::device::hybrid

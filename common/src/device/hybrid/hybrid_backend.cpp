@@ -1,0 +1,237 @@
+// The `hybrid` backend: the Kwon & Song motor–brake five-bar, simulated (docs/hybrid.md, `device.hybrid`).
+#include "teleop/device/hybrid/hybrid_backend.hpp"
+
+#include <Eigen/LU>
+#include <memory>
+#include <numbers>
+
+#include "teleop/config/yaml_reader.hpp"
+
+namespace teleop::device::hybrid {
+namespace {
+
+using config::Field;
+using config::Finite;
+using config::Map;
+using config::NonNegative;
+using config::Positive;
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+Eigen::Vector2d Vec2(const Field& f) {
+  const DofVector v = config::ReadDofVector(f, 2, Finite);
+  return {v(0), v(1)};
+}
+
+Eigen::Vector2d Unit2(const Field& f) {
+  const Eigen::Vector2d v = Vec2(f);
+  if (!(v.norm() > 0.0)) f.Fail("must be a non-zero direction");
+  return v.normalized();
+}
+
+void ReadGeometry(const Field& f, FiveBarConfig& g) {
+  const Map m(f, {"proximal_1_m", "proximal_2_m", "distal_1_m", "distal_2_m", "base_separation_m", "joint_1_min_deg",
+                  "joint_1_max_deg", "joint_2_min_deg", "joint_2_max_deg", "workspace_x_m", "workspace_y_m"});
+  if (auto v = m.Optional("proximal_1_m")) g.proximal_1_m = Positive(*v, "m");
+  if (auto v = m.Optional("proximal_2_m")) g.proximal_2_m = Positive(*v, "m");
+  if (auto v = m.Optional("distal_1_m")) g.distal_1_m = Positive(*v, "m");
+  if (auto v = m.Optional("distal_2_m")) g.distal_2_m = Positive(*v, "m");
+  if (auto v = m.Optional("base_separation_m")) g.base_separation_m = NonNegative(*v, "m");
+  if (auto v = m.Optional("joint_1_min_deg")) g.joint_1_min_rad = Finite(*v) * kDeg;
+  if (auto v = m.Optional("joint_1_max_deg")) g.joint_1_max_rad = Finite(*v) * kDeg;
+  if (auto v = m.Optional("joint_2_min_deg")) g.joint_2_min_rad = Finite(*v) * kDeg;
+  if (auto v = m.Optional("joint_2_max_deg")) g.joint_2_max_rad = Finite(*v) * kDeg;
+  if (auto v = m.Optional("workspace_x_m")) {
+    const Eigen::Vector2d r = Vec2(*v);
+    g.workspace_x_min_m = r.x();
+    g.workspace_x_max_m = r.y();
+  }
+  if (auto v = m.Optional("workspace_y_m")) {
+    const Eigen::Vector2d r = Vec2(*v);
+    g.workspace_y_min_m = r.x();
+    g.workspace_y_max_m = r.y();
+  }
+}
+
+void ReadWall(const Map& m, WallConfig& w) {
+  if (auto v = m.Optional("model")) {
+    if (!ParseWallKind(v->AsString().c_str(), w.kind)) v->Fail("must be spring, popc or hybrid");
+  }
+  if (auto v = m.Optional("point_m")) w.point_m = Vec2(*v);
+  if (auto v = m.Optional("normal")) w.normal = Unit2(*v);
+  if (auto v = m.Optional("stiffness_N_per_m")) w.stiffness_N_per_m = NonNegative(*v, "N/m");
+  if (auto v = m.Optional("damper_coefficient")) w.damper_coefficient = NonNegative(*v, "N·s³/m³");
+  if (auto v = m.Optional("max_force_N")) w.max_force_N = Positive(*v, "N");
+}
+
+void ReadEffect(const Field& f, HybridEffectConfig& e) {
+  const Field type_field =
+      config::TypeOf(f, {"type", "model", "display", "point_m", "normal", "stiffness_N_per_m", "damper_coefficient",
+                         "max_force_N", "static_coefficient", "kinetic_coefficient"});
+  const std::string type = type_field.AsString();
+  if (type == "none") {
+    const Map m(f, {"type"});
+    e.kind = HybridEffectConfig::Kind::kNone;
+  } else if (type == "wall") {
+    const Map m(f, {"type", "model", "point_m", "normal", "stiffness_N_per_m", "damper_coefficient", "max_force_N"});
+    e.kind = HybridEffectConfig::Kind::kWall;
+    ReadWall(m, e.wall);
+  } else if (type == "friction") {
+    const Map m(
+        f, {"type", "display", "point_m", "normal", "stiffness_N_per_m", "static_coefficient", "kinetic_coefficient"});
+    e.kind = HybridEffectConfig::Kind::kFriction;
+    FrictionConfig& fr = e.friction;
+    if (auto v = m.Optional("display")) {
+      if (!ParseFrictionDisplay(v->AsString().c_str(), fr.display)) v->Fail("must be motor or brake");
+    }
+    if (auto v = m.Optional("point_m")) fr.point_m = Vec2(*v);
+    if (auto v = m.Optional("normal")) fr.normal = Unit2(*v);
+    if (auto v = m.Optional("stiffness_N_per_m")) fr.stiffness_N_per_m = NonNegative(*v, "N/m");
+    if (auto v = m.Optional("static_coefficient")) fr.static_coefficient = NonNegative(*v, "");
+    if (auto v = m.Optional("kinetic_coefficient")) fr.kinetic_coefficient = NonNegative(*v, "");
+    if (fr.kinetic_coefficient > fr.static_coefficient)
+      f.Fail("kinetic_coefficient must not exceed static_coefficient");
+  } else {
+    type_field.Fail("must be none, wall or friction; got '" + type + "'");
+  }
+}
+
+HybridDeviceConfig ReadHybrid(const Field* section) {
+  HybridDeviceConfig c;
+  if (section == nullptr) return c;
+  const Map m(*section, {"initial_position_m", "geometry", "motor", "brake", "joint_inertia_kgm2", "handle_mass_kg",
+                         "joint_damping_Nms_per_rad", "substeps", "allocation", "effect", "operator", "environment"});
+  if (auto v = m.Optional("initial_position_m")) c.rig.initial_position_m = Vec2(*v);
+  if (auto v = m.Optional("geometry")) ReadGeometry(*v, c.rig.geometry);
+  if (auto v = m.Optional("motor")) {
+    const Map mm(*v, {"max_torque_Nm", "time_constant_s", "pulley_ratio"});
+    if (auto x = mm.Optional("max_torque_Nm")) c.rig.motor.max_torque_Nm = Positive(*x, "N·m");
+    if (auto x = mm.Optional("time_constant_s")) c.rig.motor.time_constant_s = NonNegative(*x, "s");
+    if (auto x = mm.Optional("pulley_ratio")) c.rig.motor.pulley_ratio = Positive(*x, "");
+  }
+  if (auto v = m.Optional("brake")) {
+    const Map mm(*v, {"max_torque_Nm", "time_constant_s", "drag_Nm", "hysteresis_Nm", "pulley_ratio"});
+    if (auto x = mm.Optional("max_torque_Nm")) c.rig.brake.max_torque_Nm = Positive(*x, "N·m");
+    if (auto x = mm.Optional("time_constant_s")) c.rig.brake.time_constant_s = NonNegative(*x, "s");
+    if (auto x = mm.Optional("drag_Nm")) c.rig.brake.drag_Nm = NonNegative(*x, "N·m");
+    if (auto x = mm.Optional("hysteresis_Nm")) c.rig.brake.hysteresis_Nm = NonNegative(*x, "N·m");
+    if (auto x = mm.Optional("pulley_ratio")) c.rig.brake.pulley_ratio = Positive(*x, "");
+  }
+  if (auto v = m.Optional("joint_inertia_kgm2")) c.rig.joint_inertia_kgm2 = Positive(*v, "kg·m²");
+  if (auto v = m.Optional("handle_mass_kg")) c.rig.handle_mass_kg = NonNegative(*v, "kg");
+  if (auto v = m.Optional("joint_damping_Nms_per_rad")) c.rig.joint_damping_Nms_per_rad = NonNegative(*v, "N·m·s/rad");
+  if (auto v = m.Optional("substeps")) c.rig.substeps = config::IntInRange(*v, 1, 1000);
+  if (auto v = m.Optional("allocation")) {
+    const Map mm(*v, {"use_brakes", "rest_velocity_rad_per_s"});
+    if (auto x = mm.Optional("use_brakes")) c.allocation.use_brakes = x->AsBool();
+    if (auto x = mm.Optional("rest_velocity_rad_per_s"))
+      c.allocation.rest_velocity_rad_per_s = NonNegative(*x, "rad/s");
+  }
+  if (auto v = m.Optional("effect")) ReadEffect(*v, c.effect);
+  if (auto v = m.Optional("operator")) {
+    const Map mm(*v, {"direction", "speed_m_per_s", "travel_m", "stiffness_N_per_m", "damping_Ns_per_m", "max_force_N",
+                      "mass_kg"});
+    c.simulated_operator = true;
+    if (auto x = mm.Optional("direction")) c.hand.direction = Unit2(*x);
+    if (auto x = mm.Optional("speed_m_per_s")) c.hand.speed_m_per_s = NonNegative(*x, "m/s");
+    if (auto x = mm.Optional("travel_m")) c.hand.travel_m = NonNegative(*x, "m");
+    if (auto x = mm.Optional("stiffness_N_per_m")) c.hand.stiffness_N_per_m = NonNegative(*x, "N/m");
+    if (auto x = mm.Optional("damping_Ns_per_m")) c.hand.damping_Ns_per_m = NonNegative(*x, "N·s/m");
+    if (auto x = mm.Optional("max_force_N")) c.hand.max_force_N = NonNegative(*x, "N");
+    if (auto x = mm.Optional("mass_kg")) c.hand_mass_kg = NonNegative(*x, "kg");
+  }
+  if (auto v = m.Optional("environment")) {
+    const Map mm(*v, {"point_m", "normal", "stiffness_N_per_m", "damping_Ns_per_m"});
+    c.environment.wall = true;
+    c.environment.point_m = Vec2(mm.Required("point_m"));
+    if (auto x = mm.Optional("normal")) c.environment.normal = Unit2(*x);
+    c.environment.stiffness_N_per_m = Positive(mm.Required("stiffness_N_per_m"), "N/m");
+    if (auto x = mm.Optional("damping_Ns_per_m")) c.environment.damping_Ns_per_m = NonNegative(*x, "N·s/m");
+  }
+  try {
+    c.Validate();
+  } catch (const Error& e) {
+    section->Fail(e.what());
+  }
+  return c;
+}
+
+}  // namespace
+
+DeviceBackend HybridBackend() {
+  DeviceBackend b;
+  b.name = "hybrid";
+  b.description = "simulated 2-DOF five-bar with a motor and a particle brake per joint, Kwon & Song (docs/hybrid.md)";
+  b.nominal.dof = 2;
+  b.nominal.rendering = Rendering::kActiveAndDissipative;
+  b.nominal.has_brake = true;
+  b.nominal.measures_velocity = true;
+  b.nominal.measures_force = true;
+  b.keys = {
+      {"initial_position_m", "handle start [x, y] (m, base frame); readings are relative to it; default [0, 0.2]"},
+      {"geometry",
+       "five-bar: proximal_1_m, proximal_2_m, distal_1_m, distal_2_m (0.2), base_separation_m (0), "
+       "joint_1_min_deg/max (-40/110), joint_2_min_deg/max (70/220), workspace_x_m [-0.19, 0.19], "
+       "workspace_y_m [0.09, 0.32]"},
+      {"motor", "max_torque_Nm (4.44, after the reducer), time_constant_s (0.007), pulley_ratio (5)"},
+      {"brake", "max_torque_Nm (4), time_constant_s (0.05), drag_Nm (0.08), hysteresis_Nm (0), pulley_ratio (5)"},
+      {"joint_inertia_kgm2", "reflected actuator + pulley inertia per joint (kg·m²), > 0; default 0.02"},
+      {"handle_mass_kg", "point mass at the handle (kg), >= 0; default 0.3"},
+      {"joint_damping_Nms_per_rad", "viscous friction per joint (N·m·s/rad), >= 0; default 0.01"},
+      {"substeps", "integration sub-steps per period, 1..1000; default 10"},
+      {"allocation", "use_brakes (true; false = motors only), rest_velocity_rad_per_s (0.02)"},
+      {"effect",
+       "local haptic effect: type none | wall (model spring|popc|hybrid, point_m, normal, "
+       "stiffness_N_per_m, damper_coefficient, max_force_N) | friction (display motor|brake, point_m, "
+       "normal, stiffness_N_per_m, static_coefficient, kinetic_coefficient)"},
+      {"operator",
+       "simulated hand (master): direction, speed_m_per_s, travel_m, stiffness_N_per_m, damping_Ns_per_m, "
+       "max_force_N, mass_kg"},
+      {"environment", "simulated wall on the handle (slave): point_m, normal, stiffness_N_per_m, damping_Ns_per_m"},
+  };
+  b.section_required = false;
+  b.read = [](const Field* section, const SectionContext& context) -> std::any {
+    if (context.dof != 2) {
+      if (section != nullptr) section->Fail("the hybrid device has 2 DOF; set dof: 2");
+      throw Error("device.hybrid: the hybrid device has 2 DOF; set dof: 2");
+    }
+    return ReadHybrid(section);
+  };
+  b.make = [](const DeviceConfig& config) -> std::unique_ptr<Device> {
+    if (config.dof != 2) throw Error("device.hybrid: the hybrid device has 2 DOF; set dof: 2");
+    const HybridDeviceConfig c =
+        config.section.has_value() ? config.Section<HybridDeviceConfig>() : HybridDeviceConfig{};
+    return std::make_unique<HybridDevice>(c);
+  };
+  b.model = [](const DeviceConfig& config) {
+    const HybridDeviceConfig c =
+        config.section.has_value() ? config.Section<HybridDeviceConfig>() : HybridDeviceConfig{};
+    // Effective handle mass Λ = (J M⁻¹ Jᵀ)⁻¹ and damping J⁻ᵀ B J⁻¹ at the initial position, diagonal per axis.
+    const FiveBar fb(c.rig.geometry);
+    Eigen::Vector2d q;
+    Eigen::Matrix2d jac;
+    if (!fb.Inverse(c.rig.initial_position_m, q) || !fb.Jacobian(q, jac)) {
+      return AnalysisModel::NotApplicable("the initial position has no Jacobian");
+    }
+    const double handle = c.rig.handle_mass_kg + c.hand_mass_kg;
+    const Eigen::Matrix2d m = c.rig.joint_inertia_kgm2 * Eigen::Matrix2d::Identity() + handle * jac.transpose() * jac;
+    const Eigen::Matrix2d lambda = (jac * m.inverse() * jac.transpose()).inverse();
+    const Eigen::Matrix2d jinv = jac.inverse();
+    const Eigen::Matrix2d damping = c.rig.joint_damping_Nms_per_rad * jinv.transpose() * jinv;
+    AnalysisModel model;
+    model.mass_kg = DofVector::Zero(2);
+    model.damping_Ns_per_m = DofVector::Zero(2);
+    for (int i = 0; i < 2; ++i) {
+      model.mass_kg(i) = lambda(i, i);
+      model.damping_Ns_per_m(i) = damping(i, i);
+    }
+    return model;
+  };
+  return b;
+}
+
+DeviceConfig HybridDeviceConfigOf(const HybridDeviceConfig& config) { return DeviceConfig::Of("hybrid", 2, config); }
+
+}  // namespace teleop::device::hybrid
+
+TELEOP_REGISTER_DEVICE(hybrid, teleop::device::hybrid::HybridBackend())

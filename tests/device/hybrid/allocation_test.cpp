@@ -1,0 +1,147 @@
+#include <gtest/gtest.h>
+
+#include <Eigen/LU>
+#include <cmath>
+#include <random>
+
+#include "teleop/device/hybrid/five_bar.hpp"
+#include "teleop/device/hybrid/motor_brake_allocation.hpp"
+
+namespace teleop::device::hybrid {
+namespace {
+
+struct Pose {
+  Eigen::Matrix2d jac;
+};
+
+Eigen::Matrix2d JacobianAt(const Eigen::Vector2d& p) {
+  const FiveBar fb{FiveBarConfig{}};
+  Eigen::Vector2d q;
+  Eigen::Matrix2d jac;
+  EXPECT_TRUE(fb.Inverse(p, q) && fb.Jacobian(q, jac));
+  return jac;
+}
+
+AllocationInput WallInput(const Eigen::Matrix2d& jac, const Eigen::Vector2d& v_m_per_s) {
+  AllocationInput in;
+  in.jacobian_m_per_rad = jac;
+  in.joint_velocity_rad_per_s = jac.inverse() * v_m_per_s;
+  in.hand_force_N = {0.0, 20.0};      // the operator pushes into the wall (+y)
+  in.desired_force_N = {0.0, -50.0};  // the wall pushes back, perpendicular to it (Fig. 5)
+  return in;
+}
+
+// Fig. 5(a), compression: the handle moves into the wall; each joint whose desired torque opposes its motion gets
+// its brake, the motor supplies the rest, and motor + brake still add up to the perpendicular resultant.
+TEST(MotorBrakeAllocation, Fig5CompressionUsesBrakesAndKeepsTheResultantPerpendicular) {
+  const Eigen::Matrix2d jac = JacobianAt({0.05, 0.22});
+  MotorBrakeAllocator alloc{AllocationConfig{}};
+  const AllocationInput in = WallInput(jac, {0.03, 0.20});
+  AllocationOutput out;
+  for (int k = 0; k < 100; ++k) out = alloc.Step(in, 1e-3);  // 100 ms: the brake model has built up
+  int engaged = 0;
+  for (int i = 0; i < 2; ++i) {
+    const bool opposes = out.desired_joint_Nm(i) * in.joint_velocity_rad_per_s(i) < 0.0;
+    EXPECT_EQ(out.brake_engaged[i], opposes) << "joint " << i;
+    if (opposes) {
+      ++engaged;
+      EXPECT_LT(std::abs(out.motor_joint_Nm(i)), std::abs(out.desired_joint_Nm(i)));
+      EXPECT_GE(out.motor_joint_Nm(i) * out.desired_joint_Nm(i), 0.0);
+      EXPECT_LT(out.brake_estimate_joint_Nm(i) * in.joint_velocity_rad_per_s(i), 0.0);  // opposes the motion
+    }
+  }
+  EXPECT_EQ(engaged, 2);
+  const Eigen::Vector2d resultant = jac.transpose().inverse() * (out.motor_joint_Nm + out.brake_estimate_joint_Nm);
+  EXPECT_NEAR(resultant.x(), 0.0, 1e-9);
+  EXPECT_NEAR(resultant.y(), -50.0, 1e-9);
+}
+
+// Fig. 5(b), release: the wall pushes the handle back out; a brake could only resist that outward motion and would
+// tilt the resultant (F_r,actual). The allocation releases the brakes and the motors render F_r,desired.
+TEST(MotorBrakeAllocation, Fig5ReleaseReleasesTheBrakesSoTheResultantStaysPerpendicular) {
+  const Eigen::Matrix2d jac = JacobianAt({0.05, 0.22});
+  MotorBrakeAllocator alloc{AllocationConfig{}};
+  AllocationOutput out;
+  for (int k = 0; k < 100; ++k) out = alloc.Step(WallInput(jac, {0.03, 0.20}), 1e-3);  // compression first
+  const AllocationInput release = WallInput(jac, {-0.03, -0.20});
+  out = alloc.Step(release, 1e-3);
+  EXPECT_FALSE(out.brake_engaged[0]);
+  EXPECT_FALSE(out.brake_engaged[1]);
+  EXPECT_EQ(out.brake_shaft_Nm, Eigen::Vector2d::Zero());
+  const Eigen::Vector2d motor_force = jac.transpose().inverse() * out.motor_joint_Nm;
+  EXPECT_NEAR(motor_force.x(), 0.0, 1e-9);
+  EXPECT_NEAR(motor_force.y(), -50.0, 1e-9);
+  // What a brake left engaged at 10 N·m would have done: opposed the motion, tilting the force off the normal.
+  const Eigen::Vector2d qd = release.joint_velocity_rad_per_s;
+  const Eigen::Vector2d held{-10.0 * std::copysign(1.0, qd(0)), -10.0 * std::copysign(1.0, qd(1))};
+  const Eigen::Vector2d naive = jac.transpose().inverse() * (out.motor_joint_Nm + held);
+  EXPECT_GT(std::abs(naive.x()), 5.0);
+}
+
+// At rest the brake direction comes from the force sensor: it resists the operator's push, not the wall's.
+TEST(MotorBrakeAllocation, AtRestTheBrakeOpposesTheAppliedTorque) {
+  const Eigen::Matrix2d jac = JacobianAt({0.0, 0.25});
+  MotorBrakeAllocator alloc{AllocationConfig{}};
+  AllocationInput in = WallInput(jac, {0.0, 0.0});
+  AllocationOutput out = alloc.Step(in, 1e-3);
+  EXPECT_TRUE(out.brake_engaged[0] && out.brake_engaged[1]);
+  in.hand_force_N = {0.0, -20.0};  // the operator pulls out: the wall force now helps him, no brake
+  out = alloc.Step(in, 1e-3);
+  EXPECT_FALSE(out.brake_engaged[0] || out.brake_engaged[1]);
+}
+
+TEST(MotorBrakeAllocation, MotorsOnlyModeAndBadInput) {
+  AllocationConfig cfg;
+  cfg.use_brakes = false;
+  MotorBrakeAllocator alloc{cfg};
+  const Eigen::Matrix2d jac = JacobianAt({0.05, 0.22});
+  const AllocationOutput out = alloc.Step(WallInput(jac, {0.03, 0.2}), 1e-3);
+  EXPECT_EQ(out.brake_shaft_Nm, Eigen::Vector2d::Zero());
+  EXPECT_TRUE(out.motor_joint_Nm.isApprox(out.desired_joint_Nm));
+  MotorBrakeAllocator alloc2{AllocationConfig{}};
+  AllocationInput bad = WallInput(jac, {0.03, 0.2});
+  bad.desired_force_N.x() = std::nan("");
+  const AllocationOutput safe = alloc2.Step(bad, 1e-3);
+  EXPECT_EQ(safe.motor_joint_Nm, Eigen::Vector2d::Zero());
+  EXPECT_EQ(safe.brake_shaft_Nm, Eigen::Vector2d::Zero());
+}
+
+// Seeded property: over random poses, motions, sensor readings and requests, (1) a brake is engaged only where its
+// torque would be dissipative, (2) its command is within 0…max, (3) per joint the motor's positive power never
+// exceeds that of the motor alone rendering the desired torque (the brake's own power is ≤ 0).
+TEST(MotorBrakeAllocation, NeverInjectsMoreThanTheMotorAloneProperty) {
+  std::mt19937_64 rng(42);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const FiveBar fb{FiveBarConfig{}};
+  MotorBrakeAllocator alloc{AllocationConfig{}};
+  for (int k = 0; k < 20000; ++k) {
+    const Eigen::Vector2d p{0.18 * u(rng), 0.205 + 0.11 * u(rng)};
+    Eigen::Vector2d q;
+    Eigen::Matrix2d jac;
+    ASSERT_TRUE(fb.Inverse(p, q) && fb.Jacobian(q, jac));
+    AllocationInput in;
+    in.jacobian_m_per_rad = jac;
+    in.joint_velocity_rad_per_s = {u(rng) * (k % 5 == 0 ? 0.01 : 3.0), u(rng) * 3.0};
+    in.hand_force_N = {50.0 * u(rng), 50.0 * u(rng)};
+    in.desired_force_N = {100.0 * u(rng), 100.0 * u(rng)};
+    in.dissipative_force_N = k % 3 == 0 ? Eigen::Vector2d{80.0 * u(rng), 80.0 * u(rng)} : Eigen::Vector2d::Zero();
+    const AllocationOutput out = alloc.Step(in, 1e-3 * (1.0 + u(rng)));
+    const Eigen::Vector2d tau_d = jac.transpose() * in.desired_force_N;
+    const Eigen::Vector2d tau_r = jac.transpose() * in.dissipative_force_N;
+    const Eigen::Vector2d tau_h = jac.transpose() * in.hand_force_N;
+    for (int i = 0; i < 2; ++i) {
+      const double qd = in.joint_velocity_rad_per_s(i);
+      const double ref = std::abs(qd) >= alloc.config().rest_velocity_rad_per_s ? qd : tau_h(i);
+      if (out.brake_engaged[i]) {
+        ASSERT_TRUE(tau_d(i) * ref < 0.0 || tau_r(i) * ref < 0.0) << "case " << k << " joint " << i;
+      }
+      ASSERT_GE(out.brake_shaft_Nm(i), 0.0);
+      ASSERT_LE(out.brake_shaft_Nm(i), alloc.config().brake.max_torque_Nm);
+      ASSERT_LE(std::max(0.0, out.motor_joint_Nm(i) * qd), std::max(0.0, tau_d(i) * qd) + 1e-12)
+          << "case " << k << " joint " << i;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace teleop::device::hybrid

@@ -1,0 +1,229 @@
+// The real-rig driver against what the real rig speaks: two simulated CiA 402 drives on the emulated CAN bus (manual
+// clock) and the pymodbus server as the brake amplifier + force sensor (tests/fieldbus/modbus_server.py).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+#include <thread>
+
+#include "modbus_test_server.hpp"
+#include "teleop/device/hybrid/hybrid_fieldbus_device.hpp"
+#include "teleop/error.hpp"
+#include "teleop/fieldbus/simulated_cia402_drive.hpp"
+#include "teleop/transport/can_emulated_bus.hpp"
+
+namespace teleop::device::hybrid {
+namespace {
+
+using fieldbus::Cia402Drive;
+using fieldbus::ModbusPoint;
+using fieldbus::ModbusTable;
+using fieldbus::ModbusValueType;
+using fieldbus::SimulatedCia402Drive;
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr std::uint64_t kStep_ns = 100'000;
+
+ModbusPoint Point(const char* name, ModbusTable table, int address, double scale, double safe = 0.0) {
+  ModbusPoint p;
+  p.name = name;
+  p.table = table;
+  p.address = address;
+  p.type = ModbusValueType::kInt16;
+  p.scale = scale;
+  p.safe_value = safe;
+  return p;
+}
+
+struct Rig {
+  std::uint64_t now_ns = 0;
+  transport::EmulatedCanBus bus{transport::EmulatedCanBusConfig{}, [this] { return now_ns; }};
+  test::ModbusTestServer server = test::ModbusTestServer::Tcp();
+  HybridFieldbusConfig config;
+  std::array<std::unique_ptr<transport::CanPort>, 2> host_ports;
+  std::array<std::unique_ptr<transport::CanPort>, 2> drive_ports;
+  std::array<std::unique_ptr<SimulatedCia402Drive>, 2> sims;
+  std::unique_ptr<HybridFieldbusDevice> device;
+
+  Rig() {
+    // Handle at (0, 200 mm) when both drives read 0: θ1 = 30°, θ2 = 150°.
+    config.joint_offset_rad = {30.0 * kDeg, 150.0 * kDeg};
+    for (int i = 0; i < 2; ++i) {
+      auto& d = config.drives[static_cast<std::size_t>(i)];
+      d.node_id = static_cast<std::uint8_t>(i + 1);
+      d.produce_sync = i == 0;  // one SYNC producer per bus
+      d.sdo.timeout_ms = 5.0;
+      d.sdo.backoff_initial_ms = 1.0;
+      d.max_torque_Nm = 4.44;
+      d.scaling.rated_torque_Nm = 1.0;
+    }
+    auto& a = config.amplifier;
+    a.tcp.port = server.modbus_port();
+    a.poll_period_ms = 5.0;
+    a.response_timeout_ms = 300.0;  // generous on a loaded machine
+    a.stale_after_ms = 2000.0;
+    a.command_timeout_ms = 0.0;
+    a.outputs = {Point("brake_1_Nm", ModbusTable::kHoldingRegister, 0, 0.001, 4.0),
+                 Point("brake_2_Nm", ModbusTable::kHoldingRegister, 1, 0.001, 4.0)};
+    a.inputs = {Point("force_x_N", ModbusTable::kInputRegister, 0, 0.01),
+                Point("force_y_N", ModbusTable::kInputRegister, 1, 0.01)};
+    for (int i = 0; i < 2; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      fieldbus::SimulatedCia402DriveConfig s;
+      s.node_id = static_cast<std::uint8_t>(i + 1);
+      s.joint.inertia_kg_m2 = 2e-3;  // at the drive shaft (the joint's 0.02 kg·m² less the pulleys, roughly)
+      const int host = bus.AddNode();
+      const int node = bus.AddNode();
+      host_ports[k] = bus.MakePort(host, Cia402Drive::ReceiveOptions(config.drives[k]));
+      drive_ports[k] = bus.MakePort(node, SimulatedCia402Drive::ReceiveOptions(s));
+      sims[k] = std::make_unique<SimulatedCia402Drive>(s, *drive_ports[k]);
+    }
+    fieldbus::Timebase clock;
+    clock.now_ns = [this] { return now_ns; };
+    clock.wait_ns = [this](std::uint64_t ns) { Advance(std::max<std::uint64_t>(ns, 1000)); };
+    device = std::make_unique<HybridFieldbusDevice>(config, *host_ports[0], *host_ports[1], clock);
+  }
+
+  void Advance(std::uint64_t ns) {
+    const std::uint64_t end = now_ns + ns;
+    while (now_ns < end) {
+      now_ns = std::min(end, now_ns + kStep_ns);
+      for (auto& s : sims) s->Step(now_ns);
+    }
+  }
+
+  void BringUp() {
+    device->Configure();
+    device->Activate();
+  }
+
+  /// One 1 ms control cycle: Read, Write, bus and drive time.
+  Reading Cycle(const Eigen::Vector2d& force_N) {
+    Reading r;
+    device->Read(r);
+    DofVector f = DofVector::Zero(2);
+    f << force_N.x(), force_N.y();
+    device->Write(Command::Force(f));
+    device->Update(1e-3);
+    Advance(1'000'000);
+    return r;
+  }
+
+  /// The amplifier's brake registers (N·m at the shaft), as the server holds them.
+  Eigen::Vector2d BrakeRegisters() {
+    std::istringstream in(server.Control("get hr 0 2"));
+    double a = 0.0;
+    double b = 0.0;
+    in >> a >> b;
+    return {a * 0.001, b * 0.001};
+  }
+
+  /// Real time for the Modbus thread, with the CAN side cycling.
+  template <typename Pred>
+  bool CycleUntil(Pred done, double timeout_s, const Eigen::Vector2d& force_N) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (std::chrono::steady_clock::now() < end) {
+      (void)Cycle(force_N);
+      if (done()) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    return false;
+  }
+};
+
+// Bring-up, then the cycle: position from the drives' encoders through the kinematics, force from the amplifier's
+// inputs, motor torque to the drives (CST) and brake torque to the amplifier through the allocation.
+TEST(HybridFieldbusDevice, RendersThroughDrivesAndAmplifier) {
+  Rig rig;
+  rig.BringUp();
+  ASSERT_EQ(rig.server.Control("set ir 0 0 1500"), "ok");  // the operator pushes +15 N along y...
+  // ...on the joints too: τ_h = Jᵀ·(0, 15 N) at θ = (30°, 150°), at the drive shafts (÷ 5).
+  const double tau_h = 0.2 * std::cos(30.0 * kDeg) * 15.0 / 5.0;
+  rig.sims[0]->SetExternalTorque(tau_h);
+  rig.sims[1]->SetExternalTorque(-tau_h);
+  // Wait for the sensor value to arrive (real time), with no force command.
+  ASSERT_TRUE(rig.CycleUntil(
+      [&] {
+        Reading r;
+        rig.device->Read(r);
+        return std::abs(r.force_N(1) - 15.0) < 1e-9;
+      },
+      3.0, Eigen::Vector2d::Zero()));
+  Reading r = rig.Cycle(Eigen::Vector2d::Zero());
+  EXPECT_EQ(r.faults, kFaultNone);
+  EXPECT_NEAR(r.position_m.x(), 0.0, 1e-3);  // the handle near the origin (0, 200 mm), pushed along +y
+  EXPECT_GT(r.velocity_m_per_s(1), 0.0);
+  // A wall-like force against the operator's push (and the motion it causes): the brakes engage, the motors render
+  // the desired force minus the brakes' estimate.
+  for (int k = 0; k < 20; ++k) r = rig.Cycle({0.0, -10.0});
+  const AllocationOutput previous = rig.device->last_allocation();
+  r = rig.Cycle({0.0, -10.0});
+  EXPECT_TRUE(rig.device->last_allocation().brake_engaged[0] && rig.device->last_allocation().brake_engaged[1]);
+  // A synchronous RPDO takes effect on the next SYNC. Drive 2's RPDO is on the wire before drive 1's Write queues
+  // its RPDO and the SYNC; arbitration sends the SYNC (0x080) first, so drive 1 applies its torque one cycle later
+  // (docs/hybrid.md). Per-mille quantisation of 1 N·m rated torque, × 5 at the joint.
+  const Eigen::Vector2d commanded{rig.sims[0]->commanded_torque_Nm(), rig.sims[1]->commanded_torque_Nm()};
+  EXPECT_NEAR(commanded(0) * 5.0, previous.motor_joint_Nm(0), 0.003);
+  EXPECT_NEAR(commanded(1) * 5.0, rig.device->last_allocation().motor_joint_Nm(1), 0.003);
+  EXPECT_LT(std::abs(previous.motor_joint_Nm(0)), std::abs(previous.desired_joint_Nm(0)));  // the brakes share
+  const Eigen::Vector2d want = rig.device->last_allocation().brake_shaft_Nm;
+  EXPECT_GT(want.minCoeff(), 0.1);
+  ASSERT_TRUE(rig.CycleUntil(
+      [&] {
+        return (rig.BrakeRegisters() - rig.device->last_allocation().brake_shaft_Nm).cwiseAbs().maxCoeff() < 0.0015;
+      },
+      3.0, {0.0, -10.0}));
+  EXPECT_FALSE(rig.device->latched_safe());
+}
+
+// A drive that leaves Operation Enabled: the device latches its safe state, reports the drive, sends zero torque to
+// both drives and engages both brakes.
+TEST(HybridFieldbusDevice, DriveLeavingOperationEnabledEngagesTheSafeState) {
+  Rig rig;
+  rig.BringUp();
+  for (int k = 0; k < 20; ++k) (void)rig.Cycle({5.0, 5.0});
+  ASSERT_FALSE(rig.device->latched_safe());
+  rig.sims[1]->ForceDisable();
+  Reading r;
+  for (int k = 0; k < 10 && !rig.device->latched_safe(); ++k) r = rig.Cycle({5.0, 5.0});
+  ASSERT_TRUE(rig.device->latched_safe());
+  EXPECT_EQ(rig.device->fault_source(), RigFaultSource::kDrive2);
+  r = rig.Cycle({5.0, 5.0});
+  EXPECT_NE(r.faults & kFaultDriver, 0u);
+  for (int k = 0; k < 5; ++k) (void)rig.Cycle({5.0, 5.0});
+  EXPECT_NEAR(rig.sims[0]->commanded_torque_Nm(), 0.0, 1e-9);
+  ASSERT_TRUE(rig.CycleUntil([&] { return rig.BrakeRegisters().minCoeff() > 3.999; }, 3.0, {5.0, 5.0}));
+}
+
+// An amplifier that stops answering: the device latches its safe state within the configured bound (one response
+// timeout) and the drives get zero torque; when it answers again it is commanded to full braking.
+TEST(HybridFieldbusDevice, SilentAmplifierEngagesTheSafeState) {
+  Rig rig;
+  rig.BringUp();
+  for (int k = 0; k < 20; ++k) (void)rig.Cycle({5.0, 0.0});
+  ASSERT_FALSE(rig.device->latched_safe());
+  ASSERT_EQ(rig.server.Control("mode stop"), "ok");
+  ASSERT_TRUE(rig.CycleUntil([&] { return rig.device->latched_safe(); }, 5.0, {5.0, 0.0}));
+  EXPECT_EQ(rig.device->fault_source(), RigFaultSource::kAmplifier);
+  const Reading r = rig.Cycle({5.0, 0.0});
+  EXPECT_NE(r.faults & kFaultCommunication, 0u);
+  (void)rig.Cycle({5.0, 0.0});
+  EXPECT_NEAR(rig.sims[0]->commanded_torque_Nm(), 0.0, 1e-9);
+  EXPECT_NEAR(rig.sims[1]->commanded_torque_Nm(), 0.0, 1e-9);
+  ASSERT_EQ(rig.server.Control("mode normal"), "ok");
+  ASSERT_TRUE(rig.CycleUntil([&] { return rig.BrakeRegisters().minCoeff() > 3.999; }, 5.0, {5.0, 0.0}));
+  EXPECT_TRUE(rig.device->latched_safe());  // latched until Activate() again
+}
+
+TEST(HybridFieldbusDevice, RegisterMapWithoutBrakeOutputsIsRejected) {
+  HybridFieldbusConfig c;
+  c.drives[1].node_id = 2;
+  c.amplifier.inputs = {Point("fx", ModbusTable::kInputRegister, 0, 0.01),
+                        Point("fy", ModbusTable::kInputRegister, 1, 0.01)};
+  EXPECT_THROW(c.Validate(), Error);
+}
+
+}  // namespace
+}  // namespace teleop::device::hybrid
