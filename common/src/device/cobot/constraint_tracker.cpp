@@ -20,6 +20,9 @@ void Validate(const ConstraintTrackerConfig& c) {
   positive(c.max_curvature_per_m, "max_curvature_per_m");
   positive(c.k2_Nms_per_rad, "k2_Nms_per_rad");
   positive(c.integral_limit_m2, "integral_limit_m2");
+  if (!std::isfinite(c.friction_compensation_Nms_per_rad) || c.friction_compensation_Nms_per_rad < 0.0) {
+    throw Error("cobot tracker: friction_compensation_Nms_per_rad must be >= 0");
+  }
   if (!std::isfinite(c.integral_gain_per_m3) || c.integral_gain_per_m3 < 0.0) {
     throw Error("cobot tracker: integral_gain_per_m3 must be >= 0");
   }
@@ -78,7 +81,8 @@ TrackerOutput ConstraintTracker::Step(const ConstraintSample& sample, double ste
                                            config_.max_curvature_per_m);
   // ω turns the direction of motion; for u < 0 the motion is opposite to the heading but turns the same way.
   out.commanded_rate_rad_per_s = out.errors.away_sign * std::abs(u) * out.curvature_command_per_m;
-  out.steering_torque_Nm = config_.k2_Nms_per_rad * (out.commanded_rate_rad_per_s - omega);
+  out.steering_torque_Nm = config_.k2_Nms_per_rad * (out.commanded_rate_rad_per_s - omega) +
+                           config_.friction_compensation_Nms_per_rad * out.commanded_rate_rad_per_s;
   return out;
 }
 

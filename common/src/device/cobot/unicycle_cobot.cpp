@@ -23,6 +23,26 @@ double SteeringGainFor(const UnicyclePlantConfig& plant, double tau_s) {
   return k2;
 }
 
+UnicycleCobotConfig UnicycleCobotConfig::Prototype(double tau_s) {
+  UnicycleCobotConfig c;
+  c.plant.cart_mass_kg = 10.0;
+  c.plant.rolling_damping_Ns_per_m = 20.0;
+  c.plant.steering_inertia_kgm2 = 0.002;
+  c.plant.steering_damping_Nms_per_rad = 0.004;
+  c.plant.max_steering_torque_Nm = 2.0;
+  c.plant.cornering_stiffness_N_per_rad = 500.0;
+  const double k2 = SteeringGainFor(c.plant, tau_s);
+  c.controller.caster.k1_per_kg = 0.1;
+  c.controller.caster.k2_Nms_per_rad = k2;
+  c.controller.caster.speed_floor_m_per_s = 0.02;
+  c.controller.caster.friction_compensation_Nms_per_rad = c.plant.steering_damping_Nms_per_rad;
+  c.controller.tracker.lookahead_m = 0.05;
+  c.controller.tracker.k2_Nms_per_rad = k2;
+  c.controller.overlay_enabled = true;
+  c.controller.overlay_min_radius_m = 0.1;
+  return c;
+}
+
 namespace {
 UnicycleCobotConfig Prepared(UnicycleCobotConfig c) {
   Validate(c.plant);

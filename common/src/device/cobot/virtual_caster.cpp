@@ -16,6 +16,9 @@ void Validate(const VirtualCasterConfig& c) {
   if (!std::isfinite(c.k2_Nms_per_rad) || c.k2_Nms_per_rad <= 0.0) {
     throw Error("cobot caster: k2_Nms_per_rad must be > 0 (got " + std::to_string(c.k2_Nms_per_rad) + ")");
   }
+  if (!std::isfinite(c.friction_compensation_Nms_per_rad) || c.friction_compensation_Nms_per_rad < 0.0) {
+    throw Error("cobot caster: friction_compensation_Nms_per_rad must be >= 0");
+  }
   if (!std::isfinite(c.speed_floor_m_per_s) || c.speed_floor_m_per_s <= 0.0) {
     throw Error("cobot caster: speed_floor_m_per_s (epsilon of eq 2) must be > 0 (got " +
                 std::to_string(c.speed_floor_m_per_s) + ")");
@@ -32,7 +35,8 @@ CasterOutput VirtualCasterStep(const VirtualCasterConfig& c, double force_x_N, d
   out.lateral_force_N = force.dot(LeftNormal(UnitAt(steering_angle_rad)));
   const double denominator = SignNonZero(u) * std::max(std::abs(u), c.speed_floor_m_per_s);
   out.commanded_rate_rad_per_s = c.k1_per_kg * out.lateral_force_N / denominator;
-  out.steering_torque_Nm = c.k2_Nms_per_rad * (out.commanded_rate_rad_per_s - omega);
+  out.steering_torque_Nm = c.k2_Nms_per_rad * (out.commanded_rate_rad_per_s - omega) +
+                           c.friction_compensation_Nms_per_rad * out.commanded_rate_rad_per_s;
   return out;
 }
 

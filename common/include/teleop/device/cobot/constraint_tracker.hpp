@@ -23,6 +23,9 @@ struct ConstraintTrackerConfig {
   double integral_limit_m2 = 1e-3;     ///< Anti-windup bound on ∫p ds.
   double max_curvature_per_m = 100.0;  ///< Bound on the curvature command (the tightest turn the wheel may make).
   double k2_Nms_per_rad = 0.1;         ///< Steering-velocity gain: Γ = K₂(ω_c − ω).
+  /// b̂: feed-forward b̂·ω_c for the steering friction. 0 reproduces the paper's circle error, which it reduced by
+  /// "modestly increasing the wheel's nominal steering velocity command" — what this term does.
+  double friction_compensation_Nms_per_rad = 0.0;
 };
 
 /// The tracking errors of one sample, in the paper's signs.

@@ -19,6 +19,13 @@ struct UnicycleCobotConfig {
   RateEstimatorConfig steering_rate_filter{100.0};  ///< ω from the steering encoder.
   /// When true (default) controller.steering_time_constant_s is set from the plant: τ = J/(K₂ + b).
   bool derive_time_constant = true;
+
+  /// The rig the scenarios, tests and example configs share, sized like the paper's prototype (§3.2: 1 kHz,
+  /// encoder-derived u and ω, handle force sensor, xy-frame position sensing): a 10 kg cart on a 50 mm wheel,
+  /// 16384-count encoders, 10 µm position resolution, steering loop τ = `tau_s`, K₁ = 1/(10 kg), ε = 0.02 m/s,
+  /// lookahead 50 mm, overlay minimum radius 0.1 m, slip with a cornering stiffness of 500 N/rad, a little
+  /// steering friction (b = 0.004 N·m·s/rad, compensated in the caster, not in the tracker).
+  static UnicycleCobotConfig Prototype(double tau_s = 0.02);
 };
 
 /// τ = J/(K₂ + b): the closed-loop time constant of the steering-velocity loop (eq 3c).

@@ -3,7 +3,7 @@
 namespace teleop::device::cobot {
 
 /// The virtual caster of Colgate et al. §3, eq 2:
-///   Γ = K₂·( K₁·F⊥ / (sign(u)·max(|u|, ε)) − ω ).
+///   Γ = K₂·( K₁·F⊥ / (sign(u)·max(|u|, ε)) − ω )  [+ b̂·ω_c, optional friction feed-forward].
 /// The paper writes Γ = K₁F⊥/(sign(u)max(|u|,ε)) − K₂ω with K₁ "replacing 1/M in eq 1"; that reading holds when the
 /// torque is measured in units of the steering-velocity loop, which is how this law is written: K₁ = 1/M is the
 /// inverse virtual mass (1/kg) and K₂ the steering-velocity gain (N·m·s/rad). In steady turning the wheel then
@@ -13,6 +13,8 @@ struct VirtualCasterConfig {
   double k1_per_kg = 0.1;               ///< K₁ = 1/M_virtual.
   double k2_Nms_per_rad = 0.1;          ///< K₂: steering-velocity gain; τ = J/(K₂ + b) is the steering time constant.
   double speed_floor_m_per_s = 0.02;    ///< ε: of the order of the speed resolution.
+  /// b̂: feed-forward b̂·ω_c for the steering bearing's viscous friction, so the steady rate is ω_c (0 = none).
+  double friction_compensation_Nms_per_rad = 0.0;
 };
 
 struct CasterOutput {
