@@ -140,8 +140,10 @@ TEST(CobotSensors, RateEstimatorConvergesToTheTrueRate) {
   for (int k = 0; k < 1000; ++k) {
     angle += 2.0 * kPeriod_s;
     const double rate = est.Step(Quantize(angle, 2.0 * std::numbers::pi / 16384.0), kPeriod_s);
-    if (k >= 500) mean += rate / 500.0;
-    if (k >= 500) EXPECT_NEAR(rate, 2.0, 0.15);  // quantization noise after the filter: one count/ms is 0.38 rad/s
+    if (k >= 500) {
+      mean += rate / 500.0;
+      EXPECT_NEAR(rate, 2.0, 0.15);  // quantization noise after the filter: one count/ms is 0.38 rad/s
+    }
   }
   EXPECT_NEAR(mean, 2.0, 0.01);
   // Wrapped angles (steering) are differenced on the circle.
