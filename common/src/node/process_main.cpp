@@ -8,6 +8,7 @@
 
 #include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
+#include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
 #include "teleop/node/teleop_node.hpp"
 #include "teleop/transport/link_config.hpp"

@@ -8,6 +8,7 @@
 #include <ctime>
 #include <limits>
 
+#include "teleop/device/law_command.hpp"
 #include "teleop/error.hpp"
 #include "teleop/node/event_log.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
@@ -49,6 +50,7 @@ struct TeleopNode::Impl {
         watchdog(cfg.link.timeout_ms * 1e-3),
         events(1024) {
     const int dof = config.dof;
+    device->Configure();  // opens the bus; capabilities() is final after it
     if (device->capabilities().dof != dof) {
       throw Error("device '" + device->name() + "' has " + std::to_string(device->capabilities().dof) +
                   " DOF but the config says dof: " + std::to_string(dof));
@@ -56,6 +58,8 @@ struct TeleopNode::Impl {
     reading.position_m = ZeroDof(dof);
     reading.velocity_m_per_s = ZeroDof(dof);
     reading.force_N = ZeroDof(dof);
+    reading.rendered_force_N = ZeroDof(dof);
+    command = device::Command::Force(ZeroDof(dof));
     input.position_m = ZeroDof(dof);
     input.velocity_m_per_s = ZeroDof(dof);
     input.peer_position_m = ZeroDof(dof);
@@ -85,6 +89,7 @@ struct TeleopNode::Impl {
 
   // Preallocated cycle state.
   device::Reading reading;
+  device::Command command;
   control::ThreeChannelLaw::Input input;
   DofVector zero_command;
   proto::SampleMessage incoming{};
@@ -188,7 +193,8 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
     if (!device_faulted) events.Push({Event::Kind::kDeviceFault, cycle, static_cast<double>(reading.faults)});
   } else {
     if (device_faulted) events.Push({Event::Kind::kDeviceFaultCleared, cycle, 0.0});
-    device->Write(out.command_N);
+    device::FillCommand(out, law.fixture(), input.position_m, command);
+    device->Write(command);
   }
   device_faulted = fault;
   device->Update(period_s);
@@ -268,6 +274,7 @@ RunSummary TeleopNode::Run() {
   s.stop_on_peer_shutdown.store(true);
   spdlog::info("teleop-{}: {} DOF at {:.0f} Hz, device '{}', link {}", ToString(s.config.role), s.config.dof,
                s.config.loop.rate_hz, s.device->name(), s.link->Describe());
+  s.device->Activate();
   const auto wall_start = std::chrono::steady_clock::now();
   s.loop.Run([&s](std::uint64_t cycle, double period_s) { s.Cycle(cycle, period_s); });
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
@@ -276,7 +283,7 @@ RunSummary TeleopNode::Run() {
   s.outgoing.flags = proto::kFlagShutdown;
   s.outgoing.sequence = s.sequence++;
   (void)s.link->Send(s.outgoing);
-  s.device->SetSafe();
+  s.device->Deactivate();
 
   RunSummary summary;
   summary.role = s.config.role;

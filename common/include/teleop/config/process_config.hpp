@@ -4,7 +4,7 @@
 #include <string>
 
 #include "teleop/control/three_channel_law.hpp"
-#include "teleop/device/device_registry.hpp"
+#include "teleop/device/device_config.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
 #include "teleop/transport/link_config.hpp"
 #include "teleop/types.hpp"
