@@ -37,6 +37,20 @@ Constraint Constraint::Circle(const Vec2& center_m, double radius_m, bool forbid
   return c;
 }
 
+bool Constraint::TryHalfPlane(const Vec2& normal, double offset_m, Constraint& out) noexcept {
+  const double length = normal.norm();
+  if (!normal.allFinite() || !std::isfinite(offset_m) || length < kMinLength_m) {
+    return false;
+  }
+  const Vec2 n = normal / length;
+  out.kind_ = Kind::kLine;
+  out.anchor_m_ = n * (offset_m / length);
+  out.direction_ = -LeftNormal(n);  // so that the left of the direction is n: the forbidden side
+  out.forbidden_left_ = true;
+  out.point_count_ = 0;
+  return true;
+}
+
 bool Constraint::TryCircle(const Vec2& center_m, double radius_m, bool forbidden_outside, Constraint& out) noexcept {
   if (!center_m.allFinite() || !std::isfinite(radius_m) || radius_m <= kMinLength_m) {
     return false;

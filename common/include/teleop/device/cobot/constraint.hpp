@@ -26,6 +26,9 @@ class Constraint {
   /// The line through `point_m` along `direction` (any length > 0). `forbidden_left`: the forbidden side is to the
   /// left of `direction` (counter-clockwise), else to its right.
   static Constraint Line(const Vec2& point_m, const Vec2& direction, bool forbidden_left);
+  /// The half-plane boundary {p : normal·p = offset_m}, forbidden where normal·p > offset_m (a fixture plane).
+  /// For use in the cycle: false (and `out` unchanged) when the normal is zero or not finite.
+  [[nodiscard]] static bool TryHalfPlane(const Vec2& normal, double offset_m, Constraint& out) noexcept;
   /// The circle about `center_m` of `radius_m` > 0. `forbidden_outside`: the free region is the disc (the paper's
   /// circular constraint, tracked from inside); else the disc is an obstacle.
   static Constraint Circle(const Vec2& center_m, double radius_m, bool forbidden_outside);
