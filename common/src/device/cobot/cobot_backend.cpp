@@ -21,6 +21,8 @@ using config::Positive;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 const std::string kName = "cobot";
+/// Per-cycle low-pass weight of the free-motion coupling force (about 0.2 s at 1 kHz).
+constexpr double kFreeCouplingAlpha = 0.005;
 
 int ReadCount(const Field& f) {
   const double v = NonNegative(f, "counts per revolution (0 = ideal)");
@@ -264,11 +266,19 @@ void UnicycleCobotDevice::Write(const Command& command) noexcept {
   // A blocked slave: the coupling force (the law's force without the fixture's share) pushes back hard.
   Vec2 coupling(command.force_N[0], command.force_N[1]);
   if (command.fixture_force_N.size() == 2) coupling -= Vec2(command.fixture_force_N[0], command.fixture_force_N[1]);
-  const double coupling_N = coupling.norm();
+  // The contact's share: the coupling force over its free-motion level (the slave's lag while following), which
+  // a slow low-pass tracks while there is no contact. Its direction is the contact normal.
+  const Vec2 contact_force = coupling - free_coupling_N_;
+  const double coupling_N = contact_force.norm();
   if (!contact_latched_ && coupling_N > config_.contact_force_threshold_N) {
-    const Vec2 normal = -coupling / coupling_N;
+    const Vec2 normal = -contact_force / coupling_N;
     contact_latched_ = Constraint::TryHalfPlane(normal, normal.dot(position), contact_wall_);
-  } else if (contact_latched_ && coupling_N < 0.5 * config_.contact_force_threshold_N) {
+  } else if (!contact_latched_) {
+    free_coupling_N_ += kFreeCouplingAlpha * (coupling - free_coupling_N_);
+  } else if (contact_latched_ && coupling_N < 0.5 * config_.contact_force_threshold_N &&
+             !(wall_source_ == kContactWall && rig_.controller().mode() != WallMode::kCaster)) {
+    // Released only once the operator has left the contact wall (the controller is back in caster mode): the
+    // coupling force dips while the wheel settles on the wall, and re-latching deeper each time would weave.
     contact_latched_ = false;
   }
   int source = -1;

@@ -30,7 +30,8 @@ struct CobotBackendConfig {
   UnicycleCobotConfig unicycle = UnicycleCobotConfig::Prototype();
   UnicyclePlantState initial{};
   /// A coupling force (the law's force without the fixture's share) above this means the slave is blocked: the
-  /// cobot renders a wall through the current position, across the force. Released below half of it.
+  /// cobot renders a wall through the current position, across the force. Released below half of it, once the
+  /// operator has pulled off that wall.
   double contact_force_threshold_N = 2.0;
   CobotOperatorScript op{};
   BicyclePlantConfig bicycle{};
@@ -45,8 +46,8 @@ DeviceConfig CobotDeviceConfig(const CobotBackendConfig& config);
 
 /// The simulated unicycle cobot behind the Device interface. As a master it renders
 ///  - each fixture plane of the Command as a steered virtual wall (the most penetrated plane at a time), and
-///  - a blocked slave (coupling force above contact_force_threshold_N) as a wall through the position where the
-///    contact began, normal to the coupling force;
+///  - a blocked slave (coupling force above its free-motion level by more than contact_force_threshold_N) as a
+///    wall through the position where the contact began, normal to that excess force;
 /// it never pushes: force_N of the Command is not rendered. Reading::rendered_force_N is the in-plane force the
 /// floor exerts through the wheel (the constraint force the operator feels), zero in ideal caster motion.
 class UnicycleCobotDevice final : public Device {
@@ -75,6 +76,7 @@ class UnicycleCobotDevice final : public Device {
   double time_s_ = 0.0;
   int wall_source_ = -1;
   bool contact_latched_ = false;
+  Vec2 free_coupling_N_ = Vec2::Zero();  ///< The coupling force in free motion (low-passed), N.
   Constraint contact_wall_;
   std::uint32_t pending_faults_ = kFaultNone;
 };
