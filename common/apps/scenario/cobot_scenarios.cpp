@@ -105,7 +105,8 @@ std::string TrajectoryPlot(const std::string& png, const std::string& title,
                            double arrow_mm_per_N, int arrow_every, bool equal_axes) {
   std::ostringstream gp;
   gp << "set terminal png size 900,700\nset output '" << png << "'\nset datafile separator ','\n"
-     << "set title '" << title << "' noenhanced\nset xlabel 'x (mm)'\nset ylabel 'y (mm)'\nset grid\nset key outside bottom\nset clip two\n";
+     << "set title '" << title
+     << "' noenhanced\nset xlabel 'x (mm)'\nset ylabel 'y (mm)'\nset grid\nset key outside bottom\nset clip two\n";
   if (equal_axes) gp << "set size ratio -1\n";
   gp << "plot ";
   bool first = true;
@@ -119,8 +120,7 @@ std::string TrajectoryPlot(const std::string& png, const std::string& title,
     first = false;
     gp << "'" << csv << "' skip 1 using ($2*1000):($3*1000) with lines lw 2 lc " << colour << " title '" << label
        << "', '" << csv << "' skip 1 every " << arrow_every << " using ($2*1000):($3*1000):($7*" << arrow_mm_per_N
-       << "):($8*" << arrow_mm_per_N << ") with vectors head filled lc " << colour
-       << " title 'operator force'";
+       << "):($8*" << arrow_mm_per_N << ") with vectors head filled lc " << colour << " title 'operator force'";
     ++colour;
   }
   gp << "\n";
@@ -293,10 +293,10 @@ int RunTrack(const TrackOptions& o) {
     WriteConstraintCsv(wall_csv, s.wall, x_min, x_max);
     std::ostringstream title;
     title << "cobot-track --path " << o.path << (o.integral ? " --integral" : "") << ": initial penetration "
-          << std::setprecision(3) << r.max_penetration_m * 1e3 << " mm, steady-state error "
-          << r.steady_error_m * 1e3 << " mm";
-    RunGnuplot(o.common.output + ".gp", TrajectoryPlot(o.common.output + ".png", title.str(), {{csv, "cart"}},
-                                                       wall_csv, 4.0, 60, o.path == "circle"));
+          << std::setprecision(3) << r.max_penetration_m * 1e3 << " mm, steady-state error " << r.steady_error_m * 1e3
+          << " mm";
+    RunGnuplot(o.common.output + ".gp", TrajectoryPlot(o.common.output + ".png", title.str(), {{csv, "cart"}}, wall_csv,
+                                                       4.0, 60, o.path == "circle"));
   }
   if (o.common.json) {
     std::cout << std::setprecision(6) << "{\"scenario\":\"cobot-track\",\"path\":\"" << o.path
@@ -354,13 +354,12 @@ int RunWall(const WallOptions& o) {
     const std::string wall_csv = o.common.output + "_constraint.csv";
     WriteConstraintCsv(wall_csv, Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true), -0.02, 0.35);
     std::ostringstream title;
-    title << "cobot-wall: max penetration " << std::setprecision(3) << r.max_penetration_m * 1e3
-          << " mm with overlay " << o.overlay << ", " << other.max_penetration_m * 1e3 << " mm with it "
-          << (overlay ? "off" : "on");
-    std::string script = TrajectoryPlot(o.common.output + ".png", title.str(),
-                                        {{csv, std::string("overlay ") + o.overlay},
-                                         {other_csv, std::string("overlay ") + (overlay ? "off" : "on")}},
-                                        wall_csv, 2.0, 30, false);
+    title << "cobot-wall: max penetration " << std::setprecision(3) << r.max_penetration_m * 1e3 << " mm with overlay "
+          << o.overlay << ", " << other.max_penetration_m * 1e3 << " mm with it " << (overlay ? "off" : "on");
+    std::string script = TrajectoryPlot(
+        o.common.output + ".png", title.str(),
+        {{csv, std::string("overlay ") + o.overlay}, {other_csv, std::string("overlay ") + (overlay ? "off" : "on")}},
+        wall_csv, 2.0, 30, false);
     script = "set xrange [0:250]\nset yrange [-160:30]\n" + script;
     RunGnuplot(o.common.output + ".gp", script);
   }
@@ -395,7 +394,7 @@ constexpr double kConvergedRatio = 1.0;
 
 double TrackingGrowth(double speed_m_per_s, double tau_s, double lookahead_m) {
   UnicycleCobotConfig c = UnicycleCobotConfig::Prototype();
-  c.plant.steering_damping_Nms_per_rad = 0.0;  // the analysis' first-order steering loop exactly
+  c.plant.steering_damping_Nms_per_rad = 0.0;   // the analysis' first-order steering loop exactly
   c.plant.cornering_stiffness_N_per_rad = 0.0;  // and ideal rolling
   c.plant.max_steering_torque_Nm = 50.0;
   const double k2 = device::cobot::SteeringGainFor(c.plant, tau_s);

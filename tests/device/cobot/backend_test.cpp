@@ -1,7 +1,5 @@
 // The `cobot` backend behind the Device interface: registration and capabilities, its YAML section, and — as a
 // master — a fixture plane rendered as a steered wall and a blocked slave rendered as a wall across the contact.
-#include "teleop/device/cobot/cobot_backend.hpp"
-
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
@@ -9,6 +7,7 @@
 #include <string>
 
 #include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/cobot/cobot_backend.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
 #include "test_utilities/limit_malloc.hpp"
@@ -47,11 +46,11 @@ TEST(CobotBackend, SectionReaderChecksKeysRangesAndDof) {
   EXPECT_DOUBLE_EQ(c.unicycle.controller.caster.k1_per_kg, 0.2);
   EXPECT_NEAR(SteeringTimeConstant_s(c.unicycle.plant, c.unicycle.controller.tracker.k2_Nms_per_rad), 0.05, 1e-12);
   EXPECT_FALSE(c.unicycle.controller.overlay_enabled);
-  EXPECT_THROW(ReadSection("{virtual_mas_kg: 5}", 2), Error);         // unknown key
-  EXPECT_THROW(ReadSection("{virtual_mass_kg: -1}", 2), Error);       // range
-  EXPECT_THROW(ReadSection("{kind: tricycle}", 2), Error);            // enum
-  EXPECT_THROW(ReadSection("{kind: unicycle}", 3), Error);            // a unicycle is planar
-  EXPECT_THROW(ReadSection("{stability_action: brake}", 2), Error);   // no brake configured
+  EXPECT_THROW(ReadSection("{virtual_mas_kg: 5}", 2), Error);        // unknown key
+  EXPECT_THROW(ReadSection("{virtual_mass_kg: -1}", 2), Error);      // range
+  EXPECT_THROW(ReadSection("{kind: tricycle}", 2), Error);           // enum
+  EXPECT_THROW(ReadSection("{kind: unicycle}", 3), Error);           // a unicycle is planar
+  EXPECT_THROW(ReadSection("{stability_action: brake}", 2), Error);  // no brake configured
   EXPECT_NO_THROW(ReadSection("{kind: bicycle, bicycle: {half_wheelbase_m: 0.3}}", 3));
   try {
     ReadSection("{lookahead_m: 0}", 2);
@@ -97,10 +96,10 @@ TEST(CobotBackend, FixturePlaneIsRenderedAsASteeredWall) {
     without.Update(kPeriod_s);
   }
   EXPECT_EQ(with_wall.rendered_wall(), 0);
-  EXPECT_LT(max_y, 0.1 + 0.005);           // held within 5 mm (overlay on)
+  EXPECT_LT(max_y, 0.1 + 0.005);                           // held within 5 mm (overlay on)
   EXPECT_GT(with_wall.rig().state().position_m.x(), 0.3);  // while sliding along it
   without.Read(r);
-  EXPECT_GT(r.position_m[1], 0.2);         // without it, the cart goes through
+  EXPECT_GT(r.position_m[1], 0.2);  // without it, the cart goes through
   with_wall.Read(r);
   EXPECT_EQ(r.faults, kFaultNone);
 }
@@ -135,8 +134,10 @@ TEST(CobotBackend, BlockedSlaveIsRenderedAsAWallAcrossTheContact) {
     }
   }
   device.Read(r);
-  EXPECT_EQ(device.rendered_wall(), -1);        // contact released once the coupling force dropped
-  EXPECT_LT(r.position_m[0], x_at_contact - 0.02) << r.position_m.transpose() << " contact at " << x_at_contact << " u " << device.rig().state().speed_m_per_s << " heading " << device.rig().state().heading_rad;  // and the operator pulled the cobot back
+  EXPECT_EQ(device.rendered_wall(), -1);  // contact released once the coupling force dropped
+  EXPECT_LT(r.position_m[0], x_at_contact - 0.02)
+      << r.position_m.transpose() << " contact at " << x_at_contact << " u " << device.rig().state().speed_m_per_s
+      << " heading " << device.rig().state().heading_rad;  // and the operator pulled the cobot back
 }
 
 TEST(CobotBackend, BadCommandIsAFaultAndLocksTheSteering) {

@@ -84,8 +84,8 @@ TEST(CobotBicycle, AtTheSingularityThePlateGainsADegreeOfFreedom) {
   for (int k = 0; k < 100; ++k) Step(c, in, kPeriod_s, s);
   EXPECT_EQ(s.constraint_rank, 1);
   EXPECT_TRUE(s.twist.allFinite());
-  EXPECT_GT(s.twist(1), 0.01);   // translation across the line
-  EXPECT_GT(s.twist(2), 0.01);   // and rotation about a point on it
+  EXPECT_GT(s.twist(1), 0.01);  // translation across the line
+  EXPECT_GT(s.twist(2), 0.01);  // and rotation about a point on it
   // But not along it (plate frame): the wheels still roll only across it.
   const Vec2 along_line = UnitAt(s.pose.angle_rad);
   EXPECT_NEAR(along_line.dot(Vec2(s.twist(0), s.twist(1))), 0.0, 1e-5);  // the last step turned the plate by dt·Ω

@@ -117,7 +117,7 @@ double LateOffset_m(double speed_m_per_s, double tau_s, double lookahead_m) {
 
 TEST(CobotTracking, ConvergesBelowTheEq11BoundAndNotAbove) {
   const double tau = 0.1;
-  const double lookahead = 0.02;  // u_max = L/τ = 0.2 m/s
+  const double lookahead = 0.02;                              // u_max = L/τ = 0.2 m/s
   EXPECT_LT(LateOffset_m(0.5 * 0.2, tau, lookahead), 1e-4);   // 2 mm → < 0.1 mm
   EXPECT_LT(LateOffset_m(0.85 * 0.2, tau, lookahead), 1e-3);  // slower, still converging
   EXPECT_GT(LateOffset_m(1.3 * 0.2, tau, lookahead), 2e-3);   // grows beyond the initial offset

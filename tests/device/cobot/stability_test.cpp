@@ -1,11 +1,11 @@
 // The eq 10 stability bound: the closed form agrees with the roots of the linearized cubic (eq 9), and the guard
 // warns, lengthens the lookahead or brakes above it.
-#include "teleop/device/cobot/tracking_stability.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
+
+#include "teleop/device/cobot/tracking_stability.hpp"
 
 namespace teleop::device::cobot {
 namespace {
@@ -14,7 +14,7 @@ TEST(CobotStability, SmallAngleBoundIsLookaheadOverTau) {
   ConstraintTrackerConfig c;
   c.lookahead_m = 0.05;
   EXPECT_NEAR(MaxStableSpeed_m_per_s(c, 0.1, 0.0), 0.5, 1e-12);  // u·τ < L
-  c.theta_gain_scale = 2.0;                                        // separate gains move the bound
+  c.theta_gain_scale = 2.0;                                      // separate gains move the bound
   EXPECT_NEAR(MaxStableSpeed_m_per_s(c, 0.1, 0.0), 1.0, 1e-12);
   c = {};
   c.gain_form = ConstraintTrackerConfig::GainForm::kCircular;
@@ -31,14 +31,14 @@ TEST(CobotStability, RouthHurwitzBoundMatchesTheRoots) {
   int checked = 0;
   for (int i = 0; i < kCases; ++i) {
     ConstraintTrackerConfig c;
-    c.gain_form = i % 2 == 0 ? ConstraintTrackerConfig::GainForm::kSmallAngle
-                             : ConstraintTrackerConfig::GainForm::kCircular;
+    c.gain_form =
+        i % 2 == 0 ? ConstraintTrackerConfig::GainForm::kSmallAngle : ConstraintTrackerConfig::GainForm::kCircular;
     c.lookahead_m = std::pow(10.0, log_uniform(rng));
     const double curvature = i % 3 == 0 ? 0.0 : std::pow(10.0, -log_uniform(rng) - 0.5);
     const double tau = 0.05;
     const double u_max = MaxStableSpeed_m_per_s(c, tau, curvature);
     const double ratio = std::pow(10.0, log_uniform(rng) + 1.5) / 10.0;  // 0.03 .. 3.2
-    if (std::abs(ratio - 1.0) < 0.02) continue;  // too close to the boundary for a sign test
+    if (std::abs(ratio - 1.0) < 0.02) continue;                          // too close to the boundary for a sign test
     const double speed_tau = ratio * u_max * tau;
     const TrackingGains g = ComputeTrackingGains(c.gain_form, c.lookahead_m, curvature);
     const double growth = LinearizedGrowthRate_per_m(speed_tau, curvature, g.p_per_m2, g.theta_per_m);

@@ -1,18 +1,17 @@
 // The unicycle cobot plant: rolling without slip, the slip model, intrinsic passivity of steering, sensors and
 // estimators; the real-time steps do not allocate.
-#include "teleop/device/cobot/unicycle_plant.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
 #include <random>
 
-#include "test_utilities/limit_malloc.hpp"
 #include "teleop/device/cobot/cobot_sensors.hpp"
 #include "teleop/device/cobot/rate_estimator.hpp"
 #include "teleop/device/cobot/unicycle_cobot.hpp"
+#include "teleop/device/cobot/unicycle_plant.hpp"
 #include "teleop/error.hpp"
+#include "test_utilities/limit_malloc.hpp"
 
 namespace teleop::device::cobot {
 namespace {
@@ -38,7 +37,7 @@ TEST(CobotUnicycle, ConstantSteeringRateDrawsACircleOfRadiusUOverOmega) {
   c.steering_damping_Nms_per_rad = 0.0;
   UnicyclePlantState s;
   s.speed_m_per_s = 0.2;
-  s.steering_rate_rad_per_s = 1.0;  // no torque, no damping: ω stays
+  s.steering_rate_rad_per_s = 1.0;                                         // no torque, no damping: ω stays
   const int steps = static_cast<int>(2.0 * std::numbers::pi / kPeriod_s);  // one turn
   double max_radius_error = 0.0;
   for (int k = 0; k < steps; ++k) {

@@ -11,8 +11,8 @@ namespace teleop::device::cobot {
 void Validate(const BicycleCasterConfig& c) {
   auto positive = [](double v, const char* name) {
     if (!std::isfinite(v) || v <= 0.0) {
-      throw Error(std::string("cobot bicycle caster: ") + name + " must be finite and > 0 (got " +
-                  std::to_string(v) + ")");
+      throw Error(std::string("cobot bicycle caster: ") + name + " must be finite and > 0 (got " + std::to_string(v) +
+                  ")");
     }
   };
   positive(c.virtual_mass_kg, "virtual_mass_kg");

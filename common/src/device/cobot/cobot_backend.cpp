@@ -57,15 +57,37 @@ CobotBackendConfig ReadCobot(const Field* section, int dof) {
   CobotBackendConfig c;
   double tau_s = 0.02;
   if (section != nullptr) {
-    const Map map(*section,
-                  {"kind", "cart_mass_kg", "rolling_damping_Ns_per_m", "steering_inertia_kgm2",
-                   "steering_damping_Nms_per_rad", "max_steering_torque_Nm", "cornering_stiffness_N_per_rad",
-                   "brake_max_force_N", "wheel_radius_m", "wheel_encoder_counts_per_rev",
-                   "steering_encoder_counts_per_rev", "position_resolution_m", "force_resolution_N",
-                   "steering_time_constant_s", "virtual_mass_kg", "speed_floor_m_per_s", "lookahead_m", "gain_form",
-                   "p_gain_scale", "theta_gain_scale", "integral_gain_per_m3", "overlay", "overlay_min_radius_m",
-                   "release_force_N", "stability_action", "stability_margin", "contact_force_threshold_N",
-                   "initial_position_m", "initial_heading_deg", "operator", "bicycle"});
+    const Map map(*section, {"kind",
+                             "cart_mass_kg",
+                             "rolling_damping_Ns_per_m",
+                             "steering_inertia_kgm2",
+                             "steering_damping_Nms_per_rad",
+                             "max_steering_torque_Nm",
+                             "cornering_stiffness_N_per_rad",
+                             "brake_max_force_N",
+                             "wheel_radius_m",
+                             "wheel_encoder_counts_per_rev",
+                             "steering_encoder_counts_per_rev",
+                             "position_resolution_m",
+                             "force_resolution_N",
+                             "steering_time_constant_s",
+                             "virtual_mass_kg",
+                             "speed_floor_m_per_s",
+                             "lookahead_m",
+                             "gain_form",
+                             "p_gain_scale",
+                             "theta_gain_scale",
+                             "integral_gain_per_m3",
+                             "overlay",
+                             "overlay_min_radius_m",
+                             "release_force_N",
+                             "stability_action",
+                             "stability_margin",
+                             "contact_force_threshold_N",
+                             "initial_position_m",
+                             "initial_heading_deg",
+                             "operator",
+                             "bicycle"});
     UnicyclePlantConfig& p = c.unicycle.plant;
     CobotSensorConfig& s = c.unicycle.sensors;
     VirtualWallConfig& w = c.unicycle.controller;

@@ -21,12 +21,10 @@ void Validate(const CobotSensorConfig& c) {
   }
 }
 
-double Quantize(double value, double step) noexcept {
-  return step > 0.0 ? std::round(value / step) * step : value;
-}
+double Quantize(double value, double step) noexcept { return step > 0.0 ? std::round(value / step) * step : value; }
 
-CobotMeasurement Measure(const CobotSensorConfig& c, const Vec2& position_m, double heading_rad,
-                         double wheel_travel_m, const Vec2& handle_force_N) noexcept {
+CobotMeasurement Measure(const CobotSensorConfig& c, const Vec2& position_m, double heading_rad, double wheel_travel_m,
+                         const Vec2& handle_force_N) noexcept {
   constexpr double kTwoPi = 2.0 * std::numbers::pi;
   CobotMeasurement m;
   m.position_m = {Quantize(position_m.x(), c.position_resolution_m), Quantize(position_m.y(), c.position_resolution_m)};

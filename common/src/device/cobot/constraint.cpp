@@ -26,8 +26,8 @@ Constraint Constraint::Line(const Vec2& point_m, const Vec2& direction, bool for
 
 Constraint Constraint::Circle(const Vec2& center_m, double radius_m, bool forbidden_outside) {
   if (!center_m.allFinite() || !std::isfinite(radius_m) || radius_m <= kMinLength_m) {
-    throw Error("cobot constraint: a circle needs a finite centre and a radius > 0 m (got " +
-                std::to_string(radius_m) + ")");
+    throw Error("cobot constraint: a circle needs a finite centre and a radius > 0 m (got " + std::to_string(radius_m) +
+                ")");
   }
   Constraint c;
   c.kind_ = Kind::kCircle;
@@ -159,7 +159,8 @@ ConstraintSample Constraint::Evaluate(const Vec2& point_m) const noexcept {
       s.normal_in = inside ? Vec2(d / dist) : Vec2(-d / dist);
       s.penetration_m = inside ? dist : -dist;
     } else {
-      s.normal_in = pseudo_normal.norm() > kMinLength_m ? Vec2(pseudo_normal.normalized()) : Vec2(side * LeftNormal(d_prev));
+      s.normal_in =
+          pseudo_normal.norm() > kMinLength_m ? Vec2(pseudo_normal.normalized()) : Vec2(side * LeftNormal(d_prev));
       s.penetration_m = 0.0;
     }
     // Tangent: the normal turned back so that the walking direction keeps the forbidden side where it was.

@@ -59,9 +59,8 @@ TrackingGains ComputeTrackingGains(ConstraintTrackerConfig::GainForm form, doubl
 
 ConstraintTracker::ConstraintTracker(const ConstraintTrackerConfig& config) : config_(config) {}
 
-TrackerOutput ConstraintTracker::Step(const ConstraintSample& sample, double steering_angle_rad,
-                                      double speed_m_per_s, double steering_rate_rad_per_s, double period_s,
-                                      double lookahead_m) noexcept {
+TrackerOutput ConstraintTracker::Step(const ConstraintSample& sample, double steering_angle_rad, double speed_m_per_s,
+                                      double steering_rate_rad_per_s, double period_s, double lookahead_m) noexcept {
   TrackerOutput out;
   const double u = std::isfinite(speed_m_per_s) ? speed_m_per_s : 0.0;
   const double omega = std::isfinite(steering_rate_rad_per_s) ? steering_rate_rad_per_s : 0.0;
@@ -71,14 +70,14 @@ TrackerOutput ConstraintTracker::Step(const ConstraintSample& sample, double ste
   const TrackingGains g = ComputeTrackingGains(config_.gain_form, lookahead, sample.curvature_away_per_m);
   const double ds = std::abs(u) * (period_s > 0.0 ? period_s : 0.0);
   if (config_.integral_gain_per_m3 > 0.0) {
-    integral_m2_ = std::clamp(integral_m2_ + out.errors.penetration_m * ds, -config_.integral_limit_m2,
-                              config_.integral_limit_m2);
+    integral_m2_ =
+        std::clamp(integral_m2_ + out.errors.penetration_m * ds, -config_.integral_limit_m2, config_.integral_limit_m2);
   }
   const double kappa_tilde = config_.p_gain_scale * g.p_per_m2 * out.errors.penetration_m +
                              config_.theta_gain_scale * g.theta_per_m * out.errors.theta_rad +
                              config_.integral_gain_per_m3 * integral_m2_;
-  out.curvature_command_per_m = std::clamp(sample.curvature_away_per_m + kappa_tilde, -config_.max_curvature_per_m,
-                                           config_.max_curvature_per_m);
+  out.curvature_command_per_m =
+      std::clamp(sample.curvature_away_per_m + kappa_tilde, -config_.max_curvature_per_m, config_.max_curvature_per_m);
   // ω turns the direction of motion; for u < 0 the motion is opposite to the heading but turns the same way.
   out.commanded_rate_rad_per_s = out.errors.away_sign * std::abs(u) * out.curvature_command_per_m;
   out.steering_torque_Nm = config_.k2_Nms_per_rad * (out.commanded_rate_rad_per_s - omega) +

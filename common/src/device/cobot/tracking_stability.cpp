@@ -57,8 +57,8 @@ StabilityStatus EvaluateStability(const StabilityGuardConfig& guard, const Const
       // Eq 11 solved for L: the lookahead that puts |u|·τ at margin of the bound (b/a ∝ L for both gain forms).
       const double bound_per_lookahead = s.max_stable_speed_m_per_s * steering_time_constant_s / tracker.lookahead_m;
       s.lookahead_m = std::max(tracker.lookahead_m, s.speed_tau_m / (guard.margin * bound_per_lookahead));
-      s.max_stable_speed_m_per_s = MaxStableSpeed_m_per_s(tracker, steering_time_constant_s, curvature_per_m,
-                                                          s.lookahead_m);
+      s.max_stable_speed_m_per_s =
+          MaxStableSpeed_m_per_s(tracker, steering_time_constant_s, curvature_per_m, s.lookahead_m);
       break;
     }
     case StabilityGuardConfig::Action::kBrake: {

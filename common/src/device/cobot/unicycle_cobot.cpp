@@ -62,8 +62,8 @@ UnicycleCobot::UnicycleCobot(const UnicycleCobotConfig& config, const Constraint
       state_(initial),
       speed_estimator_(config_.speed_filter),
       rate_estimator_(config_.steering_rate_filter) {
-  const CobotMeasurement m = Measure(config_.sensors, state_.position_m, state_.heading_rad, state_.wheel_travel_m,
-                                     Vec2::Zero());
+  const CobotMeasurement m =
+      Measure(config_.sensors, state_.position_m, state_.heading_rad, state_.wheel_travel_m, Vec2::Zero());
   speed_estimator_.Reset(m.wheel_angle_rad, state_.speed_m_per_s / config_.sensors.wheel_radius_m);
   rate_estimator_.Reset(m.steering_angle_rad, state_.steering_rate_rad_per_s);
 }

@@ -51,7 +51,8 @@ void Step(const UnicyclePlantConfig& c, const UnicyclePlantInput& in, double dt,
   const double f_along = force.dot(heading);
 
   // Rolling: viscous part implicit, brake as Coulomb friction that cannot reverse the motion.
-  double u = (s.speed_m_per_s + dt * f_along / c.cart_mass_kg) / (1.0 + dt * c.rolling_damping_Ns_per_m / c.cart_mass_kg);
+  double u =
+      (s.speed_m_per_s + dt * f_along / c.cart_mass_kg) / (1.0 + dt * c.rolling_damping_Ns_per_m / c.cart_mass_kg);
   const double brake_dv = dt * brake / c.cart_mass_kg;
   u = std::abs(u) <= brake_dv ? 0.0 : u - std::copysign(brake_dv, u);
 

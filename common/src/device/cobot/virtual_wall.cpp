@@ -115,16 +115,16 @@ WallControllerOutput VirtualWallController::Step(const WallControllerInput& in, 
   }
 
   if (mode_ == WallMode::kCaster) {
-    const CasterOutput caster = VirtualCasterStep(config_.caster, force.x(), force.y(), in.steering_angle_rad, u,
-                                                  in.steering_rate_rad_per_s);
+    const CasterOutput caster =
+        VirtualCasterStep(config_.caster, force.x(), force.y(), in.steering_angle_rad, u, in.steering_rate_rad_per_s);
     out.steering_torque_Nm = caster.steering_torque_Nm;
   } else {
     const ConstraintSample tracked =
         mode_ == WallMode::kOverlay ? overlay_.Evaluate(in.position_m) : wall_.Evaluate(in.position_m);
     out.stability = EvaluateStability(config_.guard, config_.tracker, config_.steering_time_constant_s,
                                       tracked.curvature_away_per_m, u);
-    const TrackerOutput track =
-        tracker_.Step(tracked, in.steering_angle_rad, u, in.steering_rate_rad_per_s, period_s, out.stability.lookahead_m);
+    const TrackerOutput track = tracker_.Step(tracked, in.steering_angle_rad, u, in.steering_rate_rad_per_s, period_s,
+                                              out.stability.lookahead_m);
     out.steering_torque_Nm = track.steering_torque_Nm;
     out.theta_rad = track.errors.theta_rad;
     out.brake_command = out.stability.brake_command;

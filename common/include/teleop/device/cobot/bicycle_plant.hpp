@@ -26,14 +26,14 @@ struct BicyclePlantConfig {
 struct BicyclePlantState {
   BicyclePose pose{};
   Twist twist = Twist::Zero();
-  std::array<double, 2> steer_rad{0.0, 0.0};           ///< β_i, relative to the plate.
+  std::array<double, 2> steer_rad{0.0, 0.0};  ///< β_i, relative to the plate.
   std::array<double, 2> steer_rate_rad_per_s{0.0, 0.0};
-  int constraint_rank = 2;                             ///< 1 at the singularity.
+  int constraint_rank = 2;  ///< 1 at the singularity.
 };
 
 struct BicyclePlantInput {
-  Vec2 handle_force_N = Vec2::Zero();   ///< Operator force at the handle (N, world).
-  double handle_moment_Nm = 0.0;        ///< Operator moment about the vertical (N·m).
+  Vec2 handle_force_N = Vec2::Zero();  ///< Operator force at the handle (N, world).
+  double handle_moment_Nm = 0.0;       ///< Operator moment about the vertical (N·m).
   std::array<double, 2> steering_torque_Nm{0.0, 0.0};
 };
 
@@ -41,8 +41,8 @@ struct BicyclePlantInput {
 void Validate(const BicyclePlantConfig& config);
 
 /// Projects `twist` onto the velocities the wheels allow, in the mass metric; returns the constraints' rank.
-int ProjectOntoRolling(const BicyclePlantConfig& config, const BicyclePose& pose, double steer0_rad,
-                       double steer1_rad, Twist& twist) noexcept;
+int ProjectOntoRolling(const BicyclePlantConfig& config, const BicyclePose& pose, double steer0_rad, double steer1_rad,
+                       Twist& twist) noexcept;
 
 /// One step of `period_s`. Real-time safe; non-finite inputs are treated as zero.
 void Step(const BicyclePlantConfig& config, const BicyclePlantInput& input, double period_s,

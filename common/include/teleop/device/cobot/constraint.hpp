@@ -70,7 +70,7 @@ class Constraint {
   Vec2 anchor_m_ = Vec2::Zero();
   Vec2 direction_ = Vec2::UnitX();
   double radius_m_ = 0.0;
-  bool forbidden_left_ = true;  ///< Line and polyline.
+  bool forbidden_left_ = true;     ///< Line and polyline.
   bool forbidden_outside_ = true;  ///< Circle.
   int point_count_ = 0;
   std::array<Vec2, kMaxPolylinePoints> points_m_{};

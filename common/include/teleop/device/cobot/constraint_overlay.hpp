@@ -10,9 +10,9 @@ namespace teleop::device::cobot {
 /// starts the turn before contact. For a curved constraint the arc is built against the tangent line at the nearest
 /// point (exact for lines and polyline segments, an approximation near circles).
 struct OverlayArc {
-  bool valid = false;           ///< False when the wheel is not approaching the wall (θ ≤ 0) or is already in it.
-  double radius_m = 0.0;        ///< r.
-  Vec2 center_m = Vec2::Zero(); ///< On the side of the wheel away from the wall.
+  bool valid = false;            ///< False when the wheel is not approaching the wall (θ ≤ 0) or is already in it.
+  double radius_m = 0.0;         ///< r.
+  Vec2 center_m = Vec2::Zero();  ///< On the side of the wheel away from the wall.
   Vec2 touch_point_m = Vec2::Zero();  ///< Where the arc meets the wall's tangent line.
 };
 

@@ -63,8 +63,7 @@ class ConstraintTracker {
   void Reset() noexcept { integral_m2_ = 0.0; }
   /// One control step. `lookahead_m` overrides the configured L when > 0 (the stability monitor may lengthen it).
   [[nodiscard]] TrackerOutput Step(const ConstraintSample& sample, double steering_angle_rad, double speed_m_per_s,
-                                   double steering_rate_rad_per_s, double period_s,
-                                   double lookahead_m = 0.0) noexcept;
+                                   double steering_rate_rad_per_s, double period_s, double lookahead_m = 0.0) noexcept;
   const ConstraintTrackerConfig& config() const noexcept { return config_; }
   double integral_m2() const noexcept { return integral_m2_; }
 

@@ -38,8 +38,7 @@ struct StabilityStatus {
 
 /// Evaluates the guard for the measured speed. Real-time safe.
 [[nodiscard]] StabilityStatus EvaluateStability(const StabilityGuardConfig& guard,
-                                                const ConstraintTrackerConfig& tracker,
-                                                double steering_time_constant_s, double curvature_per_m,
-                                                double speed_m_per_s) noexcept;
+                                                const ConstraintTrackerConfig& tracker, double steering_time_constant_s,
+                                                double curvature_per_m, double speed_m_per_s) noexcept;
 
 }  // namespace teleop::device::cobot

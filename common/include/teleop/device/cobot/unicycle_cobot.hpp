@@ -15,7 +15,7 @@ struct UnicycleCobotConfig {
   UnicyclePlantConfig plant{};
   CobotSensorConfig sensors{};
   VirtualWallConfig controller{};
-  RateEstimatorConfig speed_filter{50.0};          ///< u from the wheel encoder.
+  RateEstimatorConfig speed_filter{50.0};           ///< u from the wheel encoder.
   RateEstimatorConfig steering_rate_filter{100.0};  ///< ω from the steering encoder.
   /// When true (default) controller.steering_time_constant_s is set from the plant: τ = J/(K₂ + b).
   bool derive_time_constant = true;
@@ -41,7 +41,7 @@ struct CobotSample {
   double speed_m_per_s = 0.0;
   double steering_rate_rad_per_s = 0.0;
   Vec2 handle_force_N = Vec2::Zero();
-  double lateral_force_N = 0.0;            ///< Operator force along the wheel's left normal.
+  double lateral_force_N = 0.0;                ///< Operator force along the wheel's left normal.
   double lateral_acceleration_m_per_s2 = 0.0;  ///< u·ω.
   double steering_torque_Nm = 0.0;
   WallControllerOutput control{};

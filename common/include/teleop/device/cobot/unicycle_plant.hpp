@@ -16,21 +16,21 @@ namespace teleop::device::cobot {
 /// Slip (cornering stiffness C > 0): the wheel slips sideways at v_slip = u_abs·F_net⊥/C, where F_net⊥ = F⊥ − m·u·ω
 /// is the lateral load the floor would have to carry without slip (a quasi-static slip-angle model, α = F_net⊥/C).
 struct UnicyclePlantConfig {
-  double cart_mass_kg = 10.0;                     ///< m: moving mass (cart, wheel assembly, handle).
-  double rolling_damping_Ns_per_m = 20.0;          ///< c: rolling resistance, viscous.
-  double steering_inertia_kgm2 = 0.002;           ///< J: wheel assembly about the steering axis, reflected.
-  double steering_damping_Nms_per_rad = 0.0;      ///< b: steering bearing and motor friction, viscous.
-  double max_steering_torque_Nm = 2.0;            ///< The steering motor's torque limit.
-  double cornering_stiffness_N_per_rad = 0.0;     ///< C: 0 = ideal rolling without lateral slip.
-  double brake_max_force_N = 0.0;                 ///< Wheel brake (a particle brake, as on the prototype); 0 = none.
+  double cart_mass_kg = 10.0;                  ///< m: moving mass (cart, wheel assembly, handle).
+  double rolling_damping_Ns_per_m = 20.0;      ///< c: rolling resistance, viscous.
+  double steering_inertia_kgm2 = 0.002;        ///< J: wheel assembly about the steering axis, reflected.
+  double steering_damping_Nms_per_rad = 0.0;   ///< b: steering bearing and motor friction, viscous.
+  double max_steering_torque_Nm = 2.0;         ///< The steering motor's torque limit.
+  double cornering_stiffness_N_per_rad = 0.0;  ///< C: 0 = ideal rolling without lateral slip.
+  double brake_max_force_N = 0.0;              ///< Wheel brake (a particle brake, as on the prototype); 0 = none.
 };
 
 struct UnicyclePlantState {
-  Vec2 position_m = Vec2::Zero();  ///< Wheel contact point (m, world).
-  double heading_rad = 0.0;        ///< ψ: rolling direction from the world x axis.
-  double speed_m_per_s = 0.0;      ///< u: along the heading (negative when pulled backwards).
+  Vec2 position_m = Vec2::Zero();        ///< Wheel contact point (m, world).
+  double heading_rad = 0.0;              ///< ψ: rolling direction from the world x axis.
+  double speed_m_per_s = 0.0;            ///< u: along the heading (negative when pulled backwards).
   double steering_rate_rad_per_s = 0.0;  ///< ω.
-  double wheel_travel_m = 0.0;     ///< Integrated rolled distance (the wheel encoder sees it divided by the radius).
+  double wheel_travel_m = 0.0;  ///< Integrated rolled distance (the wheel encoder sees it divided by the radius).
   double slip_velocity_m_per_s = 0.0;  ///< Lateral slip, along the left normal of the heading.
 };
 

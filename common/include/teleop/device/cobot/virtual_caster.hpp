@@ -10,9 +10,9 @@ namespace teleop::device::cobot {
 /// steers at ω = K₁F⊥/u, eq 1, and the operator feels a lateral mass 1/K₁ for |u| ≥ ε; below ε the steering rate
 /// is capped at K₁F⊥/ε and the apparent lateral mass grows as ε/(K₁|u|) (the zero-speed singularity of eq 1).
 struct VirtualCasterConfig {
-  double k1_per_kg = 0.1;               ///< K₁ = 1/M_virtual.
-  double k2_Nms_per_rad = 0.1;          ///< K₂: steering-velocity gain; τ = J/(K₂ + b) is the steering time constant.
-  double speed_floor_m_per_s = 0.02;    ///< ε: of the order of the speed resolution.
+  double k1_per_kg = 0.1;       ///< K₁ = 1/M_virtual.
+  double k2_Nms_per_rad = 0.1;  ///< K₂: steering-velocity gain; τ = J/(K₂ + b) is the steering time constant.
+  double speed_floor_m_per_s = 0.02;  ///< ε: of the order of the speed resolution.
   /// b̂: feed-forward b̂·ω_c for the steering bearing's viscous friction, so the steady rate is ω_c (0 = none).
   double friction_compensation_Nms_per_rad = 0.0;
 };

@@ -33,9 +33,9 @@ const char* ToString(WallMode mode) noexcept;
 
 /// What the controller sees in one cycle.
 struct WallControllerInput {
-  Vec2 position_m = Vec2::Zero();   ///< Measured wheel position (m, world).
-  double steering_angle_rad = 0.0;  ///< Measured heading.
-  double speed_m_per_s = 0.0;       ///< Estimated u.
+  Vec2 position_m = Vec2::Zero();        ///< Measured wheel position (m, world).
+  double steering_angle_rad = 0.0;       ///< Measured heading.
+  double speed_m_per_s = 0.0;            ///< Estimated u.
   double steering_rate_rad_per_s = 0.0;  ///< Estimated ω.
   Vec2 handle_force_N = Vec2::Zero();    ///< Measured operator force (N, world).
 };
@@ -44,8 +44,8 @@ struct WallControllerOutput {
   double steering_torque_Nm = 0.0;
   double brake_command = 0.0;
   WallMode mode = WallMode::kCaster;
-  double penetration_m = 0.0;  ///< p against the wall (not the overlay).
-  double theta_rad = 0.0;      ///< θ against the constraint being tracked.
+  double penetration_m = 0.0;     ///< p against the wall (not the overlay).
+  double theta_rad = 0.0;         ///< θ against the constraint being tracked.
   double overlay_radius_m = 0.0;  ///< Current overlay radius (0 when none).
   StabilityStatus stability{};
 };
