@@ -120,7 +120,9 @@ std::string TrajectoryPlot(const std::string& png, const std::string& title,
     first = false;
     gp << "'" << csv << "' skip 1 using ($2*1000):($3*1000) with lines lw 2 lc " << colour << " title '" << label
        << "', '" << csv << "' skip 1 every " << arrow_every << " using ($2*1000):($3*1000):($7*" << arrow_mm_per_N
-       << "):($8*" << arrow_mm_per_N << ") with vectors head filled lc " << colour << " title 'operator force'";
+       << "):($8*" << arrow_mm_per_N << ") with vectors head filled lc " << colour << " title 'operator force ("
+       << std::setprecision(3) << arrow_mm_per_N << " mm/N" << (equal_axes ? "" : " per axis; axes not to scale")
+       << ")'";
     ++colour;
   }
   gp << "\n";
@@ -135,6 +137,13 @@ struct CasterOptions {
   double lateral_acceleration_m_per_s2 = 0.05;
   double duration_s = 8.0;
 };
+
+/// Arrows about a quarter of the turning radius for the force that holds the speed against rolling resistance.
+double CasterArrowScale_mm_per_N(const CasterOptions& o, const UnicycleCobotConfig& config) {
+  const double radius_mm = 1e3 * o.speed_m_per_s * o.speed_m_per_s / o.lateral_acceleration_m_per_s2;
+  const double rolling_N = config.plant.rolling_damping_Ns_per_m * o.speed_m_per_s;
+  return radius_mm / (4.0 * std::max(1.0, rolling_N));
+}
 
 int RunCaster(const CasterOptions& o) {
   if (!(o.speed_m_per_s > 0.0) || !(o.lateral_acceleration_m_per_s2 > 0.0) || !(o.duration_s > 2.0)) {
@@ -178,12 +187,12 @@ int RunCaster(const CasterOptions& o) {
   const double predicted = virtual_mass * std::max(1.0, floor / std::abs(mean_speed));
   if (!o.common.no_plot) {
     std::ostringstream title;
-    title << "cobot-caster: " << o.speed_m_per_s << " m/s, lateral acceleration " << o.lateral_acceleration_m_per_s2
-          << " m/s^2, apparent lateral mass " << std::setprecision(3) << apparent << " kg";
+    title << "cobot-caster " << o.speed_m_per_s << " m/s, " << o.lateral_acceleration_m_per_s2
+          << " m/s^2: apparent lateral mass " << std::setprecision(3) << apparent << " kg";
     const std::string png = o.common.output + ".png";
     RunGnuplot(o.common.output + ".gp",
                TrajectoryPlot(png, title.str(), {{o.common.output + ".csv", "cart (virtual caster)"}}, "",
-                              20.0 * std::max(0.05, o.speed_m_per_s), 100, true));
+                              CasterArrowScale_mm_per_N(o, config), 100, true));
   }
   if (o.common.json) {
     std::cout << std::setprecision(6) << "{\"scenario\":\"cobot-caster\",\"speed_m_per_s\":" << mean_speed

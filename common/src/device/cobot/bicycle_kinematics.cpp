@@ -41,7 +41,7 @@ double SingularityMeasure(const BicycleGeometry& g, double steer0_rad, double st
   Eigen::Matrix<double, 2, 3> c = RollingConstraints(g, BicyclePose{}, steer0_rad, steer1_rad);
   c.col(2) /= g.half_wheelbase_m;
   const Eigen::JacobiSVD<Eigen::Matrix<double, 2, 3>> svd(c);
-  const Eigen::Vector2d sv = svd.singularValues();
+  const Eigen::Vector2d& sv = svd.singularValues();
   return sv(0) > 0.0 ? sv(1) / sv(0) : 0.0;
 }
 

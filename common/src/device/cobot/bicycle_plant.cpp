@@ -53,8 +53,8 @@ int ProjectOntoRolling(const BicyclePlantConfig& c, const BicyclePose& pose, dou
   Eigen::Matrix<double, 2, 3> weighted = RollingConstraints(c.geometry, pose, steer0_rad, steer1_rad);
   for (int j = 0; j < 3; ++j) weighted.col(j) /= sqrt_mass(j);
   const Eigen::JacobiSVD<Eigen::Matrix<double, 2, 3>> svd(weighted, Eigen::ComputeFullV);
-  const Eigen::Vector2d sv = svd.singularValues();
-  const Eigen::Matrix3d v = svd.matrixV();
+  const Eigen::Vector2d& sv = svd.singularValues();
+  const Eigen::Matrix3d& v = svd.matrixV();
   int rank = 0;
   Eigen::Vector3d scaled = sqrt_mass.cwiseProduct(twist);
   for (int k = 0; k < 2; ++k) {

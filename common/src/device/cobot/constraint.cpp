@@ -70,7 +70,7 @@ void Constraint::AppendPoint(const Vec2& p) {
   if (!p.allFinite()) {
     throw Error("cobot constraint: polyline point " + std::to_string(point_count_) + " is not finite");
   }
-  if (point_count_ > 0 && (p - points_m_[static_cast<std::size_t>(point_count_ - 1)]).norm() < kMinLength_m) {
+  if (point_count_ > 0 && (p - points_m_[static_cast<std::size_t>(point_count_) - 1]).norm() < kMinLength_m) {
     throw Error("cobot constraint: polyline points " + std::to_string(point_count_ - 1) + " and " +
                 std::to_string(point_count_) + " coincide");
   }
@@ -125,7 +125,7 @@ ConstraintSample Constraint::Evaluate(const Vec2& point_m) const noexcept {
   const int last = point_count_ - 1;
   for (int i = 0; i < last; ++i) {
     const Vec2& a = points_m_[static_cast<std::size_t>(i)];
-    const Vec2& b = points_m_[static_cast<std::size_t>(i + 1)];
+    const Vec2& b = points_m_[static_cast<std::size_t>(i) + 1];
     const Vec2 seg = b - a;
     const double len = seg.norm();
     const Vec2 dir = seg / len;
@@ -148,8 +148,8 @@ ConstraintSample Constraint::Evaluate(const Vec2& point_m) const noexcept {
     if (dist >= best) {
       continue;
     }
-    const Vec2 d_prev = (vertex - points_m_[static_cast<std::size_t>(v - 1)]).normalized();
-    const Vec2 d_next = (points_m_[static_cast<std::size_t>(v + 1)] - vertex).normalized();
+    const Vec2 d_prev = (vertex - points_m_[static_cast<std::size_t>(v) - 1]).normalized();
+    const Vec2 d_next = (points_m_[static_cast<std::size_t>(v) + 1] - vertex).normalized();
     const double side = forbidden_left_ ? 1.0 : -1.0;
     const Vec2 pseudo_normal = side * (LeftNormal(d_prev) + LeftNormal(d_next));
     ConstraintSample s;
