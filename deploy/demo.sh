@@ -6,6 +6,7 @@
 #   ./deploy/demo.sh            UDP link
 #   ./deploy/demo.sh --can      the same over the emulated CAN bus (for hosts without SocketCAN)
 #   ./deploy/demo.sh --device hybrid   the hybrid motor-brake master (simulated) with the loopback slave (docs/hybrid.md)
+#   ./deploy/demo.sh --device cobot   a cobot master (Colgate et al., docs/cobot.md) with the loopback slave, 2 DOF
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
 
@@ -41,6 +42,45 @@ fi
 
 variant=udp
 [[ "${1:-}" == "--can" ]] && variant=can
+
+# ---- cobot master (docs/cobot.md): its own configs and plot; the rest of the script is the loopback demo.
+if [[ "${1:-}" == "--device" && "${2:-}" == "cobot" ]]; then
+  teleop::ensure_packages "${TELEOP_PACKAGES[@]}"
+  teleop::build --target teleop-master teleop-slave
+  out="${TELEOP_BUILD}/demo-cobot"
+  mkdir -p "${out}"
+  cfg="${TELEOP_ROOT}/deploy/configs"
+  echo "[demo] cobot master + loopback slave (UDP, 1 kHz, 2 DOF, ~5 s)"
+  "${TELEOP_BUILD}/bin/teleop-slave" --config "${cfg}/cobot-slave.yaml" --duration 8 \
+    --summary-json "${out}/slave-summary.json" --telemetry-csv "${out}/slave.csv" > "${out}/slave.log" 2>&1 &
+  cobot_slave_pid=$!
+  sleep 0.3
+  master_rc=0
+  "${TELEOP_BUILD}/bin/teleop-master" --config "${cfg}/cobot-master.yaml" --duration 5 \
+    --summary-json "${out}/master-summary.json" --telemetry-csv "${out}/master.csv" > "${out}/master.log" 2>&1 ||
+    master_rc=$?
+  slave_rc=0
+  wait "${cobot_slave_pid}" || slave_rc=$?
+  echo "==== master ===="; cat "${out}/master.log"
+  echo "==== slave ====";  cat "${out}/slave.log"
+  gnuplot -e "master='${out}/master.csv'; slave='${out}/slave.csv'; png='${out}/demo-cobot.png'" - <<'GNUPLOT'
+set datafile separator ","
+set terminal pngcairo size 1000,800 noenhanced font ",10"
+set output png
+set title "teleop demo --device cobot: cobot master (steered walls) with the loopback slave, 1 kHz UDP"
+set xlabel "x (mm)"; set ylabel "y (mm)"; set grid; set key bottom left; set size ratio -1
+set arrow from graph 0, first 80 to graph 1, first 80 nohead lw 3 lc rgb "red"
+set arrow from first 500, graph 0 to first 500, graph 1 nohead lw 3 dt 2 lc rgb "black"
+set label "master fixture y > 80 mm (steered wall)" at graph 0.02, first 88 tc rgb "red"
+set label "slave wall x = 500 mm" at first 505, graph 0.9 tc rgb "black"
+plot master using (1e3*column("position_m_0")):(1e3*column("position_m_1")) with lines lw 2 title "cobot master", \
+     slave using (1e3*column("position_m_0")):(1e3*column("position_m_1")) with lines lw 1 title "slave", \
+     master every 250 using (1e3*column("position_m_0")):(1e3*column("position_m_1")):(2*column("force_sensor_N_0")):(2*column("force_sensor_N_1")) with vectors head filled lc rgb "dark-green" title "operator force (2 mm/N)"
+GNUPLOT
+  echo "[demo] telemetry: ${out}/master.csv ${out}/slave.csv"
+  echo "[demo] plot:      ${out}/demo-cobot.png"
+  exit $(( master_rc != 0 || slave_rc != 0 ))
+fi
 teleop::ensure_packages "${TELEOP_PACKAGES[@]}"
 teleop::build --target teleop-master teleop-slave
 

@@ -1,0 +1,107 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+
+#include "teleop/device/cobot/bicycle_caster.hpp"
+#include "teleop/device/cobot/bicycle_plant.hpp"
+#include "teleop/device/cobot/unicycle_cobot.hpp"
+#include "teleop/device/device.hpp"
+#include "teleop/device/device_config.hpp"
+#include "teleop/device/device_registry.hpp"
+
+namespace teleop::device::cobot {
+
+/// A scripted operator on the simulated cobot (a master without a human): pushes towards `direction_deg` (world,
+/// from +x) holding `speed_m_per_s`; from `then_at_s` on (if > 0) towards `then_direction_deg` instead.
+struct CobotOperatorScript {
+  bool enabled = false;
+  double speed_m_per_s = 0.2;
+  double direction_deg = 0.0;
+  double then_at_s = 0.0;
+  double then_direction_deg = 0.0;
+  double max_force_N = 60.0;
+};
+
+/// The parsed `device.cobot` section (docs/cobot.md lists every key).
+struct CobotBackendConfig {
+  enum class Kind : std::uint8_t { kUnicycle, kBicycle };
+  Kind kind = Kind::kUnicycle;
+  UnicycleCobotConfig unicycle = UnicycleCobotConfig::Prototype();
+  UnicyclePlantState initial{};
+  /// A coupling force (the law's force without the fixture's share) above this means the slave is blocked: the
+  /// cobot renders a wall through the current position, across the force. Released below half of it, once the
+  /// operator has pulled off that wall.
+  double contact_force_threshold_N = 2.0;
+  CobotOperatorScript op{};
+  BicyclePlantConfig bicycle{};
+  BicycleCasterConfig bicycle_caster{};
+};
+
+/// The `cobot` backend (registered from cobot_backend.cpp): a passive device that renders constraints by steering.
+DeviceBackend CobotBackend();
+
+/// A DeviceConfig selecting the cobot backend (dof 2 for a unicycle, 3 for a bicycle).
+DeviceConfig CobotDeviceConfig(const CobotBackendConfig& config);
+
+/// The simulated unicycle cobot behind the Device interface. As a master it renders
+///  - each fixture plane of the Command as a steered virtual wall (the most penetrated plane at a time), and
+///  - a blocked slave (coupling force above its free-motion level by more than contact_force_threshold_N) as a
+///    wall through the position where the contact began, normal to that excess force;
+/// it never pushes: force_N of the Command is not rendered. Reading::rendered_force_N is the in-plane force the
+/// floor exerts through the wheel (the constraint force the operator feels), zero in ideal caster motion.
+class UnicycleCobotDevice final : public Device {
+ public:
+  explicit UnicycleCobotDevice(const CobotBackendConfig& config);
+  const Capabilities& capabilities() const noexcept override { return capabilities_; }
+  const std::string& name() const noexcept override;
+  void Read(Reading& out) noexcept override;
+  void Write(const Command& command) noexcept override;
+  void Update(double period_s) noexcept override;
+  void SetSafe() noexcept override;
+
+  const UnicycleCobot& rig() const noexcept { return rig_; }
+  /// Which wall is rendered: -1 none, 0..kMaxConstraints-1 a fixture plane, kContactWall the contact wall.
+  int rendered_wall() const noexcept { return wall_source_; }
+  static constexpr int kContactWall = 100;
+  const CobotSample& last_sample() const noexcept { return last_; }
+
+ private:
+  CobotBackendConfig config_;
+  Capabilities capabilities_;
+  UnicycleCobot rig_;
+  CobotSample last_{};
+  Vec2 operator_force_N_ = Vec2::Zero();
+  double operator_integral_N_ = 0.0;
+  double time_s_ = 0.0;
+  int wall_source_ = -1;
+  bool contact_latched_ = false;
+  Vec2 free_coupling_N_ = Vec2::Zero();  ///< The coupling force in free motion (low-passed), N.
+  Constraint contact_wall_;
+  std::uint32_t pending_faults_ = kFaultNone;
+};
+
+/// The simulated bicycle cobot (x, y, θ) behind the Device interface: virtual caster only. It does not render
+/// constraints yet; a Command with an active plane sets kFaultDriver (the process goes safe: steering held).
+class BicycleCobotDevice final : public Device {
+ public:
+  explicit BicycleCobotDevice(const CobotBackendConfig& config);
+  const Capabilities& capabilities() const noexcept override { return capabilities_; }
+  const std::string& name() const noexcept override;
+  void Read(Reading& out) noexcept override;
+  void Write(const Command& command) noexcept override;
+  void Update(double period_s) noexcept override;
+  void SetSafe() noexcept override;
+  const BicyclePlantState& state() const noexcept { return state_; }
+
+ private:
+  CobotBackendConfig config_;
+  Capabilities capabilities_;
+  BicyclePlantState state_{};
+  bool safe_ = false;
+  std::uint32_t pending_faults_ = kFaultNone;
+  double time_s_ = 0.0;
+  double operator_integral_N_ = 0.0;
+};
+
+}  // namespace teleop::device::cobot

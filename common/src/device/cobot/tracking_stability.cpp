@@ -1,0 +1,73 @@
+#include "teleop/device/cobot/tracking_stability.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace teleop::device::cobot {
+
+double MaxStableSpeed_m_per_s(const ConstraintTrackerConfig& config, double steering_time_constant_s,
+                              double curvature_per_m, double lookahead_m) noexcept {
+  const double lookahead = lookahead_m > 0.0 ? lookahead_m : config.lookahead_m;
+  const TrackingGains g = ComputeTrackingGains(config.gain_form, lookahead, curvature_per_m);
+  if (!(steering_time_constant_s > 0.0)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  const double b_over_a = (config.theta_gain_scale * g.theta_per_m) / (config.p_gain_scale * g.p_per_m2);
+  return b_over_a / steering_time_constant_s;
+}
+
+double LinearizedGrowthRate_per_m(double speed_tau_m, double curvature_per_m, double p_gain_per_m2,
+                                  double theta_gain_per_m) noexcept {
+  const double k2 = curvature_per_m * curvature_per_m;
+  const double c1 = speed_tau_m * k2 + theta_gain_per_m;
+  const double c0 = k2 + p_gain_per_m2;
+  if (speed_tau_m <= 0.0) {  // λ² + c1·λ + c0 = 0
+    const double disc = c1 * c1 - 4.0 * c0;
+    return disc >= 0.0 ? (-c1 + std::sqrt(disc)) / 2.0 : -c1 / 2.0;
+  }
+  // Companion matrix of λ³ + (1/T)λ² + (c1/T)λ + c0/T.
+  Eigen::Matrix3d companion = Eigen::Matrix3d::Zero();
+  companion(0, 0) = -1.0 / speed_tau_m;
+  companion(0, 1) = -c1 / speed_tau_m;
+  companion(0, 2) = -c0 / speed_tau_m;
+  companion(1, 0) = 1.0;
+  companion(2, 1) = 1.0;
+  const Eigen::EigenSolver<Eigen::Matrix3d> solver(companion, false);
+  return solver.eigenvalues().real().maxCoeff();
+}
+
+StabilityStatus EvaluateStability(const StabilityGuardConfig& guard, const ConstraintTrackerConfig& tracker,
+                                  double steering_time_constant_s, double curvature_per_m,
+                                  double speed_m_per_s) noexcept {
+  StabilityStatus s;
+  const double speed = std::isfinite(speed_m_per_s) ? std::abs(speed_m_per_s) : 0.0;
+  s.speed_tau_m = speed * steering_time_constant_s;
+  s.lookahead_m = tracker.lookahead_m;
+  s.max_stable_speed_m_per_s = MaxStableSpeed_m_per_s(tracker, steering_time_constant_s, curvature_per_m);
+  s.warning = speed > guard.margin * s.max_stable_speed_m_per_s;
+  if (!s.warning) {
+    return s;
+  }
+  switch (guard.action) {
+    case StabilityGuardConfig::Action::kWarn:
+      break;
+    case StabilityGuardConfig::Action::kLengthenLookahead: {
+      // Eq 11 solved for L: the lookahead that puts |u|·τ at margin of the bound (b/a ∝ L for both gain forms).
+      const double bound_per_lookahead = s.max_stable_speed_m_per_s * steering_time_constant_s / tracker.lookahead_m;
+      s.lookahead_m = std::max(tracker.lookahead_m, s.speed_tau_m / (guard.margin * bound_per_lookahead));
+      s.max_stable_speed_m_per_s =
+          MaxStableSpeed_m_per_s(tracker, steering_time_constant_s, curvature_per_m, s.lookahead_m);
+      break;
+    }
+    case StabilityGuardConfig::Action::kBrake: {
+      const double excess = speed - guard.margin * s.max_stable_speed_m_per_s;
+      s.brake_command = std::clamp(excess / (0.1 * s.max_stable_speed_m_per_s), 0.0, 1.0);
+      break;
+    }
+  }
+  return s;
+}
+
+}  // namespace teleop::device::cobot
