@@ -14,6 +14,7 @@ TELEOP_PACKAGES=(
   gnuplot-nox python3
   iproute2 can-utils
   qemu-system-x86 busybox-static cpio kmod
+  cyclonedds-dev cyclonedds-tools
 )
 
 teleop::missing_packages() {

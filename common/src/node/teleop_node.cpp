@@ -8,6 +8,7 @@
 #include <ctime>
 #include <limits>
 
+#include "teleop/dds/bridge.hpp"  // DDS bridge (docs/dds.md)
 #include "teleop/error.hpp"
 #include "teleop/node/event_log.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
@@ -69,9 +70,18 @@ struct TeleopNode::Impl {
       telemetry = std::make_unique<runtime::TelemetryWriter>(
           config.telemetry.csv_path, static_cast<std::size_t>(config.telemetry.ring_capacity), dof);
     }
+    // ---- DDS bridge (docs/dds.md): its own thread publishes; the cycle only copies into its ring.
+    if (config.dds.enabled) {
+      bridge = std::make_unique<dds::Bridge>(config.dds, config.role, config.loop.rate_hz);
+      bridge_decimation = bridge->decimation();
+      events.SetObserver(bridge.get());
+    }
+    // ---- end DDS bridge
   }
 
   void Cycle(std::uint64_t cycle, double period_s) noexcept;
+  void PushBridgeState(const runtime::TelemetryRecord& record, bool local_fault, bool peer_fresh,
+                       double tracking_error_m) noexcept;  // DDS bridge
   void Finish(RunSummary& summary);
 
   config::ProcessConfig config;
@@ -80,6 +90,8 @@ struct TeleopNode::Impl {
   control::ThreeChannelLaw law;
   runtime::PeriodicLoop loop;
   runtime::LinkWatchdog watchdog;
+  std::unique_ptr<dds::Bridge> bridge;  ///< DDS bridge, or null. Declared before `events`: outlives its observer.
+  std::uint64_t bridge_decimation = 1;
   EventLog events;
   std::unique_ptr<runtime::TelemetryWriter> telemetry;
 
@@ -230,7 +242,9 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
     overrun_event_cycle = cycle;
     events.Push({Event::Kind::kOverrun, cycle, static_cast<double>(reported_overruns)});
   }
-  if (telemetry && cycle % static_cast<std::uint64_t>(config.telemetry.decimation) == 0) {
+  const bool to_csv = telemetry && cycle % static_cast<std::uint64_t>(config.telemetry.decimation) == 0;
+  const bool to_dds = bridge && cycle % bridge_decimation == 0;  // DDS bridge
+  if (to_csv || to_dds) {
     runtime::TelemetryRecord r{};
     r.cycle = cycle;
     r.time_s = t_s;
@@ -248,9 +262,37 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
     r.flags = flags;
     r.rtt_s = last_rtt_s;
     r.compute_s = static_cast<double>(MonotonicNowNs() - now_ns) * 1e-9;
-    if (telemetry->Push(r)) ++telemetry_records;
+    if (to_csv && telemetry->Push(r)) ++telemetry_records;
+    if (to_dds) {  // DDS bridge
+      const bool local_fault = fault || out.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput;
+      const double tracking_m =
+          peer_ok ? (reading.position_m - config.law.peer_position_scale * input.peer_position_m).norm() : 0.0;
+      PushBridgeState(r, local_fault, fresh && !link_faulted, tracking_m);
+    }
   }
 }
+
+// ---- DDS bridge (docs/dds.md): one copy into the bridge's lock-free ring; a full ring is counted by the bridge.
+void TeleopNode::Impl::PushBridgeState(const runtime::TelemetryRecord& record, bool local_fault, bool peer_fresh,
+                                       double tracking_error_m) noexcept {
+  dds::BridgeSample sample;
+  sample.record = record;
+  dds::EngagementInputs in;
+  in.stopping = loop.stopping();
+  in.local_fault = local_fault;
+  in.peer_fault = (peer.flags & proto::kFlagFault) != 0;
+  in.have_peer = have_peer;
+  in.peer_shutdown = peer_shutdown;
+  in.peer_fresh = peer_fresh;
+  sample.engagement = dds::EngagementOf(in);
+  sample.device_faults = reading.faults;
+  sample.overruns = loop.stats().overruns;
+  sample.watchdog_trips = watchdog.trips();
+  sample.link = link->counters();
+  sample.tracking_error_m = tracking_error_m;
+  (void)bridge->PushState(sample);
+}
+// ---- end DDS bridge
 
 TeleopNode::TeleopNode(const config::ProcessConfig& config, std::unique_ptr<device::Device> device,
                        std::unique_ptr<transport::Link> link)
@@ -314,6 +356,10 @@ RunSummary TeleopNode::Run() {
                   s.dof_mismatches, s.config.dof);
   }
   s.events.Stop();
+  if (s.bridge) {  // DDS bridge: the summary goes out, then the bridge leaves the domain
+    s.bridge->PublishSummary(summary, FormatSummaryJson(summary));
+    s.bridge->Stop();
+  }
   return summary;
 }
 
