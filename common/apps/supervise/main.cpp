@@ -43,7 +43,8 @@ class Recorder {
   }
   void Event(const teleop::dds::ProcessView& v, const std::string& kind, std::uint64_t cycle, double value,
              double t_s) {
-    if (format_ == Format::kJsonLines) out_ << teleop::dds::JsonEventLine(v.pair, v.role, kind, cycle, value, t_s) << '\n';
+    if (format_ == Format::kJsonLines)
+      out_ << teleop::dds::JsonEventLine(v.pair, v.role, kind, cycle, value, t_s) << '\n';
   }
   void Summary(const teleop::dds::ProcessView& v, double t_s) {
     if (format_ == Format::kJsonLines) out_ << teleop::dds::JsonSummaryLine(v, t_s) << '\n';

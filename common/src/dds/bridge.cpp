@@ -127,8 +127,7 @@ void Bridge::Impl::WriteState(const BridgeSample& s) {
   msg.achieved_rate_hz = std::numeric_limits<double>::quiet_NaN();
   msg.loss_fraction = std::numeric_limits<double>::quiet_NaN();
   if (previous && r.time_s > previous->record.time_s && r.cycle > previous->record.cycle) {
-    msg.achieved_rate_hz =
-        static_cast<double>(r.cycle - previous->record.cycle) / (r.time_s - previous->record.time_s);
+    msg.achieved_rate_hz = static_cast<double>(r.cycle - previous->record.cycle) / (r.time_s - previous->record.time_s);
     const std::uint64_t lost = s.link.lost - std::min(s.link.lost, previous->link.lost);
     const std::uint64_t accepted = s.link.accepted - std::min(s.link.accepted, previous->link.accepted);
     if (lost + accepted > 0) msg.loss_fraction = static_cast<double>(lost) / static_cast<double>(lost + accepted);
@@ -205,11 +204,12 @@ Bridge::Bridge(const BridgeConfig& config, Role role, double loop_rate_hz) {
   if (!(config.state_rate_hz > 0.0) || !(loop_rate_hz > 0.0)) {
     throw Error("dds: state_rate_hz and the loop rate must be > 0");
   }
-  decimation_ = std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(loop_rate_hz / config.state_rate_hz)));
+  decimation_ =
+      std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(loop_rate_hz / config.state_rate_hz)));
   impl_ = std::make_unique<Impl>(config, role, loop_rate_hz);
   impl_->thread = std::thread([impl = impl_.get()] { impl->Run(); });
-  spdlog::info("dds: publishing on domain {} as rt/teleop/{}/{}/{{state,events,summary}}, state at {:.3g} Hz", config.domain_id,
-               config.pair, impl_->role, loop_rate_hz / static_cast<double>(decimation_));
+  spdlog::info("dds: publishing on domain {} as rt/teleop/{}/{}/{{state,events,summary}}, state at {:.3g} Hz",
+               config.domain_id, config.pair, impl_->role, loop_rate_hz / static_cast<double>(decimation_));
 }
 
 Bridge::~Bridge() {

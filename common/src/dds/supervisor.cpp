@@ -51,9 +51,8 @@ struct Supervisor::Impl {
   };
 
   Impl(const Config& cfg, Observer obs) : config(cfg), observer(std::move(obs)), participant(cfg.domain_id) {
-    publications =
-        Check(dds_create_reader(participant.handle(), DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr),
-              "cannot read the built-in publication topic");
+    publications = Check(dds_create_reader(participant.handle(), DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr),
+                         "cannot read the built-in publication topic");
   }
 
   void Discover();
@@ -83,8 +82,8 @@ void Supervisor::Impl::Subscribe(const TopicParts& parts) {
     type = &teleop_msgs_msg_dds__RunSummary__desc;
     qos_kind = WriterQos::kSummary;
   }
-  const dds_entity_t topic =
-      Check(dds_create_topic(participant.handle(), type, name.c_str(), nullptr, nullptr), "cannot create topic " + name);
+  const dds_entity_t topic = Check(dds_create_topic(participant.handle(), type, name.c_str(), nullptr, nullptr),
+                                   "cannot create topic " + name);
   dds_qos_t* qos = MakeQos(qos_kind);
   const dds_entity_t reader = dds_create_reader(participant.handle(), topic, qos, nullptr);
   dds_delete_qos(qos);
@@ -102,21 +101,21 @@ void Supervisor::Impl::Subscribe(const TopicParts& parts) {
 
 void Supervisor::Impl::Discover() {
   std::vector<TopicParts> found;
-  TakeAll<dds_builtintopic_endpoint_t>(publications, [&](const dds_builtintopic_endpoint_t& e,
-                                                         const dds_sample_info_t& info) {
-    if (!info.valid_data) return;
-    auto parts = ParseTopicName(Str(e.topic_name));
-    if (!parts) return;
-    const std::string type = Str(e.type_name);
-    const std::string_view expected = parts->leaf == kStateLeaf    ? kStateTypeName
-                                      : parts->leaf == kEventsLeaf ? kEventTypeName
-                                                                   : kSummaryTypeName;
-    if (type != expected) {
-      spdlog::warn("dds: {} carries type '{}', expected '{}': ignored", Str(e.topic_name), type, expected);
-      return;
-    }
-    found.push_back(std::move(*parts));
-  });
+  TakeAll<dds_builtintopic_endpoint_t>(
+      publications, [&](const dds_builtintopic_endpoint_t& e, const dds_sample_info_t& info) {
+        if (!info.valid_data) return;
+        auto parts = ParseTopicName(Str(e.topic_name));
+        if (!parts) return;
+        const std::string type = Str(e.type_name);
+        const std::string_view expected = parts->leaf == kStateLeaf    ? kStateTypeName
+                                          : parts->leaf == kEventsLeaf ? kEventTypeName
+                                                                       : kSummaryTypeName;
+        if (type != expected) {
+          spdlog::warn("dds: {} carries type '{}', expected '{}': ignored", Str(e.topic_name), type, expected);
+          return;
+        }
+        found.push_back(std::move(*parts));
+      });
   for (const TopicParts& parts : found) Subscribe(parts);
 }
 
@@ -163,29 +162,29 @@ void Supervisor::Impl::TakeStates(ProcessView& v, dds_entity_t reader) {
 }
 
 void Supervisor::Impl::TakeEvents(ProcessView& v, dds_entity_t reader) {
-  TakeAll<teleop_msgs_msg_dds__Event_>(reader, [&](const teleop_msgs_msg_dds__Event_& e,
-                                                   const dds_sample_info_t& info) {
-    if (!info.valid_data) return;
-    ++v.events_received;
-    v.last_event = Str(e.kind_name);
-    if (observer.on_event) observer.on_event(v, v.last_event, e.cycle, e.value);
-  });
+  TakeAll<teleop_msgs_msg_dds__Event_>(reader,
+                                       [&](const teleop_msgs_msg_dds__Event_& e, const dds_sample_info_t& info) {
+                                         if (!info.valid_data) return;
+                                         ++v.events_received;
+                                         v.last_event = Str(e.kind_name);
+                                         if (observer.on_event) observer.on_event(v, v.last_event, e.cycle, e.value);
+                                       });
 }
 
 void Supervisor::Impl::TakeSummary(ProcessView& v, dds_entity_t reader) {
-  TakeAll<teleop_msgs_msg_dds__RunSummary_>(reader, [&](const teleop_msgs_msg_dds__RunSummary_& s,
-                                                        const dds_sample_info_t& info) {
-    if (!info.valid_data) return;
-    v.have_summary = true;
-    v.stop_reason = Str(s.stop_reason);
-    v.summary_cycles = s.cycles;
-    v.summary_packets_accepted = s.packets_accepted;
-    v.summary_packets_lost = s.packets_lost;
-    v.summary_rtt_p50_ms = s.rtt_p50_ms;
-    v.summary_rtt_max_ms = s.rtt_max_ms;
-    v.summary_json = Str(s.summary_json);
-    if (observer.on_summary) observer.on_summary(v);
-  });
+  TakeAll<teleop_msgs_msg_dds__RunSummary_>(
+      reader, [&](const teleop_msgs_msg_dds__RunSummary_& s, const dds_sample_info_t& info) {
+        if (!info.valid_data) return;
+        v.have_summary = true;
+        v.stop_reason = Str(s.stop_reason);
+        v.summary_cycles = s.cycles;
+        v.summary_packets_accepted = s.packets_accepted;
+        v.summary_packets_lost = s.packets_lost;
+        v.summary_rtt_p50_ms = s.rtt_p50_ms;
+        v.summary_rtt_max_ms = s.rtt_max_ms;
+        v.summary_json = Str(s.summary_json);
+        if (observer.on_summary) observer.on_summary(v);
+      });
 }
 
 Supervisor::Supervisor(const Config& config, Observer observer)
@@ -211,8 +210,8 @@ std::vector<ProcessView> Supervisor::Snapshot(std::int64_t now_ns) const {
   for (const auto& [key, view] : impl_->views) {
     ProcessView v = view;
     v.status = StatusOf(v, now_ns, impl_->config.stale_after_s);
-    v.age_s = v.have_state ? static_cast<double>(now_ns - v.last_state_ns) * 1e-9
-                           : std::numeric_limits<double>::quiet_NaN();
+    v.age_s =
+        v.have_state ? static_cast<double>(now_ns - v.last_state_ns) * 1e-9 : std::numeric_limits<double>::quiet_NaN();
     out.push_back(std::move(v));
   }
   return out;
