@@ -83,6 +83,10 @@ TEST(ProcessView, JsonLinesWriteNullForUnknownNumbersAndEscapeText) {
               HasSubstr("\"type\":\"state\",\"t_s\":2.5,\"pair\":\"rigA\",\"role\":\"slave\",\"status\":\"stale\""));
   EXPECT_THAT(line, HasSubstr("\"rtt_ms\":null"));
   EXPECT_THAT(line, HasSubstr("\"loss_fraction\":0.0125"));
+  EXPECT_THAT(line, HasSubstr("\"rate_hz\":1000,\"achieved_rate_hz\":999.5,"));
+  EXPECT_THAT(line, HasSubstr("\"packets_lost\":3,"));
+  EXPECT_THAT(line, HasSubstr("\"engagement\":\"coupled\","));
+  EXPECT_THAT(line, HasSubstr("\"last_event\":\"\"}"));
   EXPECT_EQ(line.find('\n'), std::string::npos);
   EXPECT_EQ(JsonString("a\"b\\c\nd\x01"), "\"a\\\"b\\\\c\\nd\\u0001\"");
   v.have_summary = true;

@@ -60,9 +60,7 @@ bool EndsWith(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int Run(int argc, char** argv) {
   CLI::App app{
       "teleop-supervise: every teleop master/slave pair on a DDS domain (rate, loss, round trip, engagement, "
       "faults), live; see docs/dds.md"};
@@ -142,5 +140,21 @@ int main(int argc, char** argv) {
   } catch (const teleop::Error& e) {
     spdlog::critical("{}", e.what());
     return 2;
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Everything expected is handled in Run(); this only keeps an unexpected exception from ending the program
+  // without a message.
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "teleop-supervise: unexpected error: " << e.what() << "\n";
+    return 3;
+  } catch (...) {
+    std::cerr << "teleop-supervise: unexpected error\n";
+    return 3;
   }
 }

@@ -73,32 +73,34 @@ std::string FormatTable(const std::vector<ProcessView>& views) {
 }
 
 std::string CsvHeader() {
-  return "t_s,pair,role,status,age_s,cycle,rate_hz,achieved_rate_hz,loss_fraction,packets_accepted,packets_lost,"
+  return "t_s,pair,role,status,age_s,cycle,time_s,rate_hz,achieved_rate_hz,loss_fraction,packets_accepted,packets_lost,"
          "packets_rejected,rtt_ms,engagement,device_faults,overruns,watchdog_trips,tracking_error_m,"
          "fixture_penetration_m,states_received,events_received,last_event";
 }
 
 std::string CsvRow(const ProcessView& v, double t_s) {
-  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", t_s, v.pair, v.role,
-                     ToString(v.status), CsvNumber(v.age_s), v.cycle, v.rate_hz, CsvNumber(v.achieved_rate_hz),
-                     CsvNumber(v.loss_fraction), v.packets_accepted, v.packets_lost, v.packets_rejected,
-                     CsvNumber(v.rtt_ms), v.have_state ? ToString(v.engagement) : "", v.device_faults, v.overruns,
-                     v.watchdog_trips, CsvNumber(v.tracking_error_m), CsvNumber(v.fixture_penetration_m),
-                     v.states_received, v.events_received, v.last_event);
+  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", t_s, v.pair, v.role,
+                     ToString(v.status), CsvNumber(v.age_s), v.cycle, v.time_s, v.rate_hz,
+                     CsvNumber(v.achieved_rate_hz), CsvNumber(v.loss_fraction), v.packets_accepted, v.packets_lost,
+                     v.packets_rejected, CsvNumber(v.rtt_ms), v.have_state ? ToString(v.engagement) : "",
+                     v.device_faults, v.overruns, v.watchdog_trips, CsvNumber(v.tracking_error_m),
+                     CsvNumber(v.fixture_penetration_m), v.states_received, v.events_received, v.last_event);
 }
 
 std::string JsonStateLine(const ProcessView& v, double t_s) {
   return fmt::format(
       "{{\"type\":\"state\",\"t_s\":{},\"pair\":{},\"role\":{},\"status\":\"{}\",\"age_s\":{},\"cycle\":{},"
-      "\"rate_hz\":{},\"achieved_rate_hz\":{},\"loss_fraction\":{},\"packets_accepted\":{},\"packets_lost\":{},"
+      "\"time_s\":{},\"rate_hz\":{},\"achieved_rate_hz\":{},\"loss_fraction\":{},\"packets_accepted\":{},\"packets_"
+      "lost\":{},"
       "\"packets_rejected\":{},\"rtt_ms\":{},\"engagement\":\"{}\",\"device_faults\":{},\"overruns\":{},"
       "\"watchdog_trips\":{},\"tracking_error_m\":{},\"fixture_penetration_m\":{},\"states_received\":{},"
       "\"events_received\":{},\"last_event\":{}}}",
       JsonNumber(t_s), JsonString(v.pair), JsonString(v.role), ToString(v.status), JsonNumber(v.age_s), v.cycle,
-      JsonNumber(v.rate_hz), JsonNumber(v.achieved_rate_hz), JsonNumber(v.loss_fraction), v.packets_accepted,
-      v.packets_lost, v.packets_rejected, JsonNumber(v.rtt_ms), v.have_state ? ToString(v.engagement) : "",
-      v.device_faults, v.overruns, v.watchdog_trips, JsonNumber(v.tracking_error_m),
-      JsonNumber(v.fixture_penetration_m), v.states_received, v.events_received, JsonString(v.last_event));
+      JsonNumber(v.time_s), JsonNumber(v.rate_hz), JsonNumber(v.achieved_rate_hz), JsonNumber(v.loss_fraction),
+      v.packets_accepted, v.packets_lost, v.packets_rejected, JsonNumber(v.rtt_ms),
+      v.have_state ? ToString(v.engagement) : "", v.device_faults, v.overruns, v.watchdog_trips,
+      JsonNumber(v.tracking_error_m), JsonNumber(v.fixture_penetration_m), v.states_received, v.events_received,
+      JsonString(v.last_event));
 }
 
 std::string JsonSummaryLine(const ProcessView& v, double t_s) {

@@ -132,6 +132,7 @@ void Supervisor::Impl::TakeStates(ProcessView& v, dds_entity_t reader) {
     v.last_state_ns = runtime::MonotonicNowNs();
     ++v.states_received;
     v.cycle = s.cycle;
+    v.time_s = s.time_s;
     v.rate_hz = s.rate_hz;
     v.achieved_rate_hz = s.achieved_rate_hz;
     v.state_rate_hz = s.state_rate_hz;

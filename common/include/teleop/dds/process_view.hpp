@@ -28,6 +28,7 @@ struct ProcessView {
   std::int64_t last_state_ns = 0;  ///< Supervisor's monotonic clock when it arrived.
   std::uint64_t states_received = 0;
   std::uint64_t cycle = 0;
+  double time_s = 0.0;  ///< The process's loop time of that cycle (since its first cycle).
   double rate_hz = 0.0;
   double achieved_rate_hz = 0.0;  ///< NaN when unknown.
   double state_rate_hz = 0.0;
