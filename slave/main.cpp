@@ -1,4 +1,4 @@
-// teleop-slave: device -> law -> link, see common/include/teleop/node/teleop_node.hpp.
-#include "teleop/node/teleop_node.hpp"
+// teleop-slave: device -> law -> link, see common/include/teleop/node/process_main.hpp.
+#include "teleop/node/process_main.hpp"
 
 int main(int argc, char** argv) { return teleop::node::ProcessMain(argc, argv, teleop::Role::kSlave); }

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "teleop/config/yaml_config.hpp"
+#include "teleop/device/loopback/loopback_plant.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::config {
@@ -190,8 +191,8 @@ void ExpectPeersDescribeEachOther(const std::string& master_path, const std::str
     SCOPED_TRACE(self->source_path);
     const StabilityConfig::Peer& peer = self->stability.peer;
     ASSERT_TRUE(peer.mass_kg && peer.damping_Ns_per_m && peer.kp_N_per_m && peer.kd_Ns_per_m && peer.kv_Ns_per_m);
-    EXPECT_EQ(*peer.mass_kg, other->device.loopback.mass_kg);
-    EXPECT_EQ(*peer.damping_Ns_per_m, other->device.loopback.damping_Ns_per_m);
+    EXPECT_EQ(*peer.mass_kg, other->device.Section<device::LoopbackPlantConfig>().mass_kg);
+    EXPECT_EQ(*peer.damping_Ns_per_m, other->device.Section<device::LoopbackPlantConfig>().damping_Ns_per_m);
     EXPECT_EQ(*peer.kp_N_per_m, other->law.kp_N_per_m);
     EXPECT_EQ(*peer.kd_Ns_per_m, other->law.kd_Ns_per_m);
     EXPECT_EQ(*peer.kv_Ns_per_m, other->law.kv_Ns_per_m);

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "teleop/device/loopback/loopback_plant.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::config {
@@ -108,7 +109,7 @@ TEST(YamlConfig, GainsTakeAScalarForEveryDofOrAListOfDofNumbers) {
   ASSERT_EQ(c.law.kd_Ns_per_m.size(), 3);
   EXPECT_EQ(c.law.kd_Ns_per_m[2], 2.0) << "scalar applied to every DOF";
   EXPECT_EQ(c.device.dof, 3);
-  EXPECT_EQ(c.device.loopback.dof, 3);
+  EXPECT_EQ(c.device.Section<device::LoopbackPlantConfig>().dof, 3);
   EXPECT_EQ(c.law.fixture.dof, 3);
 }
 
@@ -153,7 +154,7 @@ TEST(YamlConfig, ExampleMasterConfigParses) {
   EXPECT_EQ(c.law.velocity_filter_hz, 200.0);
   EXPECT_EQ(c.law.fixture.plane_count, 0) << "master fixture off";
   EXPECT_EQ(c.device.backend, "loopback");
-  const auto& plant = c.device.loopback;
+  const auto& plant = c.device.Section<device::LoopbackPlantConfig>();
   EXPECT_EQ(plant.mass_kg, 0.040);
   EXPECT_EQ(plant.damping_Ns_per_m, 0.41);
   ASSERT_TRUE(plant.human.enabled);
@@ -192,9 +193,10 @@ TEST(YamlConfig, ExampleSlaveConfigParses) {
   ASSERT_EQ(c.law.fixture.plane_count, 1);
   EXPECT_EQ(c.law.fixture.planes[0].normal[0], 1.0);
   EXPECT_EQ(c.law.fixture.planes[0].offset_m, 0.01);
-  EXPECT_FALSE(c.device.loopback.human.enabled);
-  EXPECT_EQ(c.device.loopback.mass_kg, 0.036);
-  EXPECT_EQ(c.device.loopback.environment.kind, device::SimulatedEnvironmentConfig::Kind::kFreeSpace);
+  EXPECT_FALSE(c.device.Section<device::LoopbackPlantConfig>().human.enabled);
+  EXPECT_EQ(c.device.Section<device::LoopbackPlantConfig>().mass_kg, 0.036);
+  EXPECT_EQ(c.device.Section<device::LoopbackPlantConfig>().environment.kind,
+            device::SimulatedEnvironmentConfig::Kind::kFreeSpace);
   EXPECT_EQ(c.law.max_force_N, 10.0);
 }
 

@@ -4,7 +4,7 @@
 #include <benchmark/benchmark.h>
 
 #include "teleop/control/three_channel_law.hpp"
-#include "teleop/device/loopback_plant.hpp"
+#include "teleop/device/loopback/loopback_plant.hpp"
 
 namespace teleop {
 namespace {
@@ -47,7 +47,7 @@ void BM_PlantUpdate(benchmark::State& state) {
   }
   device::LoopbackPlant plant(config);
   device::Reading reading;
-  const DofVector command = DofVector::Constant(1, 0.5);
+  const device::Command command = device::Command::Force(DofVector::Constant(1, 0.5));
   for (auto _ : state) {
     plant.Read(reading);
     plant.Write(command);

@@ -7,7 +7,7 @@
 #include <memory>
 
 #include "teleop/control/three_channel_law.hpp"
-#include "teleop/device/loopback_plant.hpp"
+#include "teleop/device/loopback/loopback_plant.hpp"
 #include "test_utilities/limit_malloc.hpp"
 
 namespace teleop {
@@ -83,7 +83,7 @@ TEST(NoAllocation, PlantReadWriteUpdateIncludingContactAndNewPeriods) {
   config.human.segments[0].frequency_hz = 2.0;
   device::LoopbackPlant plant(config);
   device::Reading reading;
-  DofVector command = DofVector::Constant(2, 2.0);  // pushes into the wall
+  device::Command command = device::Command::Force(DofVector::Constant(2, 2.0));  // pushes into the wall
   {
     test::AllocationCounter counter;
     for (int k = 0; k < 2000; ++k) {
@@ -91,7 +91,7 @@ TEST(NoAllocation, PlantReadWriteUpdateIncludingContactAndNewPeriods) {
       plant.Write(command);
       plant.Update(k < 1000 ? 0.001 : 0.0005);  // a new period re-derives the exact step
     }
-    command[0] = std::numeric_limits<double>::quiet_NaN();
+    command.force_N[0] = std::numeric_limits<double>::quiet_NaN();
     plant.Write(command);
     plant.Update(0.001);
     plant.Read(reading);

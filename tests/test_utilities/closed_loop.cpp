@@ -141,8 +141,10 @@ const ClosedLoopSample& ClosedLoop::Step() {
   s.master_faults = master_reading.faults;
   s.slave_faults = slave_reading.faults;
 
-  master_plant_.Write(master_out.command_N);
-  slave_plant_.Write(slave_out.command_N);
+  device::FillCommand(master_out, master_law_.fixture(), master_reading.position_m, master_command_);
+  device::FillCommand(slave_out, slave_law_.fixture(), slave_reading.position_m, slave_command_);
+  master_plant_.Write(master_command_);
+  slave_plant_.Write(slave_command_);
   master_plant_.Update(period_s_);
   slave_plant_.Update(period_s_);
   return last_;

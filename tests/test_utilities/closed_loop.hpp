@@ -6,7 +6,8 @@
 
 #include "teleop/control/three_channel_law.hpp"
 #include "teleop/control/velocity_estimator.hpp"
-#include "teleop/device/loopback_plant.hpp"
+#include "teleop/device/law_command.hpp"
+#include "teleop/device/loopback/loopback_plant.hpp"
 #include "teleop/types.hpp"
 
 namespace teleop::test {
@@ -128,6 +129,8 @@ class ClosedLoop {
   control::ThreeChannelLaw slave_law_;
   device::LoopbackPlant master_plant_;
   device::LoopbackPlant slave_plant_;
+  device::Command master_command_;
+  device::Command slave_command_;
   control::VelocityEstimator master_sender_velocity_;
   control::VelocityEstimator slave_sender_velocity_;
   DelayLine master_to_slave_;

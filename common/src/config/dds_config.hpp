@@ -3,7 +3,7 @@
 // Private to the config library: the `dds:` section (docs/dds.md, docs/configuration.md).
 
 #include "teleop/dds/bridge_config.hpp"
-#include "yaml_reader.hpp"
+#include "teleop/config/yaml_reader.hpp"
 
 namespace teleop::config::detail {
 

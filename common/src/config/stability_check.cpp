@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "teleop/analysis/human_bounds.hpp"
+#include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::config {
@@ -92,8 +93,8 @@ SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis) {
   const FixtureSide peer_side = FixtureSideOf(Other(config.role));
 
   DeviceModel own = PaperDevice(config.role);
-  if (config.device.backend == "loopback") {
-    own = {config.device.loopback.mass_kg, config.device.loopback.damping_Ns_per_m};
+  if (const device::AnalysisModel model = device::DeviceModel(config.device); model.applicable) {
+    own = {model.mass_kg[axis], model.damping_Ns_per_m[axis]};
   }
   if (st.device.mass_kg) own.mass_kg = *st.device.mass_kg;
   if (st.device.damping_Ns_per_m) own.damping_Ns_per_m = *st.device.damping_Ns_per_m;

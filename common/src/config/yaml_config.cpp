@@ -13,87 +13,24 @@
 #include <system_error>
 
 #include "dds_config.hpp"  // dds: section (docs/dds.md)
+#include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
-#include "yaml_reader.hpp"
 
 // The schema of a process config. Each section has one Parse* function that lists its allowed keys (anything else
-// is an error), reads its required and optional keys and checks ranges. A new section (the lead's `stability:`,
-// a new device backend's settings) is a new allowed key in its parent plus one Parse* function. Every key is
-// documented in docs/configuration.md.
+// is an error), reads its required and optional keys and checks ranges. A device backend's section is read by the
+// backend's own registered reader (teleop/device/device_registry.hpp). Every key is documented in
+// docs/configuration.md.
 
 namespace teleop::config {
 
 namespace {
 
-using detail::Field;
-using detail::Map;
+using config::Field;
+using config::Map;
 
 constexpr double kMinRateHz = 250.0;
 constexpr double kMaxRateHz = 4000.0;
-
-std::string Num(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
-}
-
-// ---- scalar checks ---------------------------------------------------------------------------------------------
-
-double Finite(const Field& f) {
-  const double v = f.AsDouble();
-  if (!std::isfinite(v)) f.Fail("must be a finite number, got " + Num(v));
-  return v;
-}
-
-double NonNegative(const Field& f, const char* unit) {
-  const double v = Finite(f);
-  if (v < 0.0) f.Fail("must be >= 0 " + std::string(unit) + ", got " + Num(v));
-  return v;
-}
-
-double Positive(const Field& f, const char* unit) {
-  const double v = Finite(f);
-  if (!(v > 0.0)) f.Fail("must be > 0 " + std::string(unit) + ", got " + Num(v));
-  return v;
-}
-
-double InRange(const Field& f, double low, double high, const char* unit) {
-  const double v = Finite(f);
-  if (v < low || v > high) f.Fail("must be in " + Num(low) + ".." + Num(high) + " " + unit + ", got " + Num(v));
-  return v;
-}
-
-int IntInRange(const Field& f, int low, int high) {
-  const int v = f.AsInt();
-  if (v < low || v > high) {
-    f.Fail("must be an integer in " + std::to_string(low) + ".." + std::to_string(high) + ", got " + std::to_string(v));
-  }
-  return v;
-}
-
-/// A per-DOF quantity: one number for every DOF, or a list of exactly `dof` numbers. `check` validates one entry.
-DofVector ReadDofVector(const Field& f, int dof, const std::function<double(const Field&)>& check) {
-  DofVector out = ZeroDof(dof);
-  if (f.IsSequence()) {
-    const std::vector<Field> items = f.AsList();
-    if (static_cast<int>(items.size()) != dof) {
-      f.Fail("expected one number (applied to every DOF) or a list of exactly " + std::to_string(dof) +
-             " numbers (dof), got a list of " + std::to_string(items.size()));
-    }
-    for (int i = 0; i < dof; ++i) out[i] = check(items[static_cast<std::size_t>(i)]);
-  } else {
-    if (!f.IsScalar()) f.Fail("expected one number or a list of " + std::to_string(dof) + " numbers");
-    out.setConstant(check(f));
-  }
-  return out;
-}
-
-DofVector ReadGain(const Map& map, std::string_view key, int dof, bool required, const char* unit) {
-  const auto check = [unit](const Field& e) { return NonNegative(e, unit); };
-  if (required) return ReadDofVector(map.Required(key), dof, check);
-  const auto field = map.Optional(key);
-  return field ? ReadDofVector(*field, dof, check) : ZeroDof(dof);
-}
 
 // ---- sections --------------------------------------------------------------------------------------------------
 
@@ -317,116 +254,26 @@ void ParseFixture(const Field& f, int dof, control::ForbiddenRegionFixture::Conf
   }
 }
 
-/// The `type` of a typed mapping (script segment, environment), read before the keys are checked so that the
-/// allowed keys can depend on it. `all_keys` is the union, used when `type` itself is missing or not text.
-Field TypeOf(const Field& f, std::initializer_list<std::string_view> all_keys) {
-  if (f.node().IsMap()) {
-    const YAML::Node type = f.node()["type"];  // const access: a missing key gives an undefined node
-    if (type.IsDefined() && type.IsScalar()) {
-      return Field(type, f.path().empty() ? "type" : f.path() + ".type", &f.file());
-    }
-  }
-  return Map(f, all_keys).Required("type");
-}
-
-device::OperatorSegment ParseSegment(const Field& f, int dof) {
-  using Kind = device::OperatorSegment::Kind;
-  // The allowed keys depend on the type: a key of another segment type is rejected.
-  const Field type_field =
-      TypeOf(f, {"type", "axis", "start_s", "duration_s", "from_N", "to_N", "amplitude_N", "frequency_hz", "offset_N"});
-  const std::string type = type_field.AsString();
-  device::OperatorSegment s;
-  std::optional<Map> map;
-  if (type == "hold") {
-    s.kind = Kind::kHold;
-    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s"});
-  } else if (type == "step") {
-    s.kind = Kind::kStep;
-    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s", "to_N"});
-  } else if (type == "ramp") {
-    s.kind = Kind::kRamp;
-    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s", "from_N", "to_N"});
-  } else if (type == "sine") {
-    s.kind = Kind::kSine;
-    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s", "amplitude_N",
-                                                           "frequency_hz", "offset_N"});
-  } else {
-    type_field.Fail("must be one of hold, step, ramp, sine; got '" + type + "'");
-  }
-  if (auto v = map->Optional("axis")) s.axis = IntInRange(*v, 0, dof - 1);
-  s.start_s = NonNegative(map->Required("start_s"), "s");
-  if (s.kind == Kind::kRamp) {
-    s.duration_s = Positive(map->Required("duration_s"), "s (a ramp needs time; follow it with a hold)");
-    s.from_N = Finite(map->Required("from_N"));
-    s.to_N = Finite(map->Required("to_N"));
-  } else {
-    if (auto v = map->Optional("duration_s")) s.duration_s = NonNegative(*v, "s (0 = until the end of the run)");
-  }
-  if (s.kind == Kind::kStep) s.to_N = Finite(map->Required("to_N"));
-  if (s.kind == Kind::kSine) {
-    s.amplitude_N = Finite(map->Required("amplitude_N"));
-    s.frequency_hz = Positive(map->Required("frequency_hz"), "Hz");
-    if (auto v = map->Optional("offset_N")) s.offset_N = Finite(*v);
-  }
-  return s;
-}
-
-void ParseOperator(const Field& f, int dof, device::SimulatedOperatorConfig& human) {
-  const Map map(f, {"mass_kg", "damping_Ns_per_m", "stiffness_N_per_m", "script"});
-  human.enabled = true;
-  if (auto v = map.Optional("mass_kg")) human.mass_kg = NonNegative(*v, "kg");
-  if (auto v = map.Optional("damping_Ns_per_m")) human.damping_Ns_per_m = NonNegative(*v, "N·s/m");
-  if (auto v = map.Optional("stiffness_N_per_m")) human.stiffness_N_per_m = NonNegative(*v, "N/m");
-  if (auto script = map.Optional("script")) {
-    const std::vector<Field> items = script->AsList();
-    if (static_cast<int>(items.size()) > device::SimulatedOperatorConfig::kMaxSegments) {
-      script->Fail("at most " + std::to_string(device::SimulatedOperatorConfig::kMaxSegments) + " segments, got " +
-                   std::to_string(items.size()));
-    }
-    human.segment_count = static_cast<int>(items.size());
-    for (std::size_t i = 0; i < items.size(); ++i) human.segments[i] = ParseSegment(items[i], dof);
-  }
-}
-
-void ParseEnvironment(const Field& f, int dof, device::SimulatedEnvironmentConfig& env) {
-  using Kind = device::SimulatedEnvironmentConfig::Kind;
-  const Field type_field = TypeOf(f, {"type", "axis", "position_m", "stiffness_N_per_m", "damping_Ns_per_m"});
-  const std::string type = type_field.AsString();
-  if (type == "free") {
-    const Map map(f, {"type"});
-    env.kind = Kind::kFreeSpace;
-    return;
-  }
-  if (type != "wall") type_field.Fail("must be 'free' or 'wall', got '" + type + "'");
-  const Map map(f, {"type", "axis", "position_m", "stiffness_N_per_m", "damping_Ns_per_m"});
-  env.kind = Kind::kWall;
-  if (auto v = map.Optional("axis")) env.axis = IntInRange(*v, 0, dof - 1);
-  env.position_m = Finite(map.Required("position_m"));
-  env.stiffness_N_per_m = Positive(map.Required("stiffness_N_per_m"), "N/m");
-  if (auto v = map.Optional("damping_Ns_per_m")) env.damping_Ns_per_m = NonNegative(*v, "N·s/m");
-}
-
-void ParseLoopback(const Field& f, int dof, device::LoopbackPlantConfig& plant) {
-  const Map map(
-      f, {"mass_kg", "damping_Ns_per_m", "encoder_resolution_m", "initial_position_m", "operator", "environment"});
-  plant.dof = dof;
-  plant.mass_kg = Positive(map.Required("mass_kg"), "kg");
-  plant.damping_Ns_per_m = NonNegative(map.Required("damping_Ns_per_m"), "N·s/m");
-  if (auto v = map.Optional("encoder_resolution_m")) plant.encoder_resolution_m = NonNegative(*v, "m");
-  if (auto v = map.Optional("initial_position_m")) plant.initial_position_m = ReadDofVector(*v, dof, Finite);
-  if (auto v = map.Optional("operator")) ParseOperator(*v, dof, plant.human);
-  if (auto v = map.Optional("environment")) ParseEnvironment(*v, dof, plant.environment);
-}
-
-void ParseDevice(const Field& f, int dof, device::DeviceConfig& device) {
-  const Map map(f, {"backend", "loopback"});
-  const Field backend = map.Required("backend");
-  device.backend = backend.AsString();
+/// `device:`: the backend's name, and its own section `device.<backend>` read by the backend's registered reader.
+/// Sections of other registered backends are rejected (they would be silently ignored).
+void ParseDevice(const Field& f, Role role, int dof, device::DeviceConfig& device) {
+  std::vector<std::string> allowed{"backend"};
+  for (const std::string& name : device::RegisteredDevices()) allowed.push_back(name);
+  const Map map(f, allowed);
+  const Field backend_field = map.Required("backend");
+  device.backend = backend_field.AsString();
   device.dof = dof;
-  if (device.backend != "loopback") {
-    backend.Fail("unknown backend '" + device.backend + "'; this build's config reader knows: loopback");
+  const device::DeviceBackend* backend = device::FindDevice(device.backend);
+  if (backend == nullptr) backend_field.Fail(device::UnknownBackendMessage(device.backend));
+  for (const std::string& name : device::RegisteredDevices()) {
+    if (name == device.backend) continue;
+    if (auto other = map.Optional(name)) {
+      other->Fail("a section for backend '" + name + "', but backend is '" + device.backend + "'; remove it");
+    }
   }
-  ParseLoopback(map.Required("loopback"), dof, device.loopback);
+  std::optional<Field> section = map.Optional(device.backend);
+  if (!section && backend->section_required) map.Required(device.backend);  // fails with the key's name
+  device.section = backend->read(section ? &*section : nullptr, device::SectionContext{role, dof});
 }
 
 void ParseTelemetry(const Field& f, TelemetryConfig& telemetry) {
@@ -487,7 +334,7 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
   config.law.fixture.dof = config.dof;
   if (auto v = map.Optional("fixture")) ParseFixture(*v, config.dof, config.law.fixture);
 
-  ParseDevice(map.Required("device"), config.dof, config.device);
+  ParseDevice(map.Required("device"), config.role, config.dof, config.device);
   if (auto v = map.Optional("telemetry")) ParseTelemetry(*v, config.telemetry);
   if (auto v = map.Optional("stability")) ParseStability(*v, config.dof, config.stability);
   if (auto v = map.Optional("dds")) detail::ParseDds(*v, config.loop.rate_hz, config.dds);  // docs/dds.md
@@ -501,13 +348,13 @@ ProcessConfig ParseProcessConfig(const std::string& yaml_text, const std::string
   try {
     root = YAML::Load(yaml_text);
   } catch (const YAML::Exception& e) {
-    throw Error(detail::Located(name, e.mark, "", "YAML syntax error: " + e.msg));
+    throw Error(Located(name, e.mark, "", "YAML syntax error: " + e.msg));
   }
   try {
     return Parse(root, name);
   } catch (const YAML::Exception& e) {
     // Not expected (every access is checked), but never let a yaml-cpp exception escape as something else.
-    throw Error(detail::Located(name, e.mark, "", "cannot read the config: " + e.msg));
+    throw Error(Located(name, e.mark, "", "cannot read the config: " + e.msg));
   }
 }
 

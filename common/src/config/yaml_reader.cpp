@@ -1,11 +1,13 @@
-#include "yaml_reader.hpp"
+#include "teleop/config/yaml_reader.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <sstream>
 #include <string>
 
 #include "teleop/error.hpp"
 
-namespace teleop::config::detail {
+namespace teleop::config {
 
 namespace {
 
@@ -59,6 +61,20 @@ std::string Located(const std::string& file, const YAML::Mark& mark, const std::
   return out + reason;
 }
 
+std::string ClosestMatch(std::string_view word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_distance = word.size();
+  for (const std::string& c : candidates) {
+    const std::size_t d = EditDistance(word, c);
+    if (d < best_distance) {
+      best_distance = d;
+      best = c;
+    }
+  }
+  if (best.empty() || best_distance > std::max<std::size_t>(2, word.size() / 3)) return {};
+  return best;
+}
+
 void Field::Fail(const std::string& reason) const { throw Error(Located(*file_, MarkOf(node_), path_, reason)); }
 
 double Field::AsDouble() const {
@@ -100,13 +116,17 @@ std::vector<Field> Field::AsList() const {
   return out;
 }
 
-Map::Map(const Field& field, std::initializer_list<std::string_view> allowed) : self_(field) {
+Map::Map(const Field& field, std::initializer_list<std::string_view> allowed)
+    : Map(field, std::vector<std::string>(allowed.begin(), allowed.end())) {}
+
+Map::Map(const Field& field, const std::vector<std::string>& allowed) : self_(field) {
   const YAML::Node& node = field.node();
-  if (!node.IsMap()) {
+  const auto all_keys = [&allowed] {
     std::string keys;
-    for (std::string_view k : allowed) keys += (keys.empty() ? "" : ", ") + std::string(k);
-    field.Fail("expected a mapping (with keys among: " + keys + "), got " + Describe(node));
-  }
+    for (const std::string& k : allowed) keys += (keys.empty() ? "" : ", ") + k;
+    return keys;
+  };
+  if (!node.IsMap()) field.Fail("expected a mapping (with keys among: " + all_keys() + "), got " + Describe(node));
   for (YAML::const_iterator it = node.begin(); it != node.end(); ++it) {
     // Copies: the iterator hands out a temporary pair.
     const YAML::Node key_node = it->first;
@@ -121,21 +141,9 @@ Map::Map(const Field& field, std::initializer_list<std::string_view> allowed) : 
     }
     if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
       std::string reason = "unknown key";
-      std::string_view best;
-      std::size_t best_distance = key.size();
-      std::string keys;
-      for (std::string_view k : allowed) {
-        keys += (keys.empty() ? "" : ", ") + std::string(k);
-        const std::size_t d = EditDistance(key, k);
-        if (d < best_distance) {
-          best_distance = d;
-          best = k;
-        }
-      }
-      if (!best.empty() && best_distance <= std::max<std::size_t>(2, key.size() / 3)) {
-        reason += " (did you mean '" + std::string(best) + "'?)";
-      }
-      reason += "; allowed here: " + keys;
+      const std::string best = ClosestMatch(key, allowed);
+      if (!best.empty()) reason += " (did you mean '" + best + "'?)";
+      reason += "; allowed here: " + all_keys();
       throw Error(Located(field.file(), MarkOf(key_node), path, reason));
     }
     entries_.push_back({key, value_node});
@@ -169,4 +177,77 @@ std::optional<Field> Map::Optional(std::string_view key) const {
   return Field(e->value, PathOf(key), &self_.file());
 }
 
-}  // namespace teleop::config::detail
+// ---- value checks -----------------------------------------------------------------------------------------------
+
+std::string Num(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+double Finite(const Field& f) {
+  const double v = f.AsDouble();
+  if (!std::isfinite(v)) f.Fail("must be a finite number, got " + Num(v));
+  return v;
+}
+
+double NonNegative(const Field& f, const char* unit) {
+  const double v = Finite(f);
+  if (v < 0.0) f.Fail("must be >= 0 " + std::string(unit) + ", got " + Num(v));
+  return v;
+}
+
+double Positive(const Field& f, const char* unit) {
+  const double v = Finite(f);
+  if (!(v > 0.0)) f.Fail("must be > 0 " + std::string(unit) + ", got " + Num(v));
+  return v;
+}
+
+double InRange(const Field& f, double low, double high, const char* unit) {
+  const double v = Finite(f);
+  if (v < low || v > high) f.Fail("must be in " + Num(low) + ".." + Num(high) + " " + unit + ", got " + Num(v));
+  return v;
+}
+
+int IntInRange(const Field& f, int low, int high) {
+  const int v = f.AsInt();
+  if (v < low || v > high) {
+    f.Fail("must be an integer in " + std::to_string(low) + ".." + std::to_string(high) + ", got " + std::to_string(v));
+  }
+  return v;
+}
+
+DofVector ReadDofVector(const Field& f, int dof, const std::function<double(const Field&)>& check) {
+  DofVector out = ZeroDof(dof);
+  if (f.IsSequence()) {
+    const std::vector<Field> items = f.AsList();
+    if (static_cast<int>(items.size()) != dof) {
+      f.Fail("expected one number (applied to every DOF) or a list of exactly " + std::to_string(dof) +
+             " numbers (dof), got a list of " + std::to_string(items.size()));
+    }
+    for (int i = 0; i < dof; ++i) out[i] = check(items[static_cast<std::size_t>(i)]);
+  } else {
+    if (!f.IsScalar()) f.Fail("expected one number or a list of " + std::to_string(dof) + " numbers");
+    out.setConstant(check(f));
+  }
+  return out;
+}
+
+DofVector ReadGain(const Map& map, std::string_view key, int dof, bool required, const char* unit) {
+  const auto check = [unit](const Field& e) { return NonNegative(e, unit); };
+  if (required) return ReadDofVector(map.Required(key), dof, check);
+  const auto field = map.Optional(key);
+  return field ? ReadDofVector(*field, dof, check) : ZeroDof(dof);
+}
+
+Field TypeOf(const Field& f, std::initializer_list<std::string_view> all_keys) {
+  if (f.node().IsMap()) {
+    const YAML::Node type = f.node()["type"];  // const access: a missing key gives an undefined node
+    if (type.IsDefined() && type.IsScalar()) {
+      return Field(type, f.path().empty() ? "type" : f.path() + ".type", &f.file());
+    }
+  }
+  return Map(f, all_keys).Required("type");
+}
+
+}  // namespace teleop::config

@@ -1,5 +1,6 @@
 #include "teleop/device/device_registry.hpp"
 
+#include <algorithm>
 #include <map>
 #include <mutex>
 #include <utility>
@@ -9,16 +10,9 @@
 namespace teleop::device {
 namespace {
 
-std::unique_ptr<Device> MakeLoopback(const DeviceConfig& config) {
-  LoopbackPlantConfig plant = config.loopback;
-  plant.dof = config.dof;
-  return std::make_unique<LoopbackPlant>(plant);
-}
-
 struct Registry {
-  Registry() { factories.emplace("loopback", &MakeLoopback); }
   std::mutex mutex;
-  std::map<std::string, DeviceFactory> factories;  // sorted by name
+  std::map<std::string, DeviceBackend, std::less<>> backends;  // sorted by name; nodes never move
 };
 
 Registry& TheRegistry() {
@@ -26,50 +20,128 @@ Registry& TheRegistry() {
   return registry;
 }
 
-std::string KnownNames(const Registry& registry) {
-  std::string names;
-  for (const auto& [name, factory] : registry.factories) {
-    if (!names.empty()) names += ", ";
-    names += name;
+std::size_t EditDistance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
   }
-  return names;
+  return row[b.size()];
+}
+
+const DeviceBackend& Require(std::string_view name) {
+  const DeviceBackend* backend = FindDevice(name);
+  if (backend == nullptr) throw Error("device: " + UnknownBackendMessage(name));
+  return *backend;
 }
 
 }  // namespace
 
-void RegisterDevice(const std::string& name, DeviceFactory factory) {
-  if (name.empty()) throw Error("device registry: a backend needs a non-empty name");
-  if (!factory) throw Error("device registry: backend '" + name + "' was registered without a factory");
+const char* ToString(Rendering rendering) noexcept {
+  switch (rendering) {
+    case Rendering::kActiveForce:
+      return "active force";
+    case Rendering::kActiveAndDissipative:
+      return "active + dissipative (motor and brake)";
+    case Rendering::kDissipativeOnly:
+      return "dissipative only";
+    case Rendering::kSteeredConstraints:
+      return "steered constraints";
+  }
+  return "unknown";
+}
+
+AnalysisModel AnalysisModel::Uniform(int dof, double mass_kg, double damping_Ns_per_m) {
+  AnalysisModel m;
+  m.mass_kg = DofVector::Constant(dof, mass_kg);
+  m.damping_Ns_per_m = DofVector::Constant(dof, damping_Ns_per_m);
+  return m;
+}
+
+AnalysisModel AnalysisModel::NotApplicable(std::string reason) {
+  AnalysisModel m;
+  m.applicable = false;
+  m.reason = std::move(reason);
+  return m;
+}
+
+void RegisterDevice(DeviceBackend backend) {
+  if (backend.name.empty()) throw Error("device registry: a backend needs a non-empty name");
+  const std::string name = backend.name;
+  if (!backend.make) throw Error("device registry: backend '" + name + "' was registered without a factory");
+  if (!backend.read) throw Error("device registry: backend '" + name + "' was registered without a section reader");
   Registry& registry = TheRegistry();
   const std::lock_guard<std::mutex> lock(registry.mutex);
-  if (!registry.factories.emplace(name, std::move(factory)).second) {
+  if (!registry.backends.emplace(name, std::move(backend)).second) {
     throw Error("device registry: backend '" + name + "' is already registered; pick another name");
   }
 }
 
-std::unique_ptr<Device> MakeDevice(const DeviceConfig& config) {
-  DeviceFactory factory;
-  {
-    Registry& registry = TheRegistry();
-    const std::lock_guard<std::mutex> lock(registry.mutex);
-    const auto it = registry.factories.find(config.backend);
-    if (it == registry.factories.end()) {
-      throw Error("device: unknown backend '" + config.backend + "'; known backends: " + KnownNames(registry));
-    }
-    factory = it->second;
-  }
-  std::unique_ptr<Device> device = factory(config);
-  if (!device) throw Error("device: backend '" + config.backend + "' failed to create a device");
-  return device;
+const DeviceBackend* FindDevice(std::string_view name) {
+  Registry& registry = TheRegistry();
+  const std::lock_guard<std::mutex> lock(registry.mutex);
+  const auto it = registry.backends.find(name);
+  return it == registry.backends.end() ? nullptr : &it->second;
 }
 
 std::vector<std::string> RegisteredDevices() {
   Registry& registry = TheRegistry();
   const std::lock_guard<std::mutex> lock(registry.mutex);
   std::vector<std::string> names;
-  names.reserve(registry.factories.size());
-  for (const auto& [name, factory] : registry.factories) names.push_back(name);
+  names.reserve(registry.backends.size());
+  for (const auto& [name, backend] : registry.backends) names.push_back(name);
   return names;
+}
+
+std::string UnknownBackendMessage(std::string_view name) {
+  const std::vector<std::string> names = RegisteredDevices();
+  std::string message = "unknown backend '" + std::string(name) + "'";
+  std::string best;
+  std::size_t best_distance = name.size();
+  std::string known;
+  for (const std::string& n : names) {
+    known += (known.empty() ? "" : ", ") + n;
+    const std::size_t d = EditDistance(name, n);
+    if (d < best_distance) {
+      best_distance = d;
+      best = n;
+    }
+  }
+  if (!best.empty() && best_distance <= std::max<std::size_t>(2, name.size() / 3)) {
+    message += " (did you mean '" + best + "'?)";
+  }
+  message += "; registered backends: " + (known.empty() ? std::string("none") : known);
+  return message;
+}
+
+std::unique_ptr<Device> MakeDevice(const DeviceConfig& config) {
+  const DeviceBackend& backend = Require(config.backend);
+  std::unique_ptr<Device> device = backend.make(config);
+  if (!device) throw Error("device: backend '" + config.backend + "' failed to create a device");
+  if (device->capabilities().dof != config.dof) {
+    throw Error("device: backend '" + config.backend + "' made a device of " +
+                std::to_string(device->capabilities().dof) + " DOF for dof: " + std::to_string(config.dof));
+  }
+  return device;
+}
+
+AnalysisModel DeviceModel(const DeviceConfig& config) {
+  const DeviceBackend& backend = Require(config.backend);
+  if (!backend.model) {
+    return AnalysisModel::NotApplicable("backend '" + config.backend + "' gives no model for the stability check");
+  }
+  AnalysisModel model = backend.model(config);
+  if (model.applicable && (model.mass_kg.size() != config.dof || model.damping_Ns_per_m.size() != config.dof)) {
+    throw Error("device: backend '" + config.backend +
+                "' gave a stability model of another size than dof: " + std::to_string(config.dof));
+  }
+  return model;
 }
 
 }  // namespace teleop::device

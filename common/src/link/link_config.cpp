@@ -1,4 +1,4 @@
-#include "teleop/transport/link_config.hpp"
+#include "teleop/link/link_config.hpp"
 
 #include <array>
 #include <cmath>

@@ -1,3 +1,5 @@
+#include "teleop/node/process_main.hpp"
+
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -8,9 +10,11 @@
 
 #include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
+#include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
+#include "teleop/link/link_config.hpp"
+#include "teleop/node/device_list.hpp"
 #include "teleop/node/teleop_node.hpp"
-#include "teleop/transport/link_config.hpp"
 
 namespace teleop::node {
 
@@ -20,10 +24,6 @@ std::atomic<TeleopNode*> g_running_node{nullptr};
 
 extern "C" void HandleStopSignal(int /*signal*/) {
   if (TeleopNode* node = g_running_node.load()) node->Stop();
-}
-
-proto::SenderRole ToSender(Role role) noexcept {
-  return role == Role::kMaster ? proto::SenderRole::kMaster : proto::SenderRole::kSlave;
 }
 
 /// The start-up stability check of this process's own fixture (docs/stability.md, "In the processes"): false when
@@ -77,6 +77,13 @@ int ProcessMain(int argc, char** argv, Role role) {
   app.add_flag("--allow-unstable", allow_unstable,
                "Start even when the fixture stiffness is above the predicted stability limit (experiments only; "
                "docs/stability.md)");
+  app.add_flag_callback(
+      "--list-devices",
+      [] {
+        std::cout << DescribeDevices() << std::flush;
+        throw CLI::Success();
+      },
+      "List the registered device backends (what they render, their sensors and config keys) and exit");
   CLI11_PARSE(app, argc, argv);
 
   spdlog::set_level(spdlog::level::from_str(log_level));
@@ -92,7 +99,7 @@ int ProcessMain(int argc, char** argv, Role role) {
     if (!StabilityAllowsStart(config, allow_unstable)) return 2;
 
     auto device = device::MakeDevice(config.device);
-    auto link = transport::MakeLink(config.link, ToSender(role));
+    auto link = transport::MakeLink(config.link, transport::ToSender(role));
     TeleopNode node(config, std::move(device), std::move(link));
 
     g_running_node.store(&node);

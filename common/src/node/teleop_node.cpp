@@ -8,8 +8,11 @@
 #include <ctime>
 #include <limits>
 
+#include "teleop/config/render_check.hpp"
 #include "teleop/dds/bridge.hpp"  // DDS bridge (docs/dds.md)
+#include "teleop/device/law_command.hpp"
 #include "teleop/error.hpp"
+#include "teleop/link/link_config.hpp"
 #include "teleop/node/event_log.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
 #include "teleop/runtime/telemetry.hpp"
@@ -20,10 +23,6 @@ namespace teleop::node {
 namespace {
 
 using runtime::MonotonicNowNs;
-
-proto::SenderRole ToSender(Role role) noexcept {
-  return role == Role::kMaster ? proto::SenderRole::kMaster : proto::SenderRole::kSlave;
-}
 
 void CopyToWire(const DofVector& v, std::array<double, proto::kMaxWireDof>& out) noexcept {
   for (int i = 0; i < v.size(); ++i) out[static_cast<std::size_t>(i)] = v[i];
@@ -50,20 +49,20 @@ struct TeleopNode::Impl {
         watchdog(cfg.link.timeout_ms * 1e-3),
         events(1024) {
     const int dof = config.dof;
-    if (device->capabilities().dof != dof) {
-      throw Error("device '" + device->name() + "' has " + std::to_string(device->capabilities().dof) +
-                  " DOF but the config says dof: " + std::to_string(dof));
-    }
+    device->Configure();  // opens the bus; capabilities() is final after it
+    config::RequireRenderable(config, device->capabilities(), device->name());
     reading.position_m = ZeroDof(dof);
     reading.velocity_m_per_s = ZeroDof(dof);
     reading.force_N = ZeroDof(dof);
+    reading.rendered_force_N = ZeroDof(dof);
+    command = device::Command::Force(ZeroDof(dof));
     input.position_m = ZeroDof(dof);
     input.velocity_m_per_s = ZeroDof(dof);
     input.peer_position_m = ZeroDof(dof);
     input.peer_velocity_m_per_s = ZeroDof(dof);
     input.peer_force_N = ZeroDof(dof);
     zero_command = ZeroDof(dof);
-    outgoing.sender = ToSender(config.role);
+    outgoing.sender = transport::ToSender(config.role);
     rate = static_cast<std::uint64_t>(config.loop.rate_hz);
     outgoing.dof = static_cast<std::uint8_t>(dof);
     if (!config.telemetry.csv_path.empty()) {
@@ -77,12 +76,33 @@ struct TeleopNode::Impl {
       events.SetObserver(bridge.get());
     }
     // ---- end DDS bridge
+    device->Activate();  // last: a failure above leaves the device configured but never rendering
+    active = true;
   }
 
+  ~Impl() {
+    if (active) device->Deactivate();
+  }
+
+  /// What Receive() concluded about the peer this cycle.
+  struct PeerState {
+    bool fresh = false;         ///< A sample arrived within the watchdog timeout.
+    bool link_faulted = false;  ///< The link reports a fault (CAN bus-off, ...).
+    bool usable = false;        ///< Fresh, link fine, peer neither shutting down nor faulted: couple.
+  };
+
   void Cycle(std::uint64_t cycle, double period_s) noexcept;
-  void PushBridgeState(const runtime::TelemetryRecord& record, bool local_fault, bool peer_fresh,
-                       double tracking_error_m) noexcept;  // DDS bridge
-  void Finish(RunSummary& summary);
+  void Sense() noexcept;
+  PeerState Receive(std::uint64_t cycle, std::int64_t now_ns, double t_s) noexcept;
+  control::ThreeChannelLaw::Output Control(const PeerState& peer_state, double period_s) noexcept;
+  /// Returns whether the device reported a fault (then it was put into its safe state instead of commanded).
+  bool Actuate(const control::ThreeChannelLaw::Output& out, std::uint64_t cycle, double period_s) noexcept;
+  std::uint8_t Transmit(const control::ThreeChannelLaw::Output& out, const PeerState& peer_state, bool fault,
+                        std::int64_t now_ns) noexcept;
+  void Record(const control::ThreeChannelLaw::Output& out, const PeerState& peer_state, bool fault, std::uint8_t flags,
+              std::uint64_t cycle, std::int64_t now_ns, double t_s) noexcept;
+  void PushBridgeState(const runtime::TelemetryRecord& record, const control::ThreeChannelLaw::Output& out,
+                       const PeerState& peer_state, bool fault) noexcept;  // DDS bridge
 
   config::ProcessConfig config;
   std::unique_ptr<device::Device> device;
@@ -97,11 +117,13 @@ struct TeleopNode::Impl {
 
   // Preallocated cycle state.
   device::Reading reading;
+  device::Command command;
   control::ThreeChannelLaw::Input input;
   DofVector zero_command;
   proto::SampleMessage incoming{};
   proto::SampleMessage peer{};
   proto::SampleMessage outgoing{};
+  bool active = false;  ///< Between Device::Activate and Device::Deactivate.
   bool have_peer = false;
   bool peer_was_valid = false;
   bool peer_shutdown = false;
@@ -131,18 +153,13 @@ struct TeleopNode::Impl {
   std::atomic<bool> stop_requested{false};
 };
 
-void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
-  const std::int64_t now_ns = MonotonicNowNs();
-  if (cycle == 0) start_ns = now_ns;
-  const double t_s = static_cast<double>(now_ns - start_ns) * 1e-9;
-  const int dof = config.dof;
+// The cycle, stage by stage. Each stage is noexcept, allocation-free and lock-free.
 
-  // 1. Sense.
-  device->Read(reading);
+void TeleopNode::Impl::Sense() noexcept { device->Read(reading); }
 
-  // 2. Receive: drain the link, keep the newest sample.
+TeleopNode::Impl::PeerState TeleopNode::Impl::Receive(std::uint64_t cycle, std::int64_t now_ns, double t_s) noexcept {
   if (link->Poll(incoming)) {
-    if (incoming.dof != dof) {
+    if (incoming.dof != config.dof) {
       // A peer configured for another DOF count: never applied; the watchdog expires and coupling stays off.
       ++dof_mismatches;
     } else {
@@ -151,13 +168,10 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
       if (!have_peer) events.Push({Event::Kind::kPeerConnected, cycle, 0.0});
       have_peer = true;
       watchdog.Feed(t_s);
-      if (peer.echo_time_ns != 0) {
-        const std::int64_t rtt =
-            now_ns - static_cast<std::int64_t>(peer.echo_time_ns) - static_cast<std::int64_t>(peer.echo_age_ns);
-        if (rtt >= 0) {
-          rtt_ns.Add(rtt);
-          last_rtt_s = static_cast<double>(rtt) * 1e-9;
-        }
+      const proto::RoundTripEstimate rtt = proto::EstimateRoundTrip(peer, static_cast<std::uint64_t>(now_ns));
+      if (rtt.valid) {
+        rtt_ns.Add(rtt.rtt_ns);
+        last_rtt_s = static_cast<double>(rtt.rtt_ns) * 1e-9;
       }
       if ((peer.flags & proto::kFlagShutdown) != 0 && !peer_shutdown) {
         peer_shutdown = true;
@@ -170,29 +184,35 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
       last_flags = peer.flags;
     }
   }
-  const bool fresh = have_peer && watchdog.Fresh(t_s);
-  const bool link_faulted = link->faulted();  // e.g. CAN bus-off: decouple now, not after the watchdog timeout
-  if (link_faulted) ++link_fault_cycles;
-  const bool peer_ok = fresh && !link_faulted && !peer_shutdown && (peer.flags & proto::kFlagFault) == 0;
-  if (have_peer && peer_was_valid && !fresh) events.Push({Event::Kind::kPeerLost, cycle, 0.0});
-  if (have_peer && !peer_was_valid && fresh && cycle > 0 && watchdog.trips() > 0) {
+  PeerState state;
+  state.fresh = have_peer && watchdog.Fresh(t_s);
+  state.link_faulted = link->faulted();  // e.g. CAN bus-off: decouple now, not after the watchdog timeout
+  if (state.link_faulted) ++link_fault_cycles;
+  state.usable = state.fresh && !state.link_faulted && !peer_shutdown && (peer.flags & proto::kFlagFault) == 0;
+  if (have_peer && peer_was_valid && !state.fresh) events.Push({Event::Kind::kPeerLost, cycle, 0.0});
+  if (have_peer && !peer_was_valid && state.fresh && cycle > 0 && watchdog.trips() > 0) {
     events.Push({Event::Kind::kPeerRecovered, cycle, 0.0});
   }
-  peer_was_valid = fresh;
+  peer_was_valid = state.fresh;
+  return state;
+}
 
-  // 3. Control.
+control::ThreeChannelLaw::Output TeleopNode::Impl::Control(const PeerState& peer_state, double period_s) noexcept {
+  const int dof = config.dof;
   input.position_m = reading.position_m;
   input.has_velocity = device->capabilities().measures_velocity;
   input.velocity_m_per_s = reading.velocity_m_per_s;
-  input.peer_valid = peer_ok;
+  input.peer_valid = peer_state.usable;
   if (have_peer) {
     CopyFromWire(peer.position_m, dof, input.peer_position_m);
     CopyFromWire(peer.velocity_m_per_s, dof, input.peer_velocity_m_per_s);
     CopyFromWire(peer.force_N, dof, input.peer_force_N);
   }
-  const auto out = law.Step(input, period_s);
+  return law.Step(input, period_s);
+}
 
-  // 4. Actuate, or hold the safe state on a device fault.
+bool TeleopNode::Impl::Actuate(const control::ThreeChannelLaw::Output& out, std::uint64_t cycle,
+                               double period_s) noexcept {
   const bool fault = reading.faults != device::kFaultNone;
   if (fault) {
     device->SetSafe();
@@ -200,12 +220,16 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
     if (!device_faulted) events.Push({Event::Kind::kDeviceFault, cycle, static_cast<double>(reading.faults)});
   } else {
     if (device_faulted) events.Push({Event::Kind::kDeviceFaultCleared, cycle, 0.0});
-    device->Write(out.command_N);
+    device::FillCommand(out, law.fixture(), input.position_m, command);
+    device->Write(command);
   }
   device_faulted = fault;
   device->Update(period_s);
+  return fault;
+}
 
-  // 5. Send this cycle's sample with the echo for the peer's round-trip measurement.
+std::uint8_t TeleopNode::Impl::Transmit(const control::ThreeChannelLaw::Output& out, const PeerState& peer_state,
+                                        bool fault, std::int64_t now_ns) noexcept {
   outgoing.sequence = sequence++;
   outgoing.sender_time_ns = static_cast<std::uint64_t>(now_ns);
   outgoing.echo_time_ns = have_peer ? peer.sender_time_ns : 0;
@@ -213,7 +237,7 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
       have_peer ? static_cast<std::uint32_t>(std::min<std::int64_t>(MonotonicNowNs() - peer_rx_ns, 0xFFFFFFFF)) : 0;
   std::uint8_t flags = proto::kFlagEnabled;
   if (fault || out.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput) flags |= proto::kFlagFault;
-  if ((have_peer && !fresh) || link_faulted) flags |= proto::kFlagPeerLost;
+  if ((have_peer && !peer_state.fresh) || peer_state.link_faulted) flags |= proto::kFlagPeerLost;
   if (out.status == control::ThreeChannelLaw::StepStatus::kSaturated) flags |= proto::kFlagSaturated;
   if (out.fixture_penetration_m > 0.0) flags |= proto::kFlagInFixture;
   if (loop.stopping()) flags |= proto::kFlagShutdown;
@@ -222,14 +246,17 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
   CopyToWire(out.velocity_m_per_s, outgoing.velocity_m_per_s);
   CopyToWire(reading.force_N, outgoing.force_N);
   (void)link->Send(outgoing);  // a refused send is counted by the link
+  return flags;
+}
 
-  // 6. Statistics and telemetry.
+void TeleopNode::Impl::Record(const control::ThreeChannelLaw::Output& out, const PeerState& peer_state, bool fault,
+                              std::uint8_t flags, std::uint64_t cycle, std::int64_t now_ns, double t_s) noexcept {
   if (out.status == control::ThreeChannelLaw::StepStatus::kSaturated) ++saturated_cycles;
   if (out.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput) {
     if (nonfinite_inputs == 0) events.Push({Event::Kind::kNonFiniteInput, cycle, 0.0});
     ++nonfinite_inputs;
   }
-  if (peer_ok) {
+  if (peer_state.usable) {
     ++cycles_with_peer;
     const double e = (reading.position_m - config.law.peer_position_scale * input.peer_position_m).norm();
     tracking_sq_sum += e * e;
@@ -248,11 +275,12 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
     runtime::TelemetryRecord r{};
     r.cycle = cycle;
     r.time_s = t_s;
-    r.dof = dof;
+    r.dof = config.dof;
     CopyToRecord(reading.position_m, r.position_m);
     CopyToRecord(out.velocity_m_per_s, r.velocity_m_per_s);
     CopyToRecord(reading.force_N, r.force_sensor_N);
     CopyToRecord(fault ? zero_command : out.command_N, r.command_N);
+    CopyToRecord(reading.rendered_force_N, r.rendered_force_N);
     CopyToRecord(out.fixture_force_N, r.fixture_force_N);
     CopyToRecord(input.peer_position_m, r.peer_position_m);
     CopyToRecord(input.peer_velocity_m_per_s, r.peer_velocity_m_per_s);
@@ -263,42 +291,53 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
     r.rtt_s = last_rtt_s;
     r.compute_s = static_cast<double>(MonotonicNowNs() - now_ns) * 1e-9;
     if (to_csv && telemetry->Push(r)) ++telemetry_records;
-    if (to_dds) {  // DDS bridge
-      const bool local_fault = fault || out.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput;
-      const double tracking_m =
-          peer_ok ? (reading.position_m - config.law.peer_position_scale * input.peer_position_m).norm() : 0.0;
-      PushBridgeState(r, local_fault, fresh && !link_faulted, tracking_m);
-    }
+    if (to_dds) PushBridgeState(r, out, peer_state, fault);  // DDS bridge
   }
 }
 
 // ---- DDS bridge (docs/dds.md): one copy into the bridge's lock-free ring; a full ring is counted by the bridge.
-void TeleopNode::Impl::PushBridgeState(const runtime::TelemetryRecord& record, bool local_fault, bool peer_fresh,
-                                       double tracking_error_m) noexcept {
+void TeleopNode::Impl::PushBridgeState(const runtime::TelemetryRecord& record,
+                                       const control::ThreeChannelLaw::Output& out, const PeerState& peer_state,
+                                       bool fault) noexcept {
   dds::BridgeSample sample;
   sample.record = record;
   dds::EngagementInputs in;
   in.stopping = loop.stopping();
-  in.local_fault = local_fault;
+  in.local_fault = fault || out.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput;
   in.peer_fault = (peer.flags & proto::kFlagFault) != 0;
   in.have_peer = have_peer;
   in.peer_shutdown = peer_shutdown;
-  in.peer_fresh = peer_fresh;
+  in.peer_fresh = peer_state.fresh && !peer_state.link_faulted;
   sample.engagement = dds::EngagementOf(in);
   sample.device_faults = reading.faults;
   sample.overruns = loop.stats().overruns;
   sample.watchdog_trips = watchdog.trips();
   sample.link = link->counters();
-  sample.tracking_error_m = tracking_error_m;
+  sample.tracking_error_m =
+      peer_state.usable ? (reading.position_m - config.law.peer_position_scale * input.peer_position_m).norm() : 0.0;
   (void)bridge->PushState(sample);
 }
 // ---- end DDS bridge
+
+void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
+  const std::int64_t now_ns = MonotonicNowNs();
+  if (cycle == 0) start_ns = now_ns;
+  const double t_s = static_cast<double>(now_ns - start_ns) * 1e-9;
+  Sense();                                                              // 1. device → reading
+  const PeerState peer_state = Receive(cycle, now_ns, t_s);             // 2. drain the link, keep the newest sample
+  const auto out = Control(peer_state, period_s);                       // 3. the law
+  const bool fault = Actuate(out, cycle, period_s);                     // 4. command (or safe state on a fault), Update
+  const std::uint8_t flags = Transmit(out, peer_state, fault, now_ns);  // 5. this cycle's sample, with the echo
+  Record(out, peer_state, fault, flags, cycle, now_ns, t_s);            // 6. statistics, events, telemetry
+}
 
 TeleopNode::TeleopNode(const config::ProcessConfig& config, std::unique_ptr<device::Device> device,
                        std::unique_ptr<transport::Link> link)
     : impl_(std::make_unique<Impl>(config, std::move(device), std::move(link))) {}
 
 TeleopNode::~TeleopNode() = default;
+
+void TeleopNode::Step(std::uint64_t cycle, double period_s) noexcept { impl_->Cycle(cycle, period_s); }
 
 void TeleopNode::Stop() noexcept {
   impl_->stop_requested.store(true, std::memory_order_relaxed);
@@ -318,7 +357,8 @@ RunSummary TeleopNode::Run() {
   s.outgoing.flags = proto::kFlagShutdown;
   s.outgoing.sequence = s.sequence++;
   (void)s.link->Send(s.outgoing);
-  s.device->SetSafe();
+  s.device->Deactivate();
+  s.active = false;
 
   RunSummary summary;
   summary.role = s.config.role;

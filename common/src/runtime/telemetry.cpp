@@ -30,18 +30,21 @@ const double* VectorField(const TelemetryRecord& r, int column) noexcept {
     case 3:
       return r.command_N;
     case 4:
-      return r.fixture_force_N;
+      return r.rendered_force_N;
     case 5:
-      return r.peer_position_m;
+      return r.fixture_force_N;
     case 6:
+      return r.peer_position_m;
+    case 7:
       return r.peer_velocity_m_per_s;
     default:
       return r.peer_force_N;
   }
 }
 
-constexpr const char* kVectorNames[] = {"position_m",      "velocity_m_per_s", "force_sensor_N",        "command_N",
-                                        "fixture_force_N", "peer_position_m",  "peer_velocity_m_per_s", "peer_force_N"};
+constexpr const char* kVectorNames[] = {"position_m",      "velocity_m_per_s",      "force_sensor_N",
+                                        "command_N",       "rendered_force_N",      "fixture_force_N",
+                                        "peer_position_m", "peer_velocity_m_per_s", "peer_force_N"};
 constexpr int kVectorCount = static_cast<int>(std::size(kVectorNames));
 
 int ClampDof(int dof) noexcept { return std::clamp(dof, 1, kMaxDof); }

@@ -5,9 +5,9 @@
 
 #include "teleop/control/three_channel_law.hpp"
 #include "teleop/dds/bridge_config.hpp"
-#include "teleop/device/device_registry.hpp"
+#include "teleop/device/device_config.hpp"
+#include "teleop/link/link_config.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
-#include "teleop/transport/link_config.hpp"
 #include "teleop/types.hpp"
 
 namespace teleop::config {
@@ -16,7 +16,7 @@ namespace teleop::config {
 struct TelemetryConfig {
   std::string csv_path;       ///< Empty: no CSV.
   int decimation = 1;         ///< Record every n-th cycle (the caller decimates before TelemetryWriter::Push).
-  int ring_capacity = 16384;  ///< Records buffered between the loop and the writer (16..2^24; ~430 B each).
+  int ring_capacity = 16384;  ///< Records buffered between the loop and the writer (16..2^24; ~480 B each).
 };
 
 /// The start-up stability check of this process's own fixture (docs/stability.md, "In the processes"). An absent

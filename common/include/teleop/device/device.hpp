@@ -1,20 +1,46 @@
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 
 #include "teleop/types.hpp"
 
 namespace teleop::device {
 
-/// What a backend can do; the law and the start-up checks read it.
+/// How a backend renders force on its handle or tool. The node refuses, at start-up, a law or fixture the device
+/// cannot render (teleop/config/render_check.hpp).
+enum class Rendering : std::uint8_t {
+  kActiveForce,           ///< Motors only: pushes and resists (haptic paddle, the loopback plant).
+  kActiveAndDissipative,  ///< Motor + brake (Kwon & Song): active force plus a brake that can only resist motion.
+  kDissipativeOnly,       ///< Brakes or dampers only: resists motion, never injects energy.
+  kSteeredConstraints,    ///< Cobot (Colgate et al.): no force actuator; constrains the direction of motion.
+};
+
+const char* ToString(Rendering rendering) noexcept;
+
+/// What a backend can do; the node's start-up checks, the law set-up and `--list-devices` read it.
 struct Capabilities {
   int dof = 1;
-  bool renders_active_force = true;   ///< Motors: can push the operator (haptic paddle, loopback plant).
-  bool dissipative_only = false;      ///< Brakes/dampers only: can resist motion, never inject energy.
-  bool steering_constraints = false;  ///< Cobot: constrains direction of motion by steering, not by force.
-  bool measures_velocity = false;     ///< Reading::velocity is a sensor value (else the law estimates it).
-  bool measures_force = false;        ///< Reading::force_N is a handle/tool force sensor.
+  Rendering rendering = Rendering::kActiveForce;
+  /// Per axis, the largest |force| the active actuator renders (N); empty or +inf: no limit of its own. Zero on a
+  /// device without an active actuator (kDissipativeOnly, kSteeredConstraints).
+  DofVector max_force_N;
+  bool has_brake = false;       ///< A brake (or damper) that resists motion (kActiveAndDissipative, kDissipativeOnly).
+  DofVector max_brake_force_N;  ///< Per axis, the brake's largest resisting force (N), when has_brake.
+  bool measures_velocity = false;  ///< Reading::velocity_m_per_s is a sensor value (else the law estimates it).
+  bool measures_force = false;     ///< Reading::force_N is a handle (master) or tool (slave) force sensor.
+
+  /// True when the device can push its handle/tool (inject energy): kActiveForce or kActiveAndDissipative.
+  bool can_push() const noexcept {
+    return rendering == Rendering::kActiveForce || rendering == Rendering::kActiveAndDissipative;
+  }
+  /// The active limit on `axis` (N); +inf when the backend has none.
+  double max_force_on(int axis) const noexcept {
+    if (axis < 0 || axis >= max_force_N.size()) return std::numeric_limits<double>::infinity();
+    return max_force_N[axis];
+  }
 };
 
 /// Fault bits a backend reports. Any set bit puts the process into its safe state.
@@ -25,7 +51,39 @@ enum FaultBits : std::uint32_t {
   kFaultCommunication = 1u << 2,    ///< Driver lost its bus (CAN/Modbus).
   kFaultOvertemperature = 1u << 3,
   kFaultEmergencyStop = 1u << 4,
-  kFaultDriver = 1u << 5,  ///< Any other driver-reported fault.
+  kFaultDriver = 1u << 5,  ///< Any other driver-reported fault (also: a rejected command or update).
+};
+
+/// Most constraints one Command carries: the forbidden-region fixture's plane capacity
+/// (control::ForbiddenRegionFixture::kMaxPlanes; the node checks they agree).
+inline constexpr int kMaxConstraints = 8;
+
+/// One plane of the fixture that produced a Command, in the device's base frame: the points p with
+/// normal·p > offset_m are forbidden (control::FixturePlane).
+struct Constraint {
+  DofVector normal;            ///< Unit normal pointing into the forbidden region (dimensionless, base frame).
+  double offset_m = 0.0;       ///< Signed distance of the plane from the origin along `normal` (m).
+  double penetration_m = 0.0;  ///< normal·x - offset_m at the position the law used (m); > 0: inside, the plane acts.
+};
+
+/// What the loop asks the device to render for the coming period. Fixed capacity: copying it never allocates.
+struct Command {
+  DofVector force_N;  ///< Force for the actuator (N, base frame), after the law's saturation; zero in the safe state.
+  DofVector fixture_force_N;  ///< The fixture's share of force_N (N, base frame; the law's fixture_force_N).
+  double fixture_stiffness_N_per_m = 0.0;  ///< K of the fixture that produced `constraints` (0: no fixture).
+  /// Every plane of the enabled fixture (0 when the fixture is disabled), in the fixture's order; a plane is
+  /// active when its penetration_m > 0. A force device can ignore them (force_N already holds the fixture force);
+  /// a cobot steers along them, a brake device can use them to decide when to brake.
+  int constraint_count = 0;
+  std::array<Constraint, kMaxConstraints> constraints{};
+
+  /// A command of force only (no constraints), for tests and simple callers. Set-up or cycle: no allocation.
+  static Command Force(const DofVector& force_N) noexcept {
+    Command c;
+    c.force_N = force_N;
+    c.fixture_force_N = DofVector::Zero(force_N.size());
+    return c;
+  }
 };
 
 /// One sample of a device, base frame of that device.
@@ -33,14 +91,25 @@ struct Reading {
   DofVector position_m;        ///< Measured position (m).
   DofVector velocity_m_per_s;  ///< Measured velocity (m/s), valid when Capabilities::measures_velocity.
   DofVector force_N;           ///< Handle (master) or tool (slave) force sensor (N), valid when measures_force.
+  /// The force the actuators actually rendered over the last period (N, base frame): the command after the
+  /// backend's own clamping (force limits, a brake that only resists, a rejected command replaced by zero). Zero
+  /// before the first Write and in the safe state. Telemetry records it next to the command.
+  DofVector rendered_force_N;
   std::uint32_t faults = kFaultNone;
 };
 
 /// The one interface every backend implements: loopback plant, hybrid motor–brake device, cobot, real drivers.
 ///
-/// The loop calls, once per cycle and in this order: Read(), the law, Write(), Update(period_s). All three are
-/// called from the real-time thread: no allocation, no locks, no blocking I/O, no exceptions. Set-up (opening a
-/// bus, homing) happens in the backend's constructor and may throw teleop::Error.
+/// Lifecycle (set-up, outside the loop; like ros2_control's on_configure / on_activate / on_deactivate):
+///   constructor  validates the parsed config (no I/O);
+///   Configure()  opens the bus, checks the drives are there, sizes buffers; capabilities() is final after it;
+///   Activate()   brings the device to the state where it renders commands (CiA 402 Operation Enabled, homed);
+///   Deactivate() puts it into the safe state and stops rendering; Activate() may follow again.
+/// Configure and Activate throw teleop::Error with a message a user can act on; the defaults do nothing, so a
+/// simulated backend implements only the cycle.
+///
+/// The cycle, once per period and in this order, on the real-time thread: Read(), the law, Write() (or SetSafe()
+/// on a fault), Update(period_s). No allocation, no locks, no blocking I/O, no exceptions, no logging.
 class Device {
  public:
   virtual ~Device() = default;
@@ -52,11 +121,16 @@ class Device {
   /// The backend's registry name ("loopback", "hybrid", "cobot", ...).
   virtual const std::string& name() const noexcept = 0;
 
+  virtual void Configure() {}
+  virtual void Activate() {}
+  virtual void Deactivate() noexcept { SetSafe(); }
+
   /// Latest measurement. Never blocks.
   virtual void Read(Reading& out) noexcept = 0;
-  /// Force command (N, base frame) for the coming period. A backend clamps to what it can render (a brake only
-  /// dissipates) and reports what it did in the next Reading.
-  virtual void Write(const DofVector& command_N) noexcept = 0;
+  /// The command for the coming period. A backend renders what it can (it clamps to its limits; a brake only
+  /// resists) and reports the force it rendered in Reading::rendered_force_N of the next Read(). A command it
+  /// cannot use at all (wrong size, NaN) is replaced by zero force and reported as kFaultDriver in the next Read().
+  virtual void Write(const Command& command) noexcept = 0;
   /// Called after Write(): a simulated backend integrates its dynamics over `period_s` under the held command; a
   /// driver flushes its frames.
   virtual void Update(double period_s) noexcept = 0;

@@ -1,33 +1,95 @@
 #pragma once
 
+#include <any>
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "teleop/device/device.hpp"
-#include "teleop/device/loopback_plant.hpp"
+#include "teleop/device/device_config.hpp"
+#include "teleop/types.hpp"
+
+namespace teleop::config {
+class Field;  // teleop/config/yaml_reader.hpp (library teleop::config_reader)
+}  // namespace teleop::config
 
 namespace teleop::device {
 
-/// Per-rig device selection. `backend` names a registered backend; the matching section holds its settings.
-/// Backends added later (hybrid motor–brake, cobot, CAN/Modbus drivers) add their section here.
-/// `dof` is authoritative: the loopback factory uses it for the plant (loopback.dof is overwritten).
-struct DeviceConfig {
-  std::string backend = "loopback";
-  int dof = 1;
-  LoopbackPlantConfig loopback{};
+/// One key of a backend's config section, for docs/configuration.md (a test checks every listed key is documented)
+/// and `--list-devices`.
+struct ConfigKey {
+  std::string key;          ///< Path below `device.<backend>`, e.g. "mass_kg", "operator.script[].type".
+  std::string description;  ///< One line: meaning, unit, range, default.
 };
 
-using DeviceFactory = std::function<std::unique_ptr<Device>(const DeviceConfig&)>;
+/// What a section reader knows about the process it reads for.
+struct SectionContext {
+  Role role = Role::kMaster;
+  int dof = 1;
+};
 
-/// Registers a backend under `name` (set-up only, thread-safe). Built-in backends ("loopback") are registered on
-/// first use. Throws teleop::Error for an empty name, an empty factory, or a name that is already taken.
-void RegisterDevice(const std::string& name, DeviceFactory factory);
+/// The device as the start-up stability check sees it (docs/stability.md): mass and damping per axis, the device
+/// alone (no operator, no environment). Or "not applicable", with the reason the check prints instead of a verdict
+/// (for example a passive, brake-only device, or a cobot that renders no force along the fixture normal).
+struct AnalysisModel {
+  bool applicable = true;
+  std::string reason;          ///< Why the check does not apply (when !applicable).
+  DofVector mass_kg;           ///< Per axis (kg), > 0.
+  DofVector damping_Ns_per_m;  ///< Per axis (N·s/m), ≥ 0.
+
+  static AnalysisModel Uniform(int dof, double mass_kg, double damping_Ns_per_m);
+  static AnalysisModel NotApplicable(std::string reason);
+};
+
+/// One backend, registered once, in the backend's own files (common/src/device/<name>/, or an out-of-tree
+/// project's): see RegisterDevice and TELEOP_REGISTER_DEVICE.
+struct DeviceBackend {
+  std::string name;         ///< The `device.backend` value and the section key `device.<name>`.
+  std::string description;  ///< One line for `--list-devices`.
+  /// What the backend renders in its default configuration (for `--list-devices`; dof 1). The device's own
+  /// capabilities() is what the node checks.
+  Capabilities nominal{};
+  std::vector<ConfigKey> keys;  ///< Every key its reader accepts.
+  /// Whether `device.<name>:` must be present. When it is absent and not required, `read` gets nullptr.
+  bool section_required = true;
+  /// Reads and validates `device.<name>` (errors through config::Field::Fail, "FILE:LINE:COL: key 'a.b': reason";
+  /// reader helpers in teleop/config/yaml_reader.hpp). Returns the parsed section for DeviceConfig::section.
+  std::function<std::any(const config::Field* section, const SectionContext& context)> read;
+  /// Builds the device (validation only; I/O belongs in Device::Configure). Throws teleop::Error.
+  std::function<std::unique_ptr<Device>(const DeviceConfig& config)> make;
+  /// The device's model for the stability check. Absent: "not applicable, the backend gives no model".
+  std::function<AnalysisModel(const DeviceConfig& config)> model;
+};
+
+/// Registers a backend (set-up only, thread-safe; callable from static initialisers and from an out-of-tree
+/// program's main). Throws teleop::Error for an empty name, a missing reader or factory, or a taken name.
+void RegisterDevice(DeviceBackend backend);
+/// The registered backend called `name`, or nullptr. The pointer stays valid for the program's lifetime.
+const DeviceBackend* FindDevice(std::string_view name);
 /// Creates the configured backend; throws teleop::Error naming the known backends when `backend` is unknown, and
-/// when the factory returns nothing. Errors from the backend's own validation propagate (teleop::Error).
+/// when the factory returns nothing or a device of another DOF. Errors from the backend's validation propagate.
 std::unique_ptr<Device> MakeDevice(const DeviceConfig& config);
+/// The backend's stability model for `config` (NotApplicable when it registered none). Throws for an unknown
+/// backend.
+AnalysisModel DeviceModel(const DeviceConfig& config);
 /// Names of the registered backends, sorted.
 std::vector<std::string> RegisteredDevices();
+/// The message for an unknown backend: the name, a "did you mean", and the registered names.
+std::string UnknownBackendMessage(std::string_view name);
 
 }  // namespace teleop::device
+
+/// Registers a backend from its own .cpp at static-initialisation time:
+///   TELEOP_REGISTER_DEVICE(loopback, teleop::device::LoopbackBackend());
+/// The object file must reach the program: in-tree backends are linked whole-archive through teleop::devices
+/// (common/src/device/CMakeLists.txt); an out-of-tree backend compiled into the executable (or linked with
+/// $<LINK_LIBRARY:WHOLE_ARCHIVE,...>) registers the same way, or calls RegisterDevice from main.
+#define TELEOP_REGISTER_DEVICE(id, backend_expression)             \
+  namespace {                                                      \
+  [[maybe_unused]] const bool teleop_device_registered_##id = [] { \
+    ::teleop::device::RegisterDevice(backend_expression);          \
+    return true;                                                   \
+  }();                                                             \
+  }

@@ -24,6 +24,7 @@ struct TelemetryRecord {
   double velocity_m_per_s[kMaxDof] = {};  ///< Local velocity the law used (measured or estimated).
   double force_sensor_N[kMaxDof] = {};    ///< Local force sensor (operator force F_h or environment F_e).
   double command_N[kMaxDof] = {};         ///< Actuator command sent to the device (0 in the safe state).
+  double rendered_force_N[kMaxDof] = {};  ///< What the device reports it rendered (device::Reading::rendered_force_N).
   double fixture_force_N[kMaxDof] = {};   ///< The virtual fixture's share of the command.
   double peer_position_m[kMaxDof] = {};
   double peer_velocity_m_per_s[kMaxDof] = {};

@@ -1,25 +1,5 @@
 #pragma once
 
-#include <memory>
-#include <string>
-
-#include "teleop/transport/can_link_config.hpp"
-#include "teleop/transport/link.hpp"
-#include "teleop/transport/udp_link.hpp"
-
-namespace teleop::transport {
-
-/// Per-process link selection. `transport` is "udp", "can" (SocketCAN) or "emulated-can" (the teleop-canbus daemon,
-/// for hosts without CAN).
-struct LinkConfig {
-  std::string transport = "udp";
-  UdpLinkConfig udp{};
-  CanLinkConfig can{};       ///< Used by "can" and "emulated-can"; its dof is the process's dof.
-  double rate_hz = 1000.0;   ///< The loop rate, for the CAN bus-load budget (set from the process config).
-  double timeout_ms = 50.0;  ///< Watchdog: no accepted sample for this long → peer lost → safe state.
-};
-
-/// Opens the configured link for a process of role `local_role`. Throws teleop::Error on failure.
-std::unique_ptr<Link> MakeLink(const LinkConfig& config, proto::SenderRole local_role);
-
-}  // namespace teleop::transport
+// Moved to teleop/link/link_config.hpp, next to its source (common/src/link/link_config.cpp); this include keeps
+// working for code that has not moved yet.
+#include "teleop/link/link_config.hpp"  // IWYU pragma: export

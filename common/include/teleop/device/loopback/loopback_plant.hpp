@@ -5,59 +5,10 @@
 #include <string>
 
 #include "teleop/device/device.hpp"
+#include "teleop/device/loopback/operator_script.hpp"
+#include "teleop/device/loopback/simulated_environment.hpp"
 
 namespace teleop::device {
-
-/// A scripted exogenous operator force F_h*(t) (Abbott & Okamura eq. 1), one segment after another; the force is
-/// the sum of the active segments' contributions. All along one direction per segment.
-///
-/// A segment is active for t in [start_s, start_s + duration_s); duration_s = 0 means "until the end of the run"
-/// (allowed for hold, step and sine; a ramp needs a duration > 0). Contributions while active:
-///   hold:  the total force on the segment's axis just before start_s (the segments listed before it), kept;
-///   step:  to_N;
-///   ramp:  from_N + (to_N - from_N)·(t - start_s)/duration_s;
-///   sine:  offset_N + amplitude_N·sin(2π·frequency_hz·(t - start_s)).
-/// Example, "ramp 0→3 N over [0.5, 2) s, hold, ramp back to -1 N over [3, 4) s, hold": ramp{0.5, 1.5, 0, 3},
-/// hold{2.0, 1.0}, ramp{3.0, 1.0, 3, -1}, hold{4.0, 0}.
-/// The plant samples F_h* at the start of each period and holds it over the period (as the paper's model does).
-struct OperatorSegment {
-  enum class Kind : std::uint8_t { kHold, kStep, kRamp, kSine };
-  Kind kind = Kind::kHold;
-  double start_s = 0.0;
-  double duration_s = 0.0;    ///< Segment is active for t in [start, start+duration); 0 = open-ended.
-  double from_N = 0.0;        ///< Ramp start level.
-  double to_N = 0.0;          ///< Step level or ramp end level.
-  double amplitude_N = 0.0;   ///< Sine amplitude.
-  double frequency_hz = 0.0;  ///< Sine frequency.
-  double offset_N = 0.0;      ///< Sine offset.
-  int axis = 0;               ///< Which DOF the segment drives.
-};
-
-/// The simulated operator on the master: an equilibrium-point mass–spring–damper (eqs. 1–2),
-/// F_h = F_h*(t) - (m_h·ẍ + b_h·ẋ + k_h·x), rigidly attached to the handle (its mass adds to the device's).
-/// The same m_h, b_h, k_h act on every DOF; x is measured from the plant's origin (the operator's rest point).
-struct SimulatedOperatorConfig {
-  bool enabled = false;
-  double mass_kg = 0.0;
-  double damping_Ns_per_m = 0.0;
-  double stiffness_N_per_m = 0.0;
-  static constexpr int kMaxSegments = 16;
-  int segment_count = 0;
-  std::array<OperatorSegment, kMaxSegments> segments{};
-};
-
-/// The simulated environment on the slave: free space, or a wall x·n ≥ position_m on one axis with
-/// stiffness and damping (a spring–damper that only pushes).
-/// Wall force on the device: -max(0, k·(x - p) + b·ẋ) along the axis when x > p, else 0. The force sensor reports
-/// F_e of eq. 4, the force the slave exerts on the environment: +max(0, k·(x - p) + b·ẋ) (≥ 0).
-struct SimulatedEnvironmentConfig {
-  enum class Kind : std::uint8_t { kFreeSpace, kWall };
-  Kind kind = Kind::kFreeSpace;
-  int axis = 0;
-  double position_m = 0.0;  ///< Wall surface along `axis`; the wall occupies x > position_m.
-  double stiffness_N_per_m = 0.0;
-  double damping_Ns_per_m = 0.0;
-};
 
 /// Mass–damper per DOF (eqs. 5–6), integrated exactly over the zero-order-held force. Paper defaults (§4.1, with
 /// caps and finger loop): master m = 0.040 kg, b = 0.41 N·s/m; slave m = 0.036 kg, b = 0.49 N·s/m.
@@ -78,8 +29,9 @@ struct LoopbackPlantConfig {
   static LoopbackPlantConfig PaperSlave(int dof = 1);
 };
 
-/// Simulated device + operator (master) or + environment (slave). Reports the operator's interaction force F_h
-/// (master, when the operator is enabled) or the environment force F_e (otherwise) as its force sensor. Time is
+/// The `loopback` backend: a simulated device + operator (master) or + environment (slave). Reports the operator's
+/// interaction force F_h (master, when the operator is enabled) or the environment force F_e (otherwise) as its
+/// force sensor; renders every command exactly (Reading::rendered_force_N is the held command). Time is
 /// simulated time: Update(period_s) advances it by exactly period_s, so runs are deterministic.
 ///
 /// Integration: per DOF the state (x, ẋ) obeys (m + m_h)·ẍ + (b + b_h)·ẋ + k_h·x = F_h*(t) + command + disturbance
@@ -88,9 +40,10 @@ struct LoopbackPlantConfig {
 /// may be in contact during the period (the state starts inside, or a free step would end inside) the period is
 /// split into `contact_substeps` exact sub-steps, each in the contact or the free mode chosen at its start.
 ///
-/// Bad input never reaches the state: a command of the wrong size or with NaN/inf is replaced by zero force and
-/// reported as kFaultDriver in the next Reading (counted by rejected_commands()); an Update with a period that is
-/// not finite and > 0 does nothing and is reported the same way (rejected_updates()).
+/// Bad input never reaches the state: a command force of the wrong size or with NaN/inf is replaced by zero force
+/// and reported as kFaultDriver in the next Reading (counted by rejected_commands()); an Update with a period that
+/// is not finite and > 0 does nothing and is reported the same way (rejected_updates()). The fixture constraints of
+/// a Command are not used: the fixture force is already part of Command::force_N.
 class LoopbackPlant final : public Device {
  public:
   /// Validates the config; throws teleop::Error naming the bad field.
@@ -99,7 +52,7 @@ class LoopbackPlant final : public Device {
   const Capabilities& capabilities() const noexcept override { return capabilities_; }
   const std::string& name() const noexcept override { return name_; }
   void Read(Reading& out) noexcept override;
-  void Write(const DofVector& command_N) noexcept override;
+  void Write(const Command& command) noexcept override;
   void Update(double period_s) noexcept override;
   void SetSafe() noexcept override;
 
@@ -132,8 +85,6 @@ class LoopbackPlant final : public Device {
  private:
   void CacheSteps(double period_s) noexcept;
   double ExternalForce(int axis, double time_s) const noexcept;  // F_h* + disturbance on one axis
-  bool WallAxis(int axis) const noexcept;
-  double WallPush(double x, double v) const noexcept;  // ≥ 0, force magnitude the wall pushes with
 
   LoopbackPlantConfig config_;
   Capabilities capabilities_{};
@@ -147,7 +98,8 @@ class LoopbackPlant final : public Device {
   double total_mass_kg_ = 0.0;
   double total_damping_Ns_per_m_ = 0.0;
   double total_stiffness_N_per_m_ = 0.0;
-  std::array<double, SimulatedOperatorConfig::kMaxSegments> hold_level_N_{};
+  OperatorScript script_{};
+  SimulatedEnvironment environment_{};
   double cached_period_s_ = 0.0;
   ExactStep free_period_{};
   ExactStep free_substep_{};

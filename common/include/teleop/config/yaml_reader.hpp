@@ -1,10 +1,12 @@
 #pragma once
 
-// Private to the config library: typed, strict access to a YAML document that reports every problem as
-// "FILE:LINE:COLUMN: key 'a.b[2].c': reason" (teleop::Error).
+// Typed, strict access to a YAML document that reports every problem as "FILE:LINE:COLUMN: key 'a.b[2].c': reason"
+// (teleop::Error). The process config reader and every device backend's section reader use it (library
+// teleop::config_reader), so a backend's errors look like the rest of the config's.
 
 #include <yaml-cpp/yaml.h>
 
+#include <functional>
 #include <initializer_list>
 #include <optional>
 #include <string>
@@ -12,7 +14,9 @@
 #include <utility>
 #include <vector>
 
-namespace teleop::config::detail {
+#include "teleop/types.hpp"
+
+namespace teleop::config {
 
 /// One value in the document: its node, its dotted key path and the file it came from.
 class Field {
@@ -48,6 +52,8 @@ class Map {
  public:
   /// Checks every key of `field` against `allowed`. Throws when `field` is not a mapping or a key is wrong.
   Map(const Field& field, std::initializer_list<std::string_view> allowed);
+  /// Same, with a list built at run time (the device section, whose keys are the registered backends).
+  Map(const Field& field, const std::vector<std::string>& allowed);
 
   bool Has(std::string_view key) const noexcept { return Find(key) != nullptr; }
   /// The value under `key`; a missing key is an error located at this mapping.
@@ -71,4 +77,32 @@ class Map {
 std::string Located(const std::string& file, const YAML::Mark& mark, const std::string& path,
                     const std::string& reason);
 
-}  // namespace teleop::config::detail
+/// The closest of `candidates` to `word` when it is a plausible typo (edit distance ≤ max(2, |word|/3)), else empty.
+std::string ClosestMatch(std::string_view word, const std::vector<std::string>& candidates);
+
+// ---- value checks shared by every section reader: each throws at the value with its unit in the message ----------
+
+/// `value` as text the way messages print numbers.
+std::string Num(double value);
+double Finite(const Field& f);
+double NonNegative(const Field& f, const char* unit);
+double Positive(const Field& f, const char* unit);
+/// In [low, high].
+double InRange(const Field& f, double low, double high, const char* unit);
+int IntInRange(const Field& f, int low, int high);
+/// A per-DOF quantity: one number for every DOF, or a list of exactly `dof` numbers. `check` validates one entry.
+DofVector ReadDofVector(const Field& f, int dof, const std::function<double(const Field&)>& check);
+/// A per-DOF gain (≥ 0, `unit`); an absent optional key gives zeros.
+DofVector ReadGain(const Map& map, std::string_view key, int dof, bool required, const char* unit);
+/// The `type` of a typed mapping (a script segment, an environment), read before the keys are checked so that the
+/// allowed keys can depend on it. `all_keys` is the union, used when `type` itself is missing or not text.
+Field TypeOf(const Field& f, std::initializer_list<std::string_view> all_keys);
+
+/// The names the reader had before it became public.
+namespace detail {
+using config::Field;
+using config::Located;
+using config::Map;
+}  // namespace detail
+
+}  // namespace teleop::config

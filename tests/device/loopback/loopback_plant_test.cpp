@@ -1,4 +1,4 @@
-#include "teleop/device/loopback_plant.hpp"
+#include "teleop/device/loopback/loopback_plant.hpp"
 
 #include <gtest/gtest.h>
 
@@ -21,7 +21,7 @@ TEST(LoopbackPlant, FreeMassDamperMatchesTheAnalyticStepResponse) {
   // m·ẍ + b·ẋ = F from rest: v = F/b·(1 - e^{-t/τ}), x = F/b·(t - τ(1 - e^{-t/τ})), τ = m/b.
   const double m = 0.040, b = 0.41, force = 1.0, period_s = 0.001;
   LoopbackPlant plant(LoopbackPlantConfig::PaperMaster());
-  plant.Write(One(force));
+  plant.Write(Command::Force(One(force)));
   const double tau = m / b;
   for (int k = 1; k <= 2000; ++k) {
     plant.Update(period_s);
@@ -97,7 +97,7 @@ TEST(LoopbackPlant, OperatorEquilibriumAndSensedForce) {
   EXPECT_NEAR(plant.true_position_m()[0], 2.0 / 200.0, 1e-9);  // F_h* = k_h·x at rest
   EXPECT_NEAR(reading.force_N[0], 0.0, 1e-7);                  // nothing resists: F_h = 0
   // The actuator resists with 1 N: k_h·x = F_h* - 1 and the operator feels F_h = 1 N.
-  plant.Write(One(-1.0));
+  plant.Write(Command::Force(One(-1.0)));
   for (int k = 0; k < 3000; ++k) plant.Update(0.001);
   plant.Read(reading);
   EXPECT_NEAR(plant.true_position_m()[0], 1.0 / 200.0, 1e-9);
@@ -142,7 +142,7 @@ LoopbackPlantConfig WallSlave(double k_w, double b_w) {
 
 TEST(LoopbackPlant, WallContactForceAtRest) {
   LoopbackPlant plant(WallSlave(2000.0, 1.0));
-  plant.Write(One(4.0));  // the slave actuator pushes 4 N into the wall
+  plant.Write(Command::Force(One(4.0)));  // the slave actuator pushes 4 N into the wall
   for (int k = 0; k < 3000; ++k) plant.Update(0.001);
   Reading reading;
   plant.Read(reading);
@@ -193,8 +193,8 @@ TEST(LoopbackPlant, ElasticBounceKeepsItsSpeedAndSubstepsConverge) {
 
 TEST(LoopbackPlant, BadCommandsAndPeriodsAreRejectedAndReported) {
   LoopbackPlant plant(LoopbackPlantConfig::PaperSlave());
-  plant.Write(One(1.0));
-  plant.Write(One(std::numeric_limits<double>::quiet_NaN()));
+  plant.Write(Command::Force(One(1.0)));
+  plant.Write(Command::Force(One(std::numeric_limits<double>::quiet_NaN())));
   EXPECT_EQ(plant.held_command_N()[0], 0.0);  // never integrate NaN: zero force instead
   plant.Update(0.001);
   Reading reading;
@@ -203,8 +203,8 @@ TEST(LoopbackPlant, BadCommandsAndPeriodsAreRejectedAndReported) {
   EXPECT_TRUE(reading.position_m.allFinite());
   EXPECT_EQ(plant.true_position_m()[0], 0.0);
   plant.Read(reading);
-  EXPECT_EQ(reading.faults, kFaultNone);  // reported once
-  plant.Write(DofVector::Zero(3));        // wrong size
+  EXPECT_EQ(reading.faults, kFaultNone);            // reported once
+  plant.Write(Command::Force(DofVector::Zero(3)));  // wrong size
   plant.Update(-1.0);
   plant.Update(std::numeric_limits<double>::infinity());
   EXPECT_EQ(plant.time_s(), 0.001);
@@ -217,7 +217,7 @@ TEST(LoopbackPlant, BadCommandsAndPeriodsAreRejectedAndReported) {
 
 TEST(LoopbackPlant, SetSafeZeroesTheCommand) {
   LoopbackPlant plant(LoopbackPlantConfig::PaperSlave());
-  plant.Write(One(3.0));
+  plant.Write(Command::Force(One(3.0)));
   plant.SetSafe();
   plant.Update(0.01);
   EXPECT_EQ(plant.true_position_m()[0], 0.0);

@@ -1,24 +1,18 @@
-#include "teleop/device/loopback_plant.hpp"
+#include "teleop/device/loopback/loopback_plant.hpp"
 
 #include <Eigen/Core>
 #include <cmath>
-#include <numbers>
+#include <limits>
 #include <string>
 
 #include "teleop/error.hpp"
+#include "validate.hpp"
 
 namespace teleop::device {
 namespace {
 
-[[noreturn]] void Fail(const std::string& message) { throw Error("loopback plant: " + message); }
-
-void RequireFinite(double value, const std::string& name) {
-  if (!std::isfinite(value)) Fail(name + " must be finite");
-}
-
-void RequireNonNegative(double value, const std::string& name) {
-  if (!std::isfinite(value) || value < 0.0) Fail(name + " = " + std::to_string(value) + " must be finite and >= 0");
-}
+using loopback_detail::Fail;
+using loopback_detail::RequireNonNegative;
 
 /// exp(M) for a 3×3 matrix by scaling and squaring with a degree-18 Taylor series: after scaling ‖M‖ ≤ 1/2, so
 /// the truncation error is below 2^-19/19! ≈ 1e-23 relative. Fixed-size: no allocation.
@@ -36,77 +30,6 @@ Eigen::Matrix3d Expm(const Eigen::Matrix3d& m) noexcept {
   }
   for (int i = 0; i < squarings; ++i) result = (result * result).eval();
   return result;
-}
-
-/// Level of one segment at time t when it is active (hold levels come from the precomputed table).
-double SegmentLevel(const OperatorSegment& s, double hold_level_N, double t) noexcept {
-  switch (s.kind) {
-    case OperatorSegment::Kind::kHold:
-      return hold_level_N;
-    case OperatorSegment::Kind::kStep:
-      return s.to_N;
-    case OperatorSegment::Kind::kRamp: {
-      double fraction = (t - s.start_s) / s.duration_s;
-      if (fraction < 0.0) fraction = 0.0;
-      if (fraction > 1.0) fraction = 1.0;
-      return s.from_N + (s.to_N - s.from_N) * fraction;
-    }
-    case OperatorSegment::Kind::kSine:
-      return s.offset_N + s.amplitude_N * std::sin(2.0 * std::numbers::pi * s.frequency_hz * (t - s.start_s));
-  }
-  return 0.0;
-}
-
-bool ActiveAt(const OperatorSegment& s, double t) noexcept {
-  return t >= s.start_s && (s.duration_s == 0.0 || t < s.start_s + s.duration_s);
-}
-
-/// Active just before t (left limit): started strictly before t and not ended before t.
-bool ActiveJustBefore(const OperatorSegment& s, double t) noexcept {
-  return s.start_s < t && (s.duration_s == 0.0 || t <= s.start_s + s.duration_s);
-}
-
-void ValidateOperator(const SimulatedOperatorConfig& human, int dof) {
-  if (!human.enabled) return;
-  RequireNonNegative(human.mass_kg, "human.mass_kg");
-  RequireNonNegative(human.damping_Ns_per_m, "human.damping_Ns_per_m");
-  RequireNonNegative(human.stiffness_N_per_m, "human.stiffness_N_per_m");
-  if (human.segment_count < 0 || human.segment_count > SimulatedOperatorConfig::kMaxSegments) {
-    Fail("human.segment_count " + std::to_string(human.segment_count) + " is out of range; use 0.." +
-         std::to_string(SimulatedOperatorConfig::kMaxSegments));
-  }
-  for (int i = 0; i < human.segment_count; ++i) {
-    const OperatorSegment& s = human.segments[static_cast<std::size_t>(i)];
-    const std::string which = "human.segments[" + std::to_string(i) + "].";
-    if (s.kind != OperatorSegment::Kind::kHold && s.kind != OperatorSegment::Kind::kStep &&
-        s.kind != OperatorSegment::Kind::kRamp && s.kind != OperatorSegment::Kind::kSine) {
-      Fail(which + "kind is not hold, step, ramp or sine");
-    }
-    RequireNonNegative(s.start_s, which + "start_s");
-    RequireNonNegative(s.duration_s, which + "duration_s");
-    if (s.kind == OperatorSegment::Kind::kRamp && s.duration_s <= 0.0) {
-      Fail(which + "duration_s must be > 0 for a ramp (follow it with a hold to keep the end level)");
-    }
-    RequireFinite(s.from_N, which + "from_N");
-    RequireFinite(s.to_N, which + "to_N");
-    RequireFinite(s.amplitude_N, which + "amplitude_N");
-    RequireFinite(s.offset_N, which + "offset_N");
-    RequireNonNegative(s.frequency_hz, which + "frequency_hz");
-    if (s.axis < 0 || s.axis >= dof) {
-      Fail(which + "axis " + std::to_string(s.axis) + " is out of range for dof " + std::to_string(dof));
-    }
-  }
-}
-
-void ValidateEnvironment(const SimulatedEnvironmentConfig& env, int dof) {
-  if (env.kind == SimulatedEnvironmentConfig::Kind::kFreeSpace) return;
-  if (env.kind != SimulatedEnvironmentConfig::Kind::kWall) Fail("environment.kind is not free space or wall");
-  if (env.axis < 0 || env.axis >= dof) {
-    Fail("environment.axis " + std::to_string(env.axis) + " is out of range for dof " + std::to_string(dof));
-  }
-  RequireFinite(env.position_m, "environment.position_m");
-  RequireNonNegative(env.stiffness_N_per_m, "environment.stiffness_N_per_m");
-  RequireNonNegative(env.damping_Ns_per_m, "environment.damping_Ns_per_m");
 }
 
 DofVector InitialVector(const DofVector& given, int dof, const char* name) {
@@ -169,8 +92,8 @@ LoopbackPlant::LoopbackPlant(const LoopbackPlantConfig& config) : config_(config
   if (config.contact_substeps < 1 || config.contact_substeps > 10000) {
     Fail("contact_substeps " + std::to_string(config.contact_substeps) + " is out of range; use 1..10000");
   }
-  ValidateOperator(config.human, dof);
-  ValidateEnvironment(config.environment, dof);
+  script_ = OperatorScript(config.human, dof);
+  environment_ = SimulatedEnvironment(config.environment, dof);
 
   position_m_ = InitialVector(config.initial_position_m, dof, "initial_position_m");
   velocity_m_per_s_ = InitialVector(config.initial_velocity_m_per_s, dof, "initial_velocity_m_per_s");
@@ -183,39 +106,17 @@ LoopbackPlant::LoopbackPlant(const LoopbackPlantConfig& config) : config_(config
     total_mass_kg_ += config.human.mass_kg;
     total_damping_Ns_per_m_ += config.human.damping_Ns_per_m;
     total_stiffness_N_per_m_ = config.human.stiffness_N_per_m;
-    // Hold levels: the left limit, at the hold's start, of the segments listed before it on the same axis.
-    for (int i = 0; i < config.human.segment_count; ++i) {
-      const OperatorSegment& hold = config.human.segments[static_cast<std::size_t>(i)];
-      if (hold.kind != OperatorSegment::Kind::kHold) continue;
-      double level_N = 0.0;
-      for (int j = 0; j < i; ++j) {
-        const OperatorSegment& s = config.human.segments[static_cast<std::size_t>(j)];
-        if (s.axis == hold.axis && ActiveJustBefore(s, hold.start_s)) {
-          level_N += SegmentLevel(s, hold_level_N_[static_cast<std::size_t>(j)], hold.start_s);
-        }
-      }
-      hold_level_N_[static_cast<std::size_t>(i)] = level_N;
-    }
   }
 
   capabilities_.dof = dof;
-  capabilities_.renders_active_force = true;
-  capabilities_.dissipative_only = false;
-  capabilities_.steering_constraints = false;
+  capabilities_.rendering = Rendering::kActiveForce;
+  capabilities_.max_force_N = DofVector::Constant(dof, std::numeric_limits<double>::infinity());  // an ideal motor
   capabilities_.measures_velocity = false;  // like the paper's rig: the law differentiates the encoder
   capabilities_.measures_force = true;
 }
 
 double LoopbackPlant::ExternalForce(int axis, double time_s) const noexcept {
-  double force_N = disturbance_N_[axis];
-  if (!config_.human.enabled) return force_N;
-  for (int i = 0; i < config_.human.segment_count; ++i) {
-    const OperatorSegment& s = config_.human.segments[static_cast<std::size_t>(i)];
-    if (s.axis == axis && ActiveAt(s, time_s)) {
-      force_N += SegmentLevel(s, hold_level_N_[static_cast<std::size_t>(i)], time_s);
-    }
-  }
-  return force_N;
+  return script_.TargetForce(axis, time_s, disturbance_N_[axis]);
 }
 
 DofVector LoopbackPlant::OperatorTargetForce() const noexcept {
@@ -223,17 +124,6 @@ DofVector LoopbackPlant::OperatorTargetForce() const noexcept {
   if (!config_.human.enabled) return force_N;
   for (int axis = 0; axis < config_.dof; ++axis) force_N[axis] = ExternalForce(axis, time_s_) - disturbance_N_[axis];
   return force_N;
-}
-
-bool LoopbackPlant::WallAxis(int axis) const noexcept {
-  return config_.environment.kind == SimulatedEnvironmentConfig::Kind::kWall && config_.environment.axis == axis;
-}
-
-double LoopbackPlant::WallPush(double x, double v) const noexcept {
-  const double depth_m = x - config_.environment.position_m;
-  if (depth_m <= 0.0) return 0.0;
-  const double push_N = config_.environment.stiffness_N_per_m * depth_m + config_.environment.damping_Ns_per_m * v;
-  return push_N > 0.0 ? push_N : 0.0;
 }
 
 void LoopbackPlant::CacheSteps(double period_s) noexcept {
@@ -265,7 +155,7 @@ void LoopbackPlant::Update(double period_s) noexcept {
     const double u = command_N_[axis] + ExternalForce(axis, time_s_);  // held over the period
     double x = position_m_[axis];
     double v = velocity_m_per_s_[axis];
-    if (WallAxis(axis)) {
+    if (environment_.OnAxis(axis)) {
       double x_free = x;
       double v_free = v;
       Advance(free_period_, u, x_free, v_free);
@@ -274,7 +164,7 @@ void LoopbackPlant::Update(double period_s) noexcept {
         // Contact mode: (m)ẍ + (b + b_w)ẋ + (k + k_w)x = u + k_w·p while the wall pushes (k_w·d + b_w·ẋ > 0).
         const double u_contact = u + config_.environment.stiffness_N_per_m * wall_m;
         for (int i = 0; i < config_.contact_substeps; ++i) {
-          if (WallPush(x, v) > 0.0) {
+          if (environment_.Push_N(x, v) > 0.0) {
             Advance(contact_substep_, u_contact, x, v);
           } else {
             Advance(free_substep_, u, x, v);
@@ -298,7 +188,7 @@ DofVector LoopbackPlant::SensedForce() const noexcept {
   for (int axis = 0; axis < config_.dof; ++axis) {
     const double x = position_m_[axis];
     const double v = velocity_m_per_s_[axis];
-    const double wall_push_N = WallAxis(axis) ? WallPush(x, v) : 0.0;
+    const double wall_push_N = environment_.OnAxis(axis) ? environment_.Push_N(x, v) : 0.0;
     if (config_.human.enabled) {
       // F_h = F_h* - m_h·ẍ - b_h·ẋ - k_h·x, with ẍ from the device's equation under the held command.
       const double target_N = ExternalForce(axis, time_s_) - disturbance_N_[axis];
@@ -322,6 +212,7 @@ void LoopbackPlant::Read(Reading& out) noexcept {
   }
   out.velocity_m_per_s = velocity_m_per_s_;
   out.force_N = SensedForce();
+  out.rendered_force_N = command_N_;  // an ideal actuator: what was held over the last period
   out.faults = pending_faults_;
   if (!AllFinite(out.position_m) || !AllFinite(out.velocity_m_per_s) || !AllFinite(out.force_N)) {
     out.faults |= kFaultNonFiniteSensor;
@@ -329,7 +220,8 @@ void LoopbackPlant::Read(Reading& out) noexcept {
   pending_faults_ = kFaultNone;
 }
 
-void LoopbackPlant::Write(const DofVector& command_N) noexcept {
+void LoopbackPlant::Write(const Command& command) noexcept {
+  const DofVector& command_N = command.force_N;
   if (command_N.size() != config_.dof || !AllFinite(command_N)) {
     command_N_.setZero();
     ++rejected_commands_;

@@ -1,0 +1,32 @@
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "teleop/transport/can_link_config.hpp"
+#include "teleop/transport/link.hpp"
+#include "teleop/transport/udp_link.hpp"
+#include "teleop/types.hpp"
+
+// library teleop::link (common/src/link/link_config.cpp): the one place that knows every transport.
+namespace teleop::transport {
+
+/// Per-process link selection. `transport` is "udp", "can" (SocketCAN) or "emulated-can" (the teleop-canbus daemon,
+/// for hosts without CAN).
+struct LinkConfig {
+  std::string transport = "udp";
+  UdpLinkConfig udp{};
+  CanLinkConfig can{};       ///< Used by "can" and "emulated-can"; its dof is the process's dof.
+  double rate_hz = 1000.0;   ///< The loop rate, for the CAN bus-load budget (set from the process config).
+  double timeout_ms = 50.0;  ///< Watchdog: no accepted sample for this long → peer lost → safe state.
+};
+
+/// The wire's name for a process of role `role` (the one mapping from teleop::Role to proto::SenderRole).
+constexpr proto::SenderRole ToSender(Role role) noexcept {
+  return role == Role::kMaster ? proto::SenderRole::kMaster : proto::SenderRole::kSlave;
+}
+
+/// Opens the configured link for a process of role `local_role`. Throws teleop::Error on failure.
+std::unique_ptr<Link> MakeLink(const LinkConfig& config, proto::SenderRole local_role);
+
+}  // namespace teleop::transport

@@ -1,0 +1,172 @@
+// The `loopback` backend: the simulated plant of Abbott & Okamura §4.1 (docs/configuration.md, `device.loopback`).
+
+#include "teleop/device/loopback/loopback_backend.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <memory>
+#include <optional>
+
+#include "teleop/config/yaml_reader.hpp"
+
+namespace teleop::device {
+namespace {
+
+using config::Field;
+using config::Finite;
+using config::IntInRange;
+using config::Map;
+using config::NonNegative;
+using config::Positive;
+
+OperatorSegment ReadSegment(const Field& f, int dof) {
+  using Kind = OperatorSegment::Kind;
+  // The allowed keys depend on the type: a key of another segment type is rejected.
+  const Field type_field = config::TypeOf(
+      f, {"type", "axis", "start_s", "duration_s", "from_N", "to_N", "amplitude_N", "frequency_hz", "offset_N"});
+  const std::string type = type_field.AsString();
+  OperatorSegment s;
+  std::optional<Map> map;
+  if (type == "hold") {
+    s.kind = Kind::kHold;
+    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s"});
+  } else if (type == "step") {
+    s.kind = Kind::kStep;
+    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s", "to_N"});
+  } else if (type == "ramp") {
+    s.kind = Kind::kRamp;
+    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s", "from_N", "to_N"});
+  } else if (type == "sine") {
+    s.kind = Kind::kSine;
+    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s", "amplitude_N",
+                                                           "frequency_hz", "offset_N"});
+  } else {
+    type_field.Fail("must be one of hold, step, ramp, sine; got '" + type + "'");
+  }
+  if (auto v = map->Optional("axis")) s.axis = IntInRange(*v, 0, dof - 1);
+  s.start_s = NonNegative(map->Required("start_s"), "s");
+  if (s.kind == Kind::kRamp) {
+    s.duration_s = Positive(map->Required("duration_s"), "s (a ramp needs time; follow it with a hold)");
+    s.from_N = Finite(map->Required("from_N"));
+    s.to_N = Finite(map->Required("to_N"));
+  } else {
+    if (auto v = map->Optional("duration_s")) s.duration_s = NonNegative(*v, "s (0 = until the end of the run)");
+  }
+  if (s.kind == Kind::kStep) s.to_N = Finite(map->Required("to_N"));
+  if (s.kind == Kind::kSine) {
+    s.amplitude_N = Finite(map->Required("amplitude_N"));
+    s.frequency_hz = Positive(map->Required("frequency_hz"), "Hz");
+    if (auto v = map->Optional("offset_N")) s.offset_N = Finite(*v);
+  }
+  return s;
+}
+
+void ReadOperator(const Field& f, int dof, SimulatedOperatorConfig& human) {
+  const Map map(f, {"mass_kg", "damping_Ns_per_m", "stiffness_N_per_m", "script"});
+  human.enabled = true;
+  if (auto v = map.Optional("mass_kg")) human.mass_kg = NonNegative(*v, "kg");
+  if (auto v = map.Optional("damping_Ns_per_m")) human.damping_Ns_per_m = NonNegative(*v, "N·s/m");
+  if (auto v = map.Optional("stiffness_N_per_m")) human.stiffness_N_per_m = NonNegative(*v, "N/m");
+  if (auto script = map.Optional("script")) {
+    const std::vector<Field> items = script->AsList();
+    if (static_cast<int>(items.size()) > SimulatedOperatorConfig::kMaxSegments) {
+      script->Fail("at most " + std::to_string(SimulatedOperatorConfig::kMaxSegments) + " segments, got " +
+                   std::to_string(items.size()));
+    }
+    human.segment_count = static_cast<int>(items.size());
+    for (std::size_t i = 0; i < items.size(); ++i) human.segments[i] = ReadSegment(items[i], dof);
+  }
+}
+
+void ReadEnvironment(const Field& f, int dof, SimulatedEnvironmentConfig& env) {
+  using Kind = SimulatedEnvironmentConfig::Kind;
+  const Field type_field = config::TypeOf(f, {"type", "axis", "position_m", "stiffness_N_per_m", "damping_Ns_per_m"});
+  const std::string type = type_field.AsString();
+  if (type == "free") {
+    const Map map(f, {"type"});
+    env.kind = Kind::kFreeSpace;
+    return;
+  }
+  if (type != "wall") type_field.Fail("must be 'free' or 'wall', got '" + type + "'");
+  const Map map(f, {"type", "axis", "position_m", "stiffness_N_per_m", "damping_Ns_per_m"});
+  env.kind = Kind::kWall;
+  if (auto v = map.Optional("axis")) env.axis = IntInRange(*v, 0, dof - 1);
+  env.position_m = Finite(map.Required("position_m"));
+  env.stiffness_N_per_m = Positive(map.Required("stiffness_N_per_m"), "N/m");
+  if (auto v = map.Optional("damping_Ns_per_m")) env.damping_Ns_per_m = NonNegative(*v, "N·s/m");
+}
+
+LoopbackPlantConfig ReadLoopback(const Field& f, int dof) {
+  const Map map(
+      f, {"mass_kg", "damping_Ns_per_m", "encoder_resolution_m", "initial_position_m", "operator", "environment"});
+  LoopbackPlantConfig plant;
+  plant.dof = dof;
+  plant.mass_kg = Positive(map.Required("mass_kg"), "kg");
+  plant.damping_Ns_per_m = NonNegative(map.Required("damping_Ns_per_m"), "N·s/m");
+  if (auto v = map.Optional("encoder_resolution_m")) plant.encoder_resolution_m = NonNegative(*v, "m");
+  if (auto v = map.Optional("initial_position_m")) plant.initial_position_m = config::ReadDofVector(*v, dof, Finite);
+  if (auto v = map.Optional("operator")) ReadOperator(*v, dof, plant.human);
+  if (auto v = map.Optional("environment")) ReadEnvironment(*v, dof, plant.environment);
+  return plant;
+}
+
+}  // namespace
+
+DeviceBackend LoopbackBackend() {
+  DeviceBackend b;
+  b.name = "loopback";
+  b.description =
+      "simulated mass-damper device with a scripted operator (master) or a wall (slave), Abbott & Okamura §4.1";
+  b.nominal.dof = 1;
+  b.nominal.rendering = Rendering::kActiveForce;
+  b.nominal.measures_velocity = false;
+  b.nominal.measures_force = true;
+  b.keys = {
+      {"mass_kg", "device mass (kg), > 0; the paper: master 0.040, slave 0.036"},
+      {"damping_Ns_per_m", "device damping (N·s/m), >= 0; the paper: master 0.41, slave 0.49"},
+      {"encoder_resolution_m", "position quantisation step (m), >= 0; 0 = none (default)"},
+      {"initial_position_m", "start position (m), one number or one per DOF; default 0"},
+      {"operator", "simulated operator (master): mass-spring-damper with a scripted target force"},
+      {"operator.mass_kg", "operator mass m_h (kg), >= 0; default 0"},
+      {"operator.damping_Ns_per_m", "operator damping b_h (N·s/m), >= 0; default 0"},
+      {"operator.stiffness_N_per_m", "operator stiffness k_h (N/m), >= 0; default 0"},
+      {"operator.script", "list of at most 16 segments of F_h*(t)"},
+      {"operator.script[].type", "hold, step, ramp or sine"},
+      {"operator.script[].axis", "the DOF the segment drives, 0..dof-1; default 0"},
+      {"operator.script[].start_s", "segment start (s), >= 0"},
+      {"operator.script[].duration_s", "segment length (s); 0 = open-ended (not for a ramp)"},
+      {"operator.script[].from_N", "ramp start level (N)"},
+      {"operator.script[].to_N", "step level or ramp end level (N)"},
+      {"operator.script[].amplitude_N", "sine amplitude (N)"},
+      {"operator.script[].frequency_hz", "sine frequency (Hz), > 0"},
+      {"operator.script[].offset_N", "sine offset (N); default 0"},
+      {"environment", "simulated environment (slave): free or wall"},
+      {"environment.type", "free or wall"},
+      {"environment.axis", "the wall's DOF, 0..dof-1; default 0"},
+      {"environment.position_m", "wall surface (m); the wall occupies x > position_m"},
+      {"environment.stiffness_N_per_m", "wall stiffness (N/m), > 0"},
+      {"environment.damping_Ns_per_m", "wall damping (N·s/m), >= 0; default 0"},
+  };
+  b.section_required = true;
+  b.read = [](const Field* section, const SectionContext& context) -> std::any {
+    return ReadLoopback(*section, context.dof);  // section_required: the config reader checked it is there
+  };
+  b.make = [](const DeviceConfig& config) -> std::unique_ptr<Device> {
+    LoopbackPlantConfig plant = config.Section<LoopbackPlantConfig>();
+    plant.dof = config.dof;
+    return std::make_unique<LoopbackPlant>(plant);
+  };
+  b.model = [](const DeviceConfig& config) {
+    const LoopbackPlantConfig& plant = config.Section<LoopbackPlantConfig>();
+    return AnalysisModel::Uniform(config.dof, plant.mass_kg, plant.damping_Ns_per_m);
+  };
+  return b;
+}
+
+DeviceConfig LoopbackDeviceConfig(const LoopbackPlantConfig& plant) {
+  return DeviceConfig::Of("loopback", plant.dof, plant);
+}
+
+}  // namespace teleop::device
+
+TELEOP_REGISTER_DEVICE(loopback, teleop::device::LoopbackBackend())
