@@ -2,8 +2,8 @@
 
 // Private to the config library: the `dds:` section (docs/dds.md, docs/configuration.md).
 
-#include "teleop/dds/bridge_config.hpp"
 #include "teleop/config/yaml_reader.hpp"
+#include "teleop/dds/bridge_config.hpp"
 
 namespace teleop::config::detail {
 
