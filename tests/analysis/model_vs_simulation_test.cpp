@@ -37,6 +37,14 @@ LawGains Gains(double kp, double kd, double kv = 0.0) {
   return g;
 }
 
+// K_vm and K_vs set apart: a wiring slip that swaps or drops one of them moves the limit of one side only.
+LawGains Damped(double kp, double kd, double kvm, double kvs) {
+  LawGains g = LawGains::Symmetric(kp, kd);
+  g.kvm_Ns_per_m = kvm;
+  g.kvs_Ns_per_m = kvs;
+  return g;
+}
+
 LawGains SlaveOnly(double kps, double kds) {
   LawGains g;
   g.kps_N_per_m = kps;
@@ -137,7 +145,14 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"master_1000Hz_delay1", FixtureSide::kMaster, 1000.0, Gains(600, 2), false, 1},
                       Case{"slave_1000Hz_filter200", FixtureSide::kSlave, 1000.0, Gains(600, 2), false, 0, 200.0},
                       Case{"master_2000Hz_delay1_filter200", FixtureSide::kMaster, 2000.0, Gains(600, 2), false, 1,
-                           200.0}),
+                           200.0},
+                      Case{"slave_1000Hz_kvs1", FixtureSide::kSlave, 1000.0, Damped(600, 2, 0, 1)},
+                      Case{"slave_1000Hz_kvm2_delay1", FixtureSide::kSlave, 1000.0, Damped(600, 2, 2, 0), false, 1},
+                      Case{"master_500Hz_kvm1", FixtureSide::kMaster, 500.0, Damped(600, 2, 1, 0)},
+                      Case{"master_1000Hz_kvs2_delay1_filter200", FixtureSide::kMaster, 1000.0, Damped(600, 2, 0, 2),
+                           false, 1, 200.0},
+                      Case{"slave_2000Hz_kv0.5_1.5_delay1_filter200", FixtureSide::kSlave, 2000.0,
+                           Damped(800, 4, 0.5, 1.5), false, 1, 200.0}),
     [](const ::testing::TestParamInfo<Case>& param_info) {
       std::string name = param_info.param.name;
       std::replace(name.begin(), name.end(), '.', '_');

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -14,6 +15,8 @@
 #include <sstream>
 #include <string>
 
+#include "analysis/sampled_simulation.hpp"
+#include "teleop/analysis/human_bounds.hpp"
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/error.hpp"
 
@@ -54,7 +57,8 @@ std::string Whole(double value) {
 }
 
 // The demo slave: 2000 N/m at 1 kHz, K_p 600, K_d 2, 200 Hz filter, one-sample delay. docs/stability.md reports a
-// limit of about 4120 N/m for it (the search stops within 0.1 %).
+// limit of about 4120 N/m for it (the search stops within 0.1 %). The number is this code's own output; the test
+// after this one checks it against the independent fine-step simulation.
 TEST(StabilityCheck, ShippedSlaveIsStableBelowTheDocumentedLimit) {
   const ProcessConfig config = LoadProcessConfig(Deploy("slave.yaml"));
   const StabilityReport report = CheckProcessStability(config);
@@ -72,6 +76,53 @@ TEST(StabilityCheck, ShippedSlaveIsStableBelowTheDocumentedLimit) {
   EXPECT_THAT(line, HasSubstr("margin "));
   EXPECT_THAT(line, HasSubstr("1000 Hz"));
   EXPECT_THAT(line, HasSubstr("peer delay 1 sample"));
+}
+
+// The figure above traced to something outside the eigenvalue code: the fine-step simulation of
+// tests/analysis/sampled_simulation.hpp (RK4 on the continuous plant under held forces, the law of eqs. 8-9 with the
+// backward-difference velocity, the 200 Hz filter and the one-sample delay, written from the paper and not from
+// the state matrix). 2 % below the reported limit a perturbation dies out for the limiting operator and for the
+// extreme operators of the grid; 2 % above it grows for the limiting operator. ±2 %: the reported figure is
+// searched to 0.1 %, and at ±2 % the simulated envelope changes by about e^±6 over 10 000 samples (measured:
+// ×0.002 below, ×360 above for the limiting operator), so the thresholds (×0.1, ×10) leave a wide margin; the
+// simulation takes nothing from the analysis but the operator to try.
+double EnvelopeRatio(const analysis::SampledTeleoperator& system, const analysis::HumanModel& human, int samples) {
+  analysis::test::SampledSimulation sim(system, system.gains, human);
+  sim.Perturb(1e-4, -1e-3);
+  const int window = samples / 10;
+  double start = 0.0;
+  double end = 0.0;
+  for (int k = 0; k < samples; ++k) {
+    sim.Step();
+    if (k >= window && k < 2 * window) start = std::max(start, sim.Magnitude());
+    if (k >= samples - window) end = std::max(end, sim.Magnitude());
+  }
+  return end / start;
+}
+
+TEST(StabilityCheck, ShippedSlaveLimitAgreesWithTheFineStepSimulation) {
+  const ProcessConfig config = LoadProcessConfig(Deploy("slave.yaml"));
+  const StabilityReport report = CheckProcessStability(config);
+  ASSERT_EQ(report.axes.size(), 1u);
+  const double limit = report.axes[0].limit.max_stable_stiffness_N_per_m;
+  const analysis::SampledTeleoperator model = StabilityModel(config, 0);
+  const std::vector<analysis::HumanModel> grid = analysis::MakeHumanGrid(analysis::DefaultFingerBounds(), 4);
+  ASSERT_EQ(grid.size(), 512u);
+  constexpr int kSamples = 10000;
+  for (const double factor : {0.98, 1.02}) {
+    analysis::SampledTeleoperator at = model;
+    at.gains = analysis::EffectiveGains(model, analysis::FixtureSide::kSlave);
+    at.gains.slave_fixture_N_per_m = factor * limit;
+    const double ratio = EnvelopeRatio(at, report.axes[0].limit.limiting_human, kSamples);
+    if (factor < 1.0) {
+      EXPECT_LT(ratio, 0.1) << "limiting operator at " << factor * limit << " N/m did not settle";
+      for (const analysis::HumanModel& h : {grid.front(), grid.back()}) {
+        EXPECT_LT(EnvelopeRatio(at, h, kSamples), 0.1) << "operator m=" << h.mass_kg << " k=" << h.stiffness_N_per_m;
+      }
+    } else {
+      EXPECT_GT(ratio, 10.0) << "limiting operator at " << factor * limit << " N/m did not grow";
+    }
+  }
 }
 
 TEST(StabilityCheck, ShippedMasterIsStable) {

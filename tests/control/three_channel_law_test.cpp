@@ -132,6 +132,51 @@ TEST(ThreeChannelLaw, SaturationClampsEachDofAndIsCounted) {
   EXPECT_EQ(law.state().saturated_steps, 2u);
 }
 
+// Status precedence kPeerMissing > kSaturated (header): a saturated step without a peer still says the peer is
+// missing, and the saturation is still counted.
+TEST(ThreeChannelLaw, SaturationDoesNotHideAMissingPeer) {
+  for (Role role : {Role::kMaster, Role::kSlave}) {
+    auto config = Gains(role, 600.0, 2.0, 0.0, 0.0);
+    config.fixture = ForbiddenRegionFixture::Eq7(1000.0);
+    config.max_force_N = 5.0;
+    ThreeChannelLaw law(config);
+    auto in = In(0.020, 0.0, 0.0, 0.0, 0.0);  // fixture alone wants -20 N, beyond the 5 N limit
+    in.peer_valid = false;
+    const auto out = law.Step(in, kPeriod);
+    EXPECT_EQ(out.status, Status::kPeerMissing) << ToString(role) << ": " << ToString(out.status);
+    EXPECT_NEAR(out.command_N[0], -5.0, kTol);
+    EXPECT_EQ(law.state().saturated_steps, 1u);
+    EXPECT_EQ(law.state().peer_missing_steps, 1u);
+  }
+}
+
+// Finite inputs times finite gains can overflow to inf (or inf - inf = NaN). The law's guard turns that into the
+// safe state (zero command, kNonFiniteInput), with or without a force limit: a clamp must not make an overflow
+// look like an ordinary saturation, and NaN compares false with the limit so a clamp alone would pass it through.
+TEST(ThreeChannelLaw, OverflowGivesTheSafeStateNotASaturatedCommand) {
+  const double big = std::numeric_limits<double>::max();
+  for (double max_force : {0.0, 10.0}) {
+    SCOPED_TRACE("max_force_N " + std::to_string(max_force));
+    // K_p·(x_l - x_r) = 1e308 · 4 m overflows to +inf: command -inf.
+    auto config = Gains(Role::kMaster, 1e308, 0.0, 0.0, 0.0);
+    config.max_force_N = max_force;
+    ThreeChannelLaw inf_law(config);
+    const auto a = inf_law.Step(In(2.0, 0.0, -2.0, 0.0, 0.0), kPeriod);
+    EXPECT_EQ(a.status, Status::kNonFiniteInput) << ToString(a.status);
+    EXPECT_EQ(a.command_N[0], 0.0);
+    EXPECT_EQ(inf_law.state().nonfinite_inputs, 1u);
+    EXPECT_EQ(inf_law.state().saturated_steps, 0u);
+    // -K_p·Δx = -inf and -K_f·F_r = +inf: their sum is NaN.
+    auto nan_config = Gains(Role::kMaster, big, 0.0, 0.0, big);
+    nan_config.max_force_N = max_force;
+    ThreeChannelLaw nan_law(nan_config);
+    const auto b = nan_law.Step(In(4.0, 0.0, 0.0, 0.0, -4.0), kPeriod);
+    EXPECT_EQ(b.status, Status::kNonFiniteInput) << ToString(b.status);
+    EXPECT_EQ(b.command_N[0], 0.0);
+    EXPECT_EQ(nan_law.state().nonfinite_inputs, 1u);
+  }
+}
+
 TEST(ThreeChannelLaw, PerDofGains) {
   auto config = ThreeChannelLaw::ZeroGains(Role::kMaster, 3);
   config.kp_N_per_m << 100.0, 200.0, 300.0;

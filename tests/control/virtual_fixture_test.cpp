@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <limits>
 
 #include "teleop/error.hpp"
@@ -50,6 +51,29 @@ TEST(ForbiddenRegionFixture, MultiPlaneForcesAddAndOnlyPushOut) {
   const auto outside = fixture.Step(Vec({0.0, -1.0}));
   EXPECT_EQ(outside.force_N.norm(), 0.0);
   EXPECT_EQ(outside.max_penetration_m, 0.0);
+}
+
+// max_penetration_m is the deepest plane's penetration, whatever the plane order: the deeper plane is given first,
+// then last, and in the middle of three.
+TEST(ForbiddenRegionFixture, ReportsTheDeepestPenetrationInAnyPlaneOrder) {
+  const std::array<FixturePlane, 3> planes = {FixturePlane{Vec({1.0, 0.0}), 0.010},     // x0 > 0.010: 3 mm in
+                                              FixturePlane{Vec({0.0, 1.0}), 0.020},     // x1 > 0.020: 5 mm in
+                                              FixturePlane{Vec({-1.0, 0.0}), -0.014}};  // x0 < 0.014: 1 mm in
+  const DofVector at = Vec({0.013, 0.025});
+  const std::array<std::array<int, 3>, 3> orders = {{{1, 0, 2}, {0, 2, 1}, {2, 1, 0}}};
+  for (const auto& order : orders) {
+    ForbiddenRegionFixture::Config config;
+    config.dof = 2;
+    config.stiffness_N_per_m = 1000.0;
+    config.plane_count = 3;
+    for (int i = 0; i < 3; ++i)
+      config.planes[static_cast<std::size_t>(i)] = planes[static_cast<std::size_t>(order[static_cast<std::size_t>(i)])];
+    const auto out = ForbiddenRegionFixture(config).Step(at);
+    EXPECT_NEAR(out.max_penetration_m, 0.005, 1e-15) << "order " << order[0] << order[1] << order[2];
+    // Forces add: -1000·(0.003 - 0.001) on x0, -1000·0.005 on x1.
+    EXPECT_NEAR(out.force_N[0], -2.0, 1e-12);
+    EXPECT_NEAR(out.force_N[1], -5.0, 1e-12);
+  }
 }
 
 TEST(ForbiddenRegionFixture, NormalsAreNormalisedAndForceIsAlongMinusN) {

@@ -17,11 +17,17 @@ checks), and `<process>`'s summary must count it under packets.rejected_by_reaso
 kernel's receive filter drops it, so no process may count it). Nothing else may be rejected, no sample lost, no
 watchdog trip: the injections did not disturb the loop.
 
+With --master-config and --slave-config (the YAML files the processes ran) the motion is checked as well, from the
+positions the captured frames carry: on every axis whose operator force (device.loopback.operator.script) has been
+constant for a while at the end of the run, the slave and master must rest where the static balance of the law
+(eqs. 8-9), the finger spring and the slave's fixture (eq. 7) put them (see check_motion).
+
 Exit status 0 when everything holds, 1 with one line per violation otherwise. Python 3 standard library only.
 """
 
 import argparse
 import json
+import math
 import re
 import sys
 from collections import Counter, defaultdict
@@ -199,8 +205,9 @@ def check_frame(frame, layout, violations):
     return counters.pop()
 
 
-def check_direction(name, frames, layout, rate_hz, min_rate_fraction, violations, report):
-    """Groups a direction's frames into cycles (one counter, every slot once) and checks their sequence."""
+def check_direction(name, frames, layout, rate_hz, min_rate_fraction, violations, report, positions=None):
+    """Groups a direction's frames into cycles (one counter, every slot once) and checks their sequence. Appends
+    (bus time, {dof: position_m}) per complete cycle to `positions` when given."""
     cycles, open_cycle, open_counter = [], {}, None
     for frame in frames:
         counter = check_frame(frame, layout, violations)
@@ -213,6 +220,13 @@ def check_direction(name, frames, layout, rate_hz, min_rate_fraction, violations
         open_cycle[slot], open_counter = frame, counter
         if len(open_cycle) == layout.slot_count:
             cycles.append((counter, min(f["t"] for f in open_cycle.values())))
+            if positions is not None:
+                values = {}
+                for f in open_cycle.values():
+                    for sig in layout.frames[f["id"]][1]:
+                        if sig.name.startswith("Position") and sig.dof is not None:
+                            values[sig.dof] = sig.raw(f["data"]) * sig.factor + sig.offset
+                positions.append((cycles[-1][1], values))
             open_cycle = {}
     if open_cycle:
         violations.append(f"{name}: the last cycle is incomplete")
@@ -258,6 +272,162 @@ def check_summary(role, summary, injected, captured_sent_cycles, bus_rate_hz, vi
                         watchdog_trips=summary.get("watchdog_trips"), stop_reason=summary.get("stop_reason"))
 
 
+def read_config(path):
+    """The scalar keys of a process config as dotted paths ("law.kp_N_per_m" -> 600.0) and the operator script as
+    a list of dicts, read with the standard library: block mappings, one-line flow mappings and the script's
+    one-line "- {...}" items, which is all the test configs use for the keys read here."""
+    values, script, stack = {}, [], []
+
+    def scalar(text):
+        text = text.strip()
+        try:
+            return float(text)
+        except ValueError:
+            return text.strip('"')
+
+    def flow(text):
+        return {k.strip(): scalar(v) for k, v in (item.split(":", 1) for item in text.strip()[1:-1].split(","))}
+
+    for raw in open(path, encoding="utf-8"):
+        line = raw.split("#", 1)[0].rstrip()
+        item = re.match(r"^\s*- (\{.*\})$", line)
+        if item:
+            if [k for _, k in stack][-1:] == ["script"]:
+                script.append(flow(item.group(1)))
+            continue
+        m = re.match(r"^(\s*)([A-Za-z_][A-Za-z0-9_]*):\s*(.*)$", line)
+        if not m:
+            continue
+        indent, key, value = len(m.group(1)), m.group(2), m.group(3).strip()
+        while stack and stack[-1][0] >= indent:
+            stack.pop()
+        dotted = ".".join([k for _, k in stack] + [key])
+        if value == "":
+            stack.append((indent, key))
+        elif value.startswith("{") and value.endswith("}"):
+            values.update({f"{dotted}.{k}": v for k, v in flow(value).items()})
+        else:
+            values[dotted] = scalar(value)
+    return values, script
+
+
+def script_force(script, axis, t):
+    """F_h*(t) on `axis` (docs/configuration.md, device.loopback.operator.script): the sum of the segments active
+    at t (start <= t < start + duration, duration 0 = to the end); a hold keeps the level just before its start."""
+    total = 0.0
+    for seg in script:
+        if int(seg.get("axis", 0)) != axis:
+            continue
+        start, duration = seg["start_s"], seg.get("duration_s", 0.0)
+        if t < start or (duration > 0 and t >= start + duration):
+            continue
+        kind = seg["type"]
+        if kind == "ramp":
+            total += seg["from_N"] + (seg["to_N"] - seg["from_N"]) * (t - start) / duration
+        elif kind == "step":
+            total += seg["to_N"]
+        elif kind == "sine":
+            total += seg.get("offset_N", 0.0) + seg["amplitude_N"] * math.sin(2 * math.pi * seg["frequency_hz"] *
+                                                                               (t - start))
+        elif kind == "hold":
+            total += script_force([x for x in script if x is not seg], axis, start - 1e-9)
+    return total
+
+
+def last_change_s(script, axis):
+    """When F_h* on `axis` last changes: the end of its last ramp, the start or end of any segment; inf if a sine
+    drives it to the end."""
+    t = 0.0
+    for seg in script:
+        if int(seg.get("axis", 0)) != axis:
+            continue
+        duration = seg.get("duration_s", 0.0)
+        if seg["type"] == "sine" and duration == 0:
+            return math.inf
+        t = max(t, seg["start_s"] + duration)
+    return t
+
+
+def median(xs):
+    xs = sorted(xs)
+    return xs[len(xs) // 2] if len(xs) % 2 else 0.5 * (xs[len(xs) // 2 - 1] + xs[len(xs) // 2])
+
+
+def check_motion(master_cfg, slave_cfg, dof, master_positions, slave_positions, position_lsb_m, violations, report):
+    """Static balance on every axis whose operator force is constant at the end of the run.
+
+    Each master frame is one master cycle, so the n-th carries the master's simulated time n / rate (the loopback
+    plant advances one period per cycle and the script runs on that time). On an axis whose force F_h* has not
+    changed for `settle` seconds before the last master frame, over the rest of the run:
+      free space:  x_m = x_s = F_h* / k_h                        (the finger spring, eq. 2, holds the force alone)
+      in contact with the slave's fixture x > x_c (eq. 7, stiffness K), p = x_s - x_c:
+        slave (eq. 9):  K_p (x_m - x_s) = K p
+        master (eq. 8): F_h* - k_h x_m = K_p (x_m - x_s)
+        => p = (F_h* - k_h x_c) / (k_h (1 + K / K_p) + K),   x_m - x_s = K p / K_p
+    The slave's positions are taken over the bus-time span of the master's window."""
+    mc, mscript = master_cfg
+    sc, _ = slave_cfg
+    rate = mc["rate_hz"]
+    kp = mc["law.kp_N_per_m"]
+    k_h = mc.get("device.loopback.operator.stiffness_N_per_m", 0.0)
+    k_vf = sc.get("fixture.stiffness_N_per_m", 0.0)
+    fixture_axis = int(sc.get("fixture.half_space.axis", -1)) if k_vf > 0 else -1
+    x_c = sc.get("fixture.half_space.offset_m", 0.0)
+    if k_vf > 0 and sc.get("fixture.half_space.direction", 1.0) != 1.0:
+        violations.append("motion: only a +1 fixture direction is predicted here")
+        return
+    if kp != sc["law.kp_N_per_m"] or k_h <= 0:
+        violations.append("motion: the prediction needs equal K_p on both sides and a finger spring k_h > 0")
+        return
+    # 0.25 s: the slowest mode here, the slave's contact mode, decays with 2 m_s / b_s ≈ 0.15 s (0.036 kg,
+    # 0.49 N·s/m): after 0.25 s the transient left from the force change is below 20 % of its (few per cent) size.
+    settle = 0.25
+    t_last = (len(master_positions) - 1) / rate
+    report["motion"] = {}
+    for axis in range(dof):
+        changed = last_change_s(mscript, axis)
+        if math.isinf(changed):
+            report["motion"][axis] = "driven to the end of the run (not checked)"
+            continue
+        if changed + settle > t_last - 0.2:
+            violations.append(f"motion axis {axis}: the master's simulated time reached {t_last:.3f} s, too short "
+                              f"for a static window after the force's last change at {changed:g} s + {settle} s")
+            continue
+        window_from = changed + settle
+        master = [(t, v[axis]) for n, (t, v) in enumerate(master_positions) if n / rate >= window_from]
+        t0, t1 = master[0][0], master[-1][0]
+        slave = [v[axis] for t, v in slave_positions if t0 <= t <= t1]
+        if len(slave) < 50:
+            violations.append(f"motion axis {axis}: {len(slave)} slave cycles in the static window")
+            continue
+        force = script_force(mscript, axis, t_last)
+        x_m, x_s = median([x for _, x in master]), median(slave)
+        spread = max(slave) - min(slave)
+        free = force / k_h
+        if axis == fixture_axis and free > x_c:
+            p = (force - k_h * x_c) / (k_h * (1 + k_vf / kp) + k_vf)
+            want_s, want_m = x_c + p, x_c + p + k_vf * p / kp
+            scale = p
+        else:
+            want_s = want_m = free
+            scale = abs(free)
+        # 3 % of the static displacement: settled (above) and still, so the link delay adds nothing; K_p halved
+        # moves the contact balance by 18 %, the fixture force halved by 76 %. Plus the DBC's position step
+        # (2e-5 m), by which every captured position is rounded, once per position in the difference.
+        tol = 0.03 * scale + position_lsb_m
+        report["motion"][axis] = dict(force_N=force, slave_m=x_s, slave_predicted_m=want_s, master_m=x_m,
+                                      master_predicted_m=want_m, slave_spread_m=spread, window_from_s=window_from)
+        if abs(x_s - want_s) > tol:
+            violations.append(f"motion axis {axis}: slave rests at {x_s*1e3:.4f} mm, the static balance at "
+                              f"F_h* = {force:g} N is {want_s*1e3:.4f} mm (± {tol*1e3:.4f})")
+        if abs((x_m - x_s) - (want_m - want_s)) > tol + position_lsb_m:
+            violations.append(f"motion axis {axis}: tracking error {(x_m - x_s)*1e3:.4f} mm, the static balance "
+                              f"gives {(want_m - want_s)*1e3:.4f} mm (± {(tol + position_lsb_m)*1e3:.4f})")
+        # Still: a sustained vibration (a broken K_d, an unstable fixture) shows as a spread over the window.
+        if spread > 0.05 * scale + 2 * position_lsb_m:
+            violations.append(f"motion axis {axis}: the slave moves over {spread*1e3:.4f} mm in the static window")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--dbc", required=True)
@@ -271,6 +441,8 @@ def main(argv=None):
     parser.add_argument("--slave-summary")
     parser.add_argument("--injected", help="frames injected on purpose: '<process> <reason> <frame>' per line")
     parser.add_argument("--report", help="write what was measured as JSON")
+    parser.add_argument("--master-config", help="the master's YAML config: check the motion (with --slave-config)")
+    parser.add_argument("--slave-config", help="the slave's YAML config")
     args = parser.parse_args(argv)
 
     violations, report = [], {}
@@ -316,9 +488,15 @@ def main(argv=None):
             continue
         streams[role].append(frame)
     cycles = {}
+    positions = {role: [] for role in layouts}
     for role, layout in layouts.items():
         cycles[role] = check_direction(role, streams[role], layout, args.rate_hz, args.min_rate_fraction, violations,
-                                       report)
+                                       report, positions[role])
+    if args.master_config and args.slave_config:
+        lsb = min((s.factor for m in messages.values() for s in m.signals if s.name.startswith("Position")),
+                  default=0.0)
+        check_motion(read_config(args.master_config), read_config(args.slave_config), args.dof,
+                     positions["master_to_slave"], positions["slave_to_master"], lsb, violations, report)
 
     for role, path, direction in (("master", args.master_summary, "master_to_slave"),
                                   ("slave", args.slave_summary, "slave_to_master")):

@@ -237,6 +237,66 @@ class CaptureCheckTest(unittest.TestCase):
         self.assertEqual(status, 1)
         self.assert_violation(report, "master: reports 400.0 Hz achieved, its frames came at 500.0 cycles/s")
 
+    def motion_capture(self, contact_scale=1.0, ring_m=0.0):
+        """A 3-DOF FD capture of the qemu run's configs (tests/qemu/configs), 2 s at 500 Hz, whose positions rest
+        at the static balance from 0.6 s on: axis 0 in the fixture (p = 1 N / (200·(1 + 1000/600) + 1000) N/m,
+        times contact_scale), axis 2 free at -1 N / 200 N/m. ring_m adds a vibration to the slave."""
+        p = contact_scale * 1.0 / (200.0 * (1.0 + 1000.0 / 600.0) + 1000.0)
+        rest = {"MASTER": {0: 0.01 + p + 1000.0 * p / 600.0, 1: 0.0, 2: -0.005},
+                "SLAVE": {0: 0.01 + p, 1: 0.0, 2: -0.005}}
+        messages = checker.parse_dbc(DBC)
+        layouts = {k: checker.Layout(messages, k, 3, True) for k in ("MASTER", "SLAVE")}
+        lines = []
+        for n in range(1000):
+            for sender, layout in layouts.items():
+                def value(s):
+                    if not s.name.startswith("Position") or n < 300:
+                        return 0.0
+                    ring = ring_m * (1 if n % 2 else -1) if sender == "SLAVE" and s.dof == 0 else 0.0
+                    return rest[sender][s.dof] + ring
+                for frame_id in sorted(layout.frames):
+                    data = encode(layout, frame_id, n % 16, value)
+                    lines.append(f"({1700000000.0 + n / RATE_HZ:.6f}) vcan0 {frame_text(frame_id, data, True)}")
+        return lines
+
+    def run_motion(self, lines):
+        here = os.path.dirname(os.path.abspath(__file__))
+        with tempfile.TemporaryDirectory() as tmp:
+            log = os.path.join(tmp, "candump.log")
+            with open(log, "w", encoding="utf-8") as f:
+                f.write("\n".join(lines) + "\n")
+            report_path = os.path.join(tmp, "report.json")
+            args = ["--dbc", DBC, "--log", log, "--dof", "3", "--fd", "--rate-hz", str(RATE_HZ), "--report",
+                    report_path, "--master-config", os.path.join(here, "configs", "master_can.yaml"),
+                    "--slave-config", os.path.join(here, "configs", "slave_can.yaml")]
+            with redirect_stdout(io.StringIO()):
+                status = checker.main(args)
+            with open(report_path, encoding="utf-8") as f:
+                return status, json.load(f)
+
+    def test_motion_at_the_static_balance_passes(self):
+        status, report = self.run_motion(self.motion_capture())
+        self.assertEqual(report["violations"], [])
+        self.assertEqual(status, 0)
+        self.assertAlmostEqual(report["motion"]["0"]["slave_predicted_m"] - 0.01, 1.0 / 1533.333, delta=1e-9)
+        self.assertAlmostEqual(report["motion"]["2"]["master_predicted_m"], -0.005, delta=1e-12)
+        self.assertIn("not checked", report["motion"]["1"])  # the sine axis is never static
+
+    def test_motion_needs_a_long_enough_run(self):
+        status, report = self.run_motion(self.motion_capture()[:2 * 400])  # 0.8 s: axis 0 holds from 0.6 s only
+        self.assertEqual(status, 1)
+        self.assert_violation(report, "motion axis 0: the master's simulated time reached 0.798 s, too short")
+
+    def test_motion_off_the_balance_is_named(self):
+        # K_p halved puts the contact balance 18 % shallower; the fixture force halved 76 % deeper.
+        for scale in (0.82, 1.76):
+            status, report = self.run_motion(self.motion_capture(contact_scale=scale))
+            self.assertEqual(status, 1)
+            self.assert_violation(report, "motion axis 0: slave rests at")
+        status, report = self.run_motion(self.motion_capture(ring_m=0.0002))
+        self.assertEqual(status, 1)
+        self.assert_violation(report, "motion axis 0: the slave moves over")
+
 
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1].endswith(".dbc"):

@@ -4,7 +4,8 @@
 # cansend injects a frame of wrong length, one with a bad counter, one from a foreign identifier inside the peer's
 # filter and one outside it (inject_fd_dof3.txt). On the host, can_capture_check.py checks every captured frame
 # against proto/teleop.dbc, that no cycle was lost and the rate was held, and that the processes' JSON summaries
-# count exactly the injected frames as rejected, with no loss and no watchdog trip. The guest CPU is emulated (TCG)
+# count exactly the injected frames as rejected, with no loss and no watchdog trip, and that the motion the frames
+# carry ends where the static balance puts it (axis 0 held in the slave's fixture, axis 2 in free space). The guest CPU is emulated (TCG)
 # on a shared machine, so the rate floor is loose (half the configured rate, TELEOP_QEMU_MIN_RATE_FRACTION); the
 # checker also demands that the rate each process reports matches the rate its frames came at on the bus.
 #   tests/qemu/teleop_can_test.sh BIN_DIR OUT_DIR
@@ -49,7 +50,8 @@ fi
 "${python}" "${here}/can_capture_check.py" --dbc "${root}/proto/teleop.dbc" --log "${out}/candump.log" \
   --dof "${dof}" --fd --rate-hz "${rate_hz}" --min-rate-fraction "${TELEOP_QEMU_MIN_RATE_FRACTION:-0.5}" \
   --master-summary "${out}/master.json" \
-  --slave-summary "${out}/slave.json" --injected "${out}/injected.txt" --report "${out}/check_report.json" ||
+  --slave-summary "${out}/slave.json" --injected "${out}/injected.txt" --report "${out}/check_report.json" \
+  --master-config "${here}/configs/master_can.yaml" --slave-config "${here}/configs/slave_can.yaml" ||
   { echo "FAIL: see the violations above and ${out}/check_report.json" >&2; exit 1; }
 cat "${out}/timing.env"
 echo "PASS"

@@ -12,7 +12,13 @@
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/udp.hpp>
 #pragma GCC diagnostic pop
+#include <dirent.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
 #include <chrono>
+#include <cstdlib>
+#include <fstream>
 #include <memory>
 #include <thread>
 #include <vector>
@@ -280,10 +286,58 @@ TEST(UdpLink, DescribeShowsBothEnds) {
   EXPECT_THAT(text, ::testing::HasSubstr("expects slave"));
 }
 
+// SO_RCVBUF of this process's IPv4 UDP socket bound to `port`, found through /proc/self/fd (the link does not
+// expose its socket); -1 if there is none.
+int ReceiveBufferOfSocketOnPort(std::uint16_t port) {
+  DIR* dir = opendir("/proc/self/fd");
+  if (dir == nullptr) return -1;
+  int found = -1;
+  while (const dirent* entry = readdir(dir)) {
+    const int fd = std::atoi(entry->d_name);
+    if (fd <= 2) continue;
+    sockaddr_in address{};
+    socklen_t length = sizeof address;
+    int type = 0;
+    socklen_t type_length = sizeof type;
+    // NOLINTNEXTLINE(cppcoreguidelines-pro-type-reinterpret-cast): the sockets API takes a sockaddr*.
+    if (getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) != 0 || address.sin_family != AF_INET ||
+        getsockopt(fd, SOL_SOCKET, SO_TYPE, &type, &type_length) != 0 || type != SOCK_DGRAM ||
+        ntohs(address.sin_port) != port) {
+      continue;
+    }
+    int bytes = 0;
+    socklen_t bytes_length = sizeof bytes;
+    if (getsockopt(fd, SOL_SOCKET, SO_RCVBUF, &bytes, &bytes_length) == 0) found = bytes;
+    break;
+  }
+  closedir(dir);
+  return found;
+}
+
+long ReadProcNumber(const char* path) {
+  std::ifstream in(path);
+  long value = -1;
+  in >> value;
+  return value;
+}
+
+// The size reaches the socket: read back with getsockopt. Linux stores twice the requested size (socket(7): the
+// kernel doubles it for its bookkeeping overhead), capped at net.core.rmem_max; 0 leaves the kernel default
+// (net.core.rmem_default).
 TEST(UdpLink, ReceiveBufferCanBeSized) {
-  UdpLinkConfig c = Config(SenderRole::kSlave);
-  c.receive_buffer_bytes = 1 << 16;
-  EXPECT_NO_THROW(UdpLink link(c));
+  const long rmem_max = ReadProcNumber("/proc/sys/net/core/rmem_max");
+  const long rmem_default = ReadProcNumber("/proc/sys/net/core/rmem_default");
+  ASSERT_GT(rmem_max, 0);
+  ASSERT_GT(rmem_default, 0);
+  for (const int requested : {1 << 15, 1 << 17}) {
+    UdpLinkConfig c = Config(SenderRole::kSlave);
+    c.receive_buffer_bytes = requested;
+    UdpLink link(c);
+    const long expected = 2 * std::min<long>(requested, rmem_max);
+    EXPECT_EQ(ReceiveBufferOfSocketOnPort(link.local_port()), expected) << "requested " << requested;
+  }
+  UdpLink by_default(Config(SenderRole::kSlave));
+  EXPECT_EQ(ReceiveBufferOfSocketOnPort(by_default.local_port()), rmem_default);
 }
 
 }  // namespace

@@ -1,6 +1,5 @@
 // teleop-scenario: runs the papers' experiments on the simulated rigs and prints their metrics.
 #include <CLI/CLI.hpp>
-
 #include <exception>
 #include <iostream>
 
