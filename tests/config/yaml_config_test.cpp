@@ -12,6 +12,7 @@
 
 #include "teleop/device/loopback/loopback_plant.hpp"
 #include "teleop/error.hpp"
+#include "test_utilities/config_text.hpp"
 
 namespace teleop::config {
 namespace {
@@ -39,42 +40,10 @@ device:
         - {type: ramp, start_s: 0.5, duration_s: 1.5, from_N: 0, to_N: 3}
 )";
 
-std::string Replace(std::string text, const std::string& from, const std::string& to) {
-  const auto at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << "test bug: '" << from << "' not in the base config";
-  if (at != std::string::npos) text.replace(at, from.size(), to);
-  return text;
-}
-
-/// 1-based "LINE:COL" of the first occurrence of `needle` in `text`.
-std::string Where(const std::string& text, const std::string& needle) {
-  const auto at = text.find(needle);
-  EXPECT_NE(at, std::string::npos) << "test bug: '" << needle << "' not in the config";
-  const auto line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n');
-  const auto line_start = text.rfind('\n', at);
-  const auto column = line_start == std::string::npos ? at + 1 : at - line_start;
-  return std::to_string(line) + ":" + std::to_string(column);
-}
-
-/// Parses `text` as "test.yaml" and returns the error message; fails the test when it parses.
-std::string ErrorOf(const std::string& text) {
-  try {
-    ParseProcessConfig(text, "test.yaml");
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected teleop::Error for:\n" << text;
-  return {};
-}
-
-/// The message must start with "test.yaml:LINE:COL: key 'KEY':" and contain `reason`.
-void ExpectError(const std::string& text, const std::string& at_needle, const std::string& key,
-                 const std::string& reason) {
-  const std::string message = ErrorOf(text);
-  const std::string prefix = "test.yaml:" + Where(text, at_needle) + ": key '" + key + "': ";
-  EXPECT_EQ(message.rfind(prefix, 0), 0u) << "message: " << message << "\nexpected prefix: " << prefix;
-  EXPECT_THAT(message, HasSubstr(reason));
-}
+using test::ErrorOf;
+using test::ExpectError;
+using test::Replace;
+using test::Where;
 
 TEST(YamlConfig, BaseConfigParsesWithDefaults) {
   const ProcessConfig c = ParseProcessConfig(kBase, "test.yaml");

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <numbers>
-#include <unsupported/Eigen/MatrixFunctions>
 
 namespace teleop::analysis {
 namespace {
@@ -28,22 +27,6 @@ Row Unit(int i) {
 double VelocityFilterCoefficient(double cutoff_hz, double period_s) noexcept {
   if (cutoff_hz <= 0.0) return 1.0;
   return 1.0 - std::exp(-2.0 * std::numbers::pi * cutoff_hz * period_s);
-}
-
-ZohBlock DiscretizeMassSpringDamper(double mass_kg, double damping_Ns_per_m, double stiffness_N_per_m,
-                                    double period_s) noexcept {
-  // d/dt [x, v, u] = [[0, 1, 0], [-k/m, -b/m, 1/m], [0, 0, 0]]·[x, v, u] with u held: the top-right column of the
-  // exponential over T is the ZOH input matrix, the top-left block the state transition (Franklin et al. §4.3).
-  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
-  m(0, 1) = 1.0;
-  m(1, 0) = -stiffness_N_per_m / mass_kg;
-  m(1, 1) = -damping_Ns_per_m / mass_kg;
-  m(1, 2) = 1.0 / mass_kg;
-  const Eigen::Matrix3d e = (m * period_s).exp();
-  ZohBlock block;
-  block.phi = e.topLeftCorner<2, 2>();
-  block.gamma = e.topRightCorner<2, 1>();
-  return block;
 }
 
 ZohBlock DiscretizeMasterWithHuman(const SampledTeleoperator& system, const HumanModel& human) noexcept {

@@ -92,6 +92,9 @@ SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis) {
   const FixtureSide side = FixtureSideOf(config.role);
   const FixtureSide peer_side = FixtureSideOf(Other(config.role));
 
+  if (const std::string why = StabilityNotApplicable(config); !why.empty()) {
+    throw Error("stability model: not applicable: " + why);
+  }
   DeviceModel own = PaperDevice(config.role);
   if (const device::AnalysisModel model = device::DeviceModel(config.device); model.applicable) {
     own = {model.mass_kg[axis], model.damping_Ns_per_m[axis]};
@@ -166,7 +169,15 @@ std::vector<analysis::HumanModel> StabilityOperators(const ProcessConfig& config
   return analysis::MakeHumanGrid(analysis::LoadHumanBounds(path.string()), st.human_grid_steps);
 }
 
+std::string StabilityNotApplicable(const ProcessConfig& config) {
+  if (config.stability.device.mass_kg && config.stability.device.damping_Ns_per_m) return {};
+  const device::AnalysisModel model = device::DeviceModel(config.device);
+  if (model.applicable) return {};
+  return "device '" + config.device.backend + "': " + model.reason;
+}
+
 bool StabilityReport::stable() const noexcept {
+  if (!applicable()) return true;
   for (const analysis::FixtureCheck& check : axes) {
     if (!check.stable) return false;
   }
@@ -190,11 +201,13 @@ int StabilityReport::worst_axis() const noexcept {
 StabilityReport CheckProcessStability(const ProcessConfig& config, std::span<const analysis::HumanModel> humans) {
   const auto start = std::chrono::steady_clock::now();
   std::vector<analysis::HumanModel> own_humans;
-  if (humans.empty()) {
+  if (humans.empty() && StabilityNotApplicable(config).empty()) {
     own_humans = StabilityOperators(config);
     humans = own_humans;
   }
   StabilityReport report;
+  report.not_applicable = StabilityNotApplicable(config);
+  if (!report.applicable()) return report;
   report.operators = static_cast<int>(humans.size());
   std::vector<SampledTeleoperator> models;
   for (int axis = 0; axis < config.law.dof; ++axis) {
@@ -215,6 +228,11 @@ StabilityReport CheckProcessStability(const ProcessConfig& config, std::span<con
 }
 
 std::string DescribePass(const ProcessConfig& config, const StabilityReport& report) {
+  if (!report.applicable()) {
+    return "stability check not applicable: " + report.not_applicable +
+           "; the fixture stiffness is NOT checked (give stability.device.mass_kg and damping_Ns_per_m to check it "
+           "against a mass-damper model of this device)";
+  }
   const int axis = report.worst_axis();
   const analysis::FixtureCheck& c = report.worst();
   const double limit = c.limit.max_stable_stiffness_N_per_m;

@@ -37,6 +37,10 @@ bool StabilityAllowsStart(const config::ProcessConfig& config, bool allow_unstab
     return true;
   }
   const config::StabilityReport report = config::CheckProcessStability(config);
+  if (!report.applicable()) {
+    spdlog::warn("{}", config::DescribePass(config, report));
+    return true;
+  }
   if (report.stable()) {
     spdlog::info("{}", config::DescribePass(config, report));
     return true;

@@ -54,17 +54,17 @@ TEST(LoopbackPlant, OperatorSpringOscillatorMatchesTheAnalyticResponse) {
 TEST(LoopbackPlant, DiscretisationIsTheExactExponential) {
   // Underdamped m ẍ + b ẋ + k x = u: compare with the closed form for x(h), v(h) from (x0, v0) and held u.
   const double m = 0.05, b = 0.3, k = 200.0, h = 0.002;
-  const auto step = LoopbackPlant::Discretise(m, b, k, h);
+  const auto step = analysis::DiscretizeMassSpringDamper(m, b, k, h);  // what the plant integrates with
   const double alpha = b / (2 * m), wd = std::sqrt(k / m - alpha * alpha);
   // Homogeneous response from x0 = 1, v0 = 0 and from x0 = 0, v0 = 1.
   const double e = std::exp(-alpha * h), c = std::cos(wd * h), s = std::sin(wd * h);
-  EXPECT_NEAR(step.phi[0], e * (c + alpha / wd * s), 1e-13);
-  EXPECT_NEAR(step.phi[1], e * s / wd, 1e-13);
-  EXPECT_NEAR(step.phi[2], -e * (k / m) / wd * s, 1e-11);
-  EXPECT_NEAR(step.phi[3], e * (c - alpha / wd * s), 1e-13);
+  EXPECT_NEAR(step.phi(0, 0), e * (c + alpha / wd * s), 1e-13);
+  EXPECT_NEAR(step.phi(0, 1), e * s / wd, 1e-13);
+  EXPECT_NEAR(step.phi(1, 0), -e * (k / m) / wd * s, 1e-11);
+  EXPECT_NEAR(step.phi(1, 1), e * (c - alpha / wd * s), 1e-13);
   // Held unit force from rest: x = (1 - φ00)/k.
-  EXPECT_NEAR(step.gamma[0], (1.0 - step.phi[0]) / k, 1e-15);
-  EXPECT_NEAR(step.gamma[1], -step.phi[2] / k, 1e-13);
+  EXPECT_NEAR(step.gamma(0), (1.0 - step.phi(0, 0)) / k, 1e-15);
+  EXPECT_NEAR(step.gamma(1), -step.phi(1, 0) / k, 1e-13);
 }
 
 TEST(LoopbackPlant, EncoderQuantization) {

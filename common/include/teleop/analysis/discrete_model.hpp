@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 
 #include "teleop/analysis/teleoperator_model.hpp"
+#include "teleop/analysis/zero_order_hold.hpp"  // ZohBlock, DiscretizeMassSpringDamper (eq. 27)
 
 namespace teleop::analysis {
 
@@ -20,17 +21,6 @@ inline constexpr int kModelStates = 8;
 /// peer's delayed velocity). Without filter and delay the last two states only produce two zero eigenvalues — the
 /// paper's model also has eight eigenvalues, two of them identically zero. docs/stability.md derives every entry.
 using StateMatrix = Eigen::Matrix<double, kModelStates, kModelStates>;
-
-/// Exact zero-order-hold discretization of m·ẍ + b·ẋ + k·x = u over one period (eq. 27):
-/// [x; v](k+1) = phi·[x; v](k) + gamma·u(k).
-struct ZohBlock {
-  Eigen::Matrix2d phi = Eigen::Matrix2d::Identity();
-  Eigen::Vector2d gamma = Eigen::Vector2d::Zero();
-};
-
-/// ZOH discretization by the matrix exponential of the augmented 3×3 system. Requires mass > 0 and period > 0.
-ZohBlock DiscretizeMassSpringDamper(double mass_kg, double damping_Ns_per_m, double stiffness_N_per_m,
-                                    double period_s) noexcept;
 
 /// Master + operator (eq. 26: Z_hm = Z_h + Z_m) discretized.
 ZohBlock DiscretizeMasterWithHuman(const SampledTeleoperator& system, const HumanModel& human) noexcept;

@@ -21,8 +21,8 @@ struct TelemetryConfig {
 
 /// The start-up stability check of this process's own fixture (docs/stability.md, "In the processes"). An absent
 /// value means "the documented default": the peer is the paper's §4.1 device of the other role running the same
-/// gains as this process, without a fixture; this device is the loopback plant (the paper's device for other
-/// backends).
+/// gains as this process, without a fixture; this device is the backend's registered model (device::DeviceModel;
+/// when the backend says the check does not apply, the check reports why and is skipped).
 struct StabilityConfig {
   /// What this process assumes of the other side (the analysis needs both halves of the teleoperator).
   struct Peer {
@@ -34,7 +34,8 @@ struct StabilityConfig {
     std::optional<DofVector> kf;  ///< Dimensionless; drops out of the analysis (free space), kept for symmetry.
     double fixture_stiffness_N_per_m = 0.0;  ///< The peer's own fixture, held fixed in the search.
   };
-  /// This device along the fixture normal, when the backend does not describe it (absent: loopback plant / paper).
+  /// This device along the fixture normal; overrides the backend's model (both given: also for a backend whose model
+  /// is "not applicable").
   struct Device {
     std::optional<double> mass_kg;
     std::optional<double> damping_Ns_per_m;

@@ -17,11 +17,16 @@ namespace teleop::config {
 /// The analysed fixture side of a process: its own (the master checks the master fixture, the slave the slave's).
 analysis::FixtureSide FixtureSideOf(Role role) noexcept;
 
+/// Why the check cannot apply to this process's device: the backend's model says "not applicable" (a passive
+/// device, a cobot) and stability.device does not give both mass_kg and damping_Ns_per_m. Empty when it applies.
+std::string StabilityNotApplicable(const ProcessConfig& config);
+
 /// The sampled teleoperator seen along DOF `axis` of this process: its law gains for that DOF, its fixture
 /// stiffness (0 when no plane's normal has a component on `axis`), rate, velocity filter, its device (stability.device,
-/// else the loopback plant, else the paper's device of its role), and the peer of `config.stability.peer` (defaults:
+/// else the backend's registered model, device::DeviceModel), and the peer of `config.stability.peer` (defaults:
 /// the paper's device of the other role, the same gains, no fixture), with `stability.peer_delay_samples` and
-/// `stability.unilateral`. Throws teleop::Error when `axis` is outside 0..dof-1 or the model is invalid.
+/// `stability.unilateral`. Throws teleop::Error when `axis` is outside 0..dof-1, the model is invalid, or the check
+/// does not apply (StabilityNotApplicable).
 analysis::SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis);
 
 /// The operator set of `config.stability`: the `human_bounds` CSV (a relative path is relative to the config file's
@@ -31,10 +36,13 @@ std::vector<analysis::HumanModel> StabilityOperators(const ProcessConfig& config
 /// The check of every DOF of a process.
 struct StabilityReport {
   std::vector<analysis::FixtureCheck> axes;  ///< One per DOF (axes with identical models share one analysis).
-  int operators = 0;                         ///< Size of the operator set.
-  double elapsed_ms = 0.0;                   ///< Wall time of the analysis.
+  /// Empty when the check applied; else why not (axes is empty, stable() is true: nothing was found to refuse).
+  std::string not_applicable;
+  int operators = 0;        ///< Size of the operator set.
+  double elapsed_ms = 0.0;  ///< Wall time of the analysis.
 
   bool stable() const noexcept;
+  bool applicable() const noexcept { return not_applicable.empty(); }
   /// The axis that fails, or the one with the smallest limit / stiffness margin when all pass.
   int worst_axis() const noexcept;
   const analysis::FixtureCheck& worst() const noexcept { return axes[static_cast<std::size_t>(worst_axis())]; }
@@ -45,7 +53,8 @@ struct StabilityReport {
 /// `config.stability.check` is set (the caller decides what to do with it). Throws teleop::Error on invalid input.
 StabilityReport CheckProcessStability(const ProcessConfig& config, std::span<const analysis::HumanModel> humans = {});
 
-/// One line for the log when the check passed: stiffness, limit, margin, worst damping ratio, assumptions.
+/// One line for the log when the check passed: stiffness, limit, margin, worst damping ratio, assumptions; or, when
+/// it did not apply, the backend's reason and how to check anyway.
 std::string DescribePass(const ProcessConfig& config, const StabilityReport& report);
 /// Why it did not pass: the config file, the configured stiffness, the predicted limit (N/m), the assumptions and what
 /// to change. Names the "unstable even without a fixture" case separately. The caller adds its override hint.

@@ -1,6 +1,5 @@
 #include "teleop/device/loopback/loopback_plant.hpp"
 
-#include <Eigen/Core>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -13,24 +12,6 @@ namespace {
 
 using loopback_detail::Fail;
 using loopback_detail::RequireNonNegative;
-
-/// exp(M) for a 3×3 matrix by scaling and squaring with a degree-18 Taylor series: after scaling ‖M‖ ≤ 1/2, so
-/// the truncation error is below 2^-19/19! ≈ 1e-23 relative. Fixed-size: no allocation.
-Eigen::Matrix3d Expm(const Eigen::Matrix3d& m) noexcept {
-  const double norm = m.cwiseAbs().rowwise().sum().maxCoeff();
-  int squarings = 0;
-  if (norm > 0.5) squarings = static_cast<int>(std::ceil(std::log2(norm / 0.5)));
-  if (squarings > 60) squarings = 60;
-  const Eigen::Matrix3d scaled = m / std::ldexp(1.0, squarings);
-  Eigen::Matrix3d result = Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d term = Eigen::Matrix3d::Identity();
-  for (int k = 1; k <= 18; ++k) {
-    term = (term * scaled) / static_cast<double>(k);
-    result += term;
-  }
-  for (int i = 0; i < squarings; ++i) result = (result * result).eval();
-  return result;
-}
 
 DofVector InitialVector(const DofVector& given, int dof, const char* name) {
   if (given.size() == 0) return DofVector::Zero(dof);
@@ -58,22 +39,6 @@ LoopbackPlantConfig LoopbackPlantConfig::PaperSlave(int dof) {
   config.mass_kg = 0.036;
   config.damping_Ns_per_m = 0.49;
   return config;
-}
-
-LoopbackPlant::ExactStep LoopbackPlant::Discretise(double mass_kg, double damping_Ns_per_m, double stiffness_N_per_m,
-                                                   double step_s) noexcept {
-  // Augmented system d/dt [x, v, u] = [[0, 1, 0], [-k/m, -b/m, 1/m], [0, 0, 0]]·[x, v, u]: its exponential holds
-  // the state transition (top-left 2×2) and the zero-order-hold input response (top-right column).
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
-  a(0, 1) = 1.0;
-  a(1, 0) = -stiffness_N_per_m / mass_kg;
-  a(1, 1) = -damping_Ns_per_m / mass_kg;
-  a(1, 2) = 1.0 / mass_kg;
-  const Eigen::Matrix3d e = Expm(a * step_s);
-  ExactStep step;
-  step.phi = {e(0, 0), e(0, 1), e(1, 0), e(1, 1)};
-  step.gamma = {e(0, 2), e(1, 2)};
-  return step;
 }
 
 LoopbackPlant::LoopbackPlant(const LoopbackPlantConfig& config) : config_(config) {
@@ -128,17 +93,20 @@ DofVector LoopbackPlant::OperatorTargetForce() const noexcept {
 
 void LoopbackPlant::CacheSteps(double period_s) noexcept {
   cached_period_s_ = period_s;
-  free_period_ = Discretise(total_mass_kg_, total_damping_Ns_per_m_, total_stiffness_N_per_m_, period_s);
+  free_period_ =
+      analysis::DiscretizeMassSpringDamper(total_mass_kg_, total_damping_Ns_per_m_, total_stiffness_N_per_m_, period_s);
   const double substep_s = period_s / static_cast<double>(config_.contact_substeps);
-  free_substep_ = Discretise(total_mass_kg_, total_damping_Ns_per_m_, total_stiffness_N_per_m_, substep_s);
-  contact_substep_ = Discretise(total_mass_kg_, total_damping_Ns_per_m_ + config_.environment.damping_Ns_per_m,
-                                total_stiffness_N_per_m_ + config_.environment.stiffness_N_per_m, substep_s);
+  free_substep_ = analysis::DiscretizeMassSpringDamper(total_mass_kg_, total_damping_Ns_per_m_,
+                                                       total_stiffness_N_per_m_, substep_s);
+  contact_substep_ = analysis::DiscretizeMassSpringDamper(
+      total_mass_kg_, total_damping_Ns_per_m_ + config_.environment.damping_Ns_per_m,
+      total_stiffness_N_per_m_ + config_.environment.stiffness_N_per_m, substep_s);
 }
 
 namespace {
-inline void Advance(const LoopbackPlant::ExactStep& s, double u, double& x, double& v) noexcept {
-  const double x_next = s.phi[0] * x + s.phi[1] * v + s.gamma[0] * u;
-  const double v_next = s.phi[2] * x + s.phi[3] * v + s.gamma[1] * u;
+inline void Advance(const analysis::ZohBlock& s, double u, double& x, double& v) noexcept {
+  const double x_next = s.phi(0, 0) * x + s.phi(0, 1) * v + s.gamma(0) * u;
+  const double v_next = s.phi(1, 0) * x + s.phi(1, 1) * v + s.gamma(1) * u;
   x = x_next;
   v = v_next;
 }

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <string>
 
+#include "teleop/analysis/zero_order_hold.hpp"
 #include "teleop/device/device.hpp"
 #include "teleop/device/loopback/operator_script.hpp"
 #include "teleop/device/loopback/simulated_environment.hpp"
@@ -36,7 +37,8 @@ struct LoopbackPlantConfig {
 ///
 /// Integration: per DOF the state (x, ẋ) obeys (m + m_h)·ẍ + (b + b_h)·ẋ + k_h·x = F_h*(t) + command + disturbance
 /// (+ wall force on the wall axis). Over one period with the force held, the step is the exact zero-order-hold
-/// discretisation exp(A·T) of that linear system (computed once per distinct period and cached). While the wall
+/// discretisation exp(A·T) of that linear system (analysis::DiscretizeMassSpringDamper, the one the stability
+/// analysis uses; computed once per distinct period and cached). While the wall
 /// may be in contact during the period (the state starts inside, or a free step would end inside) the period is
 /// split into `contact_substeps` exact sub-steps, each in the contact or the free mode chosen at its start.
 ///
@@ -73,15 +75,6 @@ class LoopbackPlant final : public Device {
   std::uint64_t rejected_commands() const noexcept { return rejected_commands_; }
   std::uint64_t rejected_updates() const noexcept { return rejected_updates_; }
 
-  /// Exact zero-order-hold step of m·ẍ + b·ẋ + k·x = u over h: x' = phi[0]·x + phi[1]·v + gamma[0]·u,
-  /// v' = phi[2]·x + phi[3]·v + gamma[1]·u. Exposed for tests and the analysis.
-  struct ExactStep {
-    std::array<double, 4> phi{};
-    std::array<double, 2> gamma{};
-  };
-  static ExactStep Discretise(double mass_kg, double damping_Ns_per_m, double stiffness_N_per_m,
-                              double step_s) noexcept;
-
  private:
   void CacheSteps(double period_s) noexcept;
   double ExternalForce(int axis, double time_s) const noexcept;  // F_h* + disturbance on one axis
@@ -101,9 +94,9 @@ class LoopbackPlant final : public Device {
   OperatorScript script_{};
   SimulatedEnvironment environment_{};
   double cached_period_s_ = 0.0;
-  ExactStep free_period_{};
-  ExactStep free_substep_{};
-  ExactStep contact_substep_{};
+  analysis::ZohBlock free_period_{};
+  analysis::ZohBlock free_substep_{};
+  analysis::ZohBlock contact_substep_{};
   std::uint32_t pending_faults_ = kFaultNone;
   std::uint64_t rejected_commands_ = 0;
   std::uint64_t rejected_updates_ = 0;

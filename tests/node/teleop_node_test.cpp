@@ -1,0 +1,219 @@
+// TeleopNode, master and slave, each with a MockDevice, joined by an emulated link pair and stepped in lock-step
+// in one thread (TeleopNode::Step): the cycle's order, the Command it writes, capability refusals at start-up,
+// device faults, and no allocation in the cycle.
+
+#include "teleop/node/teleop_node.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+
+#include "teleop/config/yaml_config.hpp"
+#include "teleop/error.hpp"
+#include "teleop/transport/emulated_link.hpp"
+#include "test_utilities/limit_malloc.hpp"
+#include "test_utilities/mock_device.hpp"
+
+namespace teleop::node {
+namespace {
+
+using test::MockDevice;
+using ::testing::HasSubstr;
+using Call = MockDevice::Call;
+
+constexpr double kPeriod_s = 0.001;
+constexpr double kKp_N_per_m = 600.0;
+constexpr double kFixture_N_per_m = 2000.0;
+
+// The watchdog runs on the wall clock; a generous timeout keeps a preempted test from seeing a lost peer.
+std::string Config(const char* role, bool fixture) {
+  std::string text = std::string("role: ") + role + R"(
+dof: 2
+rate_hz: 1000
+link: {bind: "127.0.0.1:47001", peer: "127.0.0.1:47002", timeout_ms: 10000}
+law: {kp_N_per_m: 600, kd_Ns_per_m: 0, max_force_N: 0}
+device: {backend: loopback, loopback: {mass_kg: 0.04, damping_Ns_per_m: 0.41}}
+stability: {check: false}
+)";
+  if (fixture) text += "fixture: {stiffness_N_per_m: 2000, half_space: {axis: 0, offset_m: 0.005}}\n";
+  return text;
+}
+
+config::ProcessConfig Parse(const std::string& text) { return config::ParseProcessConfig(text, "node.yaml"); }
+
+/// A master and a slave node over one emulated medium; raw pointers to their mock devices (owned by the nodes).
+struct Pair {
+  explicit Pair(bool slave_fixture = false) {
+    medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
+    auto m = std::make_unique<MockDevice>(2);
+    auto s = std::make_unique<MockDevice>(2);
+    master_device = m.get();
+    slave_device = s.get();
+    master =
+        std::make_unique<TeleopNode>(Parse(Config("master", false)), std::move(m),
+                                     std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kMaster));
+    slave = std::make_unique<TeleopNode>(Parse(Config("slave", slave_fixture)), std::move(s),
+                                         std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kSlave));
+  }
+  void Step() {
+    master->Step(cycle, kPeriod_s);
+    slave->Step(cycle, kPeriod_s);
+    medium->Advance(kPeriod_s);
+    ++cycle;
+  }
+  std::shared_ptr<transport::EmulatedMedium> medium;
+  MockDevice* master_device = nullptr;
+  MockDevice* slave_device = nullptr;
+  std::unique_ptr<TeleopNode> master;
+  std::unique_ptr<TeleopNode> slave;
+  std::uint64_t cycle = 0;
+};
+
+TEST(TeleopNode, LifecycleThenReadWriteUpdateEveryCycleThenDeactivate) {
+  int deactivations = 0;
+  {
+    Pair pair;
+    pair.master_device->deactivations = &deactivations;
+    MockDevice& d = *pair.master_device;
+    ASSERT_EQ(d.calls(), 2u);
+    EXPECT_EQ(d.call(0), Call::kConfigure);
+    EXPECT_EQ(d.call(1), Call::kActivate);
+    d.ClearLog();
+    for (int k = 0; k < 3; ++k) pair.Step();
+    ASSERT_EQ(d.calls(), 9u);
+    for (std::size_t k = 0; k < 3; ++k) {
+      EXPECT_EQ(d.call(3 * k), Call::kRead) << "cycle " << k;
+      EXPECT_EQ(d.call(3 * k + 1), Call::kWrite) << "cycle " << k;
+      EXPECT_EQ(d.call(3 * k + 2), Call::kUpdate) << "cycle " << k;
+    }
+    EXPECT_EQ(d.last_period_s, kPeriod_s);
+    EXPECT_EQ(deactivations, 0);
+  }
+  EXPECT_EQ(deactivations, 1) << "the node deactivates its device when it goes";
+}
+
+TEST(TeleopNode, TheSlaveIsCommandedTowardsTheMasterOverTheLink) {
+  Pair pair;
+  pair.master_device->position_m << 0.01, -0.002;
+  for (int k = 0; k < 5; ++k) pair.Step();
+  // Eq. 9 with K_d = K_v = 0 and still positions: F_s = K_p (X_m - X_s), per axis; the master gets the opposite.
+  const device::Command& s = pair.slave_device->last_command;
+  EXPECT_NEAR(s.force_N[0], kKp_N_per_m * 0.01, 1e-9);
+  EXPECT_NEAR(s.force_N[1], kKp_N_per_m * -0.002, 1e-9);
+  EXPECT_NEAR(pair.master_device->last_command.force_N[0], -kKp_N_per_m * 0.01, 1e-9);
+  EXPECT_EQ(s.constraint_count, 0) << "no fixture, no constraints";
+}
+
+TEST(TeleopNode, TheCommandCarriesTheFixturesPlanesWithTheirPenetration) {
+  Pair pair(/*slave_fixture=*/true);
+  pair.slave_device->position_m << 0.008, 0.0;  // 3 mm into the region x > 5 mm; the master stays at 0
+  for (int k = 0; k < 3; ++k) pair.Step();
+  const device::Command& c = pair.slave_device->last_command;
+  ASSERT_EQ(c.constraint_count, 1);
+  EXPECT_EQ(c.fixture_stiffness_N_per_m, kFixture_N_per_m);
+  EXPECT_EQ(c.constraints[0].normal[0], 1.0);
+  EXPECT_EQ(c.constraints[0].normal[1], 0.0);
+  EXPECT_DOUBLE_EQ(c.constraints[0].offset_m, 0.005);
+  EXPECT_NEAR(c.constraints[0].penetration_m, 0.003, 1e-12);
+  EXPECT_NEAR(c.fixture_force_N[0], -kFixture_N_per_m * 0.003, 1e-9);
+  // The fixture's push plus the coupling back to the master at 0.
+  EXPECT_NEAR(c.force_N[0], -kFixture_N_per_m * 0.003 - kKp_N_per_m * 0.008, 1e-9);
+}
+
+TEST(TeleopNode, ADeviceFaultHoldsTheSafeStateAndTellsThePeer) {
+  Pair pair;
+  pair.master_device->position_m << 0.01, 0.0;
+  for (int k = 0; k < 5; ++k) pair.Step();
+  ASSERT_GT(pair.slave_device->last_command.force_N[0], 1.0);
+  pair.master_device->faults = device::kFaultCommunication;
+  const std::uint64_t writes = pair.master_device->writes;
+  pair.master_device->ClearLog();
+  for (int k = 0; k < 5; ++k) pair.Step();
+  EXPECT_EQ(pair.master_device->writes, writes) << "a faulted device is never commanded";
+  EXPECT_EQ(pair.master_device->safe_calls, 5u);
+  EXPECT_EQ(pair.master_device->call(0), Call::kRead);
+  EXPECT_EQ(pair.master_device->call(1), Call::kSetSafe);
+  EXPECT_EQ(pair.master_device->call(2), Call::kUpdate);
+  // The slave sees the fault flag and decouples: K_p off, no damping configured, so zero force.
+  EXPECT_EQ(pair.slave_device->last_command.force_N[0], 0.0);
+  pair.master_device->faults = device::kFaultNone;
+  for (int k = 0; k < 5; ++k) pair.Step();
+  EXPECT_EQ(pair.master_device->writes, writes + 5) << "commanded again once the fault clears";
+  EXPECT_NEAR(pair.slave_device->last_command.force_N[0], kKp_N_per_m * 0.01, 1e-9);
+}
+
+TEST(TeleopNode, RefusesActiveGainsOnADeviceThatCannotPushNamingTheKey) {
+  auto device = std::make_unique<MockDevice>(2, device::Rendering::kDissipativeOnly);
+  MockDevice* d = device.get();
+  int deactivations = 0;
+  d->deactivations = &deactivations;
+  auto medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
+  try {
+    TeleopNode node(Parse(Config("master", false)), std::move(device),
+                    std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kMaster));
+    FAIL() << "a brake-only device accepted law.kp_N_per_m = 600";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("node.yaml"));
+    EXPECT_THAT(e.what(), HasSubstr("key 'law.kp_N_per_m'"));
+    EXPECT_THAT(e.what(), HasSubstr("mock"));
+  }
+  EXPECT_EQ(deactivations, 0) << "refused before activation";
+}
+
+TEST(TeleopNode, RefusesACobotWithDampingAndAnUnboundedForceOnALimitedMotor) {
+  auto medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
+  const auto refuse = [&](std::unique_ptr<MockDevice> device, const std::string& text, const std::string& key) {
+    try {
+      TeleopNode node(Parse(text), std::move(device),
+                      std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kMaster));
+      ADD_FAILURE() << "accepted; expected a refusal naming " << key;
+    } catch (const Error& e) {
+      EXPECT_THAT(e.what(), HasSubstr("key '" + key + "'"));
+    }
+  };
+  std::string cobot = Config("master", false);
+  cobot.replace(cobot.find("kp_N_per_m: 600"), 15, "kp_N_per_m: 0, kv_Ns_per_m: 1");
+  refuse(std::make_unique<MockDevice>(2, device::Rendering::kSteeredConstraints), cobot, "law.kv_Ns_per_m");
+  auto limited = std::make_unique<MockDevice>(2);
+  limited->mutable_capabilities().max_force_N = DofVector::Constant(2, 4.0);
+  refuse(std::move(limited), Config("master", false), "law.max_force_N");  // max_force_N: 0 = unbounded
+  refuse(std::make_unique<MockDevice>(3), Config("master", false), "dof");
+}
+
+TEST(TeleopNode, ConfigureAndActivateFailuresReachTheCaller) {
+  auto medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
+  auto a = std::make_unique<MockDevice>(2);
+  a->configure_error = "mock: no drive answers on node 5";
+  EXPECT_THROW(TeleopNode(Parse(Config("master", false)), std::move(a),
+                          std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kMaster)),
+               Error);
+  auto b = std::make_unique<MockDevice>(2);
+  b->activate_error = "mock: drive stuck in Fault";
+  try {
+    TeleopNode node(Parse(Config("master", false)), std::move(b),
+                    std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kMaster));
+    FAIL() << "a failed activation was ignored";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("drive stuck in Fault"));
+  }
+}
+
+TEST(TeleopNode, TheCycleAllocatesNothing) {
+  Pair pair(/*slave_fixture=*/true);
+  pair.master_device->position_m << 0.01, 0.0;
+  pair.slave_device->position_m << 0.007, 0.0;
+  for (int k = 0; k < 10; ++k) pair.Step();  // connected, fixture active
+  test::AllocationCounter counter;
+  for (int k = 0; k < 2000; ++k) {
+    if (k == 500) pair.master_device->faults = device::kFaultDriver;  // fault, peer decouples
+    if (k == 700) pair.master_device->faults = device::kFaultNone;
+    pair.Step();
+  }
+  EXPECT_EQ(counter.count(), 0u);
+  EXPECT_NEAR(pair.slave_device->last_command.force_N[0], -kFixture_N_per_m * 0.002 + kKp_N_per_m * 0.003, 1e-9);
+}
+
+}  // namespace
+}  // namespace teleop::node
