@@ -2,7 +2,7 @@
 # The demo on one machine, no hardware: teleop-slave and teleop-master on 127.0.0.1 over UDP at 1 kHz, each with
 # its half of the loopback plant. The scripted operator pushes the master so that the slave meets its forbidden-region
 # virtual fixture, holds, and pulls back (about 5 s). Prints both summaries; writes telemetry CSVs, JSON summaries
-# and a plot to build/demo/.
+# and the PNGs of deploy/teleop-plot to build/demo/.
 #   ./deploy/demo.sh            UDP link
 #   ./deploy/demo.sh --can      the same over the emulated CAN bus (for hosts without SocketCAN)
 set -euo pipefail
@@ -50,11 +50,10 @@ echo
 echo "==== master ===="; cat "${out}/master.log"
 echo "==== slave ====";  cat "${out}/slave.log"
 
-fixture_offset=$(grep -o 'offset_m: *[-+0-9.eE]*' "${slave_cfg}" | head -n 1 | awk '{print $2}')
-gnuplot -e "slave='${out}/slave.csv'; png='${out}/demo.png'; wall=${fixture_offset:-0}; link='${variant}'" \
-  "${TELEOP_ROOT}/deploy/plot_demo.gp"
+echo
+"${TELEOP_ROOT}/deploy/teleop-plot" --title "demo (${variant}, 1 kHz)" --out "${out}" "${out}/master.csv" "${out}/slave.csv"
 echo
 echo "[demo] telemetry: ${out}/master.csv ${out}/slave.csv"
 echo "[demo] summaries: ${out}/master-summary.json ${out}/slave-summary.json"
-echo "[demo] plot:      ${out}/demo.png"
+echo "[demo] plots:     ${out}/{master,slave}-{positions,forces,fixture,period,rtt,loss,engagement}.png (deploy/teleop-plot)"
 exit $(( master_rc != 0 || slave_rc != 0 ))

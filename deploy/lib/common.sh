@@ -14,6 +14,11 @@ TELEOP_PACKAGES=(
   gnuplot-nox python3
   iproute2 can-utils
   qemu-system-x86 busybox-static cpio kmod
+  # deployment (docs/deployment.md): teleop-plot, the Wireshark dissector test, the unit check, the .deb inspection
+  python3-matplotlib
+  tshark
+  systemd
+  dpkg-dev
   cyclonedds-dev cyclonedds-tools
 )
 

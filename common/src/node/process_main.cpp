@@ -14,6 +14,7 @@
 #include "teleop/error.hpp"
 #include "teleop/link/link_config.hpp"
 #include "teleop/node/device_list.hpp"
+#include "teleop/node/exit_codes.hpp"
 #include "teleop/node/teleop_node.hpp"
 
 namespace teleop::node {
@@ -100,7 +101,7 @@ int ProcessMain(int argc, char** argv, Role role) {
     }
     if (duration_s >= 0.0) config.loop.duration_s = duration_s;
     if (!telemetry_csv.empty()) config.telemetry.csv_path = telemetry_csv;
-    if (!StabilityAllowsStart(config, allow_unstable)) return 2;
+    if (!StabilityAllowsStart(config, allow_unstable)) return kExitConfigError;
 
     auto device = device::MakeDevice(config.device);
     auto link = transport::MakeLink(config.link, transport::ToSender(role));
@@ -122,13 +123,20 @@ int ProcessMain(int argc, char** argv, Role role) {
       out << FormatSummaryJson(summary);
       if (!out) throw Error("cannot write the summary to " + summary_json);
     }
-    return 0;
+    const int status = ExitCodeFor(summary);
+    if (status == kExitFaulted) {
+      spdlog::error(
+          "the run saw a fault (device fault cycles {}, non-finite inputs {}): exit status {}, which a systemd unit "
+          "does not restart; find the cause before starting again",
+          summary.device_fault_cycles, summary.nonfinite_inputs, status);
+    }
+    return status;
   } catch (const Error& e) {
     spdlog::critical("{}", e.what());
-    return 2;
+    return kExitConfigError;
   } catch (const std::exception& e) {
     spdlog::critical("unexpected error: {}", e.what());
-    return 3;
+    return kExitUnexpectedError;
   }
 }
 

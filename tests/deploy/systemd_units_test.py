@@ -1,0 +1,140 @@
+#!/usr/bin/env python3
+"""The systemd units of deploy/systemd/ parse and say what docs/deployment.md promises.
+
+systemd-analyze verify needs no running systemd: it loads the units into a throw-away manager under --root, a staged
+file system with the units, the binaries at their packaged paths (/usr/bin, /usr/share/teleop) and the host's own
+system units (for network-online.target and friends). Any message it prints fails the test (it reports unknown keys
+only as warnings). A deliberately broken copy must be caught, so the check itself can fail.
+
+Then the restart policy against the processes' exit statuses (common/include/teleop/node/exit_codes.hpp) and the
+real-time limits against the rig configs.
+"""
+import argparse
+import glob
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+
+class Failure(Exception):
+    pass
+
+
+def check(cond, what):
+    if not cond:
+        raise Failure(what)
+    print(f"  ok: {what}")
+
+
+def parse_unit(path):
+    sections, current = {}, None
+    for raw in open(path):
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        m = re.match(r"\[(\w+)\]$", line)
+        if m:
+            current = sections.setdefault(m.group(1), {})
+            continue
+        key, _, value = line.partition("=")
+        current.setdefault(key.strip(), []).append(value.strip())
+    return sections
+
+
+def exit_codes(header):
+    text = open(header).read()
+    return {name: int(value) for name, value in re.findall(r"constexpr int (kExit\w+) = (\d+);", text)}
+
+
+def stage(root, units_dir, binaries):
+    sysdir = os.path.join(root, "usr/lib/systemd/system")
+    shutil.copytree("/usr/lib/systemd/system", sysdir, symlinks=True)
+    for unit in glob.glob(os.path.join(units_dir, "*.service")):
+        shutil.copy(unit, sysdir)
+    for src, dst in binaries:
+        os.makedirs(os.path.dirname(root + dst), exist_ok=True)
+        shutil.copy(src, root + dst)
+    return sysdir
+
+
+def verify(root, names):
+    r = subprocess.run(["systemd-analyze", "verify", "--man=no", f"--root={root}"] + names,
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    return r.returncode, r.stdout.strip()
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--units", required=True)
+    ap.add_argument("--master", required=True)
+    ap.add_argument("--slave", required=True)
+    ap.add_argument("--can-up", required=True)
+    ap.add_argument("--exit-codes", required=True)
+    ap.add_argument("--configs", required=True)
+    args = ap.parse_args()
+    if shutil.which("systemd-analyze") is None or not os.path.isdir("/usr/lib/systemd/system"):
+        raise Failure("systemd-analyze is missing: apt-get install systemd (it is in TELEOP_PACKAGES)")
+
+    names = ["teleop-master.service", "teleop-slave.service", "teleop-can-up@can0.service"]
+    with tempfile.TemporaryDirectory(prefix="teleop-units-") as root:
+        sysdir = stage(root, args.units, [(args.master, "/usr/bin/teleop-master"),
+                                          (args.slave, "/usr/bin/teleop-slave"),
+                                          (args.can_up, "/usr/share/teleop/can-up.sh"),
+                                          (shutil.which("ip") or "/usr/sbin/ip", "/usr/sbin/ip")])
+        rc, out = verify(root, names)
+        print(out)
+        check(rc == 0 and out == "", "systemd-analyze verify: the three units load with no message")
+
+        broken = os.path.join(sysdir, "teleop-master.service")
+        text = open(broken).read()
+        with open(broken, "w") as f:
+            f.write(text.replace("LimitRTPRIO=", "LimitRTPRIOO=", 1))
+        rc, out = verify(root, ["teleop-master.service"])
+        check("LimitRTPRIOO" in out, f"a misspelt key is reported ({out.splitlines()[0] if out else 'nothing'})")
+        with open(broken, "w") as f:
+            f.write(text.replace("ExecStart=/usr/bin/teleop-master", "ExecStart=/usr/bin/teleop-mastr", 1))
+        rc, out = verify(root, ["teleop-master.service"])
+        check(rc != 0 and "teleop-mastr" in out, "a wrong binary path is reported")
+
+    codes = exit_codes(args.exit_codes)
+    check({"kExitOk", "kExitConfigError", "kExitUnexpectedError", "kExitFaulted"} <= codes.keys(),
+          f"exit statuses read from exit_codes.hpp: {codes}")
+    never = {codes["kExitConfigError"], codes["kExitUnexpectedError"], codes["kExitFaulted"]}
+    fifo = [int(p) for c in glob.glob(os.path.join(args.configs, "**/*.yaml"), recursive=True)
+            for p in re.findall(r"(?m)^\s*fifo_priority:\s*(\d+)", open(c).read())]
+    for role in ("master", "slave"):
+        u = parse_unit(os.path.join(args.units, f"teleop-{role}.service"))
+        s = u["Service"]
+        exec_start = s["ExecStart"][0]
+        check(exec_start.startswith(f"/usr/bin/teleop-{role} ") and f"/etc/teleop/{role}.yaml" in exec_start,
+              f"{role}: ExecStart runs /usr/bin/teleop-{role} on /etc/teleop/{role}.yaml")
+        check(s["Restart"] == ["always"], f"{role}: Restart=always (a clean stop comes back to wait for the peer)")
+        prevent = " ".join(s["RestartPreventExitStatus"]).split()
+        numbers = {int(x) for x in prevent if x.isdigit() and int(x) < 100}
+        cli = {int(x) for x in prevent if x.isdigit() and int(x) >= 100}
+        check(cli == {105, 106, 109}, f"{role}: a bad command line (CLI11 105, 106, 109) is not restarted")
+        check(numbers == never, f"{role}: never restarted after statuses {sorted(never)} (set-up error, unexpected, "
+              f"latched fault), got {sorted(numbers)}")
+        check(codes["kExitOk"] not in numbers, f"{role}: a clean stop (status 0) is restarted")
+        check({"SIGSEGV", "SIGABRT"} <= set(prevent), f"{role}: never restarted after a crash")
+        check(s["CPUSchedulingPolicy"] == ["fifo"], f"{role}: CPUSchedulingPolicy=fifo")
+        rtprio = int(s["LimitRTPRIO"][0])
+        check(fifo and rtprio >= max(fifo), f"{role}: LimitRTPRIO={rtprio} admits every rig's fifo_priority "
+              f"(max {max(fifo) if fifo else '?'})")
+        check(int(s["CPUSchedulingPriority"][0]) < min(p for p in fifo if p > 0),
+              f"{role}: the process's base priority is below its loop's")
+        check(s["LimitMEMLOCK"] == ["infinity"], f"{role}: LimitMEMLOCK=infinity (realtime.lock_memory)")
+        check(s.get("StartLimitBurst") is None and "StartLimitBurst" in u["Unit"],
+              f"{role}: restarts are rate-limited ([Unit] StartLimitBurst)")
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except Failure as e:
+        print(f"FAILED: {e}")
+        sys.exit(1)
+    print("PASSED")

@@ -1,0 +1,239 @@
+#!/usr/bin/env python3
+"""The Wireshark dissector (deploy/wireshark/teleop.lua) against a real run captured on loopback with tshark.
+
+teleop-slave and teleop-master run for about 1.5 s on 127.0.0.1 with telemetry CSVs while tshark captures their
+ports; one datagram with a broken CRC and one foreign datagram are sent to the slave's port during the run. Then
+tshark decodes the capture with the dissector, and the test checks, field by field, that every sample the dissector
+decodes matches what the sending process itself recorded for that cycle in its telemetry CSV (the sequence number is
+the cycle number; position, velocity, force sensor and flags are what it sent), that every slave echo is a master
+timestamp, that the shutdown sample at the end is flagged, that the CRC of every real sample verifies and the broken
+one is flagged bad, and that the foreign datagram is not taken for teleop. Exit 77 (skip) only when capturing is not
+permitted here (no root / CAP_NET_RAW).
+"""
+import argparse
+import csv
+import math
+import os
+import re
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+
+SKIP = 77
+
+
+class Failure(Exception):
+    pass
+
+
+def check(cond, what):
+    if not cond:
+        raise Failure(what)
+    print(f"  ok: {what}")
+
+
+def free_udp_port():
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def write_config(src, dst, ports, csv_path):
+    text = open(src).read().replace("47001", str(ports[0])).replace("47002", str(ports[1]))
+    text = re.sub(r"(?m)^(\s*csv:).*$", rf'\1 "{csv_path}"', text)
+    with open(dst, "w") as f:
+        f.write(text)
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        return {int(r["cycle"]): r for r in csv.DictReader(f)}
+
+
+def broken_sample():
+    """A well-formed 1-DOF master sample whose CRC is off by one (the receiver rejects it as bad_crc)."""
+    head = struct.pack("<IBBBBBBHIQQI", 0x504F4C54, 1, 1, 0, 0x01, 1, 0, 24, 12345, 1, 0, 0)
+    body = struct.pack("<ddd", 0.25, -1.5, 2.0)
+    return head + body + struct.pack("<I", 0xDEADBEEF)
+
+
+# docs/protocol.md, "Example: 1 DOF, hand-checked" (also the golden bytes of tests/proto/codec_test.cpp).
+GOLDEN = bytes.fromhex(
+    "544C4F50 01 01 01 11 01 00 1800 04030201"
+    "8877665544332211 0807060504030201 90D00300"
+    "000000000000D03F 000000000000F8BF 0000000000000040"
+    "EE516B95".replace(" ", ""))
+
+
+def golden(tshark, dissector, tmp):
+    """The protocol page's hand-checked sample, through text2pcap and the dissector."""
+    dump = os.path.join(tmp, "golden.txt")
+    with open(dump, "w") as f:
+        f.write("000000 " + " ".join(f"{b:02x}" for b in GOLDEN) + "\n")
+    pcap = os.path.join(tmp, "golden.pcap")
+    r = subprocess.run(["text2pcap", "-q", "-u", "47002,47001", dump, pcap], stdout=subprocess.PIPE,
+                       stderr=subprocess.STDOUT, text=True)
+    check(r.returncode == 0, "text2pcap wrapped the golden sample in a UDP datagram" + (r.stdout if r.returncode else ""))
+    fields = ["teleop.role", "teleop.flags", "teleop.dof", "teleop.payload_length", "teleop.seq",
+              "teleop.sender_time_ns", "teleop.echo_time_ns", "teleop.echo_age_ns", "teleop.position",
+              "teleop.velocity", "teleop.force", "teleop.crc", "teleop.crc.status", "teleop.status",
+              "teleop.flags.enabled", "teleop.flags.in_fixture", "teleop.flags.fault"]
+    cmd = [tshark, "-r", pcap, "-X", f"lua_script:{dissector}", "-T", "fields", "-E", "separator=\t"]
+    for name in fields:
+        cmd += ["-e", name]
+    out = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True).stdout.strip()
+    got = dict(zip(fields, out.split("\t")))
+    want = {"teleop.role": "1", "teleop.flags": "0x11", "teleop.dof": "1", "teleop.payload_length": "24",
+            "teleop.seq": str(0x01020304), "teleop.sender_time_ns": str(0x1122334455667788),
+            "teleop.echo_time_ns": str(0x0102030405060708), "teleop.echo_age_ns": "250000",
+            "teleop.position": "0.25", "teleop.velocity": "-1.5", "teleop.force": "2", "teleop.crc": "0x956b51ee",
+            "teleop.crc.status": "1", "teleop.status": "ok"}
+    wrong = [f"{k} is {got.get(k)!r}, docs/protocol.md says {v}" for k, v in want.items()
+             if got.get(k, "").lower() != v.lower()]
+    check(got.get("teleop.flags.enabled") in ("1", "True") and got.get("teleop.flags.in_fixture") in ("1", "True")
+          and got.get("teleop.flags.fault") in ("0", "False"), "golden sample flags: enabled, in fixture, no fault")
+    check(not wrong, "the golden sample of docs/protocol.md decodes field by field (seq, times, echo age 250 us, "
+                "x 0.25 m, v -1.5 m/s, F 2 N, CRC 0x956B51EE good)" + (f": {wrong}" if wrong else ""))
+
+
+def same(a, b):
+    return math.isclose(a, b, rel_tol=1e-13, abs_tol=1e-300)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--master", required=True)
+    ap.add_argument("--slave", required=True)
+    ap.add_argument("--configs", required=True)
+    ap.add_argument("--dissector", required=True)
+    args = ap.parse_args()
+    tshark = "/usr/bin/tshark"
+    if not os.path.exists(tshark):
+        raise Failure("tshark is not installed: apt-get install tshark (it is in TELEOP_PACKAGES)")
+
+    with tempfile.TemporaryDirectory(prefix="teleop-tshark-") as tmp:
+        golden(tshark, args.dissector, tmp)
+        ports = (free_udp_port(), free_udp_port())
+        mcsv, scsv = os.path.join(tmp, "master.csv"), os.path.join(tmp, "slave.csv")
+        mcfg, scfg = os.path.join(tmp, "master.yaml"), os.path.join(tmp, "slave.yaml")
+        write_config(os.path.join(args.configs, "master.yaml"), mcfg, ports, mcsv)
+        write_config(os.path.join(args.configs, "slave.yaml"), scfg, ports, scsv)
+        pcap = os.path.join(tmp, "run.pcapng")
+        cap = subprocess.Popen([tshark, "-i", "lo", "-q", "-w", pcap, "-f",
+                                f"udp port {ports[0]} or udp port {ports[1]}"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        # tshark says "Capturing on 'Loopback: lo'" once the capture runs.
+        line, deadline = "", time.monotonic() + 30
+        while time.monotonic() < deadline:
+            line = cap.stderr.readline()
+            if "Capturing on" in line or not line:
+                break
+        if "Capturing on" not in line:
+            cap.kill()
+            rest = line + cap.stderr.read()
+            if "permission" in rest.lower() or "not permitted" in rest.lower():
+                print(f"SKIPPED: capturing on lo is not permitted here: {rest.strip()}")
+                return SKIP
+            raise Failure(f"tshark did not start capturing: {rest.strip()}")
+        try:
+            slave = subprocess.Popen([args.slave, "--config", scfg, "--duration", "6"],
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            time.sleep(0.3)
+            master = subprocess.Popen([args.master, "--config", mcfg, "--duration", "1.5"],
+                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            time.sleep(0.8)
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+                s.sendto(broken_sample(), ("127.0.0.1", ports[1]))
+                s.sendto(b"GET / HTTP/1.0\r\n\r\n" * 3, ("127.0.0.1", ports[1]))
+            mout, _ = master.communicate(timeout=60)
+            sout, _ = slave.communicate(timeout=60)
+            time.sleep(0.3)
+        finally:
+            cap.send_signal(signal.SIGINT)
+            try:
+                cap.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                cap.kill()
+        print(mout, sout)
+        check(master.returncode == 0 and slave.returncode == 0, "both processes ran and exited 0")
+        check("rejected 2" in sout, "the slave rejected the two datagrams the test sent")
+
+        fields = ["frame.number", "udp.srcport", "teleop.role", "teleop.seq", "teleop.flags", "teleop.dof",
+                  "teleop.position", "teleop.velocity", "teleop.force", "teleop.sender_time_ns",
+                  "teleop.echo_time_ns", "teleop.crc.status", "teleop.status", "teleop.flags.shutdown"]
+        cmd = [tshark, "-r", pcap, "-X", f"lua_script:{args.dissector}", "-T", "fields", "-E", "separator=\t",
+               "-E", "occurrence=a"]
+        for name in fields:
+            cmd += ["-e", name]
+        r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=120)
+        errors = [ln for ln in r.stderr.splitlines() if "Running as user" not in ln and ln.strip()]
+        check(r.returncode == 0 and not errors, f"tshark loads the dissector and reads the capture {errors[:3]}")
+        rows = [dict(zip(fields, ln.split("\t"))) for ln in r.stdout.splitlines()]
+        frames = len(rows)
+        teleop_rows = [x for x in rows if x["teleop.seq"] != ""]
+        other = [x for x in rows if x["teleop.seq"] == ""]
+        check(frames > 1000, f"{frames} frames captured")
+        check(len(other) == 1, f"exactly one frame (the foreign datagram) is not teleop ({len(other)})")
+
+        mrows, srows = read_csv(mcsv), read_csv(scsv)
+        bad = [x for x in teleop_rows if x["teleop.crc.status"] != "1"]
+        check(len(bad) == 1 and bad[0]["teleop.seq"] == "12345" and bad[0]["teleop.status"] == "bad_crc",
+              "the one forged sample is flagged: CRC status bad, decode status bad_crc")
+        real = [x for x in teleop_rows if x not in bad]
+        check(all(x["teleop.status"] == "ok" for x in real), "every real sample decodes as ok with a good CRC")
+
+        master_times = set()
+        matched = {"master": 0, "slave": 0}
+        sent = {"master": 0, "slave": 0}
+        shutdown = {"master": 0, "slave": 0}
+        for x in real:
+            role = "master" if x["teleop.role"] == "0" else "slave"
+            src = int(x["udp.srcport"])
+            if src != ports[0 if role == "master" else 1]:
+                raise Failure(f"frame {x['frame.number']}: role {role} from port {src}")
+            sent[role] += 1
+            if role == "master":
+                master_times.add(int(x["teleop.sender_time_ns"]))
+            if x["teleop.flags.shutdown"] in ("1", "True"):
+                shutdown[role] += 1
+                continue
+            table = mrows if role == "master" else srows
+            row = table.get(int(x["teleop.seq"]))
+            if row is None:
+                continue
+            checks = [("position", "position_m_0"), ("velocity", "velocity_m_per_s_0"),
+                      ("force", "force_sensor_N_0")]
+            for field, col in checks:
+                if not same(float(x[f"teleop.{field}"]), float(row[col])):
+                    raise Failure(f"frame {x['frame.number']} {role} seq {x['teleop.seq']}: {field} "
+                                  f"{x[f'teleop.{field}']} but the CSV says {row[col]}")
+            if int(x["teleop.flags"], 16) != int(row["flags"]) or x["teleop.dof"] != row["dof"]:
+                raise Failure(f"frame {x['frame.number']}: flags {x['teleop.flags']} dof {x['teleop.dof']}, CSV "
+                              f"{row['flags']} {row['dof']}")
+            matched[role] += 1
+        for role, table in (("master", mrows), ("slave", srows)):
+            check(matched[role] >= 0.99 * len(table),
+                  f"{role}: {matched[role]} of its {len(table)} CSV cycles found in the capture, every field equal "
+                  f"(position, velocity, force, flags, dof)")
+            check(shutdown[role] >= 1, f"{role}: its shutdown sample is flagged")
+        echoes = [int(x["teleop.echo_time_ns"]) for x in real if x["teleop.role"] == "1"]
+        echoes = [e for e in echoes if e != 0]
+        hits = sum(1 for e in echoes if e in master_times)
+        check(echoes and hits >= 0.99 * len(echoes),
+              f"{hits} of {len(echoes)} slave echoes are master sender times from the capture")
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        rc = main()
+    except Failure as e:
+        print(f"FAILED: {e}")
+        sys.exit(1)
+    if rc == 0:
+        print("PASSED")
+    sys.exit(rc)

@@ -1,0 +1,297 @@
+#!/usr/bin/env python3
+"""Two machines on one host: teleop-slave and teleop-master in two network namespaces joined by a veth pair.
+
+Each process has its own network stack and its own address (master 10.77.0.1, slave 10.77.0.2, a /30 that exists
+only inside the two namespaces this test creates), so the samples cross a real (virtual) Ethernet link instead of
+loopback. The test runs the shipped rig configs (deploy/configs/loopback/*.yaml) with only the real-time settings
+relaxed for a shared test machine, and checks the run from both summaries: delivery, loss, round trip, tracking,
+the fixture; and from the veth counters that the traffic really went over the link.
+
+  --transport udp           the UDP rig configs, master-udp.yaml / slave-udp.yaml
+  --transport emulated-can  the CAN rig configs with the SocketCAN interface swapped for the emulated bus daemon
+                            (teleop-canbus) running in the slave's namespace: the master reaches the bus over the veth.
+                            Real SocketCAN runs in the qemu guest (tests/qemu, docs/qemu-can.md).
+
+Exit 77 (ctest: skipped) with a message only when network namespaces cannot be created here (not root, no
+CAP_SYS_ADMIN, no iproute2). The namespaces are deleted on every exit path, failures included; their names carry the
+process id so that parallel runs never collide.
+"""
+import argparse
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+SKIP = 77
+MASTER_ADDR = "10.77.0.1"
+SLAVE_ADDR = "10.77.0.2"
+
+
+class Failure(Exception):
+    pass
+
+
+def check(cond, what):
+    if not cond:
+        raise Failure(what)
+    print(f"  ok: {what}")
+
+
+def run(cmd, check_rc=True):
+    r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    if check_rc and r.returncode != 0:
+        raise Failure(f"{' '.join(cmd)} failed ({r.returncode}): {r.stdout.strip()}")
+    return r
+
+
+class Namespaces:
+    """Two namespaces and a veth pair; removed by close() whatever happened."""
+
+    def __init__(self, tag):
+        self.master = f"tlp{tag}m"
+        self.slave = f"tlp{tag}s"
+        self.veth_master = f"tv{tag}m"[:15]
+        self.veth_slave = f"tv{tag}s"[:15]
+        self.created = []
+
+    def create(self):
+        for ns in (self.master, self.slave):
+            r = run(["ip", "netns", "add", ns], check_rc=False)
+            if r.returncode != 0:
+                return r.stdout.strip()
+            self.created.append(ns)
+        run(["ip", "link", "add", self.veth_master, "netns", self.master, "type", "veth", "peer", "name",
+             self.veth_slave, "netns", self.slave])
+        for ns, dev, addr in ((self.master, self.veth_master, MASTER_ADDR), (self.slave, self.veth_slave, SLAVE_ADDR)):
+            run(["ip", "-n", ns, "link", "set", "lo", "up"])
+            run(["ip", "-n", ns, "addr", "add", f"{addr}/30", "dev", dev])
+            run(["ip", "-n", ns, "link", "set", dev, "up"])
+        return None
+
+    def exec(self, ns, cmd):
+        return ["ip", "netns", "exec", ns] + cmd
+
+    def tx_packets(self, ns, dev):
+        out = run(["ip", "-n", ns, "-s", "-j", "link", "show", dev]).stdout
+        return json.loads(out)[0]["stats64"]["tx"]["packets"]
+
+    def close(self):
+        for ns in self.created:
+            # Deleting a namespace kills nothing by itself: the processes were waited for or killed before.
+            subprocess.run(["ip", "netns", "del", ns], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        self.created = []
+
+
+class Output:
+    """A process's output collected on a thread, so the test can wait for a line."""
+
+    def __init__(self, proc):
+        self.lines = []
+        self.cond = threading.Condition()
+        self.thread = threading.Thread(target=self._read, args=(proc,), daemon=True)
+        self.thread.start()
+
+    def _read(self, proc):
+        for line in proc.stdout:
+            with self.cond:
+                self.lines.append(line)
+                self.cond.notify_all()
+
+    def wait_for(self, text, timeout_s):
+        deadline = time.monotonic() + timeout_s
+        with self.cond:
+            while not any(text in line for line in self.lines):
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return False
+                self.cond.wait(left)
+        return True
+
+    def text(self):
+        self.thread.join(timeout=5)
+        return "".join(self.lines)
+
+
+def relax_realtime(text):
+    """The rig configs ask for SCHED_FIFO and locked memory (a deployed rig); a shared test machine gets neither."""
+    text = re.sub(r"(?m)^(\s*fifo_priority:)\s*\d+", r"\1 0", text)
+    text = re.sub(r"(?m)^(\s*lock_memory:)\s*\w+", r"\1 false", text)
+    return re.sub(r"(?m)^(\s*cpu:)\s*-?\d+", r"\1 -1", text)
+
+
+def to_emulated_bus(text, bus):
+    """SocketCAN interface -> the emulated bus daemon at `bus` (same frames, same budget, no AF_CAN needed)."""
+    if not re.search(r"(?m)^\s*transport:\s*can\b", text):
+        raise Failure("the CAN rig config does not say transport: can")
+    text = re.sub(r"(?m)^(\s*)transport:\s*can\b", r"\1transport: emulated-can", text)
+    return re.sub(r"(?m)^(\s*)interface:.*$", rf'\1bus: "{bus}"', text)
+
+
+def load(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+def remove_stale_namespaces():
+    """Namespaces a killed earlier run left behind (tlp<pid>..): removed when that process is gone."""
+    listing = run(["ip", "netns", "list"], check_rc=False).stdout
+    for name in re.findall(r"(?m)^(tlp(\d+)[uc][ms])\b", listing):
+        ns, pid = name
+        if not os.path.exists(f"/proc/{pid}"):
+            subprocess.run(["ip", "netns", "del", ns], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            print(f"removed namespace {ns} left by an earlier run")
+
+
+def stop_on_signal(signum, _frame):
+    raise Failure(f"stopped by signal {signum} (ctest timeout?)")
+
+
+def main():
+    signal.signal(signal.SIGTERM, stop_on_signal)
+    signal.signal(signal.SIGINT, stop_on_signal)
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--master", required=True)
+    ap.add_argument("--slave", required=True)
+    ap.add_argument("--canbus", help="teleop-canbus (for --transport emulated-can)")
+    ap.add_argument("--configs", required=True, help="deploy/configs/loopback")
+    ap.add_argument("--transport", required=True, choices=["udp", "emulated-can"])
+    ap.add_argument("--workdir", required=True)
+    args = ap.parse_args()
+
+    if shutil.which("ip") is None:
+        print("SKIPPED: iproute2 (ip) is not installed, so no network namespaces can be created")
+        return SKIP
+    os.makedirs(args.workdir, exist_ok=True)
+    remove_stale_namespaces()
+    ns = Namespaces(f"{os.getpid()}{'u' if args.transport == 'udp' else 'c'}")
+    procs = []
+    try:
+        err = ns.create()
+        if err is not None:
+            print(f"SKIPPED: cannot create a network namespace here ({err}); this test needs root or CAP_SYS_ADMIN "
+                  "(it runs in CI as root)")
+            return SKIP
+        print(f"namespaces {ns.master} ({MASTER_ADDR}) and {ns.slave} ({SLAVE_ADDR}) joined by veth "
+              f"{ns.veth_master}/{ns.veth_slave}")
+        return run_pair(args, ns, procs)
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+        ns.close()
+        leftover = run(["ip", "netns", "list"], check_rc=False).stdout
+        if ns.master in leftover or ns.slave in leftover:
+            print(f"FAILED: namespace {ns.master} or {ns.slave} was not removed")
+            sys.exit(1)
+
+
+def run_pair(args, ns, procs):
+    suffix = "udp" if args.transport == "udp" else "can"
+    cfgs = {}
+    for role in ("master", "slave"):
+        text = relax_realtime(open(os.path.join(args.configs, f"{role}-{suffix}.yaml")).read())
+        if args.transport == "emulated-can":
+            text = to_emulated_bus(text, f"{SLAVE_ADDR}:47300")
+        else:
+            check(f"{MASTER_ADDR}:" in text and f"{SLAVE_ADDR}:" in text,
+                  f"{role}-udp.yaml binds/peers the two machines' addresses {MASTER_ADDR} and {SLAVE_ADDR}")
+        cfgs[role] = os.path.join(args.workdir, f"{role}.yaml")
+        with open(cfgs[role], "w") as f:
+            f.write(text)
+    mjson = os.path.join(args.workdir, "master.json")
+    sjson = os.path.join(args.workdir, "slave.json")
+    for p in (mjson, sjson):
+        if os.path.exists(p):
+            os.remove(p)
+
+    # The loopback master is unreachable from the slave's namespace and vice versa: only the veth joins them.
+    r = run(ns.exec(ns.master, ["ip", "-4", "-o", "addr", "show"]))
+    check(SLAVE_ADDR not in r.stdout, "the slave's address is not local to the master's namespace")
+
+    if args.transport == "emulated-can":
+        bus = subprocess.Popen(ns.exec(ns.slave, [args.canbus, "--bind", SLAVE_ADDR, "--port", "47300",
+                                                   "--bitrate", "1000000", "--duration-s", "20",
+                                                   "--stats-every-s", "0"]),
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        procs.append(bus)
+        bus_out = Output(bus)
+        if not bus_out.wait_for("listening", 10):
+            raise Failure("teleop-canbus did not start:\n" + bus_out.text())
+
+    slave = subprocess.Popen(ns.exec(ns.slave, [args.slave, "--config", cfgs["slave"], "--duration", "10",
+                                                "--summary-json", sjson]),
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    procs.append(slave)
+    slave_out = Output(slave)
+    if not slave_out.wait_for("DOF at", 60):
+        slave.kill()
+        raise Failure("teleop-slave did not start its loop:\n" + slave_out.text())
+    master = subprocess.Popen(ns.exec(ns.master, [args.master, "--config", cfgs["master"], "--duration", "3",
+                                                  "--summary-json", mjson]),
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    procs.append(master)
+    master_out = Output(master)
+    try:
+        master.wait(timeout=90)
+        slave.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        raise Failure("processes did not stop:\n" + master_out.text() + slave_out.text())
+    print("---- master output ----\n" + master_out.text())
+    print("---- slave output ----\n" + slave_out.text())
+
+    check(master.returncode == 0, f"master exits 0 (got {master.returncode})")
+    check(slave.returncode == 0, f"slave exits 0 (got {slave.returncode})")
+    m, s = load(mjson), load(sjson)
+    check(s["stop_reason"] == "peer shutdown", f"the slave stopped on the master's shutdown ({s['stop_reason']})")
+    check(m["stop_reason"] == "duration", f"the master ran its 3 s ({m['stop_reason']})")
+    for name, x in (("master", m), ("slave", s)):
+        pk = x["packets"]
+        check(x["cycles"] > 1000, f"{name} ran {x['cycles']} cycles ({x['achieved_rate_hz']:.0f} Hz achieved)")
+        check(pk["sent"] >= x["cycles"], f"{name} sent {pk['sent']} samples, one per cycle")
+        check(pk["send_errors"] == 0, f"{name} had no send errors")
+        check(pk["rejected"] == 0, f"{name} rejected nothing ({pk['rejected']})")
+        check(x["cycles_with_peer"] > 0.5 * x["cycles"] if name == "master" else x["cycles_with_peer"] > 1000,
+              f"{name} was coupled for {x['cycles_with_peer']} cycles")
+        check(pk["lost"] <= 0.01 * pk["accepted"] + 2, f"{name} lost {pk['lost']} of {pk['accepted']} (a veth: ~none)")
+        check(x["nonfinite_inputs"] == 0 and x["device_fault_cycles"] == 0, f"{name} had no faults")
+        check(x["tracking_error_rms_m"] < 0.005, f"{name} tracking error rms {x['tracking_error_rms_m'] * 1e3:.3f} mm")
+    # Delivery: what one side sent, the other received (less what was still in flight at the end).
+    check(s["packets"]["received"] >= 0.98 * m["packets"]["sent"],
+          f"the slave received {s['packets']['received']} of the master's {m['packets']['sent']} samples")
+    # The slave sent one sample per cycle while the master was there (its cycles with a fresh peer): the master must
+    # have received them (not "one per master cycle": on a loaded machine the slave's loop can run slower).
+    check(m["packets"]["received"] >= 0.98 * s["cycles_with_peer"] - 5,
+          f"the master received {m['packets']['received']} samples; the slave ran {s['cycles_with_peer']} cycles "
+          "coupled to it")
+    if args.transport == "udp":
+        for name, x in (("master", m), ("slave", s)):
+            check(x["rtt_ms"]["count"] >= 0.9 * x["packets"]["accepted"],
+                  f"{name} measured {x['rtt_ms']['count']} round trips")
+            check(0 < x["rtt_ms"]["p50"] < 20, f"{name} round trip p50 {x['rtt_ms']['p50']:.3f} ms over the veth")
+    else:
+        check(m["rtt_ms"]["count"] == 0, "CAN frames carry no timestamps: no round trip claimed")
+        check("bus" in m["link_detail"] or "frames" in m["link_detail"], f"CAN link detail: {m['link_detail']}")
+    check(s["fixture_max_penetration_m"] > 0, "the operator pushed the slave into its fixture")
+    check(s["fixture_max_penetration_m"] < 0.005,
+          f"the fixture held the slave within 5 mm ({s['fixture_max_penetration_m'] * 1e3:.3f} mm)")
+    # The samples went over the veth, not some loopback: its counters saw at least every sample the master sent.
+    tx = ns.tx_packets(ns.master, ns.veth_master)
+    check(tx >= m["packets"]["sent"], f"veth {ns.veth_master} sent {tx} packets >= the master's {m['packets']['sent']}")
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        rc = main()
+    except Failure as e:
+        print(f"FAILED: {e}")
+        sys.exit(1)
+    if rc == 0:
+        print("PASSED")
+    sys.exit(rc)
