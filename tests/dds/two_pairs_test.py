@@ -191,8 +191,8 @@ def main():
             # (up to the last few cycles): the figure the supervisor shows against the one the process prints.
             last = max(states(records, pair, role), key=lambda s: s["cycle"])
             shown_rate = last["cycle"] / last["time_s"]
-            check(abs(shown_rate - own["achieved_rate_hz"]) <= 0.02 * own["achieved_rate_hz"],
-                  f"{name}: mean loop rate {shown_rate:.1f} Hz within 2 % of the process's own "
+            check(abs(shown_rate - own["achieved_rate_hz"]) <= 0.05 * own["achieved_rate_hz"],
+                  f"{name}: mean loop rate {shown_rate:.1f} Hz within 5 % of the process's own "
                   f"{own['achieved_rate_hz']:.1f} Hz")
             windows = [s["achieved_rate_hz"] for s in live if s["achieved_rate_hz"] is not None]
             check(windows and all(0 < r < 2 * own["rate_hz"] for r in windows),

@@ -1,5 +1,6 @@
 // A custom device backend registered from outside the tree: a 1-DOF mass on a spring, simulated. A real backend
 // would open its bus in the constructor and exchange frames in Read/Write/Update (teleop/device/device.hpp).
+#include <any>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -21,7 +22,7 @@ class SpringDevice final : public teleop::device::Device {
     out.force_N = teleop::ZeroDof(caps_.dof);
     out.faults = teleop::device::kFaultNone;
   }
-  void Write(const teleop::DofVector& command_N) noexcept override { force_N_ = command_N[0]; }
+  void Write(const teleop::device::Command& command) noexcept override { force_N_ = command.force_N[0]; }
   void Update(double period_s) noexcept override {  // semi-implicit Euler: m a = F - k x - b v
     const double a = (force_N_ - kStiffness_N_per_m * x_m_ - kDamping_Ns_per_m * v_m_per_s_) / kMass_kg;
     v_m_per_s_ += a * period_s;
@@ -43,9 +44,15 @@ class SpringDevice final : public teleop::device::Device {
 }  // namespace
 
 int main() {
-  teleop::device::RegisterDevice("example-spring", [](const teleop::device::DeviceConfig& config) {
-    return std::make_unique<SpringDevice>(config.dof);
-  });
+  teleop::device::DeviceBackend backend;
+  backend.name = "example-spring";
+  backend.description = "a simulated 1-DOF mass on a spring (out-of-tree example)";
+  backend.section_required = false;  // no device.example-spring section: nothing to read
+  backend.read = [](const teleop::config::Field* /*section*/, const teleop::device::SectionContext& /*context*/) {
+    return std::any{};
+  };
+  backend.make = [](const teleop::device::DeviceConfig& config) { return std::make_unique<SpringDevice>(config.dof); };
+  teleop::device::RegisterDevice(std::move(backend));
   std::printf("registered backends:");
   for (const auto& name : teleop::device::RegisteredDevices()) std::printf(" %s", name.c_str());
   std::printf("\n");
@@ -54,11 +61,13 @@ int main() {
   config.backend = "example-spring";
   config.dof = 1;
   auto device = teleop::device::MakeDevice(config);
+  device->Configure();
+  device->Activate();
   teleop::device::Reading reading;
-  const teleop::DofVector command_N = teleop::DofVector::Constant(1, 1.0);
+  const teleop::device::Command command = teleop::device::Command::Force(teleop::DofVector::Constant(1, 1.0));
   for (int cycle = 0; cycle < 2000; ++cycle) {  // 2 s at 1 kHz, the loop's order: Read, Write, Update
     device->Read(reading);
-    device->Write(command_N);
+    device->Write(command);
     device->Update(1e-3);
   }
   device->Read(reading);
