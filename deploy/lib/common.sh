@@ -20,6 +20,7 @@ TELEOP_PACKAGES=(
   tshark
   systemd
   dpkg-dev
+  cyclonedds-dev cyclonedds-tools
 )
 
 teleop::missing_packages() {

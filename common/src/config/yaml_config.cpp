@@ -11,6 +11,7 @@
 #include <system_error>
 
 #include "sections.hpp"
+#include "dds_config.hpp"  // dds: section (docs/dds.md)
 #include "teleop/config/yaml_reader.hpp"
 #include "teleop/error.hpp"
 
@@ -57,7 +58,7 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
     throw Error(name + ": the config is empty; it needs at least role, dof, rate_hz, link, law and device");
   }
   const Map map(root, {"role", "dof", "rate_hz", "duration_s", "realtime", "link", "law", "fixture", "device",
-                       "telemetry", "stability"});
+                       "telemetry", "stability", "dds"});
   ProcessConfig config;
   config.source_path = name;
   config.role = ParseRole(map.Required("role"));
@@ -77,6 +78,7 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
   ParseDevice(map.Required("device"), config.role, config.dof, config.device);
   if (auto v = map.Optional("telemetry")) ParseTelemetry(*v, config.telemetry);
   if (auto v = map.Optional("stability")) ParseStability(*v, config.dof, config.stability);
+  if (auto v = map.Optional("dds")) detail::ParseDds(*v, config.loop.rate_hz, config.dds);  // docs/dds.md
   return config;
 }
 

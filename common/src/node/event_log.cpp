@@ -55,6 +55,7 @@ void EventLog::Drain() {
         spdlog::warn("cycle {}: overrun ({} so far)", e.cycle, e.value);
         break;
     }
+    if (EventObserver* observer = observer_.load(std::memory_order_acquire)) observer->OnEvent(e);
   }
 }
 

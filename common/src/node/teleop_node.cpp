@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "teleop/config/render_check.hpp"
+#include "teleop/dds/bridge.hpp"  // DDS bridge (docs/dds.md)
 #include "teleop/device/law_command.hpp"
 #include "teleop/error.hpp"
 #include "teleop/link/link_config.hpp"
@@ -68,6 +69,13 @@ struct TeleopNode::Impl {
       telemetry = std::make_unique<runtime::TelemetryWriter>(
           config.telemetry.csv_path, static_cast<std::size_t>(config.telemetry.ring_capacity), dof);
     }
+    // ---- DDS bridge (docs/dds.md): its own thread publishes; the cycle only copies into its ring.
+    if (config.dds.enabled) {
+      bridge = std::make_unique<dds::Bridge>(config.dds, config.role, config.loop.rate_hz);
+      bridge_decimation = bridge->decimation();
+      events.SetObserver(bridge.get());
+    }
+    // ---- end DDS bridge
     device->Activate();  // last: a failure above leaves the device configured but never rendering
     active = true;
   }
@@ -93,6 +101,8 @@ struct TeleopNode::Impl {
                         std::int64_t now_ns) noexcept;
   void Record(const control::ThreeChannelLaw::Output& out, const PeerState& peer_state, bool fault, std::uint8_t flags,
               std::uint64_t cycle, std::int64_t now_ns, double t_s) noexcept;
+  void PushBridgeState(const runtime::TelemetryRecord& record, const control::ThreeChannelLaw::Output& out,
+                       const PeerState& peer_state, bool fault) noexcept;  // DDS bridge
 
   config::ProcessConfig config;
   std::unique_ptr<device::Device> device;
@@ -100,6 +110,8 @@ struct TeleopNode::Impl {
   control::ThreeChannelLaw law;
   runtime::PeriodicLoop loop;
   runtime::LinkWatchdog watchdog;
+  std::unique_ptr<dds::Bridge> bridge;  ///< DDS bridge, or null. Declared before `events`: outlives its observer.
+  std::uint64_t bridge_decimation = 1;
   EventLog events;
   std::unique_ptr<runtime::TelemetryWriter> telemetry;
 
@@ -257,7 +269,9 @@ void TeleopNode::Impl::Record(const control::ThreeChannelLaw::Output& out, const
     overrun_event_cycle = cycle;
     events.Push({Event::Kind::kOverrun, cycle, static_cast<double>(reported_overruns)});
   }
-  if (telemetry && cycle % static_cast<std::uint64_t>(config.telemetry.decimation) == 0) {
+  const bool to_csv = telemetry && cycle % static_cast<std::uint64_t>(config.telemetry.decimation) == 0;
+  const bool to_dds = bridge && cycle % bridge_decimation == 0;  // DDS bridge
+  if (to_csv || to_dds) {
     runtime::TelemetryRecord r{};
     r.cycle = cycle;
     r.time_s = t_s;
@@ -276,9 +290,34 @@ void TeleopNode::Impl::Record(const control::ThreeChannelLaw::Output& out, const
     r.flags = flags;
     r.rtt_s = last_rtt_s;
     r.compute_s = static_cast<double>(MonotonicNowNs() - now_ns) * 1e-9;
-    if (telemetry->Push(r)) ++telemetry_records;
+    if (to_csv && telemetry->Push(r)) ++telemetry_records;
+    if (to_dds) PushBridgeState(r, out, peer_state, fault);  // DDS bridge
   }
 }
+
+// ---- DDS bridge (docs/dds.md): one copy into the bridge's lock-free ring; a full ring is counted by the bridge.
+void TeleopNode::Impl::PushBridgeState(const runtime::TelemetryRecord& record,
+                                       const control::ThreeChannelLaw::Output& out, const PeerState& peer_state,
+                                       bool fault) noexcept {
+  dds::BridgeSample sample;
+  sample.record = record;
+  dds::EngagementInputs in;
+  in.stopping = loop.stopping();
+  in.local_fault = fault || out.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput;
+  in.peer_fault = (peer.flags & proto::kFlagFault) != 0;
+  in.have_peer = have_peer;
+  in.peer_shutdown = peer_shutdown;
+  in.peer_fresh = peer_state.fresh && !peer_state.link_faulted;
+  sample.engagement = dds::EngagementOf(in);
+  sample.device_faults = reading.faults;
+  sample.overruns = loop.stats().overruns;
+  sample.watchdog_trips = watchdog.trips();
+  sample.link = link->counters();
+  sample.tracking_error_m =
+      peer_state.usable ? (reading.position_m - config.law.peer_position_scale * input.peer_position_m).norm() : 0.0;
+  (void)bridge->PushState(sample);
+}
+// ---- end DDS bridge
 
 void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s) noexcept {
   const std::int64_t now_ns = MonotonicNowNs();
@@ -357,6 +396,10 @@ RunSummary TeleopNode::Run() {
                   s.dof_mismatches, s.config.dof);
   }
   s.events.Stop();
+  if (s.bridge) {  // DDS bridge: the summary goes out, then the bridge leaves the domain
+    s.bridge->PublishSummary(summary, FormatSummaryJson(summary));
+    s.bridge->Stop();
+  }
   return summary;
 }
 

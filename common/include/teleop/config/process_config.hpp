@@ -4,6 +4,7 @@
 #include <string>
 
 #include "teleop/control/three_channel_law.hpp"
+#include "teleop/dds/bridge_config.hpp"
 #include "teleop/device/device_config.hpp"
 #include "teleop/link/link_config.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
@@ -59,6 +60,7 @@ struct ProcessConfig {
   control::ThreeChannelLaw::Config law{};
   TelemetryConfig telemetry{};
   StabilityConfig stability{};
+  dds::BridgeConfig dds{};  ///< The DDS bridge (docs/dds.md); off unless dds.enabled.
   std::string source_path;  ///< The file it was read from (for messages).
 };
 

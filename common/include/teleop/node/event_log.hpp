@@ -26,6 +26,14 @@ struct Event {
   double value = 0.0;  ///< Kind-specific: fault bits, overrun count, ...
 };
 
+/// Sees every event on the log's thread, after it is logged (the DDS bridge, docs/dds.md). Never called from the
+/// real-time cycle; must not block for long.
+class EventObserver {
+ public:
+  virtual ~EventObserver() = default;
+  virtual void OnEvent(const Event& event) noexcept = 0;
+};
+
 /// The loop's log: TryPush from the real-time thread (drops are counted), a thread drains it into spdlog.
 class EventLog {
  public:
@@ -40,12 +48,15 @@ class EventLog {
   /// Drains what is left and joins the thread.
   void Stop();
   std::uint64_t dropped() const noexcept { return dropped_.load(std::memory_order_relaxed); }
+  /// Adds an observer (nullptr removes it); it must stay alive until Stop() returns.
+  void SetObserver(EventObserver* observer) noexcept { observer_.store(observer, std::memory_order_release); }
 
  private:
   void Drain();
   runtime::SpscRing<Event> ring_;
   std::atomic<bool> stop_{false};
   std::atomic<std::uint64_t> dropped_{0};
+  std::atomic<EventObserver*> observer_{nullptr};
   std::thread thread_;
 };
 

@@ -1,0 +1,160 @@
+// teleop-supervise: every master/slave pair on a DDS domain, live in the terminal, optionally recorded to a file
+// (docs/dds.md). Reads what the processes' DDS bridges publish; never talks to the processes otherwise.
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "teleop/dds/process_view.hpp"
+#include "teleop/dds/supervisor.hpp"
+#include "teleop/error.hpp"
+#include "teleop/runtime/periodic_loop.hpp"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+extern "C" void HandleStopSignal(int /*signal*/) { g_stop.store(true); }
+
+enum class Format { kCsv, kJsonLines };
+
+/// The record file: one line per process per refresh, plus (JSON lines only) events and summaries as they arrive.
+class Recorder {
+ public:
+  Recorder(const std::string& path, Format format) : out_(path), format_(format) {
+    if (!out_) throw teleop::Error("cannot open '" + path + "' for writing (--record)");
+    if (format_ == Format::kCsv) out_ << teleop::dds::CsvHeader() << '\n';
+  }
+  void States(const std::vector<teleop::dds::ProcessView>& views, double t_s) {
+    for (const auto& v : views) {
+      if (v.status == teleop::dds::ProcessView::Status::kDiscovered && !v.have_state) continue;
+      out_ << (format_ == Format::kCsv ? teleop::dds::CsvRow(v, t_s) : teleop::dds::JsonStateLine(v, t_s)) << '\n';
+    }
+    out_.flush();
+  }
+  void Event(const teleop::dds::ProcessView& v, const std::string& kind, std::uint64_t cycle, double value,
+             double t_s) {
+    if (format_ == Format::kJsonLines)
+      out_ << teleop::dds::JsonEventLine(v.pair, v.role, kind, cycle, value, t_s) << '\n';
+  }
+  void Summary(const teleop::dds::ProcessView& v, double t_s) {
+    if (format_ == Format::kJsonLines) out_ << teleop::dds::JsonSummaryLine(v, t_s) << '\n';
+  }
+  bool ok() const { return static_cast<bool>(out_); }
+
+ private:
+  std::ofstream out_;
+  Format format_;
+};
+
+bool EndsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+int Run(int argc, char** argv) {
+  CLI::App app{
+      "teleop-supervise: every teleop master/slave pair on a DDS domain (rate, loss, round trip, engagement, "
+      "faults), live; see docs/dds.md"};
+  int domain_id = 0;
+  double interval_s = 0.5;
+  double stale_after_s = 1.0;
+  double duration_s = 0.0;
+  double settle_s = 2.0;
+  bool once = false;
+  bool quiet = false;
+  std::string record_path;
+  std::string format_name;
+  app.add_option("--domain", domain_id, "DDS domain id (dds.domain_id of the processes)")->check(CLI::Range(0, 232));
+  app.add_option("--interval", interval_s, "Seconds between refreshes of the table and the record")
+      ->check(CLI::Range(0.01, 60.0));
+  app.add_option("--stale-after", stale_after_s,
+                 "A process without a State for this long (at least 3 state periods) is shown as stale")
+      ->check(CLI::Range(0.05, 3600.0));
+  app.add_option("--duration", duration_s, "Stop after this many seconds (0 = until Ctrl-C)")
+      ->check(CLI::Range(0.0, 1e6));
+  app.add_flag("--once", once, "Wait --settle seconds for discovery, print the table once and exit");
+  app.add_option("--settle", settle_s, "With --once: seconds to listen before printing")->check(CLI::Range(0.0, 60.0));
+  app.add_option("--record", record_path, "Also record every refresh to this file (CSV, or JSON lines)");
+  app.add_option("--format", format_name, "Record format: csv or jsonl (default: csv for *.csv, else jsonl)")
+      ->check(CLI::IsMember({"csv", "jsonl"}));
+  app.add_flag("-q,--quiet", quiet, "Do not print the table (record only)");
+  CLI11_PARSE(app, argc, argv);
+  spdlog::set_pattern("[%H:%M:%S.%e] [teleop-supervise] [%^%l%$] %v");
+
+  try {
+    std::optional<Recorder> recorder;
+    if (!record_path.empty()) {
+      const bool csv = format_name.empty() ? EndsWith(record_path, ".csv") : format_name == "csv";
+      recorder.emplace(record_path, csv ? Format::kCsv : Format::kJsonLines);
+    }
+    const std::int64_t start_ns = teleop::runtime::MonotonicNowNs();
+    const auto since_start_s = [start_ns] {
+      return static_cast<double>(teleop::runtime::MonotonicNowNs() - start_ns) * 1e-9;
+    };
+    teleop::dds::Supervisor::Observer observer;
+    if (recorder) {
+      observer.on_event = [&](const teleop::dds::ProcessView& v, const std::string& kind, std::uint64_t cycle,
+                              double value) { recorder->Event(v, kind, cycle, value, since_start_s()); };
+      observer.on_summary = [&](const teleop::dds::ProcessView& v) { recorder->Summary(v, since_start_s()); };
+    }
+    teleop::dds::Supervisor supervisor({domain_id, stale_after_s}, observer);
+
+    struct sigaction action {};
+    action.sa_handler = HandleStopSignal;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, nullptr);
+    sigaction(SIGTERM, &action, nullptr);
+
+    const bool tty = isatty(STDOUT_FILENO) == 1;
+    constexpr auto kPollInterval = std::chrono::milliseconds(20);
+    double next_refresh_s = once ? settle_s : 0.0;
+    while (!g_stop.load()) {
+      supervisor.Poll();
+      const double t_s = since_start_s();
+      const bool last = once ? t_s >= settle_s : (duration_s > 0.0 && t_s >= duration_s);
+      if (t_s >= next_refresh_s || last) {
+        const auto views = supervisor.Snapshot(teleop::runtime::MonotonicNowNs());
+        if (recorder) recorder->States(views, t_s);
+        if (!quiet) {
+          if (tty && !once) std::cout << "\x1b[H\x1b[2J";
+          std::cout << "domain " << domain_id << ", " << views.size() << " processes, t = " << static_cast<int>(t_s)
+                    << " s\n"
+                    << teleop::dds::FormatTable(views) << (tty || once ? "" : "\n") << std::flush;
+        }
+        next_refresh_s = t_s + interval_s;
+      }
+      if (last) break;
+      std::this_thread::sleep_for(kPollInterval);
+    }
+    if (recorder && !recorder->ok()) throw teleop::Error("writing the record file '" + record_path + "' failed");
+    return 0;
+  } catch (const teleop::Error& e) {
+    spdlog::critical("{}", e.what());
+    return 2;
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Everything expected is handled in Run(); this only keeps an unexpected exception from ending the program
+  // without a message.
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "teleop-supervise: unexpected error: " << e.what() << "\n";
+    return 3;
+  } catch (...) {
+    std::cerr << "teleop-supervise: unexpected error\n";
+    return 3;
+  }
+}

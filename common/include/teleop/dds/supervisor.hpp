@@ -1,0 +1,45 @@
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "teleop/dds/process_view.hpp"
+
+namespace teleop::dds {
+
+/// The reading side of the bridge (teleop-supervise, docs/dds.md): joins a DDS domain, discovers every
+/// rt/teleop/<pair>/<role>/{state,events,summary} topic from the built-in publication topic, subscribes to each with
+/// the bridge's QoS, and keeps a ProcessView per process. Single-threaded: call Poll() every few tens of ms.
+class Supervisor {
+ public:
+  struct Config {
+    int domain_id = 0;
+    double stale_after_s = 1.0;  ///< No State for this long (at least three state periods): stale.
+  };
+  /// Called from Poll() for every event and every run summary as it arrives (for recording).
+  struct Observer {
+    std::function<void(const ProcessView& view, const std::string& kind_name, std::uint64_t cycle, double value)>
+        on_event;
+    std::function<void(const ProcessView& view)> on_summary;
+  };
+
+  /// Throws teleop::Error when the domain cannot be joined.
+  explicit Supervisor(const Config& config, Observer observer = {});
+  ~Supervisor();
+  Supervisor(const Supervisor&) = delete;
+  Supervisor& operator=(const Supervisor&) = delete;
+
+  /// Discovers new topics and takes every new sample. Never blocks.
+  void Poll();
+  /// Every process seen so far, sorted by pair then role, with status and age at `now_ns` (monotonic clock).
+  std::vector<ProcessView> Snapshot(std::int64_t now_ns) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace teleop::dds

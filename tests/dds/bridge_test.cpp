@@ -1,0 +1,175 @@
+// The bridge and the supervisor in one process over real Cyclone DDS on loopback (docs/dds.md): what the loop
+// pushes arrives with the same figures, events and the summary arrive, a bridge that leaves shows as gone, and the
+// loop-side call allocates nothing. Bounded waits; nothing is timed.
+#include "teleop/dds/bridge.hpp"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <functional>
+#include <string>
+#include <thread>
+
+#include "teleop/dds/supervisor.hpp"
+#include "teleop/runtime/periodic_loop.hpp"
+#include "test_utilities/limit_malloc.hpp"
+
+namespace teleop::dds {
+namespace {
+
+constexpr auto kDiscoveryTimeout = std::chrono::seconds(15);
+
+/// A domain of our own (other test runs on this machine use others) and Cyclone confined to loopback unicast.
+int TestDomain() {
+  static const int domain = [] {
+    const char* xml =
+        "<CycloneDDS><Domain id=\"any\"><General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
+        "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
+        "<MaxAutoParticipantIndex>20</MaxAutoParticipantIndex><Peers><Peer address=\"127.0.0.1\"/></Peers>"
+        "</Discovery></Domain></CycloneDDS>";
+    setenv("CYCLONEDDS_URI", xml, 1);
+    return 150 + static_cast<int>(getpid() % 80);
+  }();
+  return domain;
+}
+
+BridgeConfig TestConfig(const std::string& pair) {
+  BridgeConfig c;
+  c.enabled = true;
+  c.domain_id = TestDomain();
+  c.pair = pair;
+  c.state_rate_hz = 20.0;
+  return c;
+}
+
+/// Polls until `done(view)` holds for the process (pair, role), at most kDiscoveryTimeout.
+bool WaitFor(Supervisor& supervisor, const std::string& pair, const std::string& role,
+             const std::function<bool(const ProcessView&)>& done, const std::function<void()>& each = {}) {
+  const auto deadline = std::chrono::steady_clock::now() + kDiscoveryTimeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (each) each();
+    supervisor.Poll();
+    for (const ProcessView& v : supervisor.Snapshot(runtime::MonotonicNowNs())) {
+      if (v.pair == pair && v.role == role && done(v)) return true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return false;
+}
+
+BridgeSample Sample(std::uint64_t cycle, double time_s, std::uint64_t accepted, std::uint64_t lost) {
+  BridgeSample s;
+  s.record.cycle = cycle;
+  s.record.time_s = time_s;
+  s.record.dof = 1;
+  s.record.position_m[0] = 0.004;
+  s.record.rtt_s = 0.0005;
+  s.record.flags = 0x1;
+  s.engagement = Engagement::kCoupled;
+  s.link.accepted = accepted;
+  s.link.lost = lost;
+  s.tracking_error_m = 0.0002;
+  return s;
+}
+
+TEST(Bridge, StateEventsAndSummaryArriveWithTheirFigures) {
+  std::string event_seen;
+  Supervisor::Observer observer;
+  observer.on_event = [&](const ProcessView&, const std::string& kind, std::uint64_t, double) { event_seen = kind; };
+  Supervisor supervisor({TestDomain(), 1.0}, observer);
+  Bridge bridge(TestConfig("bridge_test_a"), Role::kSlave, 1000.0);
+  EXPECT_EQ(bridge.decimation(), 50U);  // 1000 Hz loop, 20 Hz state
+
+  // Warm-up states (cycles below 1000) until the supervisor has matched and received one.
+  std::uint64_t warmup = 0;
+  ASSERT_TRUE(WaitFor(
+      supervisor, "bridge_test_a", "slave", [](const ProcessView& v) { return v.have_state; },
+      [&] {
+        ++warmup;
+        (void)bridge.PushState(Sample(warmup, 0.001 * static_cast<double>(warmup), warmup, 0));
+      }));
+
+  // Two known states: 50 cycles in 0.05 s = 1000 Hz; 2 lost of 50 in between = 4 % loss.
+  ASSERT_TRUE(bridge.PushState(Sample(1000, 1.0, 990, 10)));
+  BridgeSample b = Sample(1050, 1.05, 1038, 12);
+  b.device_faults = 0x4;
+  b.engagement = Engagement::kFault;
+  b.watchdog_trips = 2;
+  ASSERT_TRUE(bridge.PushState(b));
+  ASSERT_TRUE(WaitFor(supervisor, "bridge_test_a", "slave", [](const ProcessView& v) { return v.cycle == 1050; }));
+  const ProcessView v = supervisor.Snapshot(runtime::MonotonicNowNs()).front();
+  EXPECT_EQ(v.status, ProcessView::Status::kLive);
+  EXPECT_NEAR(v.achieved_rate_hz, 1000.0, 1e-6);
+  EXPECT_NEAR(v.loss_fraction, 0.04, 1e-12);
+  EXPECT_DOUBLE_EQ(v.rtt_ms, 0.5);
+  EXPECT_DOUBLE_EQ(v.rate_hz, 1000.0);
+  EXPECT_DOUBLE_EQ(v.state_rate_hz, 20.0);
+  EXPECT_EQ(v.engagement, Engagement::kFault);
+  EXPECT_EQ(v.device_faults, 0x4U);
+  EXPECT_EQ(v.watchdog_trips, 2U);
+  EXPECT_EQ(v.packets_lost, 12U);
+  EXPECT_EQ(v.packets_accepted, 1038U);
+  EXPECT_DOUBLE_EQ(v.tracking_error_m, 0.0002);
+
+  bridge.OnEvent({node::Event::Kind::kPeerLost, 1049, 0.0});
+  ASSERT_TRUE(
+      WaitFor(supervisor, "bridge_test_a", "slave", [](const ProcessView& p) { return p.events_received > 0; }));
+  EXPECT_EQ(event_seen, "peer_lost");
+
+  node::RunSummary summary;
+  summary.role = Role::kSlave;
+  summary.cycles = 1051;
+  summary.link.accepted = 1038;
+  summary.link.lost = 12;
+  summary.rtt_ms.p50 = 0.5;
+  summary.rtt_ms.max = 0.9;
+  summary.stop_reason = "signal";
+  bridge.PublishSummary(summary, "{\"cycles\": 1051}");
+  bridge.Stop();
+  ASSERT_TRUE(WaitFor(supervisor, "bridge_test_a", "slave", [](const ProcessView& p) { return p.have_summary; }));
+  const ProcessView end = supervisor.Snapshot(runtime::MonotonicNowNs()).front();
+  EXPECT_EQ(end.status, ProcessView::Status::kFinished);
+  EXPECT_EQ(end.stop_reason, "signal");
+  EXPECT_EQ(end.summary_cycles, 1051U);
+  EXPECT_EQ(end.summary_packets_lost, 12U);
+  EXPECT_DOUBLE_EQ(end.summary_rtt_max_ms, 0.9);
+  EXPECT_EQ(end.summary_json, "{\"cycles\": 1051}");
+  EXPECT_EQ(bridge.states_dropped(), 0U);
+}
+
+TEST(Bridge, ABridgeThatLeavesWithoutASummaryIsGone) {
+  Supervisor supervisor({TestDomain(), 1.0});
+  auto bridge = std::make_unique<Bridge>(TestConfig("bridge_test_b"), Role::kMaster, 500.0);
+  std::uint64_t cycle = 0;
+  ASSERT_TRUE(WaitFor(
+      supervisor, "bridge_test_b", "master", [](const ProcessView& v) { return v.have_state && v.writer_matched; },
+      [&] {
+        cycle += 25;
+        (void)bridge->PushState(Sample(cycle, 0.001 * static_cast<double>(cycle), cycle, 0));
+      }));
+  bridge.reset();  // leaves the domain: the supervisor's reader loses its writer
+  ASSERT_TRUE(WaitFor(supervisor, "bridge_test_b", "master",
+                      [](const ProcessView& v) { return v.status == ProcessView::Status::kGone; }));
+}
+
+TEST(Bridge, PushStateAllocatesNothing) {
+  BridgeConfig config = TestConfig("bridge_test_c");
+  config.ring_capacity = 16;
+  Bridge bridge(config, Role::kMaster, 1000.0);
+  const BridgeSample s = Sample(1, 0.001, 1, 0);
+  std::uint64_t allocations = 0;
+  {
+    test::AllocationCounter counter;
+    for (int i = 0; i < 1000; ++i) (void)bridge.PushState(s);  // a full ring drops and counts, never allocates
+    allocations = counter.count();
+  }
+  EXPECT_EQ(allocations, 0U);
+  bridge.Stop();
+  EXPECT_EQ(bridge.states_published() + bridge.states_dropped(), 1000U);
+}
+
+}  // namespace
+}  // namespace teleop::dds
