@@ -19,6 +19,8 @@ TELEOP_PACKAGES=(
   tshark
   systemd
   dpkg-dev
+  # deploy/bench.sh (docs/performance.md): cyclictest beside the loop, the NumPy/SciPy analysis reference
+  rt-tests python3-numpy python3-scipy
 )
 
 teleop::missing_packages() {

@@ -23,22 +23,31 @@ using StateMatrix = Eigen::Matrix<double, kModelStates, kModelStates>;
 
 /// Exact zero-order-hold discretization of m·ẍ + b·ẋ + k·x = u over one period (eq. 27):
 /// [x; v](k+1) = phi·[x; v](k) + gamma·u(k).
+///
+/// With an input delayed by τ (0 ≤ τ ≤ T: u(k) computed at kT acts from kT + τ, u(k-1) before that) the same
+/// period splits at the delay: [x; v](k+1) = phi·[x; v](k) + (gamma - gamma_stale)·u(k) + gamma_stale·u(k-1), with
+/// Γ0 = gamma - gamma_stale = ∫0^{T-τ} e^{As} ds·B and Γ1 = gamma_stale = ∫_{T-τ}^{T} e^{As} ds·B. gamma_stale is 0
+/// without delay and equals gamma for τ = T.
 struct ZohBlock {
   Eigen::Matrix2d phi = Eigen::Matrix2d::Identity();
   Eigen::Vector2d gamma = Eigen::Vector2d::Zero();
+  Eigen::Vector2d gamma_stale = Eigen::Vector2d::Zero();  ///< Γ1: the part of gamma the previous input still drives.
 };
 
-/// ZOH discretization by the matrix exponential of the augmented 3×3 system. Requires mass > 0 and period > 0.
+/// ZOH discretization by the matrix exponential of the augmented 3×3 system. Requires mass > 0 and period > 0;
+/// `input_delay_s` (0..period, clamped) fills gamma_stale.
 ZohBlock DiscretizeMassSpringDamper(double mass_kg, double damping_Ns_per_m, double stiffness_N_per_m,
-                                    double period_s) noexcept;
+                                    double period_s, double input_delay_s = 0.0) noexcept;
 
-/// Master + operator (eq. 26: Z_hm = Z_h + Z_m) discretized.
+/// Master + operator (eq. 26: Z_hm = Z_h + Z_m) discretized; gamma_stale for the system's peer_delay_fraction.
 ZohBlock DiscretizeMasterWithHuman(const SampledTeleoperator& system, const HumanModel& human) noexcept;
-/// Slave (eq. 6) discretized.
+/// Slave (eq. 6) discretized; gamma_stale for the system's peer_delay_fraction.
 ZohBlock DiscretizeSlave(const SampledTeleoperator& system) noexcept;
 
 /// Assembles A from pre-discretized plant blocks and the law (eqs. 18-25), applying `unilateral` (K_pm = K_dm =
-/// K_fm = 0). Allocation-free; the stiffness search calls it for every operator at every step.
+/// K_fm = 0). With peer_delay_fraction > 0 the peer-data terms of each actuator force are split over gamma and
+/// gamma_stale of the blocks (the previous peer terms are rows over states the model already has: X(k-1), y(k-1);
+/// no extra state is needed). Allocation-free; the stiffness search calls it for every operator at every step.
 StateMatrix AssembleStateMatrix(const SampledTeleoperator& system, const ZohBlock& master_with_human,
                                 const ZohBlock& slave) noexcept;
 
