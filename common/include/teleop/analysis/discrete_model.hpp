@@ -36,8 +36,8 @@ struct ZohBlock {
 
 /// ZOH discretization by the matrix exponential of the augmented 3×3 system. Requires mass > 0 and period > 0;
 /// `input_delay_s` (0..period, clamped) fills gamma_stale.
-ZohBlock DiscretizeMassSpringDamper(double mass_kg, double damping_Ns_per_m, double stiffness_N_per_m,
-                                    double period_s, double input_delay_s = 0.0) noexcept;
+ZohBlock DiscretizeMassSpringDamper(double mass_kg, double damping_Ns_per_m, double stiffness_N_per_m, double period_s,
+                                    double input_delay_s = 0.0) noexcept;
 
 /// Master + operator (eq. 26: Z_hm = Z_h + Z_m) discretized; gamma_stale for the system's peer_delay_fraction.
 ZohBlock DiscretizeMasterWithHuman(const SampledTeleoperator& system, const HumanModel& human) noexcept;

@@ -78,16 +78,17 @@ struct SampledTeleoperator {
   DeviceModel slave = kPaperSlaveDevice;
   LawGains gains{};
   double rate_hz = 1000.0;
-  double velocity_filter_hz = 0.0;  ///< First-order low-pass on the backward-difference velocity; 0 = none.
-  int peer_delay_samples = 0;       ///< 0 (paper) or 1 (the processes over a link).
+  double velocity_filter_hz = 0.0;   ///< First-order low-pass on the backward-difference velocity; 0 = none.
+  int peer_delay_samples = 0;        ///< 0 (paper) or 1 (the processes over a link).
   double peer_delay_fraction = 0.0;  ///< 0..1, only with peer_delay_samples = 0: peer data age / period.
   bool unilateral = false;
 
   double period_s() const noexcept { return 1.0 / rate_hz; }
 };
 
-/// Checks ranges (masses > 0, damping ≥ 0, rate 1 Hz..1 MHz, filter ≥ 0 and below Nyquist, delay 0 or 1, delay fraction in 0..1 and 0 with a whole-sample delay, gains
-/// finite, fixture and position gains ≥ 0). Throws teleop::Error naming the offending field and its value.
+/// Checks ranges (masses > 0, damping ≥ 0, rate 1 Hz..1 MHz, filter ≥ 0 and below Nyquist, delay 0 or 1, delay fraction
+/// in 0..1 and 0 with a whole-sample delay, gains finite, fixture and position gains ≥ 0). Throws teleop::Error naming
+/// the offending field and its value.
 void Validate(const SampledTeleoperator& system);
 /// Checks a human model (mass > 0, damping ≥ 0, stiffness ≥ 0, all finite); throws teleop::Error.
 void Validate(const HumanModel& human);

@@ -34,8 +34,8 @@ struct CycleStats {
   /// True when the run had the real-time settings: SCHED_FIFO (fifo_priority > 0), locked memory, and the
   /// cpu_dma_latency request held; false means "running without real-time settings" (for the summary).
   bool realtime_settings_applied = false;
-  bool cpu_dma_latency_held = false;  ///< The cpu_dma_latency_us request is held open for this run.
-  int cpu_dma_latency_errno = 0;      ///< Why it is not (errno of the failed open/write), 0 when held or not asked.
+  bool cpu_dma_latency_held = false;   ///< The cpu_dma_latency_us request is held open for this run.
+  int cpu_dma_latency_errno = 0;       ///< Why it is not (errno of the failed open/write), 0 when held or not asked.
   std::uint64_t setting_warnings = 0;  ///< Settings asked for but not applied (today: cpu_dma_latency).
 };
 
