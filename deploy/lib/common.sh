@@ -10,9 +10,10 @@ TELEOP_PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev libboost-dev libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev libsodium-dev libmodbus-dev
-  clang-format clang-tidy
+  clang-format clang-tidy clang libclang-rt-14-dev
   gnuplot-nox python3
   iproute2 can-utils
+  python3-pymodbus python3-serial python3-serial-asyncio mbpoll socat
   qemu-system-x86 busybox-static cpio kmod
   # deployment (docs/deployment.md): teleop-plot, the Wireshark dissector test, the unit check, the .deb inspection
   python3-matplotlib

@@ -232,12 +232,16 @@ TEST(CanLink, SendRefusesWrongDofAndFullQueue) {
   Rig rig;
   EXPECT_FALSE(rig.master.Send(test::MakeSample(SenderRole::kMaster, 2, 0)));
   EXPECT_EQ(rig.master.counters().send_errors, 1u);
-  // 32 frames of queue, 2 per cycle, nothing drains while the clock stands still.
+  // 32 frames of queue, 2 per cycle, nothing drains while the clock stands still (the frame on the wire keeps its
+  // place until its transmission ends): 16 cycles fit, the other 4 are refused at their first frame.
   int refused = 0;
   for (std::uint32_t s = 0; s < 20; ++s)
     refused += rig.master.Send(test::MakeSample(SenderRole::kMaster, 3, s)) ? 0 : 1;
-  EXPECT_GT(refused, 0);
-  EXPECT_GT(rig.master.can_counters().tx_buffer_full, 0u);
+  EXPECT_EQ(refused, 4);
+  EXPECT_EQ(rig.master.can_counters().tx_buffer_full, 4u);
+  EXPECT_EQ(rig.master.can_counters().frames_sent, 32u);
+  EXPECT_EQ(rig.master.counters().sent, 16u);
+  EXPECT_EQ(rig.master.counters().send_errors, 1u + 4u);  // the wrong-DOF send and the 4 refused cycles
 }
 
 TEST(CanLink, SendAndPollDoNotAllocate) {

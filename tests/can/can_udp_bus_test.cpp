@@ -7,8 +7,11 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <fstream>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -16,6 +19,7 @@
 #include "teleop/error.hpp"
 #include "teleop/transport/can_bus_server.hpp"
 #include "teleop/transport/can_link.hpp"
+#include "teleop/transport/can_log.hpp"
 #include "teleop/transport/can_udp_bus_port.hpp"
 
 namespace teleop::transport {
@@ -25,10 +29,11 @@ using Clock = std::chrono::steady_clock;
 
 /// teleop-canbus's core on its own thread, on a free port.
 struct ServerThread {
-  explicit ServerThread(double bitrate_bit_per_s = 1e6) {
+  explicit ServerThread(double bitrate_bit_per_s = 1e6, std::string candump_log = "") {
     CanBusServerConfig config;
     config.port = 0;
     config.bus.nominal_bitrate_bit_per_s = bitrate_bit_per_s;
+    config.candump_log_path = std::move(candump_log);
     server = std::make_unique<CanBusServer>(config);
     thread = std::thread([this] { server->Run(stop); });
   }
@@ -101,34 +106,73 @@ TEST_F(UdpBusTest, TwoLinksExchangeSamples) {
   CanLink slave(format, proto::SenderRole::kSlave, Attach());
   proto::SampleMessage out{};
   int slave_got = 0, master_got = 0;
+  // Each cycle polls both ends until each has the other's cycle, or 2 s passed (a loaded machine), so every cycle
+  // must arrive, intact and in order. The polls are 1 ms apart, as in a 1 kHz loop: a CanLink drops a partial
+  // cycle untouched for CycleAssembler::kExpiryTicks polls, so polling much faster than the loop would drop a cycle
+  // whose second frame is merely a few hundred µs behind its first.
   for (std::uint32_t s = 0; s < 50; ++s) {
     ASSERT_TRUE(master.Send(test::MakeSample(proto::SenderRole::kMaster, 3, s)));
     ASSERT_TRUE(slave.Send(test::MakeSample(proto::SenderRole::kSlave, 3, s)));
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-    if (slave.Poll(out)) {
-      ++slave_got;
-      EXPECT_TRUE(test::ConsistentSample(out));
-    }
-    if (master.Poll(out)) {
-      ++master_got;
-      EXPECT_TRUE(test::ConsistentSample(out));
+    bool at_slave = false, at_master = false;
+    const auto deadline = Clock::now() + std::chrono::seconds(2);
+    while (!(at_slave && at_master) && Clock::now() < deadline) {
+      if (!at_slave && slave.Poll(out)) {
+        EXPECT_TRUE(test::ConsistentSample(out));
+        at_slave = out.sequence == s;
+        slave_got += at_slave ? 1 : 0;
+      }
+      if (!at_master && master.Poll(out)) {
+        EXPECT_TRUE(test::ConsistentSample(out));
+        at_master = out.sequence == s;
+        master_got += at_master ? 1 : 0;
+      }
+      if (!(at_slave && at_master)) std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
   }
-  EXPECT_GE(slave_got, 40);  // loopback UDP on a loaded machine: a few polls may find nothing new yet
-  EXPECT_GE(master_got, 40);
+  EXPECT_EQ(slave_got, 50);
+  EXPECT_EQ(master_got, 50);
   EXPECT_EQ(slave.counters().rejected, 0u);
   EXPECT_EQ(master.counters().rejected, 0u);
+  EXPECT_EQ(slave.counters().lost, 0u);
+  EXPECT_EQ(master.counters().accepted, 50u);
+}
+
+TEST_F(UdpBusTest, PortFiltersAsSocketCanDoes) {
+  auto a = Attach();
+  CanReceiveOptions options;
+  options.filters = {CanFilter::Exact(0x181), CanFilter::Masked(0x700, 0x780)};
+  auto b = std::make_unique<UdpCanBusPort>("127.0.0.1", server_->port(), 2000, options);
+  for (const std::uint32_t id : {0x180u, 0x181u, 0x182u, 0x701u, 0x77Fu, 0x601u}) {
+    proto::can::CanFrame f{};
+    f.id = id;
+    f.len = 1;
+    ASSERT_EQ(a->Write(f), CanWriteStatus::kOk);
+  }
+  proto::can::CanFrame fd{};
+  fd.id = 0x181;
+  fd.fd = true;
+  fd.len = 12;
+  ASSERT_EQ(a->Write(fd), CanWriteStatus::kOk);  // a's options pass FD; b's do not
+  EXPECT_EQ(b->Write(fd), CanWriteStatus::kError);
+  const auto got = ReadFrames(*b, 3);
+  ASSERT_EQ(got.size(), 3u);
+  std::vector<std::uint32_t> ids;
+  for (const auto& g : got) ids.push_back(g.first.id);
+  std::sort(ids.begin(), ids.end());  // the bus carries them in arbitration order, not in write order
+  EXPECT_EQ(ids, (std::vector<std::uint32_t>{0x181, 0x701, 0x77F}));
+  EXPECT_TRUE(ReadFrames(*b, 1, std::chrono::milliseconds(50)).empty());  // nothing else: the rest was filtered
 }
 
 TEST_F(UdpBusTest, ControlDatagramsInjectErrorsAndBusOff) {
   auto a = Attach();
   auto b = Attach();
   const int a_node = a->node();
+  UdpCanBusPort* a_port = a.get();
   proto::can::CanWireFormat format{};
   format.dof = 1;
   CanLink master(format, proto::SenderRole::kMaster, std::move(a));
-  ASSERT_TRUE(b->SendControl(bus_datagram::Action::kInjectErrors, 1));
-  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  // The control datagram and the frame leave the same socket, so the daemon handles them in that order: no sleep.
+  ASSERT_TRUE(a_port->SendControl(bus_datagram::Action::kInjectErrors, 1));
   ASSERT_TRUE(master.Send(test::MakeSample(proto::SenderRole::kMaster, 1, 0)));
   const auto frames = ReadFrames(*b, 2);  // error frame, then the retransmitted frame
   ASSERT_EQ(frames.size(), 2u);
@@ -166,6 +210,47 @@ TEST_F(UdpBusTest, MalformedDatagramsAreCountedNotFatal) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   EXPECT_EQ(server_->malformed_datagrams(), junk.size());
+}
+
+TEST(UdpBus, DaemonWritesACandumpLog) {
+  const std::string path = ::testing::TempDir() + "teleop_canbus_candump.log";
+  {
+    const ServerThread bus(1e6, path);
+    auto a = bus.Attach();
+    auto b = bus.Attach();
+    proto::can::CanFrame f{};
+    f.id = 0x601;
+    f.len = 8;
+    f.data = {0x40, 0x41, 0x60, 0x00};
+    ASSERT_EQ(a->Write(f), CanWriteStatus::kOk);
+    proto::can::CanFrame g{};
+    g.id = 0x1ABCDE0;
+    g.extended = true;
+    g.len = 2;
+    g.data = {0xBE, 0xEF};
+    ASSERT_EQ(b->Write(g), CanWriteStatus::kOk);
+    ASSERT_EQ(ReadFrames(*b, 1).size(), 1u);
+    ASSERT_EQ(ReadFrames(*a, 1).size(), 1u);
+    const auto deadline = Clock::now() + std::chrono::seconds(2);
+    while (bus.server->logged_frames() < 2 && Clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    EXPECT_EQ(bus.server->logged_frames(), 2u);
+  }
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  ASSERT_EQ(lines.size(), 2u);
+  proto::can::CanFrame f{};
+  std::uint64_t t = 0;
+  std::string iface;
+  for (const std::string& line : lines) {
+    ASSERT_TRUE(ParseCandumpLine(line, f, t, iface)) << line;
+    EXPECT_EQ(iface, "emcan0");
+    EXPECT_GT(t, 1'600'000'000ULL * 1'000'000'000ULL);  // wall clock, as candump stamps
+  }
+  EXPECT_NE(lines[0].find(" emcan0 601#4041600000000000"), std::string::npos) << lines[0];
+  EXPECT_NE(lines[1].find(" emcan0 01ABCDE0#BEEF"), std::string::npos) << lines[1];
 }
 
 TEST(UdpBusPort, NoDaemonGivesAClearError) {

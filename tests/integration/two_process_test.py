@@ -346,10 +346,22 @@ def check_physics(mc, sc, m, s, mt, st):
     # The summaries: the maximum is the settled hold plus the overshoot when the ramp stops (measured +1.8 %) and
     # what a late sample adds while the contact still moves (≤ 3 mm/s × a 25 ms stall ≈ 6 % of e); below, at most
     # the 2 % settling tolerance. K_d deleted rings the contact mode: 3.4 mm instead of 0.35 mm.
+    # A process that the machine deschedules for longer (a loaded CI host: 90 ms seen) sends nothing meanwhile, so
+    # the other side's error grows by the speed at that moment times the stall. That allowance is measured from
+    # the telemetry (gaps between consecutive records beyond 1.5 periods), not assumed.
+    stall_allowance = 0.0
+    for rows in (mt, st):
+        for a, b in zip(rows, rows[1:]):
+            gap = b["time_s"] - a["time_s"]
+            if gap > 1.5 * period:
+                speed = max(abs(a["velocity_m_per_s_0"]), abs(b["velocity_m_per_s_0"]),
+                            abs(a["peer_velocity_m_per_s_0"]), abs(b["peer_velocity_m_per_s_0"]))
+                stall_allowance = max(stall_allowance, speed * gap)
     for name, x in (("master", m), ("slave", s)):
         e_max = x["tracking_error_max_m"]
-        expect(0.98 * e_static < e_max < 1.10 * e_static, f"{name} max tracking error {e_max*1e3:.4f} mm, "
-              f"static balance {e_static*1e3:.4f} mm (-2 %, +10 %)")
+        expect(0.98 * e_static < e_max < 1.10 * e_static + stall_allowance,
+               f"{name} max tracking error {e_max*1e3:.4f} mm, static balance {e_static*1e3:.4f} mm "
+               f"(-2 %, +10 % + {stall_allowance*1e3:.4f} mm for the worst measured stall)")
     pen = s["fixture_max_penetration_m"]
     if k_vf > 0:
         expect(0.98 * p_static < pen < 1.10 * p_static, f"slave fixture max penetration {pen*1e3:.4f} mm, static "

@@ -20,7 +20,8 @@ if [[ ${status} -ne 0 ]]; then
   exit 1
 fi
 # On a kernel with AF_CAN: the missing-interface and exchange tests must run (not skip); the no-AF_CAN test skips.
-for name in SocketCan.MissingInterfaceIsNamed SocketCan.ExchangesSamplesOnARealInterface; do
+for name in SocketCan.MissingInterfaceIsNamed SocketCan.ExchangesSamplesOnARealInterface \
+  SocketCan.ReceiveFiltersOnARealInterface; do
   if ! grep -q "^\[       OK \] ${name} " "${log}"; then
     echo "FAIL: ${name} did not run and pass in the guest" >&2
     exit 1
@@ -28,6 +29,11 @@ for name in SocketCan.MissingInterfaceIsNamed SocketCan.ExchangesSamplesOnARealI
 done
 if grep -q "^\[  SKIPPED \] SocketCan.ExchangesSamplesOnARealInterface" "${log}"; then
   echo "FAIL: the exchange test skipped in the guest" >&2
+  exit 1
+fi
+# vcan0 is CAN FD in the guest: the FD half must have run (its summary line), never been skipped.
+if grep -q "^FD skipped" "${log}" || ! grep -q "^fd: CAN frames sent" "${log}"; then
+  echo "FAIL: the CAN FD exchange did not run in the guest" >&2
   exit 1
 fi
 cat "${out}/timing.env"

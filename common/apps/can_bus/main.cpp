@@ -3,6 +3,7 @@
 //   teleop-canbus [--port 47300] [--bitrate 1000000] [--data-bitrate 5000000] [--load-ceiling 1.0]
 //   teleop-canbus --port 47300 --inject-errors 32      # destroy the next 32 transmissions (then exit)
 //   teleop-canbus --port 47300 --bus-off 0             # put node 0 bus-off; --restart 0 brings it back
+//   teleop-canbus --candump-log bus.log                # also log every frame in candump -L format
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -49,6 +50,10 @@ static int Run(int argc, char** argv) {
   app.add_option("--duration-s", duration_s, "stop after this long (0: until SIGINT/SIGTERM)")->capture_default_str();
   app.add_option("--stats-every-s", stats_every_s, "print bus statistics this often (0: only at exit)")
       ->capture_default_str();
+  app.add_option("--candump-log", config.candump_log_path,
+                 "append every frame the bus carries to this file, candump -L format (canplayer, log2asc)");
+  app.add_option("--candump-interface", config.candump_interface, "interface name written in the candump log")
+      ->capture_default_str();
   app.add_option("--inject-errors", inject_errors, "client mode: destroy the next N transmissions on a running bus");
   app.add_option("--bus-off", bus_off_node, "client mode: put node N of a running bus bus-off");
   app.add_option("--restart", restart_node, "client mode: restart bus-off node N of a running bus");
@@ -77,6 +82,10 @@ static int Run(int argc, char** argv) {
     spdlog::info("teleop-canbus listening on {}:{}, {:.0f} bit/s nominal, {:.0f} bit/s FD data, load ceiling {:.2f}",
                  config.bind_address, server.port(), config.bus.nominal_bitrate_bit_per_s,
                  config.bus.data_bitrate_bit_per_s, config.bus.load_ceiling);
+    if (!config.candump_log_path.empty()) {
+      spdlog::info("logging every frame to {} (candump -L, interface {})", config.candump_log_path,
+                   config.candump_interface);
+    }
     const auto start = std::chrono::steady_clock::now();
     auto next_stats = start + std::chrono::duration<double>(stats_every_s);
     while (!g_stop) {

@@ -1,7 +1,7 @@
 #pragma once
 
-// Private to teleop_transport: the receive path every link shares (UDP, emulated), so that each one validates,
-// counts and keeps the newest sample in exactly the same way.
+// Private to the transport libraries: the receive path every link shares (UDP, emulated, CAN), so that each one
+// validates, counts and keeps the newest sample in exactly the same way.
 
 #include <cstdint>
 #include <span>
@@ -39,6 +39,29 @@ class SampleIntake {
     has_pending_ = true;
     return true;
   }
+
+  /// A sample decoded by the link itself (CAN: reassembled from frames whose identifiers gave the sender): counted
+  /// as received and classified by its sequence exactly as Offer() does. The verdict lets the link resynchronise.
+  SequenceTracker::Verdict OfferDecoded(const proto::SampleMessage& sample, LinkCounters& counters) noexcept {
+    ++counters.received;
+    const SequenceTracker::Verdict verdict = tracker_.Observe(sample.sequence, counters);
+    if (verdict != SequenceTracker::Verdict::kNewer) return verdict;
+    if (has_pending_) ++counters.superseded;
+    pending_ = sample;
+    has_pending_ = true;
+    return verdict;
+  }
+
+  /// A unit the link refused before it became a sample (a malformed CAN frame, a partial cycle).
+  void Reject(proto::DecodeStatus reason, LinkCounters& counters) noexcept {
+    ++counters.received;
+    ++counters.rejected;
+    ++counters.rejected_by_reason[static_cast<std::size_t>(reason)];
+  }
+
+  /// The newest sequence accepted (CAN extends its 4-bit counter from it); Reset forgets it.
+  const SequenceTracker& tracker() const noexcept { return tracker_; }
+  void ResetTracker() noexcept { tracker_.Reset(); }
 
   /// A datagram from a source address other than the peer's: not even decoded.
   void OfferForeign(LinkCounters& counters) noexcept {

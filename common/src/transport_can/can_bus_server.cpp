@@ -52,6 +52,15 @@ CanBusServer::CanBusServer(const CanBusServerConfig& config) : config_(config), 
   ::getsockname(socket_, reinterpret_cast<sockaddr*>(&addr), &len);  // NOLINT: sockets API
   port_ = ntohs(addr.sin_port);
   started_ns_ = EmulatedCanBus::SteadyNow_ns();
+  if (!config.candump_log_path.empty()) {
+    try {
+      log_ = std::make_unique<CandumpLogWriter>(config.candump_log_path, config.candump_interface);
+    } catch (...) {
+      ::close(socket_);
+      throw;
+    }
+    monitor_node_ = bus_.AddNode();  // hears every frame, like candump on an interface
+  }
 }
 
 int CanBusServer::node_count() const noexcept { return static_cast<int>(nodes_.size()); }
@@ -150,6 +159,21 @@ void CanBusServer::Forward() noexcept {
   bus_datagram::Message m{};
   m.type = bus_datagram::Type::kFrame;
   for (int node = 0; node < bus_.node_count(); ++node) {
+    if (node == monitor_node_) {
+      bool any = false;
+      while (bus_.Receive(node, m.frame)) {
+        timespec now{};
+        ::clock_gettime(CLOCK_REALTIME, &now);
+        (void)log_->Write(
+            m.frame, static_cast<std::uint64_t>(now.tv_sec) * 1'000'000'000u + static_cast<std::uint64_t>(now.tv_nsec));
+        any = true;
+      }
+      if (any) {
+        log_->Flush();
+        logged_.store(log_->lines());
+      }
+      continue;
+    }
     const auto peer = std::find_if(nodes_.begin(), nodes_.end(), [&](const Peer& p) { return p.node == node; });
     while (bus_.Receive(node, m.frame)) {
       if (peer == nodes_.end()) continue;  // detached node: drain and drop

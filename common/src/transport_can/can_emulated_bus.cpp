@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "teleop/error.hpp"
 
@@ -33,13 +34,29 @@ std::uint64_t ToNs(double seconds) noexcept { return static_cast<std::uint64_t>(
 class EmulatedCanPort final : public CanPort {
  public:
   EmulatedCanPort(EmulatedCanBus& bus, int node) : bus_(bus), node_(node) {}
-  CanWriteStatus Write(const CanFrame& frame) noexcept override { return bus_.Submit(node_, frame); }
-  bool Read(CanFrame& frame) noexcept override { return bus_.Receive(node_, frame); }
-  std::string Describe() const override { return "emulated-can in-process node " + std::to_string(node_); }
+  EmulatedCanPort(EmulatedCanBus& bus, int node, CanReceiveOptions options)
+      : bus_(bus), node_(node), filtered_(true), options_(std::move(options)) {}
+  CanWriteStatus Write(const CanFrame& frame) noexcept override {
+    if (filtered_ && frame.fd && !options_.fd) return CanWriteStatus::kError;  // as SocketCAN without FD frames
+    return bus_.Submit(node_, frame);
+  }
+  bool Read(CanFrame& frame) noexcept override {
+    while (bus_.Receive(node_, frame)) {
+      if (!filtered_ || Accepts(options_, frame)) return true;
+    }
+    return false;
+  }
+  std::string Describe() const override {
+    std::string text = "emulated-can in-process node " + std::to_string(node_);
+    if (filtered_) text += ", " + std::to_string(options_.filters.size()) + " filters";
+    return text;
+  }
 
  private:
   EmulatedCanBus& bus_;
   int node_;
+  bool filtered_ = false;
+  CanReceiveOptions options_{};
 };
 
 }  // namespace
@@ -95,6 +112,15 @@ int EmulatedCanBus::AddNode() {
 std::unique_ptr<CanPort> EmulatedCanBus::MakePort(int node) {
   if (node < 0 || node >= node_count()) throw Error("emulated CAN bus: no node " + std::to_string(node));
   return std::make_unique<EmulatedCanPort>(*this, node);
+}
+
+std::unique_ptr<CanPort> EmulatedCanBus::MakePort(int node, CanReceiveOptions options) {
+  if (node < 0 || node >= node_count()) throw Error("emulated CAN bus: no node " + std::to_string(node));
+  if (options.filters.size() > kMaxCanFilters) {
+    throw Error("emulated CAN bus: " + std::to_string(options.filters.size()) + " receive filters, at most " +
+                std::to_string(kMaxCanFilters));
+  }
+  return std::make_unique<EmulatedCanPort>(*this, node, std::move(options));
 }
 
 int EmulatedCanBus::node_count() const noexcept { return static_cast<int>(nodes_.size()); }

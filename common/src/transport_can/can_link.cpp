@@ -4,6 +4,7 @@
 
 #include <utility>
 
+#include "../transport/sample_intake.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::transport {
@@ -63,9 +64,12 @@ CanLink::CanLink(const proto::can::CanWireFormat& format, proto::SenderRole loca
       local_role_(local_role),
       port_(std::move(port)),
       description_(std::move(description)),
-      assembler_(format_, proto::PeerOf(local_role)) {
+      assembler_(format_, proto::PeerOf(local_role)),
+      intake_(std::make_unique<detail::SampleIntake>(proto::PeerOf(local_role))) {
   if (!port_) throw Error("CAN link: no port");
 }
+
+CanLink::~CanLink() = default;
 
 bool CanLink::Send(const proto::SampleMessage& message) noexcept {
   if (bus_off_) {
@@ -96,11 +100,7 @@ bool CanLink::Send(const proto::SampleMessage& message) noexcept {
   return true;
 }
 
-void CanLink::Reject(DecodeStatus reason) noexcept {
-  ++counters_.received;
-  ++counters_.rejected;
-  ++counters_.rejected_by_reason[static_cast<std::size_t>(reason)];
-}
+void CanLink::Reject(DecodeStatus reason) noexcept { intake_->Reject(reason, counters_); }
 
 void CanLink::CountAbandoned() noexcept {
   const std::uint64_t abandoned = assembler_.abandoned_partial_cycles();
@@ -111,27 +111,24 @@ void CanLink::CountAbandoned() noexcept {
 }
 
 void CanLink::OfferCycle(proto::SampleMessage& sample) noexcept {
-  ++counters_.received;
+  const SequenceTracker& tracker = intake_->tracker();
   const auto counter = static_cast<std::uint8_t>(sample.sequence);
-  sample.sequence = tracker_.has_any() ? proto::can::ExtendCounter(tracker_.newest(), counter) : counter;
-  if (tracker_.Observe(sample.sequence, counters_) == SequenceTracker::Verdict::kNewer) {
+  sample.sequence = tracker.has_any() ? proto::can::ExtendCounter(tracker.newest(), counter) : counter;
+  if (intake_->OfferDecoded(sample, counters_) == SequenceTracker::Verdict::kNewer) {
     consecutive_old_ = 0;
-    if (has_pending_) ++counters_.superseded;
-    pending_ = sample;
-    has_pending_ = true;
     return;
   }
   // A 4-bit counter cannot tell "8 or more cycles lost" or "the peer restarted" from "stale": after a few stale or
   // repeated cycles in a row, start tracking afresh (the next cycle is accepted).
   if (++consecutive_old_ >= kResyncAfter) {
-    tracker_.Reset();
+    intake_->ResetTracker();
     consecutive_old_ = 0;
     ++can_.resyncs;
   }
 }
 
 bool CanLink::Poll(proto::SampleMessage& newest) noexcept {
-  has_pending_ = false;
+  intake_->Begin();
   for (int i = 0; i < kMaxFramesPerPoll; ++i) {
     if (!port_->Read(rx_frame_)) break;
     if (rx_frame_.error) {
@@ -150,11 +147,7 @@ bool CanLink::Poll(proto::SampleMessage& newest) noexcept {
   }
   assembler_.Tick();
   CountAbandoned();
-  if (!has_pending_) return false;
-  ++counters_.accepted;
-  newest = pending_;
-  has_pending_ = false;
-  return true;
+  return intake_->Finish(newest, counters_);
 }
 
 void CanLink::HandleErrorFrame(const proto::can::CanFrame& frame) noexcept {

@@ -52,7 +52,14 @@ bool AfCanAvailable() noexcept {
 
 SocketCanPort::SocketCanPort(const std::string& interface_name, const proto::can::CanWireFormat& format,
                              proto::SenderRole local_role)
-    : fd_frames_(format.fd), interface_name_(interface_name) {
+    : SocketCanPort(interface_name, LinkReceiveOptions(format, local_role)) {}
+
+SocketCanPort::SocketCanPort(const std::string& interface_name, const CanReceiveOptions& options)
+    : fd_frames_(options.fd), filter_count_(options.filters.size()), interface_name_(interface_name) {
+  if (options.filters.size() > kMaxCanFilters) {
+    throw Error("SocketCAN: " + std::to_string(options.filters.size()) + " receive filters on " + interface_name +
+                ", at most " + std::to_string(kMaxCanFilters));
+  }
   fd_ = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
   if (fd_ < 0) {
     if (errno == EAFNOSUPPORT || errno == EPROTONOSUPPORT || errno == ESOCKTNOSUPPORT) throw Error(kNoAfCan);
@@ -68,7 +75,7 @@ SocketCanPort::SocketCanPort(const std::string& interface_name, const proto::can
           "SocketCAN: no interface '" + interface_name +
           "' (ip link show; for a virtual bus: sudo ip link add dev vcan0 type vcan; sudo ip link set vcan0 up)");
     }
-    if (format.fd) {
+    if (options.fd) {
       ifreq ifr{};
       std::strncpy(ifr.ifr_name, interface_name.c_str(), IFNAMSIZ - 1);
       if (::ioctl(fd_, SIOCGIFMTU, &ifr) < 0) throw Error(Errno("SocketCAN: SIOCGIFMTU on " + interface_name));
@@ -81,21 +88,19 @@ SocketCanPort::SocketCanPort(const std::string& interface_name, const proto::can
         throw Error(Errno("SocketCAN: CAN_RAW_FD_FRAMES"));
       }
     }
-    // Receive only the peer's identifiers (data frames, the configured identifier width).
-    const std::uint32_t base = proto::can::BaseIdOf(format, proto::PeerOf(local_role));
-    const canid_t eff = format.extended_id ? CAN_EFF_FLAG : 0;
-    const canid_t id_mask = format.extended_id ? CAN_EFF_MASK : CAN_SFF_MASK;
-    std::array<can_filter, proto::can::kIdSpan> filters{};
-    for (std::size_t k = 0; k < filters.size(); ++k) {
-      filters[k].can_id = (base + static_cast<std::uint32_t>(k)) | eff;
-      filters[k].can_mask = id_mask | CAN_EFF_FLAG | CAN_RTR_FLAG;
+    // The filters go to the kernel as they are: CanFilter's words are struct can_filter's (flags in bits 31/30).
+    static_assert(CanFilter::kExtendedFlag == CAN_EFF_FLAG && CanFilter::kRemoteFlag == CAN_RTR_FLAG);
+    std::array<can_filter, kMaxCanFilters> filters{};
+    for (std::size_t k = 0; k < options.filters.size(); ++k) {
+      filters[k].can_id = options.filters[k].id | (options.filters[k].invert ? CAN_INV_FILTER : 0u);
+      filters[k].can_mask = options.filters[k].mask;
     }
-    if (::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_FILTER, filters.data(),
-                     static_cast<socklen_t>(sizeof(can_filter) * filters.size())) < 0) {
+    // Zero filters: no data frames (the kernel takes a zero-length filter list as "receive nothing").
+    if (::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_FILTER, options.filters.empty() ? nullptr : filters.data(),
+                     static_cast<socklen_t>(sizeof(can_filter) * options.filters.size())) < 0) {
       throw Error(Errno("SocketCAN: CAN_RAW_FILTER"));
     }
-    const can_err_mask_t err_mask = CAN_ERR_TX_TIMEOUT | CAN_ERR_CRTL | CAN_ERR_PROT | CAN_ERR_TRX | CAN_ERR_ACK |
-                                    CAN_ERR_BUSOFF | CAN_ERR_BUSERROR | CAN_ERR_RESTARTED;
+    const can_err_mask_t err_mask = options.error_mask & CAN_ERR_MASK;
     if (::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof(err_mask)) < 0) {
       throw Error(Errno("SocketCAN: CAN_RAW_ERR_FILTER"));
     }
@@ -154,7 +159,8 @@ bool SocketCanPort::Read(CanFrame& frame) noexcept {
 }
 
 std::string SocketCanPort::Describe() const {
-  return "socketcan " + interface_name_ + (fd_frames_ ? " (FD frames)" : "");
+  return "socketcan " + interface_name_ + (fd_frames_ ? " (FD frames)" : "") + ", " + std::to_string(filter_count_) +
+         (filter_count_ == 1 ? " filter" : " filters");
 }
 
 }  // namespace teleop::transport

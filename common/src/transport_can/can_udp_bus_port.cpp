@@ -12,6 +12,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <utility>
 
 #include "teleop/error.hpp"
 
@@ -27,8 +28,12 @@ bool SendMessage(int socket, const bus_datagram::Message& m) noexcept {
 
 }  // namespace
 
-UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double timeout_ms)
-    : endpoint_(fmt::format("{}:{}", host, port)) {
+UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double timeout_ms, CanReceiveOptions options)
+    : options_(std::move(options)), endpoint_(fmt::format("{}:{}", host, port)) {
+  if (options_.filters.size() > kMaxCanFilters) {
+    throw Error("emulated-can: " + std::to_string(options_.filters.size()) + " receive filters, at most " +
+                std::to_string(kMaxCanFilters));
+  }
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
   addr.sin_port = htons(port);
@@ -81,6 +86,7 @@ UdpCanBusPort::~UdpCanBusPort() {
 }
 
 CanWriteStatus UdpCanBusPort::Write(const proto::can::CanFrame& frame) noexcept {
+  if (frame.fd && !options_.fd) return CanWriteStatus::kError;  // as SocketCAN without FD frames
   bus_datagram::Message m{};
   m.type = bus_datagram::Type::kFrame;
   m.frame = frame;
@@ -100,11 +106,11 @@ bool UdpCanBusPort::Read(proto::can::CanFrame& frame) noexcept {
     if (n < 0) return false;  // EAGAIN, or ECONNREFUSED for an earlier send (the daemon is gone)
     bus_datagram::Message m{};
     if (bus_datagram::Decode(std::span<const std::uint8_t>(in.data(), static_cast<std::size_t>(n)), m) &&
-        m.type == bus_datagram::Type::kFrame) {
+        m.type == bus_datagram::Type::kFrame && Accepts(options_, m.frame)) {
       frame = m.frame;
       return true;
     }
-    // Late welcomes and malformed datagrams: skip.
+    // Late welcomes, malformed datagrams and frames the filters do not pass: skip.
   }
 }
 

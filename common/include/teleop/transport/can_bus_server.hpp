@@ -2,10 +2,12 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "teleop/transport/can_emulated_bus.hpp"
+#include "teleop/transport/can_log.hpp"
 
 namespace teleop::transport {
 
@@ -14,6 +16,10 @@ struct CanBusServerConfig {
   std::uint16_t port = 47300;  ///< 0: any free port (tests).
   EmulatedCanBusConfig bus{};
   int max_nodes = 8;
+  /// When set: every frame the bus carries (and every error frame) is appended to this file in candump -L format,
+  /// stamped with the wall clock, as interface `candump_interface` (canplayer/log2asc read it).
+  std::string candump_log_path;
+  std::string candump_interface = "emcan0";
 };
 
 /// The core of teleop-canbus: an EmulatedCanBus on the wall clock, shared by nodes that talk to it over UDP
@@ -36,6 +42,8 @@ class CanBusServer {
   const EmulatedCanBus& bus() const noexcept { return bus_; }
   int node_count() const noexcept;
   std::uint64_t malformed_datagrams() const noexcept { return malformed_.load(); }
+  /// Lines written to the candump log so far (0 without one). Read from other threads (tests).
+  std::uint64_t logged_frames() const noexcept { return logged_.load(); }
   std::string Describe() const;
 
  private:
@@ -48,8 +56,11 @@ class CanBusServer {
   int socket_ = -1;
   std::uint16_t port_ = 0;
   std::vector<Peer> nodes_;
-  std::atomic<std::uint64_t> malformed_{0};  ///< Read from other threads (tests).
+  std::atomic<std::uint64_t> malformed_{0};
+  std::atomic<std::uint64_t> logged_{0};  ///< Read from other threads (tests).
   std::uint64_t started_ns_ = 0;
+  int monitor_node_ = -1;  ///< The bus node that feeds the candump log (-1: none).
+  std::unique_ptr<CandumpLogWriter> log_;
 };
 
 }  // namespace teleop::transport

@@ -7,6 +7,7 @@
 
 #include "teleop/proto/can/bus_load.hpp"
 #include "teleop/proto/can/can_frame.hpp"
+#include "teleop/transport/can_filter.hpp"
 #include "teleop/transport/can_port.hpp"
 
 namespace teleop::transport {
@@ -44,8 +45,11 @@ class EmulatedCanBus {
 
   /// Attaches a node (set-up only). Returns its index.
   int AddNode();
-  /// A CanPort for node `node`; the bus must outlive it.
+  /// A CanPort for node `node` that reads every frame; the bus must outlive it.
   std::unique_ptr<CanPort> MakePort(int node);
+  /// A CanPort for node `node` that reads what a SocketCAN socket with `options` would (Accepts); frames it does
+  /// not accept are discarded when read. FD frames are refused on write unless options.fd.
+  std::unique_ptr<CanPort> MakePort(int node, CanReceiveOptions options);
 
   [[nodiscard]] CanWriteStatus Submit(int node, const proto::can::CanFrame& frame) noexcept;
   [[nodiscard]] bool Receive(int node, proto::can::CanFrame& frame) noexcept;

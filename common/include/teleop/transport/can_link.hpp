@@ -12,6 +12,10 @@
 
 namespace teleop::transport {
 
+namespace detail {
+class SampleIntake;
+}
+
 /// What a CAN link counts beyond LinkCounters (which it fills too, see CanLink).
 struct CanLinkCounters {
   std::uint64_t frames_sent = 0;
@@ -39,7 +43,8 @@ struct CanLinkCounters {
 };
 
 /// Link over CAN frames (docs/can.md): each Send splits the sample into the frames of one cycle
-/// (proto/can/sample_codec.hpp); Poll drains the port, reassembles the peer's cycles, and keeps the newest.
+/// (proto/can/sample_codec.hpp); Poll drains the port, reassembles the peer's cycles, and hands them to the sample
+/// intake every link shares (counting, sequence classification, newest wins), as the UDP link does.
 ///
 /// LinkCounters semantics on CAN: `received` counts units with an outcome — a completed cycle, a rejected frame,
 /// or a dropped partial cycle — so that received == accepted + superseded + reordered + duplicates + rejected
@@ -59,6 +64,7 @@ class CanLink final : public Link {
   /// Describe() (e.g. the bus-load budget).
   CanLink(const proto::can::CanWireFormat& format, proto::SenderRole local_role, std::unique_ptr<CanPort> port,
           std::string description = "");
+  ~CanLink() override;
 
   [[nodiscard]] bool Send(const proto::SampleMessage& message) noexcept override;
   [[nodiscard]] bool Poll(proto::SampleMessage& newest) noexcept override;
@@ -84,14 +90,12 @@ class CanLink final : public Link {
   std::unique_ptr<CanPort> port_;
   std::string description_;
   proto::can::CycleAssembler assembler_;
-  SequenceTracker tracker_{};
+  std::unique_ptr<detail::SampleIntake> intake_;
   LinkCounters counters_{};
   CanLinkCounters can_{};
   std::array<proto::can::CanFrame, proto::can::kMaxSlots> tx_frames_{};
   proto::can::CanFrame rx_frame_{};
   proto::SampleMessage scratch_{};
-  proto::SampleMessage pending_{};
-  bool has_pending_ = false;
   bool bus_off_ = false;
   int consecutive_old_ = 0;
   std::uint64_t abandoned_seen_ = 0;

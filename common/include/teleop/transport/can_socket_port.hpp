@@ -3,6 +3,7 @@
 #include <string>
 
 #include "teleop/proto/can/wire_format.hpp"
+#include "teleop/transport/can_filter.hpp"
 #include "teleop/transport/can_port.hpp"
 
 namespace teleop::transport {
@@ -10,12 +11,16 @@ namespace teleop::transport {
 /// True when this kernel can open a raw CAN socket (AF_CAN with can-raw loaded).
 bool AfCanAvailable() noexcept;
 
-/// A raw SocketCAN socket on `interface_name`, non-blocking, classic or FD (CAN_RAW_FD_FRAMES). Receive filters
-/// pass only the peer's identifiers of `format`; the error mask passes bus-off, error-passive/warning (controller),
-/// protocol, bus-error, no-ACK, TX-timeout, transceiver and restarted error frames. Throws teleop::Error when the
-/// kernel has no AF_CAN, the interface does not exist, FD is asked of a classic interface, or a socket call fails.
+/// A raw SocketCAN socket on `interface_name`, non-blocking, classic or FD (CAN_RAW_FD_FRAMES), with the receive
+/// filters and error mask of `options` installed in the kernel (CAN_RAW_FILTER, CAN_RAW_ERR_FILTER). The default
+/// error mask passes bus-off, error-passive/warning (controller), protocol, bus-error, no-ACK, TX-timeout,
+/// transceiver and restarted error frames. Throws teleop::Error when the kernel has no AF_CAN, the interface does
+/// not exist, FD is asked of a classic interface, there are more than kMaxCanFilters filters, or a socket call
+/// fails. A link's port and a drive's port can share one interface: each socket sees only its own filters' frames.
 class SocketCanPort final : public CanPort {
  public:
+  SocketCanPort(const std::string& interface_name, const CanReceiveOptions& options);
+  /// A CanLink's port: LinkReceiveOptions(format, local_role).
   SocketCanPort(const std::string& interface_name, const proto::can::CanWireFormat& format,
                 proto::SenderRole local_role);
   ~SocketCanPort() override;
@@ -27,6 +32,7 @@ class SocketCanPort final : public CanPort {
  private:
   int fd_ = -1;
   bool fd_frames_ = false;
+  std::size_t filter_count_ = 0;
   std::string interface_name_;
 };
 

@@ -4,16 +4,19 @@
 #include <string>
 
 #include "teleop/transport/can_bus_datagram.hpp"
+#include "teleop/transport/can_filter.hpp"
 #include "teleop/transport/can_port.hpp"
 
 namespace teleop::transport {
 
 /// A node of the teleop-canbus daemon (transport "emulated-can"): frames go to the daemon over UDP and come back
 /// when the emulated bus has carried them. The constructor attaches (kHello/kWelcome) and throws teleop::Error with
-/// what to run when no daemon answers within `timeout_ms`.
+/// what to run when no daemon answers within `timeout_ms`. The daemon forwards every frame; `options` filters them
+/// here with SocketCAN's rules (Accepts), so a driver sees what it would see on a real interface.
 class UdpCanBusPort final : public CanPort {
  public:
-  UdpCanBusPort(const std::string& host, std::uint16_t port, double timeout_ms);
+  UdpCanBusPort(const std::string& host, std::uint16_t port, double timeout_ms,
+                CanReceiveOptions options = CanReceiveOptions::Everything());
   ~UdpCanBusPort() override;
 
   [[nodiscard]] CanWriteStatus Write(const proto::can::CanFrame& frame) noexcept override;
@@ -27,6 +30,7 @@ class UdpCanBusPort final : public CanPort {
  private:
   int socket_ = -1;
   int node_ = -1;
+  CanReceiveOptions options_;
   std::string endpoint_;
 };
 

@@ -1,0 +1,223 @@
+#pragma once
+
+// A CiA 402 drive client over CAN (docs/cia402.md): NMT, expedited SDO set-up, PDO mapping written and read back,
+// SYNC producer, heartbeat producer and consumer, EMCY, the CiA 402 state machine to Operation Enabled, and cyclic
+// synchronous torque mode (0x6060 = 10). Lifecycle as a device's: Configure() and Activate() at set-up (blocking,
+// may throw teleop::Error), Read()/Write() in the control cycle (non-blocking, no allocation, status codes),
+// Deactivate() to the safe state.
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "teleop/fieldbus/canopen_frames.hpp"
+#include "teleop/fieldbus/canopen_pdo.hpp"
+#include "teleop/fieldbus/canopen_sdo_client.hpp"
+#include "teleop/fieldbus/canopen_timebase.hpp"
+#include "teleop/fieldbus/cia402_state_machine.hpp"
+#include "teleop/transport/can_filter.hpp"
+#include "teleop/transport/can_port.hpp"
+
+namespace teleop::fieldbus {
+
+/// From the drive's units to SI (CiA 402: torque in per mille of the rated torque 0x6076; position and velocity in
+/// the drive's position/velocity units, commonly encoder counts and counts/s).
+struct Cia402Scaling {
+  double rated_torque_Nm = 1.0;                       ///< 0x6076 (read back from the drive and checked at configure).
+  double position_rad_per_count = 1.0 / 4096.0;       ///< 0x6064 unit.
+  double velocity_rad_per_s_per_unit = 1.0 / 4096.0;  ///< 0x606C unit.
+  double sign = 1.0;  ///< -1 when the drive's positive direction is the joint's negative one.
+};
+
+/// Configuration of one drive (a driver's config section fills it).
+struct Cia402DriveConfig {
+  std::uint8_t node_id = 1;  ///< 1..127.
+  canopen::SdoClientConfig sdo{};
+
+  /// SYNC: produced by this client after its RPDO in every Write (one producer per bus; the others set false).
+  bool produce_sync = true;
+  std::uint32_t sync_cob_id = canopen::cob::kSync;
+  double cycle_period_s = 0.001;  ///< Written to 0x1006 (µs); also the period of Activate's polling.
+
+  /// Heartbeat of the host (producer): node-ID `host_node_id` every host_heartbeat_period_ms (0: none).
+  std::uint8_t host_node_id = 127;
+  double host_heartbeat_period_ms = 100.0;
+  /// The drive's heartbeat (written to 0x1017) and the consumer's timeout for it: armed by the first heartbeat
+  /// (CiA 301), so the boot itself is timed out separately by boot_timeout_ms.
+  double drive_heartbeat_period_ms = 50.0;
+  double heartbeat_timeout_ms = 150.0;
+  double boot_timeout_ms = 2000.0;  ///< NMT reset → boot-up (or any heartbeat) of the drive.
+  /// The drive's own consumer of the host's heartbeat (0x1016 sub 1), so a dead host stops the motor (0: off).
+  double drive_consumer_timeout_ms = 0.0;
+  /// Send NMT Reset Node at configure and wait for the boot-up (else Reset Communication).
+  bool reset_node = true;
+
+  /// PDOs. RPDOs (host → drive) must map 0x6040 (controlword) and 0x6071 (target torque); TPDOs (drive → host)
+  /// 0x6041 (statusword), 0x6064 (position actual) and 0x606C (velocity actual), optionally 0x6077 (torque actual).
+  /// Written at configure (disable, mapping, count, COB-ID, type) and read back; a mismatch is an error.
+  std::vector<canopen::PdoMapping> rpdos = DefaultRpdos();
+  std::vector<canopen::PdoMapping> tpdos = DefaultTpdos();
+
+  Cia402Scaling scaling{};
+  double max_torque_Nm = 0.5;  ///< Written to 0x6072; Write also clamps to it (counted).
+  /// 0x605A and 0x605E, written when set (what quick stop and a fault do is the drive's; the field notes).
+  std::optional<std::int16_t> quick_stop_option_code{};
+  std::optional<std::int16_t> fault_reaction_option_code{};
+
+  double state_timeout_ms = 500.0;  ///< Activate: time allowed for each state machine step.
+  /// Read: data older than this (no TPDO since) is a fault (kStale); a missed TPDO before that is kNoNewData.
+  double stale_after_ms = 10.0;
+
+  /// RPDO1 = controlword + target torque (4 bytes); TPDO1 = statusword + position actual (6 bytes), TPDO2 = velocity
+  /// actual + torque actual (6 bytes); synchronous (type 1), default COB-IDs.
+  static std::vector<canopen::PdoMapping> DefaultRpdos();
+  static std::vector<canopen::PdoMapping> DefaultTpdos();
+};
+
+/// What Read/Write report (the cycle's status; a device maps it onto its fault flags).
+enum class Cia402Status : std::uint8_t {
+  kOk = 0,
+  kNoNewData,      ///< No TPDO since the last Read, not yet stale: the reading is the previous one.
+  kStale,          ///< No TPDO for stale_after_ms.
+  kNotEnabled,     ///< The drive left Operation Enabled (its statusword says where it is).
+  kFault,          ///< The drive is in Fault / Fault Reaction Active, or sent an EMCY since activation.
+  kHeartbeatLost,  ///< No heartbeat for heartbeat_timeout_ms (after the first one).
+  kBusOff,         ///< The controller is bus-off.
+  kWriteFailed,    ///< The port refused a frame (buffer full, error).
+  kNotActive,      ///< Called before Activate() or after Deactivate().
+};
+const char* ToString(Cia402Status status) noexcept;
+
+/// One cycle's reading, SI units. `stamp_ns` is when the TPDOs carrying it were read (Timebase clock).
+struct Cia402Reading {
+  double position_rad = 0.0;
+  double velocity_rad_per_s = 0.0;
+  double torque_Nm = 0.0;  ///< 0x6077 when mapped, else the commanded torque.
+  std::uint16_t statusword = 0;
+  cia402::DriveState state = cia402::DriveState::kUnknown;
+  std::uint64_t stamp_ns = 0;
+  bool fresh = false;  ///< New since the last Read.
+};
+
+/// What the client counted.
+struct Cia402Counters {
+  std::uint64_t rpdos_sent = 0;
+  std::uint64_t syncs_sent = 0;
+  std::uint64_t heartbeats_sent = 0;
+  std::uint64_t tpdos_received = 0;
+  std::uint64_t tpdos_rejected = 0;  ///< Wrong length for the mapping.
+  std::uint64_t heartbeats_received = 0;
+  std::uint64_t heartbeat_timeouts = 0;
+  std::uint64_t emergencies = 0;
+  std::uint64_t error_frames = 0;
+  std::uint64_t bus_off = 0;
+  std::uint64_t write_failures = 0;
+  std::uint64_t torque_clamped = 0;
+  std::uint64_t non_finite_commands = 0;  ///< NaN/inf torque commands: sent as 0.
+  std::uint64_t state_changes = 0;
+  std::uint64_t other_frames = 0;  ///< Frames on the port that are not this drive's.
+};
+
+class Cia402Drive {
+ public:
+  /// Checks the configuration (throws teleop::Error naming the key) and keeps `port`, which must outlive the
+  /// client and should receive ReceiveOptions(config) (OpenCanPort / EmulatedCanBus::MakePort). No bus traffic.
+  Cia402Drive(const Cia402DriveConfig& config, transport::CanPort& port, Timebase timebase = Timebase::Steady());
+  ~Cia402Drive();
+  Cia402Drive(const Cia402Drive&) = delete;
+  Cia402Drive& operator=(const Cia402Drive&) = delete;
+
+  /// The filters a port for this drive needs: its TPDOs, SDO responses, EMCY, heartbeat (classic frames).
+  static transport::CanReceiveOptions ReceiveOptions(const Cia402DriveConfig& config);
+
+  /// Set-up: NMT reset (node or communication), waits for the boot-up (boot_timeout_ms), checks the device type,
+  /// writes the heartbeat times, the cycle period, the PDO mappings (and reads them back), mode 10, max torque,
+  /// option codes, the rated torque check. The drive stays pre-operational. Throws teleop::Error with the object and
+  /// the decoded SDO abort code, the timeout, or the mismatch.
+  void Configure();
+  /// Set-up: NMT Start, target torque 0, then the state machine to Operation Enabled by SDO on 0x6040/0x6041, with a
+  /// fault reset (rising edge of bit 7) when the drive is in Fault; reads 0x1001/0x603F when it faults. Throws
+  /// teleop::Error with the state it got stuck in. After it, Read/Write run the cycle.
+  void Activate();
+  /// Cycle: drains the port (TPDOs, heartbeat, EMCY, error frames), checks the heartbeat and staleness, fills
+  /// `reading` with the newest values. Non-blocking, no allocation.
+  [[nodiscard]] Cia402Status Read(Cia402Reading& reading) noexcept;
+  /// Cycle: sends the RPDO (controlword + target torque `torque_Nm`, clamped to max_torque_Nm, NaN → 0), then the
+  /// SYNC (produce_sync) and the host heartbeat when due. Non-blocking, no allocation.
+  [[nodiscard]] Cia402Status Write(double torque_Nm) noexcept;
+  /// Cycle: from the next Write on, the controlword commands Quick Stop (bit 2 = 0) and the torque is 0.
+  void RequestQuickStop() noexcept;
+  /// Set-up (safe state): torque 0, Disable Operation then Shutdown by SDO, NMT Enter Pre-operational. Never throws;
+  /// returns false (and keeps the reason in last_error()) when the drive did not confirm.
+  bool Deactivate() noexcept;
+
+  /// Set-up: reads the error register 0x1001 by SDO (throws on failure).
+  std::uint8_t ReadErrorRegister();
+
+  bool active() const noexcept { return active_; }
+  cia402::DriveState drive_state() const noexcept { return drive_state_; }
+  canopen::NmtState nmt_state() const noexcept { return nmt_state_; }
+  bool heartbeat_armed() const noexcept { return heartbeat_seen_; }
+  /// The newest EMCY since Configure (error_code 0 when none arrived).
+  const canopen::Emergency& last_emergency() const noexcept { return last_emergency_; }
+  const Cia402Counters& counters() const noexcept { return counters_; }
+  const canopen::SdoClientCounters& sdo_counters() const noexcept { return sdo_.counters(); }
+  const Cia402DriveConfig& config() const noexcept { return config_; }
+  const std::string& last_error() const noexcept { return last_error_; }
+  std::string Describe() const;
+
+ private:
+  /// Where a mapped object sits: PDO slot (0..3 in rpdo_/tpdo_) and entry; pdo < 0 when not mapped.
+  struct Slot {
+    int pdo = -1;
+    int entry = -1;
+  };
+  void HandleFrame(const proto::can::CanFrame& frame) noexcept;
+  void ServiceSetup() noexcept;
+  bool SendHeartbeatIfDue(std::uint64_t now_ns) noexcept;
+  void WaitForBoot();
+  void WritePdo(const canopen::PdoMapping& mapping, bool tpdo);
+  void SetDriveState(cia402::DriveState state) noexcept;
+  [[nodiscard]] bool HeartbeatExpired(std::uint64_t now_ns) noexcept;
+
+  Cia402DriveConfig config_;
+  transport::CanPort& port_;
+  Timebase timebase_;
+  canopen::SdoClient sdo_;
+  std::array<canopen::PdoMapping, 4> rpdo_{};
+  std::array<canopen::PdoMapping, 4> tpdo_{};
+  std::array<std::uint32_t, 4> tpdo_cob_{};
+  std::array<std::uint32_t, 4> rpdo_cob_{};
+  int rpdo_count_ = 0;
+  int tpdo_count_ = 0;
+  std::array<std::array<std::uint32_t, canopen::kMaxPdoEntries>, 4> tpdo_values_{};
+  std::array<std::array<std::uint32_t, canopen::kMaxPdoEntries>, 4> rpdo_values_{};
+  std::array<std::uint64_t, 4> tpdo_stamp_ns_{};
+  Slot statusword_slot_{}, position_slot_{}, velocity_slot_{}, torque_slot_{};
+  Slot controlword_slot_{}, target_torque_slot_{};
+  unsigned tpdo_seen_mask_ = 0;  ///< TPDOs received since the last Read (bit per slot).
+  bool configured_ = false;
+  bool heartbeat_lost_ = false;
+
+  bool active_ = false;
+  bool quick_stop_requested_ = false;
+  bool bus_off_ = false;
+  bool fault_latched_ = false;
+  bool heartbeat_seen_ = false;
+  bool boot_seen_ = false;
+  std::uint64_t last_heartbeat_ns_ = 0;
+  std::uint64_t next_host_heartbeat_ns_ = 0;
+  std::uint16_t statusword_ = 0;
+  std::uint16_t controlword_ = 0;
+  double commanded_torque_Nm_ = 0.0;
+  cia402::DriveState drive_state_ = cia402::DriveState::kUnknown;
+  canopen::NmtState nmt_state_ = canopen::NmtState::kBootUp;
+  canopen::Emergency last_emergency_{};
+  Cia402Reading newest_{};
+  Cia402Counters counters_{};
+  std::string last_error_;
+};
+
+}  // namespace teleop::fieldbus

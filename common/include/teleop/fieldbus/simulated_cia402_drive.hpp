@@ -1,0 +1,154 @@
+#pragma once
+
+// A simulated CiA 402 drive on a CAN port (docs/cia402.md, "Simulated drive"): the same bytes a real drive speaks,
+// so the client under test is the client in use. A joint with inertia, viscous and Coulomb friction and a
+// first-order torque lag; its own NMT state machine, SDO server (expedited) for the objects the client uses,
+// PDOs on SYNC, heartbeat producer, a consumer of the host's heartbeat, EMCY on fault. Fault injection for tests.
+
+#include <array>
+#include <cstdint>
+#include <memory>
+
+#include "teleop/fieldbus/canopen_frames.hpp"
+#include "teleop/fieldbus/canopen_pdo.hpp"
+#include "teleop/fieldbus/cia402_state_machine.hpp"
+#include "teleop/transport/can_filter.hpp"
+#include "teleop/transport/can_port.hpp"
+
+namespace teleop::fieldbus {
+
+/// The joint the drive moves: J·dω/dt = τ_applied − b·ω − τ_c·sign(ω) (sticks while |τ| ≤ τ_c at rest), and
+/// τ_applied follows the commanded torque with time constant torque_lag_s.
+struct SimulatedJointConfig {
+  double inertia_kg_m2 = 1e-3;
+  double viscous_Nms_per_rad = 2e-3;
+  double coulomb_Nm = 5e-3;
+  double torque_lag_s = 5e-4;
+  double integration_step_s = 1e-4;  ///< Sub-step of the joint's integration.
+};
+
+struct SimulatedCia402DriveConfig {
+  std::uint8_t node_id = 1;
+  SimulatedJointConfig joint{};
+  std::uint32_t rated_torque_mNm = 1000;         ///< 0x6076.
+  double position_rad_per_count = 1.0 / 4096.0;  ///< The drive's position unit.
+  double velocity_rad_per_s_per_unit = 1.0 / 4096.0;
+  std::uint16_t max_torque_per_mille = 1000;  ///< 0x6072 at power-on.
+  double boot_time_ms = 5.0;                  ///< Power-on / reset node → boot-up message.
+  std::uint16_t heartbeat_period_ms = 0;      ///< 0x1017 at power-on (0: no heartbeat until written).
+  std::uint32_t vendor_id = 0x0000'0A5A;      ///< 0x1018 sub 1.
+};
+
+/// What the simulated drive counted (for tests).
+struct SimulatedDriveCounters {
+  std::uint64_t sdo_requests = 0;
+  std::uint64_t sdo_aborts_sent = 0;
+  std::uint64_t syncs = 0;
+  std::uint64_t rpdos = 0;
+  std::uint64_t rpdos_rejected = 0;  ///< Wrong length for the mapping: EMCY 0x8210.
+  std::uint64_t tpdos_sent = 0;
+  std::uint64_t heartbeats_sent = 0;
+  std::uint64_t emergencies_sent = 0;
+  std::uint64_t nmt_commands = 0;
+  std::uint64_t host_heartbeat_timeouts = 0;
+  std::uint64_t fault_resets = 0;
+};
+
+class SimulatedCia402Drive {
+ public:
+  /// Powers on at the first Step() (boot-up after boot_time_ms). `port` must outlive the drive and should receive
+  /// ReceiveOptions(config).
+  SimulatedCia402Drive(const SimulatedCia402DriveConfig& config, transport::CanPort& port);
+  ~SimulatedCia402Drive();
+  SimulatedCia402Drive(const SimulatedCia402Drive&) = delete;
+  SimulatedCia402Drive& operator=(const SimulatedCia402Drive&) = delete;
+
+  /// What the drive must receive: NMT, SYNC (0x080), its SDO requests, every RPDO COB-ID it could be given, and
+  /// heartbeats (for its consumer).
+  static transport::CanReceiveOptions ReceiveOptions(const SimulatedCia402DriveConfig& config);
+
+  /// Advances the drive to `now_ns`: reads and answers every pending frame (in order), integrates the joint, sends
+  /// the heartbeat when due and TPDOs after each SYNC. Call it often (at least every SYNC period). No allocation.
+  void Step(std::uint64_t now_ns) noexcept;
+
+  // ---- Fault injection ----
+  /// Stops answering anything (SDO, PDO, heartbeat, boot-up): a dead or unplugged drive. Frames are still read.
+  void SetSilent(bool silent) noexcept;
+  /// A drive fault: leaves Operation Enabled through Fault Reaction Active to Fault, sends EMCY `error_code` with
+  /// the error register set (0x1001), keeps 0x603F. A fault reset (controlword bit 7 rising) clears it and sends
+  /// EMCY 0x0000.
+  void InjectFault(std::uint16_t error_code) noexcept;
+  /// Leaves Operation Enabled without a fault (as a drive does on an external disable / STO input): to Switch On
+  /// Disabled.
+  void ForceDisable() noexcept;
+  /// Stops (or resumes) only the heartbeat; everything else goes on.
+  void SetHeartbeatMuted(bool muted) noexcept;
+  /// The next `count` SDO requests get no response (the client must retry).
+  void DropSdoResponses(int count) noexcept;
+  /// Every SDO access to `index` is aborted with `abort_code` (0 clears).
+  void AbortObject(std::uint16_t index, std::uint32_t abort_code) noexcept;
+  /// Moves the joint (test set-up).
+  void SetJointState(double position_rad, double velocity_rad_per_s) noexcept;
+  /// An external torque on the joint (the environment), N·m.
+  void SetExternalTorque(double torque_Nm) noexcept;
+
+  // ---- Observation ----
+  cia402::DriveState drive_state() const noexcept { return machine_.state(); }
+  canopen::NmtState nmt_state() const noexcept { return nmt_; }
+  std::int8_t mode_of_operation() const noexcept { return mode_; }
+  double position_rad() const noexcept { return position_rad_; }
+  double velocity_rad_per_s() const noexcept { return velocity_rad_per_s_; }
+  double applied_torque_Nm() const noexcept { return applied_torque_Nm_; }
+  double commanded_torque_Nm() const noexcept;
+  std::uint8_t error_register() const noexcept { return error_register_; }
+  std::uint16_t error_code() const noexcept { return error_code_; }
+  const SimulatedDriveCounters& counters() const noexcept { return counters_; }
+  /// The mapping a PDO has now (n 1..4), as the object dictionary holds it.
+  const canopen::PdoMapping& rpdo(int n) const noexcept;
+  const canopen::PdoMapping& tpdo(int n) const noexcept;
+
+ private:
+  struct Dictionary;
+  void Boot(std::uint64_t now_ns) noexcept;
+  void HandleFrame(const proto::can::CanFrame& frame, std::uint64_t now_ns) noexcept;
+  void HandleSdo(const proto::can::CanFrame& frame) noexcept;
+  void HandleSync() noexcept;
+  void HandleRpdo(int n, const proto::can::CanFrame& frame) noexcept;
+  void Integrate(std::uint64_t now_ns) noexcept;
+  void Send(const proto::can::CanFrame& frame) noexcept;
+  void EnterFault(std::uint16_t error_code) noexcept;
+  std::uint16_t Statusword() const noexcept;
+
+  SimulatedCia402DriveConfig config_;
+  transport::CanPort& port_;
+  std::unique_ptr<Dictionary> dict_;
+  cia402::DriveStateMachine machine_{};
+  canopen::NmtState nmt_ = canopen::NmtState::kBootUp;
+  bool powered_ = false;
+  bool booted_ = false;
+  bool silent_ = false;
+  bool heartbeat_muted_ = false;
+  int drop_sdo_ = 0;
+  std::uint16_t abort_index_ = 0;
+  std::uint32_t abort_code_ = 0;
+  std::uint64_t boot_at_ns_ = 0;
+  std::uint64_t last_ns_ = 0;
+  std::uint64_t next_heartbeat_ns_ = 0;
+  std::uint64_t host_heartbeat_ns_ = 0;
+  bool host_heartbeat_seen_ = false;
+  std::int8_t mode_ = 0;
+  std::uint16_t controlword_ = 0;
+  std::int16_t target_torque_ = 0;
+  std::int16_t pending_target_torque_ = 0;
+  std::uint16_t pending_controlword_ = 0;
+  bool pending_rpdo_ = false;
+  std::uint8_t error_register_ = 0;
+  std::uint16_t error_code_ = 0;
+  double position_rad_ = 0.0;
+  double velocity_rad_per_s_ = 0.0;
+  double applied_torque_Nm_ = 0.0;
+  double external_torque_Nm_ = 0.0;
+  SimulatedDriveCounters counters_{};
+};
+
+}  // namespace teleop::fieldbus
