@@ -21,6 +21,8 @@ TELEOP_PACKAGES=(
   systemd
   dpkg-dev
   cyclonedds-dev cyclonedds-tools
+  # deploy/bench.sh (docs/performance.md): cyclictest beside the loop, the NumPy/SciPy analysis reference
+  rt-tests python3-numpy python3-scipy
 )
 
 teleop::missing_packages() {

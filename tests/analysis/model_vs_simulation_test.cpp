@@ -27,6 +27,7 @@ struct Case {
   bool unilateral = false;
   int delay = 0;
   double filter_hz = 0.0;
+  double delay_fraction = 0.0;  ///< peer_delay_fraction (with delay = 0)
 };
 
 std::ostream& operator<<(std::ostream& out, const Case& c) { return out << c.name; }
@@ -90,6 +91,7 @@ TEST_P(ModelVsSimulation, PerturbationDecaysBelowAndGrowsAboveThePredictedLimit)
   system.unilateral = c.unilateral;
   system.peer_delay_samples = c.delay;
   system.velocity_filter_hz = c.filter_hz;
+  system.peer_delay_fraction = c.delay_fraction;
   const std::vector<HumanModel> humans = MakeHumanGrid(DefaultFingerBounds(), 3);
   const StabilityLimit limit = FindMaxStableStiffness(system, c.side, humans);
   ASSERT_FALSE(limit.unstable_without_fixture);
@@ -152,7 +154,13 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"master_1000Hz_kvs2_delay1_filter200", FixtureSide::kMaster, 1000.0, Damped(600, 2, 0, 2),
                            false, 1, 200.0},
                       Case{"slave_2000Hz_kv0.5_1.5_delay1_filter200", FixtureSide::kSlave, 2000.0,
-                           Damped(800, 4, 0.5, 1.5), false, 1, 200.0}),
+                           Damped(800, 4, 0.5, 1.5), false, 1, 200.0},
+                      // Fractional peer delay (ZOH with the peer terms split at τ): a phase-locked pair.
+                      Case{"slave_1000Hz_frac0.05", FixtureSide::kSlave, 1000.0, Gains(600, 2), false, 0, 0.0, 0.05},
+                      Case{"slave_1000Hz_frac0.5", FixtureSide::kSlave, 1000.0, Gains(600, 2), false, 0, 0.0, 0.5},
+                      Case{"master_1000Hz_frac0.3", FixtureSide::kMaster, 1000.0, Gains(600, 2), false, 0, 0.0, 0.3},
+                      Case{"slave_2000Hz_kvm2_frac0.7_filter200", FixtureSide::kSlave, 2000.0, Damped(800, 4, 2, 0),
+                           false, 0, 200.0, 0.7}),
     [](const ::testing::TestParamInfo<Case>& param_info) {
       std::string name = param_info.param.name;
       std::replace(name.begin(), name.end(), '.', '_');

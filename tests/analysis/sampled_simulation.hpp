@@ -12,7 +12,9 @@ namespace teleop::analysis::test {
 /// equations and not from the state matrix: the continuous master+operator and slave dynamics (eqs. 2, 5, 6, 26)
 /// integrated with classical RK4 in `substeps` steps per period under zero-order-held actuator forces, and the
 /// controller of eqs. 8-9 (with F_e = 0) evaluated once per sample with the backward-difference velocity of eq. 20,
-/// the optional first-order low-pass and the optional one-sample delay of the peer's data. Positions are relative
+/// the optional first-order low-pass and the optional one-sample delay of the peer's data, or a fractional delay τ
+/// (peer_delay_fraction): the force terms computed from the peer's sample act only τ after the sample, the previous
+/// ones until then (the period is integrated in two pieces split at τ). Positions are relative
 /// to the equilibrium (the dual system of §3.1), so the fixtures act as plain springs (eqs. 18-19).
 class SampledSimulation {
  public:
@@ -48,29 +50,26 @@ class SampledSimulation {
     const double xm_peer = delayed ? xm_prev_ : xm_;
     const double ym_peer = delayed ? ym_prev_ : ym;
     const LawGains& g = gains_;
-    // Eq. 8 (F_e = 0) and eq. 9, fixtures as springs about the equilibrium.
-    const double f_am = g.kpm_N_per_m * (xm_ - xs_peer) + g.kdm_Ns_per_m * (ym - ys_peer) + g.kvm_Ns_per_m * ym +
-                        g.master_fixture_N_per_m * xm_;
-    const double f_as = g.kps_N_per_m * (xm_peer - xs_) + g.kds_Ns_per_m * (ym_peer - ys) - g.kvs_Ns_per_m * ys -
-                        g.slave_fixture_N_per_m * xs_;
+    // Eq. 8 (F_e = 0) and eq. 9, fixtures as springs about the equilibrium; the terms of the peer's data apart.
+    const double f_am_local =
+        g.kpm_N_per_m * xm_ + g.kdm_Ns_per_m * ym + g.kvm_Ns_per_m * ym + g.master_fixture_N_per_m * xm_;
+    const double f_am_peer = -g.kpm_N_per_m * xs_peer - g.kdm_Ns_per_m * ys_peer;
+    const double f_as_local =
+        -g.kps_N_per_m * xs_ - g.kds_Ns_per_m * ys - g.kvs_Ns_per_m * ys - g.slave_fixture_N_per_m * xs_;
+    const double f_as_peer = g.kps_N_per_m * xm_peer + g.kds_Ns_per_m * ym_peer;
     xm_prev_ = xm_;
     xs_prev_ = xs_;
     ym_prev_ = ym;
     ys_prev_ = ys;
 
-    const double mm = system_.master.mass_kg + human_.mass_kg;
-    const double bm = system_.master.damping_Ns_per_m + human_.damping_Ns_per_m;
-    const double km = human_.stiffness_N_per_m;
-    const double ms = system_.slave.mass_kg;
-    const double bs = system_.slave.damping_Ns_per_m;
-    // F_h* - F_am = Z_hm X_m around the equilibrium (F_h* constant); Z_s X_s = F_as.
-    auto am = [&](double x, double v) { return (-f_am - bm * v - km * x) / mm; };
-    auto as = [&](double v) { return (f_as - bs * v) / ms; };
-    const double h = t / substeps_;
-    for (int i = 0; i < substeps_; ++i) {
-      Rk4(xm_, vm_, h, [&](double x, double v) { return am(x, v); });
-      Rk4(xs_, vs_, h, [&](double, double v) { return as(v); });
-    }
+    const double tau = delayed ? 0.0 : std::clamp(system_.peer_delay_fraction, 0.0, 1.0) * t;
+    // [0, τ): the previous peer terms still act; [τ, T): the new ones. Substeps shared in proportion.
+    const int early_steps = tau > 0.0 ? std::max(1, static_cast<int>(std::lround(substeps_ * tau / t))) : 0;
+    const int late_steps = tau < t ? std::max(1, substeps_ - early_steps) : 0;
+    Integrate(tau, early_steps, f_am_local + f_am_peer_prev_, f_as_local + f_as_peer_prev_);
+    Integrate(t - tau, late_steps, f_am_local + f_am_peer, f_as_local + f_as_peer);
+    f_am_peer_prev_ = f_am_peer;
+    f_as_peer_prev_ = f_as_peer;
   }
 
   double master_position_m() const { return xm_; }
@@ -82,6 +81,23 @@ class SampledSimulation {
   }
 
  private:
+  void Integrate(double duration_s, int steps, double f_am, double f_as) {
+    if (steps <= 0 || duration_s <= 0.0) return;
+    const double mm = system_.master.mass_kg + human_.mass_kg;
+    const double bm = system_.master.damping_Ns_per_m + human_.damping_Ns_per_m;
+    const double km = human_.stiffness_N_per_m;
+    const double ms = system_.slave.mass_kg;
+    const double bs = system_.slave.damping_Ns_per_m;
+    // F_h* - F_am = Z_hm X_m around the equilibrium (F_h* constant); Z_s X_s = F_as.
+    auto am = [&](double x, double v) { return (-f_am - bm * v - km * x) / mm; };
+    auto as = [&](double v) { return (f_as - bs * v) / ms; };
+    const double h = duration_s / steps;
+    for (int i = 0; i < steps; ++i) {
+      Rk4(xm_, vm_, h, [&](double x, double v) { return am(x, v); });
+      Rk4(xs_, vs_, h, [&](double, double v) { return as(v); });
+    }
+  }
+
   template <typename Accel>
   static void Rk4(double& x, double& v, double h, Accel accel) {
     const double k1x = v;
@@ -103,6 +119,7 @@ class SampledSimulation {
   double filter_ = 1.0;
   double xm_ = 0.0, vm_ = 0.0, xs_ = 0.0, vs_ = 0.0;
   double xm_prev_ = 0.0, xs_prev_ = 0.0, ym_prev_ = 0.0, ys_prev_ = 0.0;
+  double f_am_peer_prev_ = 0.0, f_as_peer_prev_ = 0.0;  // peer terms of the last sample (fractional delay)
 };
 
 }  // namespace teleop::analysis::test

@@ -1,9 +1,14 @@
 #include "teleop/runtime/periodic_loop.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <cstdint>
 #include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <string>
 #include <vector>
 
 #include "teleop/error.hpp"
@@ -114,6 +119,82 @@ TEST(PeriodicLoop, NonexistentCpuFailsAtSetUpWithAHint) {
     EXPECT_NE(std::string(e.what()).find("realtime.cpu"), std::string::npos) << e.what();
   }
   EXPECT_EQ(calls, 0);
+}
+
+// Whether this process has `path` open (through /proc/self/fd).
+bool HoldsOpen(const std::filesystem::path& path) {
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc/self/fd", ec)) {
+    std::error_code link_ec;
+    const std::filesystem::path target = std::filesystem::read_symlink(entry.path(), link_ec);
+    if (!link_ec && target == path) return true;
+  }
+  return false;
+}
+
+std::filesystem::path TempPath(const std::string& name) {
+  return std::filesystem::temp_directory_path() / (name + "-" + std::to_string(getpid()));
+}
+
+TEST(PeriodicLoopDmaLatency, HoldsTheRequestOpenWithTheValueForTheRunOnly) {
+  // A regular file stands in for /dev/cpu_dma_latency: the loop writes the 32-bit value and keeps it open.
+  const std::filesystem::path path = std::filesystem::canonical(std::filesystem::temp_directory_path()) /
+                                     ("teleop-dma-latency-" + std::to_string(getpid()));
+  { std::ofstream create(path); }
+  PeriodicLoopConfig config;
+  config.rate_hz = 1000.0;
+  config.cpu_dma_latency_us = 7;
+  config.cpu_dma_latency_path = path.string();
+  PeriodicLoop loop(config);
+  bool held_in_body = false;
+  loop.Run([&](std::uint64_t cycle, double) {
+    if (cycle == 2) {
+      held_in_body = HoldsOpen(path);
+      loop.Stop();
+    }
+  });
+  EXPECT_TRUE(held_in_body) << "the request is open while the loop runs";
+  EXPECT_FALSE(HoldsOpen(path)) << "and closed when Run returns";
+  EXPECT_TRUE(loop.stats().cpu_dma_latency_held);
+  EXPECT_EQ(loop.stats().setting_warnings, 0u);
+  EXPECT_EQ(loop.stats().cpu_dma_latency_errno, 0);
+  EXPECT_FALSE(loop.stats().realtime_settings_applied) << "no SCHED_FIFO, no mlockall";
+  EXPECT_EQ(std::filesystem::file_size(path), sizeof(std::int32_t)) << "exactly one 32-bit value written";
+  std::ifstream in(path, std::ios::binary);
+  std::int32_t value = 0;
+  in.read(reinterpret_cast<char*>(&value), sizeof value);
+  EXPECT_TRUE(in.good());
+  EXPECT_EQ(value, 7);
+  std::filesystem::remove(path);
+}
+
+TEST(PeriodicLoopDmaLatency, AnUnopenablePathIsACountedWarningNotAnError) {
+  PeriodicLoopConfig config;
+  config.rate_hz = 1000.0;
+  config.duration_s = 0.005;
+  config.cpu_dma_latency_us = 0;
+  config.cpu_dma_latency_path = (TempPath("teleop-no-such-dir") / "cpu_dma_latency").string();
+  PeriodicLoop loop(config);
+  std::uint64_t calls = 0;
+  EXPECT_NO_THROW(loop.Run([&](std::uint64_t, double) { ++calls; }));
+  EXPECT_GT(calls, 0u) << "the loop runs without the setting";
+  EXPECT_FALSE(loop.stats().cpu_dma_latency_held);
+  EXPECT_EQ(loop.stats().setting_warnings, 1u);
+  EXPECT_EQ(loop.stats().cpu_dma_latency_errno, ENOENT);
+  EXPECT_FALSE(loop.stats().realtime_settings_applied);
+}
+
+TEST(PeriodicLoopDmaLatency, NotAskedTouchesNothingAndInvalidValueIsRejected) {
+  PeriodicLoopConfig config;
+  config.rate_hz = 1000.0;
+  config.duration_s = 0.003;
+  config.cpu_dma_latency_path = (TempPath("teleop-untouched") / "x").string();  // would fail if opened
+  PeriodicLoop loop(config);
+  loop.Run([](std::uint64_t, double) {});
+  EXPECT_EQ(loop.stats().setting_warnings, 0u);
+  EXPECT_FALSE(loop.stats().cpu_dma_latency_held);
+  config.cpu_dma_latency_us = -2;
+  EXPECT_THROW(PeriodicLoop{config}, Error);
 }
 
 }  // namespace

@@ -17,7 +17,9 @@
 #include <sys/socket.h>
 
 #include <chrono>
+#include <cstdint>
 #include <cstdlib>
+#include <ctime>
 #include <fstream>
 #include <memory>
 #include <thread>
@@ -338,6 +340,111 @@ TEST(UdpLink, ReceiveBufferCanBeSized) {
   }
   UdpLink by_default(Config(SenderRole::kSlave));
   EXPECT_EQ(ReceiveBufferOfSocketOnPort(by_default.local_port()), rmem_default);
+}
+
+std::int64_t MonotonicNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+// Slack for the realtime → monotonic conversion (the offset is read at the Poll, the stamp taken at arrival; NTP
+// slewing moves the offset by ≤ 500 ppm): 50 µs, far below the 2 ms the tests wait between arrival and Poll.
+constexpr std::int64_t kClockSlackNs = 50'000;
+
+TEST(UdpLinkReceiveTime, IsTheKernelArrivalTimeNotThePollTime) {
+  Pair p;
+  EXPECT_EQ(p.slave.newest_receive_time_ns(), 0) << "nothing received yet";
+  const std::int64_t before_send = MonotonicNs();
+  ASSERT_TRUE(p.master.Send(MakeSample(SenderRole::kMaster, 1)));
+  const std::int64_t after_send = MonotonicNs();  // on loopback the datagram is queued when send returns
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  const std::int64_t before_poll = MonotonicNs();
+  proto::SampleMessage got;
+  ASSERT_TRUE(p.slave.Poll(got));
+  const std::int64_t after_poll = MonotonicNs();
+  const std::int64_t received = p.slave.newest_receive_time_ns();
+  EXPECT_TRUE(p.slave.newest_receive_time_from_kernel());
+  EXPECT_GE(received, before_send - kClockSlackNs);
+  EXPECT_LE(received, after_send + kClockSlackNs) << "a poll-time stamp would be >= " << before_poll;
+  EXPECT_LE(received, after_poll) << "never later than the Poll";
+}
+
+TEST(UdpLinkReceiveTime, BelongsToTheNewestAcceptedSampleOfTheDrain) {
+  Pair p;
+  ASSERT_TRUE(p.master.Send(MakeSample(SenderRole::kMaster, 1)));
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  const std::int64_t before_newest = MonotonicNs();
+  ASSERT_TRUE(p.master.Send(MakeSample(SenderRole::kMaster, 3)));
+  const std::int64_t after_newest = MonotonicNs();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  ASSERT_TRUE(p.master.Send(MakeSample(SenderRole::kMaster, 2)));  // late: counted, not applied, not its time
+  proto::SampleMessage got;
+  ASSERT_TRUE(p.slave.Poll(got));
+  EXPECT_EQ(got.sequence, 3u);
+  EXPECT_GE(p.slave.newest_receive_time_ns(), before_newest - kClockSlackNs);
+  EXPECT_LE(p.slave.newest_receive_time_ns(), after_newest + kClockSlackNs);
+  // An empty or stale-only drain keeps the time of the sample it still refers to.
+  const std::int64_t kept = p.slave.newest_receive_time_ns();
+  ASSERT_TRUE(p.master.Send(MakeSample(SenderRole::kMaster, 2)));
+  EXPECT_FALSE(p.slave.Poll(got));
+  EXPECT_EQ(p.slave.newest_receive_time_ns(), kept);
+}
+
+TEST(UdpLinkReceiveTime, IsMonotoneAcrossSamplesAndNotLaterThanEachPoll) {
+  Pair p;
+  proto::SampleMessage got;
+  std::int64_t previous = 0;
+  for (std::uint32_t s = 1; s <= 50; ++s) {
+    ASSERT_TRUE(p.master.Send(MakeSample(SenderRole::kMaster, s)));
+    ASSERT_TRUE(Receive(p.slave, got));
+    const std::int64_t polled = MonotonicNs();
+    const std::int64_t received = p.slave.newest_receive_time_ns();
+    EXPECT_TRUE(p.slave.newest_receive_time_from_kernel());
+    EXPECT_GT(received, previous) << "sample " << s;
+    EXPECT_LE(received, polled) << "sample " << s;
+    previous = received;
+  }
+}
+
+TEST(UdpLinkReceiveOptions, PollUntilSpinsForADueSampleAndGivesUpAtTheDeadline) {
+  Pair p;
+  proto::SampleMessage got;
+  const std::int64_t deadline = MonotonicNs() + 1'000'000;
+  EXPECT_FALSE(p.slave.PollUntil(got, deadline));
+  EXPECT_GE(MonotonicNs(), deadline) << "returns only once the deadline has passed";
+  std::thread sender([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    (void)p.master.Send(MakeSample(SenderRole::kMaster, 1));
+  });
+  const bool arrived = p.slave.PollUntil(got, MonotonicNs() + 2'000'000'000);  // bound: a hang guard only
+  sender.join();
+  EXPECT_TRUE(arrived);
+  EXPECT_EQ(got.sequence, 1u);
+}
+
+TEST(UdpLinkReceiveOptions, SpinPollAndBusyPollAreSelectableInTheConfig) {
+  UdpLinkConfig config = Config(SenderRole::kMaster);
+  config.spin_poll_us = 1000;
+  config.busy_poll_us = 50;
+  UdpLink slave(config);
+  UdpLink master(Config(SenderRole::kSlave));
+  master.SetPeer("127.0.0.1", slave.local_port());
+  slave.SetPeer("127.0.0.1", master.local_port());
+  // SO_BUSY_POLL is applied where permitted (CAP_NET_ADMIN above net.core.busy_read); either way the link works.
+  SCOPED_TRACE(slave.busy_poll_applied() ? "busy poll applied" : "busy poll refused");
+  proto::SampleMessage got;
+  const std::int64_t start = MonotonicNs();
+  EXPECT_FALSE(slave.Poll(got));
+  EXPECT_GE(MonotonicNs() - start, 1'000'000) << "an empty Poll spins for spin_poll_us";
+  ASSERT_TRUE(master.Send(MakeSample(SenderRole::kMaster, 1)));
+  EXPECT_TRUE(slave.Poll(got));
+  EXPECT_EQ(got.sequence, 1u);
+  config.spin_poll_us = -1;
+  EXPECT_THROW(UdpLink{config}, Error);
+  config.spin_poll_us = 0;
+  config.busy_poll_us = -1;
+  EXPECT_THROW(UdpLink{config}, Error);
 }
 
 }  // namespace

@@ -56,6 +56,7 @@ struct SystemOptions {
   int human_steps = 4;
   double velocity_filter_hz = 0.0;
   int peer_delay_samples = 0;
+  double peer_delay_fraction = 0.0;
   int threads = 0;
   bool json = false;
 };
@@ -101,6 +102,12 @@ void AddSystemOptions(CLI::App& app, SystemOptions& o, bool with_side) {
   app.add_option("--peer-delay-samples", o.peer_delay_samples,
                  "0: the paper's model; 1: peer data one sample old, as the processes over a link")
       ->check(CLI::Range(0, 1));
+  if (with_side) {
+    app.add_option("--peer-delay-fraction", o.peer_delay_fraction,
+                   "Peer data age as a fraction of the period (0..1, ZOH with a fractional input delay; with "
+                   "--peer-delay-samples 0): a phase-locked pair")
+        ->check(CLI::Range(0.0, 1.0));
+  }
   app.add_option("--threads", o.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 64));
   app.add_flag("--json", o.json, "Print a JSON object instead of the plain number");
 }
@@ -116,6 +123,7 @@ SampledTeleoperator BuildSystem(const SystemOptions& o, FixtureSide side) {
   s.rate_hz = o.rate_hz;
   s.velocity_filter_hz = o.velocity_filter_hz;
   s.peer_delay_samples = o.peer_delay_samples;
+  s.peer_delay_fraction = o.peer_delay_fraction;
   s.unilateral = o.unilateral;
   LawGains& g = s.gains;
   g.kpm_N_per_m = Or(o.kpm, o.kp);
@@ -150,6 +158,7 @@ std::string LimitJson(const StabilityLimit& l, const SampledTeleoperator& s, Fix
   out << "{\n  \"side\": \"" << ToString(side) << "\",\n  \"rate_hz\": " << s.rate_hz
       << ",\n  \"unilateral\": " << (s.unilateral ? "true" : "false")
       << ",\n  \"peer_delay_samples\": " << s.peer_delay_samples
+      << ",\n  \"peer_delay_fraction\": " << s.peer_delay_fraction
       << ",\n  \"velocity_filter_hz\": " << s.velocity_filter_hz
       << ",\n  \"max_stable_stiffness_N_per_m\": " << l.max_stable_stiffness_N_per_m
       << ",\n  \"min_unstable_stiffness_N_per_m\": " << l.min_unstable_stiffness_N_per_m

@@ -1,5 +1,6 @@
 #include "teleop/analysis/discrete_model.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -15,6 +16,11 @@ constexpr int kXmPrev = 4;
 constexpr int kXsPrev = 5;
 constexpr int kYmPrev = 6;
 constexpr int kYsPrev = 7;
+
+// The fractional peer delay in seconds (0 with a whole-sample delay, which the rows model instead).
+double PeerDelay(const SampledTeleoperator& system) {
+  return system.peer_delay_samples > 0 ? 0.0 : system.peer_delay_fraction * system.period_s();
+}
 
 Row Unit(int i) {
   Row r = Row::Zero();
@@ -32,11 +38,12 @@ double VelocityFilterCoefficient(double cutoff_hz, double period_s) noexcept {
 ZohBlock DiscretizeMasterWithHuman(const SampledTeleoperator& system, const HumanModel& human) noexcept {
   return DiscretizeMassSpringDamper(system.master.mass_kg + human.mass_kg,
                                     system.master.damping_Ns_per_m + human.damping_Ns_per_m, human.stiffness_N_per_m,
-                                    system.period_s());
+                                    system.period_s(), PeerDelay(system));
 }
 
 ZohBlock DiscretizeSlave(const SampledTeleoperator& system) noexcept {
-  return DiscretizeMassSpringDamper(system.slave.mass_kg, system.slave.damping_Ns_per_m, 0.0, system.period_s());
+  return DiscretizeMassSpringDamper(system.slave.mass_kg, system.slave.damping_Ns_per_m, 0.0, system.period_s(),
+                                    PeerDelay(system));
 }
 
 StateMatrix AssembleStateMatrix(const SampledTeleoperator& system, const ZohBlock& master_with_human,
@@ -62,19 +69,28 @@ StateMatrix AssembleStateMatrix(const SampledTeleoperator& system, const ZohBloc
   const Row xm_seen_by_slave = delayed ? Unit(kXmPrev) : xm;
   const Row ym_seen_by_slave = delayed ? Unit(kYmPrev) : ym;
 
-  // Eqs. 18-19 with the fixtures lumped into the local position gains (K_pmm = K_pm + K_mVF, K_pss = K_ps + K_sVF).
-  const Row f_am = (g.kpm_N_per_m + g.master_fixture_N_per_m) * xm - g.kpm_N_per_m * xs_seen_by_master +
-                   g.kdm_Ns_per_m * (ym - ys_seen_by_master) + g.kvm_Ns_per_m * ym;
-  const Row f_as = g.kps_N_per_m * xm_seen_by_slave - (g.kps_N_per_m + g.slave_fixture_N_per_m) * xs +
-                   g.kds_Ns_per_m * (ym_seen_by_slave - ys) - g.kvs_Ns_per_m * ys;
+  // Eqs. 18-19 with the fixtures lumped into the local position gains (K_pmm = K_pm + K_mVF, K_pss = K_ps + K_sVF),
+  // split into the part from local data and the part from peer data (which a fractional delay holds back).
+  const Row f_am_local = (g.kpm_N_per_m + g.master_fixture_N_per_m) * xm + (g.kdm_Ns_per_m + g.kvm_Ns_per_m) * ym;
+  const Row f_am_peer = -g.kpm_N_per_m * xs_seen_by_master - g.kdm_Ns_per_m * ys_seen_by_master;
+  const Row f_as_local = -(g.kps_N_per_m + g.slave_fixture_N_per_m) * xs - (g.kds_Ns_per_m + g.kvs_Ns_per_m) * ys;
+  const Row f_as_peer = g.kps_N_per_m * xm_seen_by_slave + g.kds_Ns_per_m * ym_seen_by_slave;
+  // The peer terms of the previous sample, over the states that hold it (X(k-1), y(k-1)): used by gamma_stale.
+  const Row f_am_peer_prev = -g.kpm_N_per_m * Unit(kXsPrev) - g.kdm_Ns_per_m * Unit(kYsPrev);
+  const Row f_as_peer_prev = g.kps_N_per_m * Unit(kXmPrev) + g.kds_Ns_per_m * Unit(kYmPrev);
 
   StateMatrix a_matrix = StateMatrix::Zero();
   // Master + operator (eq. 16 with eq. 15 folded in, eq. 26): the actuator force opposes the operator.
   a_matrix.block<2, 2>(kXm, kXm) = master_with_human.phi;
-  a_matrix.block<2, kModelStates>(kXm, 0) -= master_with_human.gamma * f_am;
+  a_matrix.block<2, kModelStates>(kXm, 0) -= master_with_human.gamma * (f_am_local + f_am_peer);
   // Slave (eq. 17), free space.
   a_matrix.block<2, 2>(kXs, kXs) = slave.phi;
-  a_matrix.block<2, kModelStates>(kXs, 0) += slave.gamma * f_as;
+  a_matrix.block<2, kModelStates>(kXs, 0) += slave.gamma * (f_as_local + f_as_peer);
+  if (!delayed) {
+    // Fractional delay: during the first τ of the period the previous peer terms still act (Γ1), not the new ones.
+    a_matrix.block<2, kModelStates>(kXm, 0) -= master_with_human.gamma_stale * (f_am_peer_prev - f_am_peer);
+    a_matrix.block<2, kModelStates>(kXs, 0) += slave.gamma_stale * (f_as_peer_prev - f_as_peer);
+  }
   // Shift registers.
   a_matrix.row(kXmPrev) = xm;
   a_matrix.row(kXsPrev) = xs;

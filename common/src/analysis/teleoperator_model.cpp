@@ -49,6 +49,16 @@ void Validate(const SampledTeleoperator& system) {
     throw Error(Describe("peer_delay_samples", system.peer_delay_samples,
                          "must be 0 (paper's model) or 1 (processes over a link)"));
   }
+  if (!std::isfinite(system.peer_delay_fraction) || system.peer_delay_fraction < 0.0 ||
+      system.peer_delay_fraction > 1.0) {
+    throw Error(Describe("peer_delay_fraction", system.peer_delay_fraction,
+                         "must be in 0..1 (peer data age as a fraction of the period)"));
+  }
+  if (system.peer_delay_samples != 0 && system.peer_delay_fraction != 0.0) {
+    throw Error(Describe("peer_delay_fraction", system.peer_delay_fraction,
+                         "must be 0 with peer_delay_samples = 1 (the model covers a delay of at most one period; "
+                         "use peer_delay_fraction = 1 or peer_delay_samples = 1)"));
+  }
   const LawGains& g = system.gains;
   RequireNonNegative("kpm_N_per_m", g.kpm_N_per_m);
   RequireNonNegative("kps_N_per_m", g.kps_N_per_m);

@@ -1,5 +1,6 @@
 #include "teleop/analysis/zero_order_hold.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace teleop::analysis {
@@ -36,6 +37,20 @@ ZohBlock DiscretizeMassSpringDamper(double mass_kg, double damping_Ns_per_m, dou
   ZohBlock block;
   block.phi = e.topLeftCorner<2, 2>();
   block.gamma = e.topRightCorner<2, 1>();
+  return block;
+}
+
+ZohBlock DiscretizeMassSpringDamper(double mass_kg, double damping_Ns_per_m, double stiffness_N_per_m, double step_s,
+                                    double input_delay_s) noexcept {
+  ZohBlock block = DiscretizeMassSpringDamper(mass_kg, damping_Ns_per_m, stiffness_N_per_m, step_s);
+  const double delay_s = std::clamp(input_delay_s, 0.0, step_s);
+  if (delay_s >= step_s) {
+    block.gamma_stale = block.gamma;
+  } else if (delay_s > 0.0) {
+    // Γ0 = ∫0^{h-τ} e^{As} ds·B is the ZOH input matrix over h - τ; Γ1 = Γ(h) - Γ0.
+    const ZohBlock early = DiscretizeMassSpringDamper(mass_kg, damping_Ns_per_m, stiffness_N_per_m, step_s - delay_s);
+    block.gamma_stale = block.gamma - early.gamma;
+  }
   return block;
 }
 

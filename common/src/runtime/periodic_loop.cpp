@@ -1,5 +1,6 @@
 #include "teleop/runtime/periodic_loop.hpp"
 
+#include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
@@ -10,6 +11,7 @@
 #include <cstring>
 #include <ctime>
 #include <limits>
+#include <optional>
 #include <string>
 #include <system_error>
 
@@ -54,6 +56,39 @@ void PrefaultStack() noexcept {
   asm volatile("" : : "r"(stack) : "memory");  // keep the writes: the point is to touch the pages
 }
 
+/// The open cpu_dma_latency request: the kernel keeps the PM QoS value while the file descriptor is open.
+class DmaLatencyRequest {
+ public:
+  DmaLatencyRequest(const std::string& path, int latency_us) noexcept {
+    fd_ = open(path.c_str(), O_WRONLY | O_CLOEXEC);
+    if (fd_ < 0) {
+      error_ = errno;
+      return;
+    }
+    // The kernel reads a binary 32-bit value (or a hex string); the binary form is what cyclictest writes.
+    const std::int32_t value = latency_us;
+    if (write(fd_, &value, sizeof value) != static_cast<ssize_t>(sizeof value)) {
+      error_ = errno != 0 ? errno : EIO;
+      close(fd_);
+      fd_ = -1;
+    }
+  }
+  ~DmaLatencyRequest() {
+    if (fd_ >= 0) close(fd_);
+  }
+  DmaLatencyRequest(const DmaLatencyRequest&) = delete;
+  DmaLatencyRequest& operator=(const DmaLatencyRequest&) = delete;
+  DmaLatencyRequest(DmaLatencyRequest&&) = delete;
+  DmaLatencyRequest& operator=(DmaLatencyRequest&&) = delete;
+
+  bool held() const noexcept { return fd_ >= 0; }
+  int error() const noexcept { return error_; }
+
+ private:
+  int fd_ = -1;
+  int error_ = 0;
+};
+
 }  // namespace
 
 std::int64_t MonotonicNowNs() noexcept {
@@ -72,6 +107,10 @@ PeriodicLoop::PeriodicLoop(const PeriodicLoopConfig& config) : config_(config), 
   }
   if (config.cpu < -1) {
     throw Error("periodic loop: cpu " + std::to_string(config.cpu) + " is invalid (-1 = any CPU, else a CPU index)");
+  }
+  if (config.cpu_dma_latency_us < -1) {
+    throw Error("periodic loop: cpu_dma_latency_us " + std::to_string(config.cpu_dma_latency_us) +
+                " is invalid (-1 = leave it alone, 0 = no idle halt, else the largest wake-up latency in µs)");
   }
   if (!std::isfinite(config.duration_s) || config.duration_s < 0.0) {
     throw Error("periodic loop: duration_s " + std::to_string(config.duration_s) +
@@ -127,6 +166,13 @@ void PeriodicLoop::ApplySchedulingSettings() const {
 
 void PeriodicLoop::Run(const Body& body) {
   ApplySchedulingSettings();
+  std::optional<DmaLatencyRequest> dma_latency;
+  if (config_.cpu_dma_latency_us >= 0) dma_latency.emplace(config_.cpu_dma_latency_path, config_.cpu_dma_latency_us);
+  stats_.cpu_dma_latency_held = dma_latency.has_value() && dma_latency->held();
+  stats_.cpu_dma_latency_errno = dma_latency.has_value() ? dma_latency->error() : 0;
+  stats_.setting_warnings = dma_latency.has_value() && !dma_latency->held() ? 1 : 0;
+  stats_.realtime_settings_applied = config_.fifo_priority > 0 && config_.lock_memory &&
+                                     (config_.cpu_dma_latency_us < 0 || stats_.cpu_dma_latency_held);
   stats_.cycles = 0;
   stats_.overruns = 0;
   stats_.skipped_slots = 0;

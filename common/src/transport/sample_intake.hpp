@@ -18,24 +18,26 @@ class SampleIntake {
 
   void Begin() noexcept { has_pending_ = false; }
 
-  /// A datagram from the expected source: decode, check the role, classify its sequence.
-  void Offer(std::span<const std::uint8_t> bytes, LinkCounters& counters) noexcept {
+  /// A datagram from the expected source: decode, check the role, classify its sequence. Returns true when it is
+  /// now the newest sample of this drain (what Finish() will hand back unless a newer one follows).
+  bool Offer(std::span<const std::uint8_t> bytes, LinkCounters& counters) noexcept {
     ++counters.received;
     const proto::DecodeStatus status = proto::DecodeSample(bytes, scratch_);
     if (status != proto::DecodeStatus::kOk) {
       ++counters.rejected;
       ++counters.rejected_by_reason[static_cast<std::size_t>(status)];
-      return;
+      return false;
     }
     if (scratch_.sender != expected_peer_) {
       ++counters.rejected;
       ++counters.wrong_sender;
-      return;
+      return false;
     }
-    if (tracker_.Observe(scratch_.sequence, counters) != SequenceTracker::Verdict::kNewer) return;
+    if (tracker_.Observe(scratch_.sequence, counters) != SequenceTracker::Verdict::kNewer) return false;
     if (has_pending_) ++counters.superseded;
     pending_ = scratch_;
     has_pending_ = true;
+    return true;
   }
 
   /// A sample decoded by the link itself (CAN: reassembled from frames whose identifiers gave the sender): counted

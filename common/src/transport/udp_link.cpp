@@ -1,9 +1,14 @@
 #include "teleop/transport/udp_link.hpp"
 
 #include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/uio.h>
 
+#include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cstring>
+#include <ctime>
 // Asio trips -Wnull-dereference in its own inlined scheduler code (GCC 12, -O2); not ours to fix.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wnull-dereference"
@@ -46,26 +51,38 @@ asio::ip::address ParseAddress(const std::string& text, const char* what) {
 }
 
 // Source check without building asio::ip::address objects (whose constructors are not noexcept): compares family,
-// port and address bytes of the raw sockaddr. The IPv6 flow label and scope are ignored.
-bool SameEndpoint(const udp::endpoint& a, const udp::endpoint& b) noexcept {
-  if (a.size() != b.size()) return false;
-  if (a.size() == sizeof(sockaddr_in)) {
+// port and address bytes of the raw sockaddr recvmsg wrote against the peer's. The IPv6 flow label and scope are
+// ignored.
+bool SameEndpoint(const sockaddr_storage& source, socklen_t length, const udp::endpoint& peer) noexcept {
+  if (length != peer.size()) return false;
+  if (source.ss_family == AF_INET && length == sizeof(sockaddr_in)) {
     sockaddr_in x{};
     sockaddr_in y{};
-    std::memcpy(&x, a.data(), sizeof x);
-    std::memcpy(&y, b.data(), sizeof y);
+    std::memcpy(&x, &source, sizeof x);
+    std::memcpy(&y, peer.data(), sizeof y);
     return x.sin_family == y.sin_family && x.sin_port == y.sin_port && x.sin_addr.s_addr == y.sin_addr.s_addr;
   }
-  if (a.size() == sizeof(sockaddr_in6)) {
+  if (source.ss_family == AF_INET6 && length == sizeof(sockaddr_in6)) {
     sockaddr_in6 x{};
     sockaddr_in6 y{};
-    std::memcpy(&x, a.data(), sizeof x);
-    std::memcpy(&y, b.data(), sizeof y);
+    std::memcpy(&x, &source, sizeof x);
+    std::memcpy(&y, peer.data(), sizeof y);
     return x.sin6_family == y.sin6_family && x.sin6_port == y.sin6_port &&
            std::memcmp(&x.sin6_addr, &y.sin6_addr, sizeof x.sin6_addr) == 0;
   }
   return false;
 }
+
+constexpr std::int64_t kNsPerS = 1'000'000'000;
+
+std::int64_t NowNs(clockid_t clock) noexcept {
+  timespec ts{};
+  clock_gettime(clock, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * kNsPerS + ts.tv_nsec;
+}
+
+// Room for one SCM_TIMESTAMPNS (a timespec) and slack for anything else the kernel attaches.
+constexpr std::size_t kControlBytes = CMSG_SPACE(sizeof(timespec)) + 64;
 
 }  // namespace
 
@@ -79,9 +96,10 @@ struct UdpLink::Impl {
   bool has_peer = false;
   bool accept_only_peer = true;
   detail::SampleIntake intake;
-  udp::endpoint source;  // written by receive_from
   std::array<std::uint8_t, kMaxSampleBytes> tx{};
   std::array<std::uint8_t, kReceiveBufferBytes> rx{};
+  alignas(cmsghdr) std::array<std::uint8_t, kControlBytes> control{};
+  sockaddr_storage source{};  // written by recvmsg
 };
 
 UdpLink::UdpLink(const UdpLinkConfig& config) : impl_(std::make_unique<Impl>(config)) {
@@ -109,6 +127,21 @@ UdpLink::UdpLink(const UdpLinkConfig& config) : impl_(std::make_unique<Impl>(con
                   " bytes: " + ec.message());
     }
   }
+  // Kernel receive timestamps (CLOCK_REALTIME, ns) on every datagram, read with recvmsg in Poll.
+  const int on = 1;
+  if (setsockopt(impl_->socket.native_handle(), SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on) != 0) {
+    throw Error("UDP link on " + where + ": cannot enable SO_TIMESTAMPNS: " + std::strerror(errno));
+  }
+  if (config.busy_poll_us < 0 || config.spin_poll_us < 0) {
+    throw Error("UDP link on " + where + ": busy_poll_us and spin_poll_us must be >= 0 (0 = off), got " +
+                std::to_string(config.busy_poll_us) + " and " + std::to_string(config.spin_poll_us));
+  }
+  if (config.busy_poll_us > 0) {
+    // Not permitted without CAP_NET_ADMIN above net.core.busy_read: the link then runs without it.
+    busy_poll_applied_ = setsockopt(impl_->socket.native_handle(), SOL_SOCKET, SO_BUSY_POLL, &config.busy_poll_us,
+                                    sizeof config.busy_poll_us) == 0;
+  }
+  spin_poll_ns_ = static_cast<std::int64_t>(config.spin_poll_us) * 1000;
   impl_->local = impl_->socket.local_endpoint(ec);
   if (ec) throw Error("UDP link: cannot read the local address of " + where + ": " + ec.message());
   impl_->accept_only_peer = config.accept_only_peer_address;
@@ -144,27 +177,71 @@ bool UdpLink::Send(const proto::SampleMessage& message) noexcept {
   return true;
 }
 
-// The one throw clang-tidy finds below is asio's endpoint::resize() inside receive_from, for a source address
-// longer than sockaddr_storage, which the kernel never returns.
-bool UdpLink::Poll(proto::SampleMessage& newest) noexcept {  // NOLINT(bugprone-exception-escape)
+bool UdpLink::Poll(proto::SampleMessage& newest) noexcept {
+  const std::int64_t deadline = spin_poll_ns_ > 0 ? NowNs(CLOCK_MONOTONIC) + spin_poll_ns_ : 0;
+  return PollUntil(newest, deadline);
+}
+
+bool UdpLink::PollUntil(proto::SampleMessage& newest, std::int64_t deadline_ns) noexcept {
+  while (true) {
+    // The offset between the kernel's clock (realtime) and the loop's (monotonic), read once per drain.
+    const std::int64_t monotonic = NowNs(CLOCK_MONOTONIC);
+    const std::int64_t realtime = NowNs(CLOCK_REALTIME);
+    if (PollOnce(newest, monotonic, realtime - monotonic)) return true;
+    if (monotonic >= deadline_ns) return false;
+  }
+}
+
+bool UdpLink::PollOnce(proto::SampleMessage& newest, std::int64_t poll_monotonic_ns,
+                       std::int64_t realtime_minus_monotonic_ns) noexcept {
   detail::SampleIntake& intake = impl_->intake;
+  const int fd = impl_->socket.native_handle();
   intake.Begin();
+  std::int64_t pending_time = 0;
+  bool pending_from_kernel = false;
   for (int i = 0; i < kMaxDatagramsPerPoll; ++i) {
-    boost::system::error_code ec;
-    const std::size_t size = impl_->socket.receive_from(asio::buffer(impl_->rx), impl_->source, 0, ec);
-    if (ec == asio::error::would_block || ec == asio::error::try_again) break;
-    if (ec) {
+    iovec iov{impl_->rx.data(), impl_->rx.size()};
+    msghdr message{};
+    message.msg_name = &impl_->source;
+    message.msg_namelen = sizeof impl_->source;
+    message.msg_iov = &iov;
+    message.msg_iovlen = 1;
+    message.msg_control = impl_->control.data();
+    message.msg_controllen = impl_->control.size();
+    const ssize_t size = recvmsg(fd, &message, MSG_DONTWAIT);
+    if (size < 0) {
+      if (errno == EAGAIN || errno == EWOULDBLOCK) break;
+      if (errno == EINTR) continue;
       // E.g. ECONNREFUSED reported for an earlier send: a medium fault, not a datagram.
       ++counters_.bus_errors;
       continue;
     }
-    if (impl_->accept_only_peer && (!impl_->has_peer || !SameEndpoint(impl_->source, impl_->peer))) {
+    if (impl_->accept_only_peer &&
+        (!impl_->has_peer || !SameEndpoint(impl_->source, message.msg_namelen, impl_->peer))) {
       intake.OfferForeign(counters_);
       continue;
     }
-    intake.Offer(std::span<const std::uint8_t>(impl_->rx.data(), size), counters_);
+    // A truncated datagram (longer than the buffer) is offered at the buffer's length: more than any sample, so
+    // it is rejected as kBadLength.
+    const std::size_t length = std::min(static_cast<std::size_t>(size), impl_->rx.size());
+    if (!intake.Offer(std::span<const std::uint8_t>(impl_->rx.data(), length), counters_)) continue;
+    pending_time = poll_monotonic_ns;
+    pending_from_kernel = false;
+    for (cmsghdr* c = CMSG_FIRSTHDR(&message); c != nullptr; c = CMSG_NXTHDR(&message, c)) {
+      if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMPNS && c->cmsg_len >= CMSG_LEN(sizeof(timespec))) {
+        timespec stamp{};
+        std::memcpy(&stamp, CMSG_DATA(c), sizeof stamp);
+        const std::int64_t realtime_ns = static_cast<std::int64_t>(stamp.tv_sec) * kNsPerS + stamp.tv_nsec;
+        // Realtime → monotonic; never later than this Poll (a realtime step backwards could claim otherwise).
+        pending_time = std::min(realtime_ns - realtime_minus_monotonic_ns, poll_monotonic_ns);
+        pending_from_kernel = true;
+      }
+    }
   }
-  return intake.Finish(newest, counters_);
+  if (!intake.Finish(newest, counters_)) return false;
+  newest_receive_time_ns_ = pending_time;
+  newest_from_kernel_ = pending_from_kernel;
+  return true;
 }
 
 std::string UdpLink::Describe() const {

@@ -22,13 +22,15 @@ inline constexpr int kModelStates = 8;
 /// paper's model also has eight eigenvalues, two of them identically zero. docs/stability.md derives every entry.
 using StateMatrix = Eigen::Matrix<double, kModelStates, kModelStates>;
 
-/// Master + operator (eq. 26: Z_hm = Z_h + Z_m) discretized.
+/// Master + operator (eq. 26: Z_hm = Z_h + Z_m) discretized; gamma_stale for the system's peer_delay_fraction.
 ZohBlock DiscretizeMasterWithHuman(const SampledTeleoperator& system, const HumanModel& human) noexcept;
-/// Slave (eq. 6) discretized.
+/// Slave (eq. 6) discretized; gamma_stale for the system's peer_delay_fraction.
 ZohBlock DiscretizeSlave(const SampledTeleoperator& system) noexcept;
 
 /// Assembles A from pre-discretized plant blocks and the law (eqs. 18-25), applying `unilateral` (K_pm = K_dm =
-/// K_fm = 0). Allocation-free; the stiffness search calls it for every operator at every step.
+/// K_fm = 0). With peer_delay_fraction > 0 the peer-data terms of each actuator force are split over gamma and
+/// gamma_stale of the blocks (the previous peer terms are rows over states the model already has: X(k-1), y(k-1);
+/// no extra state is needed). Allocation-free; the stiffness search calls it for every operator at every step.
 StateMatrix AssembleStateMatrix(const SampledTeleoperator& system, const ZohBlock& master_with_human,
                                 const ZohBlock& slave) noexcept;
 

@@ -64,6 +64,11 @@ struct LawGains {
 /// 1 is what the two processes do over a link: each side's law at sample k uses the peer's position and velocity
 /// from sample k-1 (the sample that arrived during the last period). The processes' start-up check uses 1.
 ///
+/// `peer_delay_fraction` (with peer_delay_samples = 0): the peer's sample k reaches the law a fraction τ/T of a
+/// period late (the measured data age of a phase-locked pair), so the part of each actuator force computed from
+/// peer data acts τ late: ZOH with a fractional input delay (Franklin, Powell & Workman §4.3.4). 0 is the paper's
+/// model, 1 the same as peer_delay_samples = 1; values between interpolate (see docs/stability.md).
+///
 /// `unilateral`: the master actuator renders nothing of the slave (K_pm = K_dm = K_fm = 0; the master keeps K_vm and
 /// its own fixture): §4.5, a haptic device against a virtual wall. The stiffness search for the slave side (§4.4,
 /// master actuator saturated) also drops K_vm and K_mVF, since a saturated actuator is entirely out of the loop
@@ -73,15 +78,17 @@ struct SampledTeleoperator {
   DeviceModel slave = kPaperSlaveDevice;
   LawGains gains{};
   double rate_hz = 1000.0;
-  double velocity_filter_hz = 0.0;  ///< First-order low-pass on the backward-difference velocity; 0 = none.
-  int peer_delay_samples = 0;       ///< 0 (paper) or 1 (the processes over a link).
+  double velocity_filter_hz = 0.0;   ///< First-order low-pass on the backward-difference velocity; 0 = none.
+  int peer_delay_samples = 0;        ///< 0 (paper) or 1 (the processes over a link).
+  double peer_delay_fraction = 0.0;  ///< 0..1, only with peer_delay_samples = 0: peer data age / period.
   bool unilateral = false;
 
   double period_s() const noexcept { return 1.0 / rate_hz; }
 };
 
-/// Checks ranges (masses > 0, damping ≥ 0, rate 1 Hz..1 MHz, filter ≥ 0 and below Nyquist, delay 0 or 1, gains
-/// finite, fixture and position gains ≥ 0). Throws teleop::Error naming the offending field and its value.
+/// Checks ranges (masses > 0, damping ≥ 0, rate 1 Hz..1 MHz, filter ≥ 0 and below Nyquist, delay 0 or 1, delay fraction
+/// in 0..1 and 0 with a whole-sample delay, gains finite, fixture and position gains ≥ 0). Throws teleop::Error naming
+/// the offending field and its value.
 void Validate(const SampledTeleoperator& system);
 /// Checks a human model (mass > 0, damping ≥ 0, stiffness ≥ 0, all finite); throws teleop::Error.
 void Validate(const HumanModel& human);

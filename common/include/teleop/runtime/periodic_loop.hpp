@@ -3,6 +3,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <string>
 
 #include "teleop/runtime/latency_histogram.hpp"
 
@@ -14,6 +15,11 @@ struct PeriodicLoopConfig {
   int cpu = -1;              ///< -1: any CPU; else pin the loop thread to this CPU.
   bool lock_memory = false;  ///< mlockall(MCL_CURRENT | MCL_FUTURE) before the first cycle.
   double duration_s = 0.0;   ///< 0: run until Stop(); else stop after this much wall time.
+  /// ≥ 0: for the whole of Run(), hold `cpu_dma_latency_path` open with this value (µs) written, so the CPUs do not
+  /// enter idle states deeper than that (the PM QoS interface cyclictest uses; 0 = no idle halt). A failure to open
+  /// or write it is a warning counted in CycleStats, not an error. -1: leave it alone.
+  int cpu_dma_latency_us = -1;
+  std::string cpu_dma_latency_path = "/dev/cpu_dma_latency";  ///< Injectable for tests.
 };
 
 /// Per-cycle timing statistics, collected without allocation.
@@ -25,6 +31,12 @@ struct CycleStats {
   LatencyHistogram period_ns;       ///< Measured wake-to-wake period (from the second cycle on).
   LatencyHistogram jitter_ns;       ///< Wake time - scheduled time (never negative with an absolute sleep).
   LatencyHistogram compute_ns;      ///< Time spent in the cycle body.
+  /// True when the run had the real-time settings: SCHED_FIFO (fifo_priority > 0), locked memory, and the
+  /// cpu_dma_latency request held; false means "running without real-time settings" (for the summary).
+  bool realtime_settings_applied = false;
+  bool cpu_dma_latency_held = false;   ///< The cpu_dma_latency_us request is held open for this run.
+  int cpu_dma_latency_errno = 0;       ///< Why it is not (errno of the failed open/write), 0 when held or not asked.
+  std::uint64_t setting_warnings = 0;  ///< Settings asked for but not applied (today: cpu_dma_latency).
 };
 
 /// Monotonic clock (CLOCK_MONOTONIC) in ns: the loop's time base. Real-time safe.
@@ -47,8 +59,9 @@ class PeriodicLoop {
   explicit PeriodicLoop(const PeriodicLoopConfig& config);
 
   /// Applies the scheduling settings to the calling thread (affinity, SCHED_FIFO priority, mlockall; they stay
-  /// applied after Run returns); throws teleop::Error with the OS reason and a hint when the OS refuses. Then
-  /// resets the statistics and runs until Stop() or the duration elapses. A loop stopped before Run() does not run.
+  /// applied after Run returns); throws teleop::Error with the OS reason and a hint when the OS refuses. Opens and
+  /// holds the cpu_dma_latency request until Run returns (a failure is counted, see CycleStats). Then resets the
+  /// timing statistics and runs until Stop() or the duration elapses. A loop stopped before Run() does not run.
   void Run(const Body& body);
   /// Thread- and async-signal-safe. Takes effect before the next cycle (a pending sleep is cut short by a signal).
   void Stop() noexcept { stop_.store(true, std::memory_order_relaxed); }

@@ -49,6 +49,10 @@ class Link {
   /// True while the medium itself is down (CAN bus-off): the node treats the peer as lost at once instead of
   /// waiting for the watchdog. Real-time safe.
   virtual bool faulted() const noexcept { return false; }
+  /// CLOCK_MONOTONIC time (ns) at which the medium received the sample the last successful Poll() returned: the
+  /// kernel's receive timestamp where the link has one (UDP), else the time that Poll read it. 0 before the first
+  /// sample, or when the link does not know. Real-time safe.
+  virtual std::int64_t newest_receive_time_ns() const noexcept { return 0; }
   /// Medium-specific counters for the end-of-run summary (CAN frames by status, bus load); empty when none.
   virtual std::string Summary() const { return {}; }
 };

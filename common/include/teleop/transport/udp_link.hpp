@@ -16,11 +16,25 @@ struct UdpLinkConfig {
   proto::SenderRole expected_peer = proto::SenderRole::kSlave;  ///< Samples from any other role are rejected.
   bool accept_only_peer_address = true;  ///< Reject datagrams whose source is not peer_address:peer_port.
   int receive_buffer_bytes = 0;          ///< SO_RCVBUF; 0 = kernel default.
+  /// SO_BUSY_POLL (µs): the kernel busy-polls the device queue in a receive instead of waiting for the interrupt.
+  /// 0 = off. Raising it above net.core.busy_read needs CAP_NET_ADMIN; when refused the link runs without it and
+  /// busy_poll_applied() says so (not an error). No effect on loopback (no NAPI queue to poll).
+  int busy_poll_us = 0;
+  /// Spin receive (µs): when a Poll() finds no new sample, keep polling for up to this long before giving up
+  /// (a spin before the deadline, for a sample known to be due). 0 = off: Poll() drains once and returns.
+  int spin_poll_us = 0;
 };
 
 /// UDP on Boost.Asio: a non-blocking socket bound to bind_address:bind_port, sending to the peer. Poll() drains
 /// the socket each cycle (at most kMaxDatagramsPerPoll, so a flood cannot stall the loop) and keeps the newest
 /// sequence (see Link). Send and Poll use buffers allocated in the constructor: no allocation, no exception.
+///
+/// Receive times: the socket has SO_TIMESTAMPNS, so every datagram carries the kernel's receive time, which the
+/// kernel takes in CLOCK_REALTIME. Poll() converts the one of the newest accepted sample to CLOCK_MONOTONIC (the
+/// loop's clock) with the offset realtime - monotonic read at that Poll, and clamps it to not later than the Poll
+/// (newest_receive_time_ns()). The conversion is exact unless the realtime clock is stepped (settimeofday, an NTP
+/// step) between the datagram's arrival and the Poll; NTP slewing changes the offset by at most 500 ppm of that
+/// interval (< 1 µs for a sample a millisecond old).
 class UdpLink final : public Link {
  public:
   /// Bound on datagrams read in one Poll. At 4 kHz that is a second of backlog from a peer at the same rate.
@@ -33,6 +47,15 @@ class UdpLink final : public Link {
 
   [[nodiscard]] bool Send(const proto::SampleMessage& message) noexcept override;
   [[nodiscard]] bool Poll(proto::SampleMessage& newest) noexcept override;  // NOLINT(bugprone-exception-escape)
+  /// Polls until a new sample arrives or CLOCK_MONOTONIC reaches `deadline_ns` (a busy spin, for a sample known to
+  /// be due; no sleep). Returns what the last Poll() returned. Real-time safe.
+  [[nodiscard]] bool PollUntil(proto::SampleMessage& newest, std::int64_t deadline_ns) noexcept;
+  std::int64_t newest_receive_time_ns() const noexcept override { return newest_receive_time_ns_; }
+  /// True when the newest sample's receive time came from the kernel (false: the datagram had no timestamp and
+  /// the time is when Poll read it).
+  bool newest_receive_time_from_kernel() const noexcept { return newest_from_kernel_; }
+  /// Whether SO_BUSY_POLL with config busy_poll_us was accepted by the kernel (false when off or refused).
+  bool busy_poll_applied() const noexcept { return busy_poll_applied_; }
   const LinkCounters& counters() const noexcept override { return counters_; }
   std::string Describe() const override;
   /// The bound local port (useful with bind_port = 0 in tests).
@@ -42,8 +65,15 @@ class UdpLink final : public Link {
 
  private:
   struct Impl;
+  bool PollOnce(proto::SampleMessage& newest, std::int64_t poll_monotonic_ns,
+                std::int64_t realtime_minus_monotonic_ns) noexcept;
+
   std::unique_ptr<Impl> impl_;
   LinkCounters counters_{};
+  std::int64_t newest_receive_time_ns_ = 0;
+  bool newest_from_kernel_ = false;
+  bool busy_poll_applied_ = false;
+  std::int64_t spin_poll_ns_ = 0;
 };
 
 }  // namespace teleop::transport

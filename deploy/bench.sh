@@ -1,0 +1,257 @@
+#!/usr/bin/env bash
+# deploy/bench.sh: every performance figure of docs/performance.md in one bounded run (a few minutes).
+#
+#   deploy/bench.sh                 # full run: writes docs/performance.md and docs/performance.json
+#   deploy/bench.sh --smoke --out DIR   # seconds: every step once, tiny durations, writes DIR/performance.{md,json}
+#
+# Side by side in the same run: loop timing of both processes at 1, 2, 4 kHz and of the loop alone at 8 kHz
+# (teleop-loop-bench: the processes' config caps the rate at 4 kHz) beside cyclictest at the same interval and
+# priority, with and without real-time settings; the round trip from the processes' summaries beside a plain C
+# UDP ping-pong of the same size; control step, encode/decode, link and CAN benchmarks; allocations per cycle of a
+# process run (LD_PRELOAD counter); analysis time beside an independent NumPy/SciPy implementation; the cost of
+# writing every cycle to CSV. Real-time settings = SCHED_FIFO 80, mlockall, one CPU per process and
+# /dev/cpu_dma_latency held at 0 (by this script, for the processes' runs; cyclictest holds it itself).
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
+
+smoke=0
+out_dir="${TELEOP_ROOT}/docs"
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --smoke) smoke=1 ;;
+    --out) out_dir="$2"; shift ;;
+    *) echo "usage: deploy/bench.sh [--smoke] [--out DIR]" >&2; exit 1 ;;
+  esac
+  shift
+done
+command_line="deploy/bench.sh${*:+ $*}"
+[[ ${smoke} -eq 1 ]] && command_line="deploy/bench.sh --smoke"
+
+if [[ "${TELEOP_BENCH_NO_BUILD:-0}" != 1 ]]; then
+  teleop::ensure_packages "${TELEOP_PACKAGES[@]}"
+  teleop::build --target teleop-master teleop-slave teleop-analyze teleop-udp-pingpong teleop-loop-bench \
+    teleop-alloc-count control_benchmark proto_codec_benchmark transport_link_benchmark analysis_benchmark
+  teleop::build --target can_link_benchmark 2>/dev/null || true
+fi
+bin="${TELEOP_BUILD}/bin"
+work="$(mktemp -d "${TMPDIR:-/tmp}/teleop-bench.XXXXXX")"
+raw="${work}/raw"
+mkdir -p "${raw}"
+pids=()
+cleanup() {
+  for p in "${pids[@]:-}"; do [[ -n "$p" ]] && kill "$p" 2>/dev/null || true; done
+  exec 9>&- || true
+  rm -rf "${work}"
+}
+trap cleanup EXIT
+
+if [[ ${smoke} -eq 1 ]]; then
+  run_s=1; slave_extra_s=1; cyclic_s=1; loop_s=0.5; pingpong_count=500; bench_time=0.01; rates=(1000); modes=(off)
+else
+  run_s=3; slave_extra_s=3; cyclic_s=3; loop_s=3; pingpong_count=20000; bench_time=0.2; rates=(1000 2000 4000)
+  modes=(off rt)
+fi
+ncpu=$(nproc)
+cpu_master=0; cpu_slave=$(( ncpu > 1 ? 1 : 0 ))
+can_rt=0
+if [[ $(id -u) -eq 0 ]]; then can_rt=1; fi
+log() { echo "[bench] $*" >&2; }
+
+# --- machine -----------------------------------------------------------------------------------------------------
+{
+  echo "{"
+  echo "  \"host\": \"$(cat /proc/sys/kernel/hostname)\","
+  echo "  \"kernel\": \"$(uname -srvm | sed 's/"/\\"/g')\","
+  echo "  \"cpu\": \"$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//;s/"/\\"/g')\","
+  echo "  \"cpus\": ${ncpu},"
+  echo "  \"preempt_rt\": $([[ -e /sys/kernel/realtime ]] && echo true || echo false),"
+  echo "  \"root\": $([[ $(id -u) -eq 0 ]] && echo true || echo false),"
+  echo "  \"loadavg_start\": \"$(cut -d' ' -f1-3 /proc/loadavg)\","
+  echo "  \"date_utc\": \"$(date -u +%Y-%m-%dT%H:%M:%SZ)\","
+  echo "  \"git\": \"$(git -C "${TELEOP_ROOT}" rev-parse --short HEAD 2>/dev/null || echo unknown)\","
+  echo "  \"command\": \"${command_line}\","
+  echo "  \"smoke\": $([[ ${smoke} -eq 1 ]] && echo true || echo false)"
+  echo "}"
+} > "${raw}/machine.json"
+
+# --- processes: configs per rate and mode ------------------------------------------------------------------------
+# Ports of their own (47601/47602) so a demo running beside does not collide.
+make_config() {  # role rate mode > file
+  local role=$1 rate=$2 mode=$3 src="${TELEOP_ROOT}/deploy/configs/$1.yaml" fifo=0 cpu=-1 lock=false
+  if [[ ${mode} == rt ]]; then
+    fifo=80; lock=true
+    cpu=$([[ ${role} == master ]] && echo ${cpu_master} || echo ${cpu_slave})
+  fi
+  sed -e "s/^rate_hz: .*/rate_hz: ${rate}/" -e "s/fifo_priority: .*/fifo_priority: ${fifo}/" \
+    -e "s/^  cpu: .*/  cpu: ${cpu}/" -e "s/lock_memory: .*/lock_memory: ${lock}/" \
+    -e 's/127.0.0.1:47001/127.0.0.1:47601/' -e 's/127.0.0.1:47002/127.0.0.1:47602/' "${src}"
+}
+
+run_pair() {  # rate mode tag [extra master args...]
+  local rate=$1 mode=$2 tag=$3
+  shift 3
+  make_config master "${rate}" "${mode}" > "${work}/master-${tag}.yaml"
+  make_config slave "${rate}" "${mode}" > "${work}/slave-${tag}.yaml"
+  "${bin}/teleop-slave" --config "${work}/slave-${tag}.yaml" --duration "$(( run_s + slave_extra_s ))" \
+    --summary-json "${raw}/slave-${tag}.json" > "${work}/slave-${tag}.log" 2>&1 &
+  local slave_pid=$!
+  pids+=("${slave_pid}")
+  sleep 0.5
+  "${bin}/teleop-master" --config "${work}/master-${tag}.yaml" --duration "${run_s}" \
+    --summary-json "${raw}/master-${tag}.json" "$@" > "${work}/master-${tag}.log" 2>&1 || log "master ${tag} failed"
+  wait "${slave_pid}" || true
+}
+
+# Holds /dev/cpu_dma_latency at 0 on fd 9 while the real-time runs last (what cyclictest does by default).
+hold_dma_latency() {
+  if [[ -w /dev/cpu_dma_latency ]] && exec 9>/dev/cpu_dma_latency; then
+    printf '\x00\x00\x00\x00' >&9 && echo true && return
+  fi
+  echo false
+}
+release_dma_latency() { exec 9>&- || true; }
+
+cyclictest_run() {  # interval_us mode tag
+  local interval=$1 mode=$2 tag=$3 args
+  if ! command -v cyclictest >/dev/null; then echo '{"missing": true}' > "${raw}/cyclictest-${tag}.json"; return; fi
+  local loops=$(( cyclic_s * 1000000 / interval ))
+  if [[ ${mode} == rt ]]; then
+    args=(-p 80 -m -a "${cpu_slave}")
+  else
+    args=(--laptop -p 0)
+  fi
+  cyclictest -q -t1 -i "${interval}" -l "${loops}" -h 10000 "${args[@]}" > "${work}/cyclictest-${tag}.txt" 2>&1 || true
+  /usr/bin/python3 - "${work}/cyclictest-${tag}.txt" "${interval}" "${mode}" > "${raw}/cyclictest-${tag}.json" <<'PY'
+import json, sys
+hist, total, maximum = {}, 0, None
+for line in open(sys.argv[1]):
+    parts = line.split()
+    if len(parts) == 2 and parts[0].isdigit() and parts[1].isdigit():
+        hist[int(parts[0])] = int(parts[1]); total += int(parts[1])
+    elif line.startswith("# Max Latencies"):
+        maximum = int(line.split(":")[1].split()[0])
+def pct(p):
+    need, seen = p * total, 0
+    for us in sorted(hist):
+        seen += hist[us]
+        if seen >= need and hist[us]:
+            return us
+    return None
+print(json.dumps({"interval_us": int(sys.argv[2]), "mode": sys.argv[3], "count": total, "p50_us": pct(0.5),
+                  "p99_us": pct(0.99), "max_us": maximum}))
+PY
+}
+
+log "loop timing of the processes (${rates[*]} Hz; modes ${modes[*]}) and cyclictest beside"
+for mode in "${modes[@]}"; do
+  dma_held=false
+  if [[ ${mode} == rt ]]; then
+    if [[ ${can_rt} -eq 0 ]]; then log "not root: skipping the real-time runs"; continue; fi
+    dma_held=$(hold_dma_latency)
+  fi
+  echo "{\"mode\": \"${mode}\", \"cpu_dma_latency_held\": ${dma_held}}" > "${raw}/mode-${mode}.json"
+  for rate in "${rates[@]}"; do
+    log "  ${rate} Hz ${mode}"
+    run_pair "${rate}" "${mode}" "${rate}-${mode}"
+  done
+  [[ ${mode} == rt ]] && release_dma_latency
+  for rate in "${rates[@]}" 8000; do
+    cyclictest_run $(( 1000000 / rate )) "${mode}" "${rate}-${mode}"
+  done
+  # The loop alone, including 8 kHz (above the processes' rate cap).
+  for rate in "${rates[@]}" 8000; do
+    if [[ ${mode} == rt ]]; then
+      "${bin}/teleop-loop-bench" --rate "${rate}" --duration "${loop_s}" --fifo 80 --cpu "${cpu_slave}" --lock \
+        --dma-latency-us 0 > "${raw}/loop-${rate}-${mode}.json" || true
+    else
+      "${bin}/teleop-loop-bench" --rate "${rate}" --duration "${loop_s}" > "${raw}/loop-${rate}-${mode}.json" || true
+    fi
+  done
+done
+
+log "cost of writing every cycle to CSV (1 kHz, no real-time settings)"
+run_pair 1000 off "1000-off-csv" --telemetry-csv "${work}/master.csv"
+
+log "allocations per cycle of a process run (two durations, LD_PRELOAD counter)"
+alloc_lib="${TELEOP_BUILD}/lib/libteleop-alloc-count.so"
+if [[ -f "${alloc_lib}" ]]; then
+  for d in 1 2; do
+    make_config master 1000 off > "${work}/master-alloc.yaml"
+    make_config slave 1000 off > "${work}/slave-alloc.yaml"
+    TELEOP_ALLOC_COUNT_FILE="${raw}/alloc-slave-${d}.txt" LD_PRELOAD="${alloc_lib}" "${bin}/teleop-slave" \
+      --config "${work}/slave-alloc.yaml" --duration "$(( d + slave_extra_s ))" --summary-json "${raw}/alloc-slave-${d}.json" \
+      > /dev/null 2>&1 &
+    slave_pid=$!
+    pids+=("${slave_pid}")
+    sleep 0.5
+    TELEOP_ALLOC_COUNT_FILE="${raw}/alloc-master-${d}.txt" LD_PRELOAD="${alloc_lib}" "${bin}/teleop-master" \
+      --config "${work}/master-alloc.yaml" --duration "${d}" --summary-json "${raw}/alloc-master-${d}.json" \
+      > /dev/null 2>&1 || true
+    wait "${slave_pid}" || true
+  done
+fi
+
+log "UDP ping-pong floor (64 B = 1-DOF sample, 184 B = 6-DOF sample)"
+for bytes in 64 184; do
+  "${bin}/teleop-udp-pingpong" --bytes "${bytes}" --count "${pingpong_count}" > "${raw}/pingpong-${bytes}-off.json"
+  if [[ ${can_rt} -eq 1 && ${smoke} -eq 0 ]]; then
+    "${bin}/teleop-udp-pingpong" --bytes "${bytes}" --count "${pingpong_count}" --fifo 80 \
+      --cpu "${cpu_master},${cpu_slave}" > "${raw}/pingpong-${bytes}-rt.json"
+  fi
+done
+
+log "micro-benchmarks (Google Benchmark, JSON)"
+for b in control_benchmark proto_codec_benchmark transport_link_benchmark; do
+  "${bin}/${b}" --benchmark_format=json --benchmark_min_time="${bench_time}" > "${raw}/${b}.json" 2>/dev/null || true
+done
+if [[ -x "${bin}/can_link_benchmark" ]]; then
+  "${bin}/can_link_benchmark" --benchmark_format=json --benchmark_min_time="${bench_time}" \
+    > "${work}/can_link_benchmark.out" 2>/dev/null || true
+  # The bus-load table comes first on stdout, then the JSON.
+  awk 'found || /^\{/ {found = 1; print}' "${work}/can_link_benchmark.out" > "${raw}/can_link_benchmark.json"
+  awk '/^\{/ {exit} {print}' "${work}/can_link_benchmark.out" > "${raw}/can_budget.txt"
+fi
+
+log "analysis: C++ against NumPy/SciPy"
+if [[ ${smoke} -eq 1 ]]; then
+  analysis_filter='BM_WorstCaseLimit512/slave:1/threads:1/delay:0'
+else
+  analysis_filter='BM_WorstCaseLimit512|BM_Fig7Curve10Rates/threads:1'
+fi
+"${bin}/analysis_benchmark" --benchmark_format=json --benchmark_min_time="${bench_time}" \
+  --benchmark_filter="${analysis_filter}" > "${raw}/analysis_benchmark.json" 2>/dev/null || true
+{
+  echo "["
+  first=1
+  fractions=(0 0.05 0.5 1)
+  [[ ${smoke} -eq 1 ]] && fractions=(0)
+  for side in slave master; do
+    for f in "${fractions[@]}"; do
+      [[ ${smoke} -eq 1 && ${side} == master ]] && continue
+      [[ ${first} -eq 0 ]] && echo ","
+      first=0
+      "${bin}/teleop-analyze" max-stiffness --side "${side}" --kp 600 --kd 2 --rate 1000 --threads 1 \
+        --peer-delay-fraction "${f}" --json
+    done
+  done
+  if [[ ${smoke} -eq 0 ]]; then
+    echo ","
+    "${bin}/teleop-analyze" max-stiffness --side slave --kp 600 --kd 2 --rate 1000 --threads 1 \
+      --peer-delay-samples 1 --json
+    # The shipped slave config (deploy/configs/slave.yaml) also filters the velocity at 200 Hz.
+    for f in "${fractions[@]}"; do
+      echo ","
+      "${bin}/teleop-analyze" max-stiffness --side slave --kp 600 --kd 2 --rate 1000 --threads 1 \
+        --velocity-filter-hz 200 --peer-delay-fraction "${f}" --json
+    done
+  fi
+  echo "]"
+} > "${raw}/analyze_limits.json"
+reference_args=()
+[[ ${smoke} -eq 1 ]] && reference_args=(--quick)
+/usr/bin/python3 "${TELEOP_ROOT}/deploy/bench/analysis_reference.py" "${reference_args[@]}" > "${raw}/analysis_reference.json"
+
+echo "{\"loadavg_end\": \"$(cut -d' ' -f1-3 /proc/loadavg)\"}" > "${raw}/machine_end.json"
+mkdir -p "${out_dir}"
+/usr/bin/python3 "${TELEOP_ROOT}/deploy/bench/report.py" "${raw}" "${out_dir}/performance.json" "${out_dir}/performance.md"
+log "wrote ${out_dir}/performance.md and ${out_dir}/performance.json"
