@@ -10,8 +10,8 @@
 #include <string>
 #include <system_error>
 
-#include "sections.hpp"
 #include "dds_config.hpp"  // dds: section (docs/dds.md)
+#include "sections.hpp"
 #include "teleop/config/yaml_reader.hpp"
 #include "teleop/error.hpp"
 
