@@ -5,7 +5,9 @@
 
 #include "scenarios.hpp"
 
-int main(int argc, char** argv) {
+namespace {
+
+int Run(int argc, char** argv) {
   CLI::App app{"teleop-scenario: the papers' experiments on the simulated rigs (CSV, PNG, metrics)"};
   app.require_subcommand(1);
   teleop::scenario::AddHybridScenarios(app);
@@ -14,9 +16,21 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // A scenario's own errors (bad options, unwritable outputs) reach here as exceptions with a message.
+  try {
+    return Run(argc, argv);
   } catch (const std::exception& e) {
     std::cerr << "teleop-scenario: " << e.what() << "\n";
     return 1;
+  } catch (...) {
+    std::cerr << "teleop-scenario: unexpected error\n";
+    return 1;
   }
-  return 0;
 }
