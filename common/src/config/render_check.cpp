@@ -40,8 +40,13 @@ std::vector<std::string> RenderProblems(const ProcessConfig& config, const devic
                            " cannot; set it to 0");
       }
     };
-    active(law.kp_N_per_m, "law.kp_N_per_m", "active position coupling");
-    active(law.kd_Ns_per_m, "law.kd_Ns_per_m", "active velocity coupling");
+    // A steered-constraint device (cobot) takes the coupling force as information, not as a force to render: a
+    // coupling force that stays high means a blocked slave, rendered as a constraint across it (docs/cobot.md).
+    // A device that only dissipates has no such use for it.
+    if (caps.rendering != device::Rendering::kSteeredConstraints) {
+      active(law.kp_N_per_m, "law.kp_N_per_m", "active position coupling");
+      active(law.kd_Ns_per_m, "law.kd_Ns_per_m", "active velocity coupling");
+    }
     active(law.kf, "law.kf", "force feed-forward");
   }
   if (caps.rendering == device::Rendering::kSteeredConstraints && AnyNonZero(law.kv_Ns_per_m)) {
