@@ -53,6 +53,10 @@ class Link {
   /// kernel's receive timestamp where the link has one (UDP), else the time that Poll read it. 0 before the first
   /// sample, or when the link does not know. Real-time safe.
   virtual std::int64_t newest_receive_time_ns() const noexcept { return 0; }
+  /// Counts the authenticated sessions this link has established with its peer (0 on a link without sessions, or
+  /// before the first). It changes exactly when a new session starts, e.g. after a peer restart: the node treats
+  /// that as a new peer and re-engages only through aligning. Real-time safe.
+  virtual std::uint64_t session_epoch() const noexcept { return 0; }
   /// Medium-specific counters for the end-of-run summary (CAN frames by status, bus load); empty when none.
   virtual std::string Summary() const { return {}; }
 };
