@@ -89,6 +89,7 @@ HybridFieldbusDevice::HybridFieldbusDevice(const HybridFieldbusConfig& config, t
     throw Error("device.hybrid fieldbus: the force sensor is on CAN: give its port");
   }
   ports_ = {&drive_1_port, &drive_2_port, sensor_port};
+  SetCapabilities();
   Build();
 }
 
@@ -99,7 +100,21 @@ HybridFieldbusDevice::HybridFieldbusDevice(const HybridFieldbusConfig& config, c
       timebase_(fieldbus::Timebase::Steady()),
       can_(can) {
   config_.Validate();
+  SetCapabilities();
   amplifier_ = std::make_unique<fieldbus::ModbusIoThread>(config_.amplifier);  // validates, no I/O
+}
+
+void HybridFieldbusDevice::SetCapabilities() {
+  const FmeMap map =
+      MapForceManipulability(kinematics_, config_.allocation.motor.MaxJointTorqueNm(),
+                             config_.allocation.brake.max_torque_Nm * config_.allocation.brake.pulley_ratio, 0.01);
+  capabilities_.dof = 2;
+  capabilities_.rendering = Rendering::kActiveAndDissipative;
+  capabilities_.max_force_N = DofVector::Constant(2, map.min_motor_force_N);
+  capabilities_.has_brake = true;
+  capabilities_.max_brake_force_N = DofVector::Constant(2, map.min_brake_force_N);
+  capabilities_.measures_velocity = true;
+  capabilities_.measures_force = true;
 }
 
 void HybridFieldbusDevice::Build() {
@@ -117,16 +132,6 @@ void HybridFieldbusDevice::Build() {
       force_input_[k] = fieldbus::FindPoint(config_.amplifier.inputs, i == 0 ? "force_x_N" : "force_y_N");
     }
   }
-  const FmeMap map =
-      MapForceManipulability(kinematics_, config_.allocation.motor.MaxJointTorqueNm(),
-                             config_.allocation.brake.max_torque_Nm * config_.allocation.brake.pulley_ratio, 0.01);
-  capabilities_.dof = 2;
-  capabilities_.rendering = Rendering::kActiveAndDissipative;
-  capabilities_.max_force_N = DofVector::Constant(2, map.min_motor_force_N);
-  capabilities_.has_brake = true;
-  capabilities_.max_brake_force_N = DofVector::Constant(2, map.min_brake_force_N);
-  capabilities_.measures_velocity = true;
-  capabilities_.measures_force = true;
 }
 
 HybridFieldbusDevice::~HybridFieldbusDevice() { Deactivate(); }

@@ -104,6 +104,7 @@ class HybridFieldbusDevice final : public Device {
   const AllocationOutput& last_allocation() const noexcept { return allocation_out_; }
 
  private:
+  void SetCapabilities();
   void Build();
   void WriteDrives(double torque_1_Nm, double torque_2_Nm) noexcept;
   void Latch(RigFaultSource source, std::uint32_t bits) noexcept;
