@@ -84,8 +84,8 @@ int Run(int argc, char** argv) {
   for (const int n : nodes) {
     SimulatedCia402DriveConfig s;
     s.node_id = static_cast<std::uint8_t>(n);
-    s.joint.inertia_kg_m2 = 2e-3;        // at the drive shaft
-    s.joint.viscous_Nms_per_rad = 0.02;  // a damped handle: the process test needs no stable hand
+    s.joint.inertia_kg_m2 = 2e-3;       // at the drive shaft
+    s.joint.viscous_Nms_per_rad = 0.1;  // a well-damped handle: slow under the test's push (the rig has no brakes here)
     ports.push_back(std::make_unique<teleop::transport::UdpCanBusPort>(host, port, 2000.0,
                                                                        SimulatedCia402Drive::ReceiveOptions(s)));
     drives.push_back(std::make_unique<SimulatedCia402Drive>(s, *ports.back()));
@@ -104,15 +104,14 @@ int Run(int argc, char** argv) {
   std::string pending;
   while (true) {
     const std::uint64_t now = NowNs();
-    if (push_N.squaredNorm() > 0.0) {
+    {
       const Eigen::Vector2d q{30.0 * kDeg + drives[0]->position_rad() / 5.0,
                               150.0 * kDeg + drives[1]->position_rad() / 5.0};
       Eigen::Matrix2d jacobian;
-      if (five_bar.Jacobian(q, jacobian)) {
-        const Eigen::Vector2d tau = jacobian.transpose() * push_N / 5.0;
-        drives[0]->SetExternalTorque(tau(0));
-        drives[1]->SetExternalTorque(tau(1));
-      }
+      Eigen::Vector2d tau{0.0, 0.0};  // no push, or a pose without a Jacobian: no hand torque
+      if (push_N.squaredNorm() > 0.0 && five_bar.Jacobian(q, jacobian)) tau = jacobian.transpose() * push_N / 5.0;
+      drives[0]->SetExternalTorque(tau(0));
+      drives[1]->SetExternalTorque(tau(1));
     }
     for (auto& d : drives) d->Step(now);
     sensor.Step();
