@@ -9,6 +9,11 @@
 namespace teleop::fieldbus {
 namespace {
 
+/// Byte `b` of axis `a` in a frame of `bytes`-byte axes.
+std::size_t ByteIndex(int a, int bytes, int b) noexcept {
+  return static_cast<std::size_t>(a) * static_cast<std::size_t>(bytes) + static_cast<std::size_t>(b);
+}
+
 int AxisBytes(ForceSensorEncoding e) noexcept { return e == ForceSensorEncoding::kInt16 ? 2 : 4; }
 
 std::int64_t InvalidRaw(ForceSensorEncoding e) noexcept {
@@ -82,7 +87,7 @@ bool EncodeForceFrame(const CanForceSensorConfig& config, std::span<const double
     }
     const auto u = static_cast<std::uint32_t>(raw);
     for (int b = 0; b < bytes; ++b) {
-      frame.data[static_cast<std::size_t>(a * bytes + b)] = static_cast<std::uint8_t>(u >> (8 * b));
+      frame.data[ByteIndex(a, bytes, b)] = static_cast<std::uint8_t>(u >> (8 * b));
     }
   }
   if (clamped != nullptr) *clamped = n_clamped;
@@ -99,7 +104,7 @@ bool DecodeForceFrame(const CanForceSensorConfig& config, const canopen::CanFram
   for (int a = 0; a < config.axes; ++a) {
     std::uint32_t u = 0;
     for (int b = 0; b < bytes; ++b) {
-      u |= std::uint32_t{frame.data[static_cast<std::size_t>(a * bytes + b)]} << (8 * b);
+      u |= std::uint32_t{frame.data[ByteIndex(a, bytes, b)]} << (8 * b);
     }
     const std::int64_t raw = bytes == 2 ? std::int64_t{static_cast<std::int16_t>(static_cast<std::uint16_t>(u))}
                                         : std::int64_t{static_cast<std::int32_t>(u)};
