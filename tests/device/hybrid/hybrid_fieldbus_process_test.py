@@ -13,6 +13,7 @@ Scenarios (one per ctest entry):
                     fault and names drive 2, counts device-fault cycles and exits 4 (faulted).
   amplifier_silent  the same; mid-run the amplifier stops answering: the drives get zero torque; once it answers
                     again it is commanded full braking (safe state latched); named, counted, exit 4.
+  sensor_silent     the same; mid-run the CAN force sensor stops sending: zero torque, brakes engaged; named, exit 4.
   as_slave          the hybrid device as the slave: deploy/configs/hybrid/{master,slave}-hybrid-as-slave.yaml run
                     briefly; both exit 0, the slave's handle follows the master into its simulated wall and its
                     force sensor reads the wall.
@@ -240,6 +241,12 @@ def run_fieldbus(args, scenario, tmp):
                      f"{amp.brake_registers_Nm()}, master running {master.poll() is None}")
             if sim.status()["state"][0] != 4:
                 fail("drive 1 was disabled by the master before the checks (the safe state must hold it at 0 torque)")
+        elif scenario == "sensor_silent":
+            sim.command("sensor-silent")
+            ok = wait_until(lambda: master.poll() is None and sim.status()["torque"] == (0.0, 0.0)
+                            and min(amp.brake_registers_Nm()) > 3.999, 20, 0.02)
+            if not ok:
+                fail(f"no safe state with the CAN force sensor silent: {sim.status()}, brakes {amp.brake_registers_Nm()}")
         elif scenario == "amplifier_silent":
             amp.control("mode stop")
             ok = wait_until(lambda: master.poll() is None and sim.status()["torque"] == (0.0, 0.0), 20, 0.02)
@@ -265,7 +272,8 @@ def run_fieldbus(args, scenario, tmp):
             if rc != 0 or summary["device_fault_cycles"] != 0:
                 fail(f"clean run expected: rc {rc}, device_fault_cycles {summary['device_fault_cycles']}")
         else:
-            want = "drive 2" if scenario == "drive_disable" else "brake amplifier"
+            want = {"drive_disable": "drive 2", "amplifier_silent": "brake amplifier",
+                    "sensor_silent": "force sensor"}[scenario]
             if rc != 4:
                 fail(f"a faulted run exits 4, got {rc}")
             if summary["device_fault_cycles"] == 0:
@@ -338,7 +346,7 @@ def main():
     ap.add_argument("--sim", required=True)
     ap.add_argument("--modbus-server", required=True)
     ap.add_argument("--configs", required=True)
-    ap.add_argument("scenario", choices=["normal", "drive_disable", "amplifier_silent", "as_slave"])
+    ap.add_argument("scenario", choices=["normal", "drive_disable", "amplifier_silent", "sensor_silent", "as_slave"])
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         if args.scenario == "as_slave":

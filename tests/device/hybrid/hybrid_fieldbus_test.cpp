@@ -13,6 +13,7 @@
 #include "modbus_test_server.hpp"
 #include "teleop/device/hybrid/hybrid_fieldbus_device.hpp"
 #include "teleop/error.hpp"
+#include "teleop/fieldbus/simulated_can_force_sensor.hpp"
 #include "teleop/fieldbus/simulated_cia402_drive.hpp"
 #include "teleop/transport/can_emulated_bus.hpp"
 
@@ -48,9 +49,13 @@ struct Rig {
   std::array<std::unique_ptr<transport::CanPort>, 2> drive_ports;
   std::array<std::unique_ptr<SimulatedCia402Drive>, 2> sims;
   std::unique_ptr<transport::CanPort> monitor;  // every frame, like candump
-  std::unique_ptr<HybridFieldbusDevice> device;
+  std::unique_ptr<transport::CanPort> sensor_host_port;
+  std::unique_ptr<transport::CanPort> sensor_node_port;
+  std::unique_ptr<fieldbus::SimulatedCanForceSensor> sensor;
+  std::unique_ptr<HybridFieldbusDevice> device;  // last: destroyed first (its Deactivate steps the rig)
 
-  Rig() {
+
+  explicit Rig(bool can_sensor = false) {
     // Handle at (0, 200 mm) when both drives read 0: θ1 = 30°, θ2 = 150°.
     config.joint_offset_rad = {30.0 * kDeg, 150.0 * kDeg};
     for (int i = 0; i < 2; ++i) {
@@ -84,10 +89,18 @@ struct Rig {
       sims[k] = std::make_unique<SimulatedCia402Drive>(s, *drive_ports[k]);
     }
     monitor = bus.MakePort(bus.AddNode(), transport::CanReceiveOptions::Everything());
+    if (can_sensor) {
+      config.force_sensor = ForceSensorBus::kCan;
+      config.amplifier.inputs.clear();
+      sensor_host_port = bus.MakePort(bus.AddNode(), fieldbus::CanForceSensor::ReceiveOptions(config.can_force_sensor));
+      sensor_node_port = bus.MakePort(bus.AddNode(), fieldbus::SimulatedCanForceSensor::ReceiveOptions());
+      sensor = std::make_unique<fieldbus::SimulatedCanForceSensor>(config.can_force_sensor, *sensor_node_port);
+    }
     fieldbus::Timebase clock;
     clock.now_ns = [this] { return now_ns; };
     clock.wait_ns = [this](std::uint64_t ns) { Advance(std::max<std::uint64_t>(ns, 1000)); };
-    device = std::make_unique<HybridFieldbusDevice>(config, *host_ports[0], *host_ports[1], clock);
+    device =
+        std::make_unique<HybridFieldbusDevice>(config, *host_ports[0], *host_ports[1], clock, sensor_host_port.get());
   }
 
   void Advance(std::uint64_t ns) {
@@ -95,6 +108,10 @@ struct Rig {
     while (now_ns < end) {
       now_ns = std::min(end, now_ns + kStep_ns);
       for (auto& s : sims) s->Step(now_ns);
+      if (sensor) {
+        bus.Run();
+        sensor->Step();
+      }
     }
   }
 
@@ -252,6 +269,36 @@ TEST(HybridFieldbusDevice, SilentAmplifierEngagesTheSafeState) {
   ASSERT_EQ(rig.server.Control("mode normal"), "ok");
   ASSERT_TRUE(rig.CycleUntil([&] { return rig.BrakeRegisters().minCoeff() > 3.999; }, 5.0, {5.0, 0.0}));
   EXPECT_TRUE(rig.device->latched_safe());  // latched until Activate() again
+}
+
+// The handle force sensor on CAN (answering each SYNC of the device): its force in the reading; silent, it goes stale
+// and latches the safe state, named.
+TEST(HybridFieldbusDevice, CanForceSensorIsReadAndItsSilenceEngagesTheSafeState) {
+  Rig rig(/*can_sensor=*/true);
+  const std::array<double, 2> push{2.5, -7.25};
+  rig.sensor->SetForce(push);
+  rig.BringUp();
+  Reading r;
+  for (int k = 0; k < 3; ++k) r = rig.Cycle(Eigen::Vector2d::Zero());
+  EXPECT_EQ(r.faults, kFaultNone);
+  EXPECT_DOUBLE_EQ(r.force_N(0), 2.5);
+  EXPECT_DOUBLE_EQ(r.force_N(1), -7.25);
+  ASSERT_NE(rig.device->force_sensor(), nullptr);
+  EXPECT_GE(rig.device->force_sensor()->counters().frames, 3u);
+  rig.sensor->SetSilent(true);
+  int cycles = 0;
+  while (!rig.device->latched_safe() && cycles < 100) {
+    r = rig.Cycle(Eigen::Vector2d::Zero());
+    ++cycles;
+  }
+  ASSERT_TRUE(rig.device->latched_safe());
+  EXPECT_EQ(rig.device->fault_source(), RigFaultSource::kForceSensor);
+  EXPECT_GE(cycles, 9);  // stale_after_ms = 10 ms of 1 ms cycles, not before
+  r = rig.Cycle(Eigen::Vector2d::Zero());
+  EXPECT_NE(r.faults & kFaultCommunication, 0u);
+  (void)rig.Cycle(Eigen::Vector2d::Zero());
+  EXPECT_NEAR(rig.sims[0]->commanded_torque_Nm(), 0.0, 1e-9);
+  EXPECT_NEAR(rig.sims[1]->commanded_torque_Nm(), 0.0, 1e-9);
 }
 
 TEST(HybridFieldbusDevice, RegisterMapWithoutBrakeOutputsIsRejected) {
