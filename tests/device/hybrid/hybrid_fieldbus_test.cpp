@@ -54,7 +54,6 @@ struct Rig {
   std::unique_ptr<fieldbus::SimulatedCanForceSensor> sensor;
   std::unique_ptr<HybridFieldbusDevice> device;  // last: destroyed first (its Deactivate steps the rig)
 
-
   explicit Rig(bool can_sensor = false) {
     // Handle at (0, 200 mm) when both drives read 0: θ1 = 30°, θ2 = 150°.
     config.joint_offset_rad = {30.0 * kDeg, 150.0 * kDeg};
