@@ -122,6 +122,24 @@ def torn_samples(sender_rows, receiver_rows, dof, can=False):
     return bad, sum(1 for r in receiver_rows if used(r) != zero)
 
 
+def self_check():
+    """The torn-sample check can fail: a sample mixing two sent samples' fields is found, over UDP and CAN."""
+    def rec(x, v, f, px, pv, pf):
+        return {"position_m_0": x, "velocity_m_per_s_0": v, "force_sensor_N_0": f,
+                "peer_position_m_0": px, "peer_velocity_m_per_s_0": pv, "peer_force_N_0": pf}
+    sent = [rec(0.001, 0.01, 1.0, 0, 0, 0), rec(0.002, 0.02, 2.0, 0, 0, 0)]
+    whole = rec(0, 0, 0, 0.002, 0.02, 2.0)
+    torn = rec(0, 0, 0, 0.002, 0.02, 1.0)  # force from the first sample, the rest from the second
+    for can in (False, True):
+        bad, used = torn_samples(sent, [rec(0, 0, 0, 0, 0, 0), whole, torn], 1, can)
+        if bad != [torn] or used != 2:
+            raise tp.Failure(f"test bug: the torn-sample check missed a torn sample (can={can})")
+    # Over CAN the codes compare: 0.002005 m rounds to the same 20 µm code as 0.002 m, 0.00203 m does not.
+    if torn_samples(sent, [rec(0, 0, 0, 0.002005, 0.02, 2.0)], 1, True)[0] or \
+            not torn_samples(sent, [rec(0, 0, 0, 0.00203, 0.02, 2.0)], 1, True)[0]:
+        raise tp.Failure("test bug: CAN codes compared wrongly")
+
+
 def run_scenario(args, name, flow, transport, log):
     work = os.path.join(args.workdir, slug(name))
     os.makedirs(work, exist_ok=True)
@@ -269,6 +287,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=4, help="scenarios run at the same time")
     ap.add_argument("--only", default="", help="run only the scenarios whose name contains this")
     args = ap.parse_args()
+    self_check()
     os.makedirs(args.workdir, exist_ok=True)
     chosen = [sc for sc in SCENARIOS if args.only in sc[0]]
     logs = {sc[0]: [] for sc in chosen}
