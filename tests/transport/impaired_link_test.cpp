@@ -134,6 +134,24 @@ TEST(ImpairmentModel, TheOutageScheduleStartsAtTheOrigin) {
   EXPECT_EQ(m.Offer(bytes, 11'500'000'000), ImpairmentModel::Verdict::kQueued);
 }
 
+TEST(ImpairmentModel, WhatTheLineCannotHoldIsCountedNotLost) {
+  ImpairmentConfig c;
+  c.capacity = 2;
+  c.delay_s = 1.0;
+  c.corrupt_probability = 1.0;  // would flip bits of an empty datagram if it were queued
+  ImpairmentModel m(c, 1, "test");
+  const std::array<std::uint8_t, 8> bytes{};
+  std::array<std::uint8_t, ImpairmentModel::kMaxDatagramBytes + 1> huge{};
+  EXPECT_EQ(m.Offer(std::span<const std::uint8_t>(), 0), ImpairmentModel::Verdict::kOverflow);
+  EXPECT_EQ(m.Offer(huge, 0), ImpairmentModel::Verdict::kOverflow);
+  EXPECT_EQ(m.Offer(bytes, 0), ImpairmentModel::Verdict::kQueued);
+  EXPECT_EQ(m.Offer(bytes, 0), ImpairmentModel::Verdict::kQueued);
+  EXPECT_EQ(m.Offer(bytes, 0), ImpairmentModel::Verdict::kOverflow);  // both slots in flight
+  EXPECT_EQ(m.counters().dropped_overflow, 3u);
+  EXPECT_EQ(m.counters().offered, 5u);
+  ExpectBalance(m);
+}
+
 TEST(ImpairmentModel, BandwidthCapLimitsTheDeliveredRateAndDropsWhatTheQueueCannotHold) {
   ImpairmentConfig c;
   // 64-byte datagrams every 1 ms = 512 kbit/s offered into a 256 kbit/s line: about half gets through.

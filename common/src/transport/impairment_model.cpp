@@ -125,7 +125,7 @@ struct ImpairmentModel::Impl {
 
   Verdict Offer(std::span<const std::uint8_t> bytes, std::int64_t now_ns) noexcept {
     ++counters.offered;
-    Slot* slot = bytes.size() <= kMaxDatagramBytes ? FreeSlot() : nullptr;
+    Slot* slot = !bytes.empty() && bytes.size() <= kMaxDatagramBytes ? FreeSlot() : nullptr;
     if (slot == nullptr) {
       ++counters.dropped_overflow;
       return Verdict::kOverflow;

@@ -56,7 +56,7 @@ struct ImpairmentCounters {
   std::uint64_t dropped_burst = 0;      ///< Lost in a Gilbert–Elliott burst.
   std::uint64_t dropped_outage = 0;     ///< Offered during a scheduled outage.
   std::uint64_t dropped_bandwidth = 0;  ///< The bandwidth queue was full (would wait > queue_limit_s).
-  std::uint64_t dropped_overflow = 0;   ///< No free slot in the delay line (capacity).
+  std::uint64_t dropped_overflow = 0;   ///< No free slot in the delay line (capacity), or not a datagram it holds.
   std::uint64_t duplicated = 0;         ///< Extra copies put in flight.
   std::uint64_t copies_refused = 0;     ///< Duplicates not made for want of a free slot (not in duplicated).
   std::uint64_t reordered = 0;          ///< Datagrams that overtook their predecessor.
@@ -98,7 +98,8 @@ class ImpairmentModel {
 
   /// Sets the origin of the outage schedule (default 0).
   void Start(std::int64_t origin_ns) noexcept;
-  /// A datagram enters the channel at `now_ns`. Datagrams longer than kMaxDatagramBytes are refused (kOverflow).
+  /// A datagram enters the channel at `now_ns`. Empty datagrams and those longer than kMaxDatagramBytes are refused
+  /// (kOverflow), like one that finds no free slot.
   Verdict Offer(std::span<const std::uint8_t> bytes, std::int64_t now_ns) noexcept;
   /// Collects the datagrams due at `now_ns`; NextDelivery() then hands them out one by one and frees their slots.
   void BeginDelivery(std::int64_t now_ns) noexcept;
