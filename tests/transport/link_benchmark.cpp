@@ -2,7 +2,10 @@
 // Prints ns per iteration; not a test.
 #include <benchmark/benchmark.h>
 
+#include <memory>
+
 #include "teleop/transport/emulated_link.hpp"
+#include "teleop/transport/impaired_link.hpp"
 #include "teleop/transport/udp_link.hpp"
 
 namespace {
@@ -61,6 +64,36 @@ void BM_EmulatedSendAdvancePoll(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_EmulatedSendAdvancePoll);
+
+// link.emulate in a process: UDP loopback Send + Poll through ImpairedLink (20 ms delay, 5 ms jitter, 5 % loss,
+// 1 % duplication and corruption) on the monotonic clock. The iterations come far faster than the 20 ms drain, so
+// the 256-slot delay line is full: the worst case of its slot scans (at 1 kHz it holds about 25).
+void BM_ImpairedUdpSendPoll(benchmark::State& state) {
+  teleop::transport::UdpLinkConfig master_config;
+  master_config.expected_peer = SenderRole::kSlave;
+  teleop::transport::UdpLinkConfig slave_config;
+  slave_config.expected_peer = SenderRole::kMaster;
+  auto master = std::make_unique<teleop::transport::UdpLink>(master_config);
+  auto slave = std::make_unique<teleop::transport::UdpLink>(slave_config);
+  master->SetPeer("127.0.0.1", slave->local_port());
+  slave->SetPeer("127.0.0.1", master->local_port());
+  teleop::transport::ImpairmentConfig impairments;
+  impairments.capacity = 256;
+  impairments.delay_s = 0.020;
+  impairments.jitter_s = 0.005;
+  impairments.loss_probability = 0.05;
+  impairments.duplicate_probability = 0.01;
+  impairments.corrupt_probability = 0.01;
+  teleop::transport::ImpairedLink impaired(std::move(slave), impairments, 1, SenderRole::kMaster);
+  SampleMessage m = Sample(SenderRole::kMaster, 1);
+  SampleMessage got;
+  for (auto _ : state) {
+    ++m.sequence;
+    benchmark::DoNotOptimize(master->Send(m));
+    benchmark::DoNotOptimize(impaired.Poll(got));
+  }
+}
+BENCHMARK(BM_ImpairedUdpSendPoll);
 
 void BM_SequenceTracker(benchmark::State& state) {
   teleop::transport::SequenceTracker tracker;

@@ -11,6 +11,8 @@
 namespace teleop::config::sections {
 
 void ParseLink(const Field& f, Role role, double rate_hz, int dof, transport::LinkConfig& link);
+/// `link.emulate` (link_emulate_section.cpp).
+void ParseLinkEmulate(const Field& f, double rate_hz, transport::LinkConfig::Emulation& emulate);
 void ParseLaw(const Field& f, double rate_hz, control::ThreeChannelLaw::Config& law);
 void ParseFixture(const Field& f, int dof, control::ForbiddenRegionFixture::Config& fixture);
 /// `device:`: the backend's name and its own section, read by the backend's registered reader.

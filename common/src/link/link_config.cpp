@@ -1,11 +1,15 @@
 #include "teleop/link/link_config.hpp"
 
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <string>
 
 #include "teleop/error.hpp"
 #include "teleop/transport/can_link.hpp"
+#include "teleop/transport/impaired_link.hpp"
 
 namespace teleop::transport {
 namespace {
@@ -44,6 +48,25 @@ struct Backend {
 constexpr std::array<Backend, 3> kBackends = {
     {{"udp", &MakeUdp}, {"can", &MakeSocketCan}, {"emulated-can", &MakeEmulatedCan}}};
 
+// `link.emulate`: the opened link behind the emulated network, sized for the loop rate.
+std::unique_ptr<Link> Emulated(const LinkConfig& config, proto::SenderRole local_role, std::unique_ptr<Link> link) {
+  if (!config.emulate.enabled) return link;
+  ImpairmentConfig impairments = config.emulate.impairments;
+  // Slots for everything in flight at the loop rate (one sample per cycle), duplicates included, plus margin.
+  const double in_flight_s = impairments.delay_s + impairments.jitter_s +
+                             (impairments.bandwidth_bit_per_s > 0 ? impairments.queue_limit_s : 0.0);
+  const double slots = std::ceil(std::max(config.rate_hz, 1.0) * in_flight_s * 2.0) + 64.0;
+  impairments.capacity = static_cast<int>(std::min(slots, 65536.0));
+  const double periods = (impairments.delay_s + impairments.jitter_s) * config.rate_hz;
+  if (periods > 1.0) {
+    spdlog::warn(
+        "link.emulate delays what this process receives by up to {:.1f} ms ({:.0f} loop periods); the start-up "
+        "stability check models the peer's data one period old, so its verdict does not cover this delay",
+        (impairments.delay_s + impairments.jitter_s) * 1e3, periods);
+  }
+  return std::make_unique<ImpairedLink>(std::move(link), impairments, config.emulate.seed, proto::PeerOf(local_role));
+}
+
 }  // namespace
 
 std::unique_ptr<Link> MakeLink(const LinkConfig& config, proto::SenderRole local_role) {
@@ -55,7 +78,7 @@ std::unique_ptr<Link> MakeLink(const LinkConfig& config, proto::SenderRole local
   }
   std::string known;
   for (const Backend& backend : kBackends) {
-    if (config.transport == backend.name) return backend.make(config, local_role);
+    if (config.transport == backend.name) return Emulated(config, local_role, backend.make(config, local_role));
     known += (known.empty() ? "" : ", ") + std::string("'") + backend.name + "'";
   }
   throw Error("link: unknown transport '" + config.transport + "'; known transports: " + known);

@@ -81,6 +81,9 @@ std::string FormatSummaryText(const RunSummary& s) {
       "rejected {}, send errors {}\n",
       l.sent, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors);
   if (!s.link_detail.empty()) out += fmt::format("  link detail       {}\n", s.link_detail);
+  if (s.link_emulation) {
+    out += fmt::format("  link emulation    {}\n", transport::FormatImpairmentCounters(*s.link_emulation));
+  }
   if (s.link_fault_cycles > 0)
     out += fmt::format("  link faults       medium down in {} cycles\n", s.link_fault_cycles);
   if (s.rtt_ms.count > 0) {
@@ -124,6 +127,9 @@ std::string FormatSummaryJson(const RunSummary& s) {
   out += fmt::format(R"(  "link_detail": {}, "link_fault_cycles": {},)"
                      "\n",
                      JsonString(s.link_detail), s.link_fault_cycles);
+  out += fmt::format(R"(  "link_emulation": {},)"
+                     "\n",
+                     s.link_emulation ? transport::ImpairmentCountersJson(*s.link_emulation) : std::string("null"));
   out += fmt::format(R"(  "rtt_ms": {},)"
                      "\n",
                      DistJson(s.rtt_ms));

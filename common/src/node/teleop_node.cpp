@@ -17,6 +17,7 @@
 #include "teleop/runtime/periodic_loop.hpp"
 #include "teleop/runtime/telemetry.hpp"
 #include "teleop/runtime/watchdog.hpp"
+#include "teleop/transport/impaired_link.hpp"
 
 namespace teleop::node {
 
@@ -390,6 +391,7 @@ RunSummary TeleopNode::Run() {
   summary.dof_mismatches = s.dof_mismatches;
   summary.link_fault_cycles = s.link_fault_cycles;
   summary.link_detail = s.link->Summary();
+  if (const auto* emulation = transport::EmulationCountersOf(*s.link)) summary.link_emulation = *emulation;
   summary.stop_reason = s.stop_requested.load() ? "signal" : (s.peer_shutdown ? "peer shutdown" : "duration");
   if (s.dof_mismatches > 0) {
     spdlog::error("{} samples from the peer carried another DOF count than this process's {}: check both configs",

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "teleop/transport/can_link_config.hpp"
+#include "teleop/transport/impairment_model.hpp"
 #include "teleop/transport/link.hpp"
 #include "teleop/transport/udp_link.hpp"
 #include "teleop/types.hpp"
@@ -19,6 +20,13 @@ struct LinkConfig {
   CanLinkConfig can{};       ///< Used by "can" and "emulated-can"; its dof is the process's dof.
   double rate_hz = 1000.0;   ///< The loop rate, for the CAN bus-load budget (set from the process config).
   double timeout_ms = 50.0;  ///< Watchdog: no accepted sample for this long → peer lost → safe state.
+  /// `link.emulate` (docs/link-emulation.md): when enabled, the opened link is wrapped in an ImpairedLink that
+  /// impairs what this process receives.
+  struct Emulation {
+    bool enabled = false;
+    ImpairmentConfig impairments{};
+    std::uint64_t seed = 1;
+  } emulate{};
 };
 
 /// The wire's name for a process of role `role` (the one mapping from teleop::Role to proto::SenderRole).
@@ -26,7 +34,8 @@ constexpr proto::SenderRole ToSender(Role role) noexcept {
   return role == Role::kMaster ? proto::SenderRole::kMaster : proto::SenderRole::kSlave;
 }
 
-/// Opens the configured link for a process of role `local_role`. Throws teleop::Error on failure.
+/// Opens the configured link for a process of role `local_role`, wrapped in the emulated network when
+/// `emulate.enabled`. Throws teleop::Error on failure.
 std::unique_ptr<Link> MakeLink(const LinkConfig& config, proto::SenderRole local_role);
 
 }  // namespace teleop::transport

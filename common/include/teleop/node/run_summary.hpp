@@ -1,9 +1,11 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "teleop/runtime/latency_histogram.hpp"
+#include "teleop/transport/impairment_model.hpp"
 #include "teleop/transport/link.hpp"
 #include "teleop/types.hpp"
 
@@ -31,8 +33,10 @@ struct RunSummary {
   transport::LinkCounters link{};
   std::string link_detail;              ///< Medium-specific counters (CAN frames by status, bus load); may be empty.
   std::uint64_t link_fault_cycles = 0;  ///< Cycles in which the medium itself was down (CAN bus-off).
-  Distribution rtt_ms{};                ///< Round trip to the peer and back (NTP-style, peer hold time removed).
-  std::uint64_t cycles_with_peer = 0;   ///< Cycles in which the peer's sample was fresh (watchdog ok).
+  /// With `link.emulate`: what the emulated network did to the samples this process received (JSON null without).
+  std::optional<transport::ImpairmentCounters> link_emulation;
+  Distribution rtt_ms{};               ///< Round trip to the peer and back (NTP-style, peer hold time removed).
+  std::uint64_t cycles_with_peer = 0;  ///< Cycles in which the peer's sample was fresh (watchdog ok).
   std::uint64_t watchdog_trips = 0;
   std::uint64_t dof_mismatches = 0;  ///< Valid samples whose DOF count differs from ours: never applied.
   std::uint64_t device_fault_cycles = 0;

@@ -4,21 +4,15 @@
 #include <memory>
 #include <string>
 
+#include "teleop/transport/impairment_model.hpp"
 #include "teleop/transport/link.hpp"
 
 namespace teleop::transport {
 
-/// Impairments of one direction of an emulated link. Probabilities are per datagram sent, drawn independently.
-struct EmulatedLinkConfig {
-  double delay_s = 0.0;                ///< One-way delay in simulated time, ≥ 0. A datagram sent at t is
-                                       ///< delivered by the first Poll at simulated time ≥ t + delay_s.
-  double loss_probability = 0.0;       ///< Dropped in the channel.
-  double duplicate_probability = 0.0;  ///< Delivered twice: the copy right behind the original.
-  double reorder_probability = 0.0;    ///< Overtakes the previous datagram still in flight: delivered together
-                                       ///< with it, just ahead of it. Needs delay_s > the send interval.
-  double corrupt_probability = 0.0;    ///< 1..3 random bits flipped in flight (the receiver rejects it).
-  int capacity = 64;                   ///< Datagrams in flight; a send beyond it is refused (send error).
-};
+/// Impairments of one direction of an emulated link: the shared impairment model's settings (delay and jitter in
+/// simulated time; a datagram sent at t is delivered by the first Poll at simulated time ≥ t + its delay).
+/// A datagram beyond `capacity` in flight is refused (send error).
+using EmulatedLinkConfig = ImpairmentConfig;
 
 /// Both directions of an emulated link, their simulated clock and seed.
 struct EmulatedMediumConfig {
@@ -44,8 +38,10 @@ class EmulatedMedium {
     std::uint64_t overflowed = 0;  ///< Refused (or copies not made) because capacity was full.
     std::uint64_t delivered = 0;   ///< Handed to the receiving endpoint.
   };
+  /// The full counters of the impairment model of the direction whose sender is `from` (bursts, outages, ...).
+  const ImpairmentCounters& impairments(proto::SenderRole from) const noexcept;
 
-  /// Throws teleop::Error on a probability outside [0, 1], a negative or non-finite delay, or capacity < 1.
+  /// Throws teleop::Error on a setting the impairment model refuses (ImpairmentModel's constructor).
   explicit EmulatedMedium(const EmulatedMediumConfig& config);
   ~EmulatedMedium();
   EmulatedMedium(const EmulatedMedium&) = delete;
