@@ -21,8 +21,6 @@ using config::Positive;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 const std::string kName = "cobot";
-/// Per-cycle low-pass weight of the free-motion coupling force (about 0.2 s at 1 kHz).
-constexpr double kFreeCouplingAlpha = 0.005;
 
 int ReadCount(const Field& f) {
   const double v = NonNegative(f, "counts per revolution (0 = ideal)");
@@ -236,7 +234,7 @@ UnicycleCobotDevice::UnicycleCobotDevice(const CobotBackendConfig& config)
     : config_(config),
       capabilities_(CobotCapabilities(2, config.unicycle.plant.brake_max_force_N)),
       rig_(config.unicycle, Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true), config.initial),
-      contact_wall_(Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true)) {
+      walls_(config.contact_force_threshold_N) {
   rig_.controller().SetWallActive(false);
   last_.position_m = config.initial.position_m;
   last_.heading_rad = config.initial.heading_rad;
@@ -273,52 +271,8 @@ void UnicycleCobotDevice::Write(const Command& command) noexcept {
     return;
   }
   rig_.SetLocked(false);
-  const Vec2 position = rig_.state().position_m;
-  // The most penetrated fixture plane.
-  int best = -1;
-  double best_penetration = -std::numeric_limits<double>::infinity();
-  for (int i = 0; i < command.constraint_count; ++i) {
-    const device::Constraint& c = command.constraints[static_cast<std::size_t>(i)];
-    const double penetration = Vec2(c.normal[0], c.normal[1]).dot(position) - c.offset_m;
-    if (penetration > best_penetration) {
-      best_penetration = penetration;
-      best = i;
-    }
-  }
-  // A blocked slave: the coupling force (the law's force without the fixture's share) pushes back hard.
-  Vec2 coupling(command.force_N[0], command.force_N[1]);
-  if (command.fixture_force_N.size() == 2) coupling -= Vec2(command.fixture_force_N[0], command.fixture_force_N[1]);
-  // The contact's share: the coupling force over its free-motion level (the slave's lag while following), which
-  // a slow low-pass tracks while there is no contact. Its direction is the contact normal.
-  const Vec2 contact_force = coupling - free_coupling_N_;
-  const double coupling_N = contact_force.norm();
-  if (!contact_latched_ && coupling_N > config_.contact_force_threshold_N) {
-    const Vec2 normal = -contact_force / coupling_N;
-    contact_latched_ = Constraint::TryHalfPlane(normal, normal.dot(position), contact_wall_);
-  } else if (!contact_latched_) {
-    free_coupling_N_ += kFreeCouplingAlpha * (coupling - free_coupling_N_);
-  } else if (contact_latched_ && coupling_N < 0.5 * config_.contact_force_threshold_N &&
-             !(wall_source_ == kContactWall && rig_.controller().mode() != WallMode::kCaster)) {
-    // Released only once the operator has left the contact wall (the controller is back in caster mode): the
-    // coupling force dips while the wheel settles on the wall, and re-latching deeper each time would weave.
-    contact_latched_ = false;
-  }
-  int source = -1;
-  Constraint wall = contact_wall_;
-  const double contact_penetration = contact_wall_.Evaluate(position).penetration_m;
-  if (contact_latched_ && (best < 0 || contact_penetration >= best_penetration)) {
-    source = kContactWall;
-  } else if (best >= 0) {
-    const device::Constraint& c = command.constraints[static_cast<std::size_t>(best)];
-    if (Constraint::TryHalfPlane(Vec2(c.normal[0], c.normal[1]), c.offset_m, wall)) source = best;
-  }
-  if (source < 0) {
-    rig_.controller().SetWallActive(false);
-  } else {
-    rig_.controller().SetWallActive(true);
-    rig_.controller().SetWall(wall, /*keep_mode=*/source == wall_source_);
-  }
-  wall_source_ = source;
+  const UnicyclePlantState& s = rig_.state();
+  walls_.Apply(command, s.position_m, s.speed_m_per_s * UnitAt(s.heading_rad), rig_.controller());
 }
 
 void UnicycleCobotDevice::Update(double period_s) noexcept {

@@ -5,6 +5,7 @@
 
 #include "teleop/device/cobot/bicycle_caster.hpp"
 #include "teleop/device/cobot/bicycle_plant.hpp"
+#include "teleop/device/cobot/master_walls.hpp"
 #include "teleop/device/cobot/unicycle_cobot.hpp"
 #include "teleop/device/device.hpp"
 #include "teleop/device/device_config.hpp"
@@ -62,8 +63,9 @@ class UnicycleCobotDevice final : public Device {
 
   const UnicycleCobot& rig() const noexcept { return rig_; }
   /// Which wall is rendered: -1 none, 0..kMaxConstraints-1 a fixture plane, kContactWall the contact wall.
-  int rendered_wall() const noexcept { return wall_source_; }
-  static constexpr int kContactWall = 100;
+  int rendered_wall() const noexcept { return walls_.source(); }
+  static constexpr int kContactWall = MasterWalls::kContactWall;
+  const MasterWalls& walls() const noexcept { return walls_; }
   const CobotSample& last_sample() const noexcept { return last_; }
 
  private:
@@ -74,10 +76,7 @@ class UnicycleCobotDevice final : public Device {
   Vec2 operator_force_N_ = Vec2::Zero();
   double operator_integral_N_ = 0.0;
   double time_s_ = 0.0;
-  int wall_source_ = -1;
-  bool contact_latched_ = false;
-  Vec2 free_coupling_N_ = Vec2::Zero();  ///< The coupling force in free motion (low-passed), N.
-  Constraint contact_wall_;
+  MasterWalls walls_;
   std::uint32_t pending_faults_ = kFaultNone;
 };
 
