@@ -5,6 +5,7 @@
 
 #include "teleop/device/cobot/bicycle_caster.hpp"
 #include "teleop/device/cobot/bicycle_plant.hpp"
+#include "teleop/device/cobot/cobot_fieldbus_config.hpp"
 #include "teleop/device/cobot/master_walls.hpp"
 #include "teleop/device/cobot/unicycle_cobot.hpp"
 #include "teleop/device/device.hpp"
@@ -37,7 +38,17 @@ struct CobotBackendConfig {
   CobotOperatorScript op{};
   BicyclePlantConfig bicycle{};
   BicycleCasterConfig bicycle_caster{};
+  /// simulated: the models above are the device; fieldbus: the real unicycle cobot on CAN
+  /// (UnicycleCobotFieldbusDevice).
+  enum class Rig : std::uint8_t { kSimulated, kFieldbus };
+  Rig rig = Rig::kSimulated;
+  CobotFieldbusConfig fieldbus{};
 };
+
+/// What a cobot reports it can do (dof 2 or 3; a brake when brake_N > 0).
+Capabilities CobotCapabilities(int dof, double brake_N);
+/// A Command the cobot can use: sizes match dof, everything finite, constraints in range.
+bool CobotCommandUsable(const Command& command, int dof) noexcept;
 
 /// The `cobot` backend (registered from cobot_backend.cpp): a passive device that renders constraints by steering.
 DeviceBackend CobotBackend();
