@@ -452,8 +452,34 @@ void UnicycleCobotDevice::SetSafe() noexcept { rig_.SetLocked(true); }
 
 // ---------------------------------------------------------------- bicycle
 
+namespace {
+/// The wall controller of the bicycle's virtual unicycle: the unicycle's, with τ of the steering loop on the
+/// bicycle's wheels (K₂ and the wheel inertia are the same).
+VirtualWallConfig BicycleWallConfig(const CobotBackendConfig& c) {
+  VirtualWallConfig w = c.unicycle.controller;
+  w.steering_time_constant_s =
+      c.bicycle.steering_inertia_kgm2 / (w.tracker.k2_Nms_per_rad + c.bicycle.steering_damping_Nms_per_rad);
+  Validate(w);
+  return w;
+}
+/// Gain that steers each wheel onto the virtual heading (1/s): a quarter of the steering loop's bandwidth.
+constexpr double kAlignmentFraction = 0.25;
+
+/// The wheels' common heading modulo π, relative to the plate (the mean of β₀ and β₁ brought within ±π/2 of β₀).
+double MeanSteer(const BicyclePlantState& s) noexcept {
+  const double b1 = s.steer_rad[0] + 0.5 * WrapAngle(2.0 * (s.steer_rad[1] - s.steer_rad[0]));
+  return 0.5 * (s.steer_rad[0] + b1);
+}
+}  // namespace
+
+double BicycleCobotDevice::virtual_heading_rad() const noexcept { return state_.pose.angle_rad + MeanSteer(state_); }
+
 BicycleCobotDevice::BicycleCobotDevice(const CobotBackendConfig& config)
-    : config_(config), capabilities_(CobotCapabilities(3, 0.0)) {
+    : config_(config),
+      capabilities_(CobotCapabilities(3, 0.0)),
+      controller_(BicycleWallConfig(config), Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true)),
+      walls_(config.contact_force_threshold_N) {
+  controller_.SetWallActive(false);
   Validate(config_.bicycle);
   Validate(config_.bicycle_caster);
   state_.pose.position_m = config.initial.position_m;
@@ -480,12 +506,8 @@ void BicycleCobotDevice::Write(const Command& command) noexcept {
     safe_ = true;
     return;
   }
-  for (int i = 0; i < command.constraint_count; ++i) {
-    if (command.constraints[static_cast<std::size_t>(i)].penetration_m > 0.0) {
-      pending_faults_ |= kFaultDriver;  // constraints are not rendered by the bicycle backend (docs/cobot.md)
-    }
-  }
   safe_ = false;
+  walls_.Apply(command, state_.pose.position_m, Vec2(state_.twist(0), state_.twist(1)), controller_);
 }
 
 void BicycleCobotDevice::Update(double period_s) noexcept {
@@ -502,9 +524,30 @@ void BicycleCobotDevice::Update(double period_s) noexcept {
       in.steering_torque_Nm[i] = -config_.bicycle_caster.k2_Nms_per_rad * state_.steer_rate_rad_per_s[i];
     }
   } else {
-    const BicycleCasterOutput out =
-        BicycleCasterStep(config_.bicycle_caster, config_.bicycle.geometry, state_, force, 0.0);
-    in.steering_torque_Nm = out.steering_torque_Nm;
+    // The reference point as a virtual unicycle: heading ψ_v (the wheels' mean), speed along it, its turn rate.
+    const double omega = state_.twist(2);
+    const double psi = virtual_heading_rad();
+    WallControllerInput wall_in;
+    wall_in.position_m = state_.pose.position_m;
+    wall_in.steering_angle_rad = psi;
+    wall_in.speed_m_per_s = Vec2(state_.twist(0), state_.twist(1)).dot(UnitAt(psi));
+    wall_in.steering_rate_rad_per_s = omega + 0.5 * (state_.steer_rate_rad_per_s[0] + state_.steer_rate_rad_per_s[1]);
+    wall_in.handle_force_N = force;
+    last_control_ = controller_.Step(wall_in, period_s);
+    if (last_control_.mode == WallMode::kCaster) {
+      const BicycleCasterOutput out =
+          BicycleCasterStep(config_.bicycle_caster, config_.bicycle.geometry, state_, force, 0.0);
+      in.steering_torque_Nm = out.steering_torque_Nm;
+    } else {
+      // Both wheels turn at the tracker's ω_c and are pulled onto ψ_v (modulo π: a wheel may roll backwards).
+      const double k2 = config_.bicycle_caster.k2_Nms_per_rad;
+      const double alignment_per_s = kAlignmentFraction / controller_.config().steering_time_constant_s;
+      for (std::size_t i = 0; i < 2; ++i) {
+        const double error = 0.5 * WrapAngle(2.0 * (psi - state_.pose.angle_rad - state_.steer_rad[i]));
+        const double rate = last_control_.commanded_rate_rad_per_s - omega + alignment_per_s * error;
+        in.steering_torque_Nm[i] = k2 * (rate - state_.steer_rate_rad_per_s[i]);
+      }
+    }
   }
   Step(config_.bicycle, in, period_s, state_);
   time_s_ += period_s;
@@ -522,7 +565,7 @@ DeviceBackend CobotBackend() {
       "simulated or (unicycle) on CAN";
   b.nominal = CobotCapabilities(2, 0.0);
   b.keys = {
-      {"kind", "unicycle (dof 2, default) or bicycle (dof 3, caster only)"},
+      {"kind", "unicycle (dof 2, default) or bicycle (dof 3; walls on the plate's reference point)"},
       {"cart_mass_kg", "moving mass (kg), > 0; default 10"},
       {"rolling_damping_Ns_per_m", "rolling resistance (N·s/m), >= 0; default 20"},
       {"steering_inertia_kgm2", "wheel assembly about the steering axis (kg·m²), > 0; default 0.002"},

@@ -14,22 +14,22 @@ using proto::can::CanFrame;
 
 namespace {
 
-std::int32_t I32(const CanFrame& f, int at) noexcept {
-  const auto b = [&](int i) { return static_cast<std::uint32_t>(f.data[static_cast<std::size_t>(at + i)]); };
+std::int32_t I32(const CanFrame& f, std::size_t at) noexcept {
+  const auto b = [&](std::size_t i) { return static_cast<std::uint32_t>(f.data[at + i]); };
   return static_cast<std::int32_t>(b(0) | (b(1) << 8) | (b(2) << 16) | (b(3) << 24));
 }
-std::int16_t I16(const CanFrame& f, int at) noexcept {
-  const auto b = [&](int i) { return static_cast<std::uint16_t>(f.data[static_cast<std::size_t>(at + i)]); };
+std::int16_t I16(const CanFrame& f, std::size_t at) noexcept {
+  const auto b = [&](std::size_t i) { return static_cast<std::uint16_t>(f.data[at + i]); };
   return static_cast<std::int16_t>(static_cast<std::uint16_t>(b(0) | (b(1) << 8)));
 }
-void PutI32(CanFrame& f, int at, std::int32_t v) noexcept {
+void PutI32(CanFrame& f, std::size_t at, std::int32_t v) noexcept {
   const auto u = static_cast<std::uint32_t>(v);
-  for (int i = 0; i < 4; ++i) f.data[static_cast<std::size_t>(at + i)] = static_cast<std::uint8_t>(u >> (8 * i));
+  for (std::size_t i = 0; i < 4; ++i) f.data[at + i] = static_cast<std::uint8_t>(u >> (8 * i));
 }
-void PutI16(CanFrame& f, int at, std::int16_t v) noexcept {
+void PutI16(CanFrame& f, std::size_t at, std::int16_t v) noexcept {
   const auto u = static_cast<std::uint16_t>(v);
-  f.data[static_cast<std::size_t>(at)] = static_cast<std::uint8_t>(u & 0xFFu);
-  f.data[static_cast<std::size_t>(at + 1)] = static_cast<std::uint8_t>(u >> 8);
+  f.data[at] = static_cast<std::uint8_t>(u & 0xFFu);
+  f.data[at + 1] = static_cast<std::uint8_t>(u >> 8);
 }
 double MetresPerCount(const CobotSensorNodeConfig& c) noexcept {
   return 2.0 * std::numbers::pi * c.wheel_radius_m / c.wheel_counts_per_rev;

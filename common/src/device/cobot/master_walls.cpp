@@ -55,7 +55,7 @@ void MasterWalls::Apply(const Command& command, const Vec2& position, const Vec2
   // A blocked slave: the coupling force (the law's force without the fixture's share) over what free motion at
   // this velocity explains.
   Vec2 coupling(command.force_N[0], command.force_N[1]);
-  if (command.fixture_force_N.size() == 2) coupling -= Vec2(command.fixture_force_N[0], command.fixture_force_N[1]);
+  if (command.fixture_force_N.size() >= 2) coupling -= Vec2(command.fixture_force_N[0], command.fixture_force_N[1]);
   const Vec2 contact_force = coupling - FreeCoupling_N(velocity);
   const double contact_N = contact_force.norm();
   if (!contact_latched_ && contact_N > threshold_N_) {

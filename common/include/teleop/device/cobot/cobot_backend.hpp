@@ -91,8 +91,14 @@ class UnicycleCobotDevice final : public Device {
   std::uint32_t pending_faults_ = kFaultNone;
 };
 
-/// The simulated bicycle cobot (x, y, θ) behind the Device interface: virtual caster only. It does not render
-/// constraints yet; a Command with an active plane sets kFaultDriver (the process goes safe: steering held).
+/// The simulated bicycle cobot (x, y, θ) behind the Device interface. In free space the bicycle caster (eq 1 per
+/// wheel). As a master it renders the fixture planes and a blocked slave as virtual walls on the plate's reference
+/// point (its origin, midway between the wheels), with the same switching as the unicycle (caster → overlay →
+/// tracking → caster when the operator pulls away; MasterWalls, VirtualWallController): while a wall is engaged both
+/// wheels are steered parallel (modulo π) to one virtual heading ψ_v, which the unicycle's tracker turns. With
+/// parallel wheels the reference point, which lies on the line through the wheels, moves along ψ_v even at the
+/// singular configuration, so it is a unicycle there. The θ components of a plane's normal are ignored (walls act
+/// on x, y).
 class BicycleCobotDevice final : public Device {
  public:
   explicit BicycleCobotDevice(const CobotBackendConfig& config);
@@ -103,11 +109,19 @@ class BicycleCobotDevice final : public Device {
   void Update(double period_s) noexcept override;
   void SetSafe() noexcept override;
   const BicyclePlantState& state() const noexcept { return state_; }
+  const VirtualWallController& controller() const noexcept { return controller_; }
+  const MasterWalls& walls() const noexcept { return walls_; }
+  int rendered_wall() const noexcept { return walls_.source(); }
+  /// The virtual heading the wheels are steered to while a wall is engaged (world, rad).
+  double virtual_heading_rad() const noexcept;
 
  private:
   CobotBackendConfig config_;
   Capabilities capabilities_;
   BicyclePlantState state_{};
+  VirtualWallController controller_;
+  MasterWalls walls_;
+  WallControllerOutput last_control_{};
   bool safe_ = false;
   std::uint32_t pending_faults_ = kFaultNone;
   double time_s_ = 0.0;

@@ -85,7 +85,6 @@ class UnicycleCobotFieldbusDevice final : public Device {
   double travel_m_ = 0.0;
   double period_s_ = 1e-3;
   bool active_ = false;
-  bool primed_ = false;
   bool safe_ = false;
   std::uint32_t pending_faults_ = kFaultNone;  ///< A bad Command, reported by the next Read.
   bool brake_engaged_ = false;
