@@ -517,6 +517,7 @@ void BicycleCobotDevice::Update(double period_s) noexcept {
   }
   const Vec2 force =
       OperatorPush(config_.op, time_s_, Vec2(state_.twist(0), state_.twist(1)), period_s, operator_integral_N_);
+  operator_force_N_ = force;
   BicyclePlantInput in;
   in.handle_force_N = force;
   if (safe_) {

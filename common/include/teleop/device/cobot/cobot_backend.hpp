@@ -114,6 +114,9 @@ class BicycleCobotDevice final : public Device {
   int rendered_wall() const noexcept { return walls_.source(); }
   /// The virtual heading the wheels are steered to while a wall is engaged (world, rad).
   double virtual_heading_rad() const noexcept;
+  /// The scripted operator's push in the last Update (N, world).
+  const Vec2& operator_force_N() const noexcept { return operator_force_N_; }
+  const WallControllerOutput& last_control() const noexcept { return last_control_; }
 
  private:
   CobotBackendConfig config_;
@@ -122,6 +125,7 @@ class BicycleCobotDevice final : public Device {
   VirtualWallController controller_;
   MasterWalls walls_;
   WallControllerOutput last_control_{};
+  Vec2 operator_force_N_ = Vec2::Zero();
   bool safe_ = false;
   std::uint32_t pending_faults_ = kFaultNone;
   double time_s_ = 0.0;
