@@ -457,6 +457,8 @@ struct StabilityOptions {
   std::vector<double> tau_s{0.05, 0.1, 0.2};
   std::vector<double> lookahead_m{0.01, 0.02, 0.05};
   std::vector<double> ratios{0.25, 0.5, 0.75, 0.9, 1.1, 1.25, 1.5, 2.0};
+  double rate_filter_hz = 300.0;  ///< Cut-off of the ω estimate's low-pass (it sits inside the steering loop).
+  double step_s = kPeriod_s;      ///< Control and integration step.
 };
 
 /// Bilateral line tracking from a 2 mm offset at constant speed. Returns the late/early amplitude ratio of p
@@ -466,7 +468,7 @@ struct StabilityOptions {
 constexpr double kInitialOffset_m = 0.002;
 constexpr double kConvergedRatio = 1.0;
 
-double TrackingGrowth(double speed_m_per_s, double tau_s, double lookahead_m) {
+double TrackingGrowth(const StabilityOptions& o, double speed_m_per_s, double tau_s, double lookahead_m) {
   UnicycleCobotConfig c = UnicycleCobotConfig::Prototype();
   c.plant.steering_damping_Nms_per_rad = 0.0;   // the analysis' first-order steering loop exactly
   c.plant.cornering_stiffness_N_per_rad = 0.0;  // and ideal rolling
@@ -480,7 +482,7 @@ double TrackingGrowth(double speed_m_per_s, double tau_s, double lookahead_m) {
   c.controller.overlay_enabled = false;
   c.controller.release_distance_m = 10.0;  // bilateral, as analysed
   c.controller.release_force_N = 1e6;
-  c.steering_rate_filter.cutoff_hz = 300.0;
+  c.steering_rate_filter.cutoff_hz = o.rate_filter_hz;
   const Constraint wall = Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true);
   UnicyclePlantState initial;
   initial.position_m = {0.0, kInitialOffset_m};
@@ -492,11 +494,11 @@ double TrackingGrowth(double speed_m_per_s, double tau_s, double lookahead_m) {
   op_config.max_force_N = 500.0;
   device::cobot::PushingOperator op(op_config, wall);
   const double arc_m = 60.0 * lookahead_m;
-  const int steps = static_cast<int>(std::clamp(arc_m / speed_m_per_s, 1.0, 30.0) / kPeriod_s);
+  const int steps = static_cast<int>(std::clamp(arc_m / speed_m_per_s, 1.0, 30.0) / o.step_s);
   double early = 0.0;
   double late = 0.0;
   for (int k = 0; k < steps; ++k) {
-    const auto s = cobot.Step(op.Step(cobot.state(), kPeriod_s), kPeriod_s);
+    const auto s = cobot.Step(op.Step(cobot.state(), o.step_s), o.step_s);
     const double p = std::abs(wall.Evaluate(s.position_m).penetration_m);
     if (!std::isfinite(p) || p > 0.2) return 1e3;  // diverged
     if (k >= steps / 4 && k < steps / 2) early = std::max(early, p);
@@ -508,6 +510,9 @@ double TrackingGrowth(double speed_m_per_s, double tau_s, double lookahead_m) {
 }
 
 int RunStability(const StabilityOptions& o) {
+  if (!(o.rate_filter_hz > 0.0) || !(o.step_s > 0.0 && o.step_s <= 0.01)) {
+    throw Error("cobot-stability: --rate-filter-hz must be > 0 and --step-s in (0, 0.01]");
+  }
   const std::string csv_path = o.common.output + ".csv";
   const std::string boundary_path = o.common.output + "_boundary.csv";
   std::ofstream csv = OpenCsv(csv_path);
@@ -524,19 +529,19 @@ int RunStability(const StabilityOptions& o) {
       const double u_formula = device::cobot::MaxStableSpeed_m_per_s(tracker, tau, 0.0);
       for (const double ratio : o.ratios) {
         const double u = ratio * u_formula;
-        const double growth = TrackingGrowth(u, tau, lookahead);
+        const double growth = TrackingGrowth(o, u, tau, lookahead);
         csv << tau << ',' << lookahead << ',' << u << ',' << u * tau << ',' << ratio << ',' << growth << ','
             << (growth < kConvergedRatio ? 1 : 0) << ',' << (ratio < 1.0 ? 1 : 0) << '\n';
       }
       // The simulated boundary: bisection on the speed between stable and unstable.
       double lo = 0.25 * u_formula;
       double hi = 3.0 * u_formula;
-      if (TrackingGrowth(hi, tau, lookahead) < kConvergedRatio) {
+      if (TrackingGrowth(o, hi, tau, lookahead) < kConvergedRatio) {
         lo = hi;  // stable up to the top of the range
       } else {
         for (int i = 0; i < 12; ++i) {
           const double mid = 0.5 * (lo + hi);
-          (TrackingGrowth(mid, tau, lookahead) < kConvergedRatio ? lo : hi) = mid;
+          (TrackingGrowth(o, mid, tau, lookahead) < kConvergedRatio ? lo : hi) = mid;
         }
       }
       const double u_sim = 0.5 * (lo + hi);
@@ -623,6 +628,9 @@ void AddCobotScenarios(CLI::App& app) {
     sub->add_option("--tau-s", o->tau_s, "Steering time constants (s)")->delimiter(',');
     sub->add_option("--lookahead-m", o->lookahead_m, "Lookahead distances (m)")->delimiter(',');
     sub->add_option("--ratios", o->ratios, "Speeds as multiples of L/tau")->delimiter(',');
+    sub->add_option("--rate-filter-hz", o->rate_filter_hz, "Cut-off of the steering-rate estimate's low-pass (Hz)")
+        ->capture_default_str();
+    sub->add_option("--step-s", o->step_s, "Control and integration step (s)")->capture_default_str();
     sub->callback([o] { RunStability(*o); });
   }
 }
