@@ -1,7 +1,7 @@
 #pragma once
 
-// The cobot's wheel encoder and handle force sensor on a separate CAN node (docs/cobot.md, "Steering drive and
-// sensors on the bus"), and the wheel brake output where the rig has one. The node speaks CANopen process data
+// The cobot's wheel encoder and handle force sensor on a separate CAN node (docs/cobot.md, "The fieldbus
+// rig"), and the wheel brake output where the rig has one. The node speaks CANopen process data
 // (CiA 301 synchronous PDOs, sent after each SYNC of the steering drive's client):
 //  - wheel TPDO (default COB-ID 0x180 + node, 4 bytes): the wheel encoder's position value, INTEGER32 little-endian
 //    (CiA 406 object 0x6004), counts; it may wrap;
