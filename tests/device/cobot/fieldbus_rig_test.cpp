@@ -21,6 +21,7 @@
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/simulated_cia402_drive.hpp"
 #include "teleop/transport/can_emulated_bus.hpp"
+#include "test_utilities/limit_malloc.hpp"
 
 namespace teleop::device::cobot {
 namespace {
@@ -297,6 +298,24 @@ TEST(CobotFieldbusRig, WithoutABrakeTheLockedSteeringKeepsTheCartOnTheTangent) {
   EXPECT_LT(max_tangent_error, tangent_error_before + 2 * kDeg);
   EXPECT_LT(max_y, kWall_m + 0.006);
   EXPECT_GT(rig.speed_m_per_s, 0.1);
+}
+
+TEST(CobotFieldbusRig, CycleDoesNotAllocate) {
+  FieldbusRig rig(LoadRigConfig());
+  for (int k = 0; k < 100; ++k) rig.Cycle();
+  std::uint64_t allocations = 0;
+  for (int k = 0; k < 500; ++k) {
+    {
+      test::AllocationCounter counter;  // the device's cycle only, not the simulated bus and drive
+      rig.device->Read(rig.reading);
+      rig.device->Write(rig.command);
+      rig.device->Update(1e-3);
+      if (k == 400) rig.device->SetSafe();  // the safe cycle too
+      allocations += counter.count();
+    }
+    rig.Advance(1'000'000);
+  }
+  EXPECT_EQ(allocations, 0u);
 }
 
 TEST(CobotFieldbusRig, ConfigErrorsNameTheKey) {
