@@ -30,11 +30,25 @@ if [[ "${1:-}" == "--device" && "${2:-}" == "hybrid" ]]; then
   wait "${hybrid_slave}" || hybrid_rc=$?
   echo "==== hybrid master ===="; cat "${out}/hybrid-master.log"
   echo "==== loopback slave ===="; cat "${out}/hybrid-slave.log"
-  gnuplot -e "set terminal png size 1000,600; set output '${out}/demo-hybrid.png'; set datafile separator ',';
-    set multiplot layout 2,1 title 'hybrid master (y axis) with loopback slave'; set grid; set ylabel 'mm';
-    plot '${out}/hybrid-master.csv' skip 1 u 2:(\$5*1e3) w l t 'master y', '${out}/hybrid-slave.csv' skip 1 u 2:(\$5*1e3) w l t 'slave y', 30 w l dt 2 t 'master fixture';
-    set ylabel 'N'; set xlabel 't (s)';
-    plot '${out}/hybrid-master.csv' skip 1 u 2:11 w l t 'master command y (law + FRVF)', '' skip 1 u 2:13 w l t 'fixture share y'; unset multiplot"
+  # Columns by name (the header of the telemetry CSV, runtime/telemetry.cpp), never by number: the CSV grew
+  # rendered_force_N_* columns once and a numbered plot silently showed them as the fixture share.
+  gnuplot -e "master='${out}/hybrid-master.csv'; slave='${out}/hybrid-slave.csv'; png='${out}/demo-hybrid.png'" - <<'GNUPLOT'
+set terminal png size 1000,600
+set output png
+set datafile separator ','
+set multiplot layout 2,1 title 'hybrid master (y axis) with loopback slave'
+set grid
+set ylabel 'mm'
+plot master using 'time_s':(1e3*column('position_m_1')) with lines title 'master y', \
+     slave using 'time_s':(1e3*column('position_m_1')) with lines title 'slave y', \
+     30 with lines dt 2 title 'master fixture'
+set ylabel 'N'
+set xlabel 't (s)'
+plot master using 'time_s':'command_N_1' with lines title 'master command y (law + FRVF)', \
+     master using 'time_s':'rendered_force_N_1' with lines title 'rendered y (motors + brakes)', \
+     master using 'time_s':'fixture_force_N_1' with lines title 'fixture share y'
+unset multiplot
+GNUPLOT
   echo "[demo] hybrid plot: ${out}/demo-hybrid.png"
   exit $(( hybrid_rc != 0 ))
 fi

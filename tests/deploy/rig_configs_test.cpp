@@ -47,6 +47,22 @@ TEST(RigConfigs, TheLoopbackRigIsThere) {
   EXPECT_GE(files.size(), 6u);
 }
 
+TEST(RigConfigs, TheHybridRealRigAndHybridAsSlavePairsAreThere) {
+  // Loaded, checked and paired by the tests below like every rig file; run as processes by
+  // device.hybrid_process.* (tests/device/hybrid/hybrid_fieldbus_process_test.py).
+  for (const char* name : {"hybrid/master-fieldbus.yaml", "hybrid/slave-fieldbus.yaml",
+                           "hybrid/master-hybrid-as-slave.yaml", "hybrid/slave-hybrid-as-slave.yaml"}) {
+    EXPECT_TRUE(fs::exists(fs::path(TELEOP_RIG_CONFIG_DIR) / name)) << name;
+  }
+  const ProcessConfig slave =
+      LoadProcessConfig((fs::path(TELEOP_RIG_CONFIG_DIR) / "hybrid/slave-hybrid-as-slave.yaml").string());
+  EXPECT_EQ(slave.role, Role::kSlave);
+  EXPECT_EQ(slave.device.backend, "hybrid");
+  const ProcessConfig master =
+      LoadProcessConfig((fs::path(TELEOP_RIG_CONFIG_DIR) / "hybrid/master-fieldbus.yaml").string());
+  EXPECT_EQ(master.device.backend, "hybrid");
+}
+
 TEST(RigConfigs, EveryConfigLoadsAndPassesItsStartUpCheck) {
   int loaded = 0;
   for (const auto& path : RigConfigs()) {

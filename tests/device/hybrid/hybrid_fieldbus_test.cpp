@@ -4,8 +4,10 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <sstream>
+#include <string>
 #include <thread>
 
 #include "modbus_test_server.hpp"
@@ -45,6 +47,7 @@ struct Rig {
   std::array<std::unique_ptr<transport::CanPort>, 2> host_ports;
   std::array<std::unique_ptr<transport::CanPort>, 2> drive_ports;
   std::array<std::unique_ptr<SimulatedCia402Drive>, 2> sims;
+  std::unique_ptr<transport::CanPort> monitor;  // every frame, like candump
   std::unique_ptr<HybridFieldbusDevice> device;
 
   Rig() {
@@ -53,7 +56,7 @@ struct Rig {
     for (int i = 0; i < 2; ++i) {
       auto& d = config.drives[static_cast<std::size_t>(i)];
       d.node_id = static_cast<std::uint8_t>(i + 1);
-      d.produce_sync = i == 0;  // one SYNC producer per bus
+      d.produce_sync = false;  // the device produces the bus's SYNC
       d.sdo.timeout_ms = 5.0;
       d.sdo.backoff_initial_ms = 1.0;
       d.max_torque_Nm = 4.44;
@@ -80,6 +83,7 @@ struct Rig {
       drive_ports[k] = bus.MakePort(node, SimulatedCia402Drive::ReceiveOptions(s));
       sims[k] = std::make_unique<SimulatedCia402Drive>(s, *drive_ports[k]);
     }
+    monitor = bus.MakePort(bus.AddNode(), transport::CanReceiveOptions::Everything());
     fieldbus::Timebase clock;
     clock.now_ns = [this] { return now_ns; };
     clock.wait_ns = [this](std::uint64_t ns) { Advance(std::max<std::uint64_t>(ns, 1000)); };
@@ -161,12 +165,12 @@ TEST(HybridFieldbusDevice, RendersThroughDrivesAndAmplifier) {
   const AllocationOutput previous = rig.device->last_allocation();
   r = rig.Cycle({0.0, -10.0});
   EXPECT_TRUE(rig.device->last_allocation().brake_engaged[0] && rig.device->last_allocation().brake_engaged[1]);
-  // A synchronous RPDO takes effect on the next SYNC. Drive 2's RPDO is on the wire before drive 1's Write queues
-  // its RPDO and the SYNC; arbitration sends the SYNC (0x080) first, so drive 1 applies its torque one cycle later
-  // (docs/hybrid.md). Per-mille quantisation of 1 N·m rated torque, × 5 at the joint.
+  // A synchronous RPDO takes effect on the next SYNC, which the next cycle's Read() sends: after a cycle, both
+  // drives hold the previous cycle's torque, together. Per-mille quantisation of 1 N·m rated torque, × 5 at the
+  // joint.
   const Eigen::Vector2d commanded{rig.sims[0]->commanded_torque_Nm(), rig.sims[1]->commanded_torque_Nm()};
   EXPECT_NEAR(commanded(0) * 5.0, previous.motor_joint_Nm(0), 0.003);
-  EXPECT_NEAR(commanded(1) * 5.0, rig.device->last_allocation().motor_joint_Nm(1), 0.003);
+  EXPECT_NEAR(commanded(1) * 5.0, previous.motor_joint_Nm(1), 0.003);
   EXPECT_LT(std::abs(previous.motor_joint_Nm(0)), std::abs(previous.desired_joint_Nm(0)));  // the brakes share
   const Eigen::Vector2d want = rig.device->last_allocation().brake_shaft_Nm;
   EXPECT_GT(want.minCoeff(), 0.1);
@@ -176,6 +180,39 @@ TEST(HybridFieldbusDevice, RendersThroughDrivesAndAmplifier) {
       },
       3.0, {0.0, -10.0}));
   EXPECT_FALSE(rig.device->latched_safe());
+}
+
+// One SYNC per cycle for the bus, after both drives' RPDOs (golden frame order), and both drives apply a new
+// torque on the same SYNC: a step of the command reaches both drives in the same cycle.
+TEST(HybridFieldbusDevice, OneSyncPerCycleAfterBothRpdosBothDrivesApplyTogether) {
+  Rig rig;
+  rig.BringUp();
+  for (int k = 0; k < 5; ++k) (void)rig.Cycle(Eigen::Vector2d::Zero());
+  proto::can::CanFrame f;
+  while (rig.monitor->Read(f)) {
+  }
+  for (int k = 0; k < 3; ++k) (void)rig.Cycle(Eigen::Vector2d::Zero());
+  std::string order;
+  while (rig.monitor->Read(f)) {
+    if (f.error || (f.id != 0x080 && f.id != 0x201 && f.id != 0x202)) continue;
+    char id[8];
+    std::snprintf(id, sizeof id, "%03X ", static_cast<unsigned>(f.id));
+    order += id;
+  }
+  EXPECT_EQ(order, "080 201 202 080 201 202 080 201 202 ");
+  EXPECT_GE(rig.device->sync().counters().sent, 8u);  // priming SYNCs in Activate(), then one per cycle
+  EXPECT_EQ(rig.device->drive(0).counters().syncs_sent + rig.device->drive(1).counters().syncs_sent, 0u);
+  // A force step along x: both joints get a non-zero torque. Each cycle: before the step, both drives hold zero;
+  // one cycle after it, both hold the new torque (never one without the other).
+  bool both_changed = false;
+  for (int k = 0; k < 4 && !both_changed; ++k) {
+    (void)rig.Cycle({20.0, 0.0});
+    const bool c0 = std::abs(rig.sims[0]->commanded_torque_Nm()) > 0.01;
+    const bool c1 = std::abs(rig.sims[1]->commanded_torque_Nm()) > 0.01;
+    EXPECT_EQ(c0, c1) << "cycle " << k << ": one drive applied the step a SYNC before the other";
+    both_changed = c0 && c1;
+  }
+  EXPECT_TRUE(both_changed);
 }
 
 // A drive that leaves Operation Enabled: the device latches its safe state, reports the drive, sends zero torque to

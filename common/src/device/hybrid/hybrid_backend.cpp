@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/hybrid/hybrid_fieldbus_section.hpp"
 
 namespace teleop::device::hybrid {
 namespace {
@@ -100,7 +101,25 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
   HybridDeviceConfig c;
   if (section == nullptr) return c;
   const Map m(*section, {"initial_position_m", "geometry", "motor", "brake", "joint_inertia_kgm2", "handle_mass_kg",
-                         "joint_damping_Nms_per_rad", "substeps", "allocation", "effect", "operator", "environment"});
+                         "joint_damping_Nms_per_rad", "substeps", "allocation", "effect", "operator", "environment",
+                         "rig", "fieldbus"});
+  if (auto v = m.Optional("rig")) {
+    const std::string rig = v->AsString();
+    if (rig == "fieldbus") {
+      c.fieldbus_rig = true;
+    } else if (rig != "simulated") {
+      v->Fail("must be simulated or fieldbus; got '" + rig + "'");
+    }
+  }
+  if (c.fieldbus_rig) {
+    // The simulation's own inputs make no sense on the real rig: refuse them rather than ignore them.
+    for (const char* key : {"operator", "environment", "effect", "substeps"}) {
+      if (auto v = m.Optional(key)) v->Fail("is for the simulated rig; remove it with rig: fieldbus");
+    }
+    (void)m.Required("fieldbus");
+  } else if (auto v = m.Optional("fieldbus")) {
+    v->Fail("is read only with rig: fieldbus (set device.hybrid.rig: fieldbus, or remove it)");
+  }
   if (auto v = m.Optional("initial_position_m")) c.rig.initial_position_m = Vec2(*v);
   if (auto v = m.Optional("geometry")) ReadGeometry(*v, c.rig.geometry);
   if (auto v = m.Optional("motor")) {
@@ -153,6 +172,15 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
   } catch (const Error& e) {
     section->Fail(e.what());
   }
+  if (c.fieldbus_rig) {
+    HybridFieldbusConfig& d = c.fieldbus.device;
+    d.geometry = c.rig.geometry;
+    d.allocation = c.allocation;
+    d.allocation.motor = c.rig.motor;
+    d.allocation.brake = c.rig.brake;
+    d.origin_m = c.rig.initial_position_m;
+    ReadHybridFieldbusSection(m.Required("fieldbus"), c.fieldbus);
+  }
   return c;
 }
 
@@ -161,7 +189,9 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
 DeviceBackend HybridBackend() {
   DeviceBackend b;
   b.name = "hybrid";
-  b.description = "simulated 2-DOF five-bar with a motor and a particle brake per joint, Kwon & Song (docs/hybrid.md)";
+  b.description =
+      "2-DOF five-bar with a motor and a particle brake per joint, Kwon & Song: simulated, or the real rig over "
+      "CiA 402 + Modbus (rig: fieldbus; docs/hybrid.md)";
   b.nominal.dof = 2;
   b.nominal.rendering = Rendering::kActiveAndDissipative;
   b.nominal.has_brake = true;
@@ -189,6 +219,7 @@ DeviceBackend HybridBackend() {
        "max_force_N, mass_kg"},
       {"environment", "simulated wall on the handle (slave): point_m, normal, stiffness_N_per_m, damping_Ns_per_m"},
   };
+  for (ConfigKey& key : HybridFieldbusKeys()) b.keys.push_back(std::move(key));
   b.section_required = false;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
     if (context.dof != 2) {
@@ -201,6 +232,7 @@ DeviceBackend HybridBackend() {
     if (config.dof != 2) throw Error("device.hybrid: the hybrid device has 2 DOF; set dof: 2");
     const HybridDeviceConfig c =
         config.section.has_value() ? config.Section<HybridDeviceConfig>() : HybridDeviceConfig{};
+    if (c.fieldbus_rig) return std::make_unique<HybridFieldbusDevice>(c.fieldbus.device, c.fieldbus.can);
     return std::make_unique<HybridDevice>(c);
   };
   b.model = [](const DeviceConfig& config) {

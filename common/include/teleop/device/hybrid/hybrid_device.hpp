@@ -6,6 +6,7 @@
 
 #include "teleop/device/device.hpp"
 #include "teleop/device/hybrid/friction_display.hpp"
+#include "teleop/device/hybrid/hybrid_fieldbus_device.hpp"
 #include "teleop/device/hybrid/hybrid_rig.hpp"
 #include "teleop/device/hybrid/motor_brake_allocation.hpp"
 #include "teleop/device/hybrid/operator_hand.hpp"
@@ -42,6 +43,10 @@ struct HybridDeviceConfig {
   OperatorHandConfig hand{};        ///< hand.start_m is set to rig.initial_position_m.
   double hand_mass_kg = 0.0;        ///< Added to the handle mass.
   HybridEnvironmentConfig environment{};
+  /// `rig: fieldbus`: the real rig (HybridFieldbusDevice) instead of the simulated one; geometry, motor, brake,
+  /// allocation and initial_position_m (its origin) are shared, the simulation's own keys unused.
+  bool fieldbus_rig = false;
+  HybridFieldbusRigConfig fieldbus{};
   void Validate() const;  ///< teleop::Error naming the bad field.
 };
 
