@@ -44,7 +44,7 @@ struct FieldbusRig {
   CobotBackendConfig config;
   transport::EmulatedCanBus bus;
   fieldbus::SimulatedCia402DriveConfig drive_config{};
-  std::unique_ptr<transport::CanPort> host_drive_port, host_sensor_port, drive_port, node_port;
+  std::unique_ptr<transport::CanPort> host_drive_port, host_sensor_port, host_force_port, drive_port, node_port;
   std::unique_ptr<fieldbus::SimulatedCia402Drive> drive;
   std::unique_ptr<SimulatedCobotSensorNode> node;
   std::unique_ptr<UnicycleCobotFieldbusDevice> device;
@@ -56,6 +56,7 @@ struct FieldbusRig {
   double integral_N = 0.0;
   Vec2 push_N = Vec2::Zero();
   double max_push_N = 30.0;
+  bool force_sensor_broken = false;  ///< The node reports "no valid measurement" (NaN → 0x8000).
   Command command = Command::Force(DofVector::Zero(2));
   Reading reading{};
 
@@ -74,10 +75,12 @@ struct FieldbusRig {
     drive_config.velocity_rad_per_s_per_unit = f.steering.drive.scaling.velocity_rad_per_s_per_unit;
     const int host_a = bus.AddNode();
     const int host_b = bus.AddNode();
+    const int host_c = bus.AddNode();
     const int drive_node = bus.AddNode();
     const int sensor_node = bus.AddNode();
     host_drive_port = bus.MakePort(host_a, fieldbus::Cia402Drive::ReceiveOptions(f.steering.drive));
     host_sensor_port = bus.MakePort(host_b, CobotSensorNode::ReceiveOptions(f.sensors));
+    host_force_port = bus.MakePort(host_c, fieldbus::CanForceSensor::ReceiveOptions(f.sensors.ForceSensorConfig()));
     drive_port = bus.MakePort(drive_node, fieldbus::SimulatedCia402Drive::ReceiveOptions(drive_config));
     node_port = bus.MakePort(sensor_node, SimulatedCobotSensorNode::ReceiveOptions(f.sensors));
     drive = std::make_unique<fieldbus::SimulatedCia402Drive>(drive_config, *drive_port);
@@ -88,7 +91,8 @@ struct FieldbusRig {
     fieldbus::Timebase t;
     t.now_ns = [this] { return now_ns; };
     t.wait_ns = [this](std::uint64_t ns) { Advance(std::max<std::uint64_t>(ns, 1000)); };
-    device = std::make_unique<UnicycleCobotFieldbusDevice>(config, *host_drive_port, *host_sensor_port, t);
+    device =
+        std::make_unique<UnicycleCobotFieldbusDevice>(config, *host_drive_port, *host_sensor_port, *host_force_port, t);
     device->Configure();
     device->Activate();
     command.constraint_count = 1;
@@ -126,7 +130,7 @@ struct FieldbusRig {
       speed_m_per_s += h * f / p.cart_mass_kg;
       position_m += h * speed_m_per_s * t;
       travel_m += h * speed_m_per_s;
-      node->Set(travel_m, push_N);
+      node->Set(travel_m, force_sensor_broken ? Vec2(std::nan(""), std::nan("")) : push_N);
       node->Step();
     }
   }
@@ -190,7 +194,7 @@ TEST(CobotFieldbusRig, TracksTheFixtureWallThroughTheBus) {
   EXPECT_FALSE(rig.node->brake_engaged());
 }
 
-enum class Injected { kHeartbeat, kSilentDrive, kDriveFault, kSensorNodeLost };
+enum class Injected { kHeartbeat, kSilentDrive, kDriveFault, kSensorNodeLost, kForceInvalid };
 
 void ExpectTheCobotStops(Injected what, SteeringFault steering, SensorFault sensor, std::uint32_t bits) {
   FieldbusRig rig(LoadRigConfig());
@@ -209,6 +213,9 @@ void ExpectTheCobotStops(Injected what, SteeringFault steering, SensorFault sens
       break;
     case Injected::kSensorNodeLost:
       rig.node->SetSilent(true);
+      break;
+    case Injected::kForceInvalid:
+      rig.force_sensor_broken = true;
       break;
   }
   int cycles = 0;
@@ -257,6 +264,11 @@ TEST(CobotFieldbusRig, LostSensorNodeStopsTheCobot) {
   // the brake output is on the lost node: it engages only if the node still listens (here it does, it only stopped
   // sending).
   ExpectTheCobotStops(Injected::kSensorNodeLost, SteeringFault::kNone, SensorFault::kLost, kFaultCommunication);
+}
+
+TEST(CobotFieldbusRig, InvalidHandleForceStopsTheCobot) {
+  // The force sensor's "no valid measurement" (overload, error: 0x8000 on the bus, NaN through CanForceSensor).
+  ExpectTheCobotStops(Injected::kForceInvalid, SteeringFault::kNone, SensorFault::kForceInvalid, kFaultNonFiniteSensor);
 }
 
 TEST(CobotFieldbusRig, EncoderJumpHoldsTheSteeringAndBrakes) {

@@ -647,7 +647,8 @@ DeviceBackend CobotBackend() {
        "axis only)"},
       {"fieldbus.sensors.node_id", "the sensor node's id, 1..127, not the drive's; required"},
       {"fieldbus.sensors.wheel_cob_id", "wheel TPDO COB-ID (INTEGER32 counts, CiA 406 0x6004); default 0x180+node"},
-      {"fieldbus.sensors.force_cob_id", "force TPDO COB-ID (2 x INTEGER16, CiA 401 0x6401/1-2); default 0x280+node"},
+      {"fieldbus.sensors.force_cob_id",
+       "force TPDO COB-ID (2 x INTEGER16, CiA 401 0x6401/1-2, 0x8000 = invalid); default 0x280+node"},
       {"fieldbus.sensors.brake_cob_id",
        "brake RPDO COB-ID (1 byte, bit 0, CiA 401 0x6200/1), used when "
        "brake_max_force_N > 0; default 0x200+node"},

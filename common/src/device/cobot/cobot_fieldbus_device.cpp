@@ -51,6 +51,8 @@ std::uint32_t FaultBits(SensorFault f) noexcept {
     case SensorFault::kWheelJump:
     case SensorFault::kBadFrame:
       return kFaultDriver;
+    case SensorFault::kForceInvalid:
+      return kFaultNonFiniteSensor;
   }
   return kFaultDriver;
 }
@@ -70,16 +72,20 @@ UnicycleCobotFieldbusDevice::UnicycleCobotFieldbusDevice(const CobotBackendConfi
 
 UnicycleCobotFieldbusDevice::UnicycleCobotFieldbusDevice(const CobotBackendConfig& config,
                                                          transport::CanPort& drive_port,
-                                                         transport::CanPort& sensor_port, fieldbus::Timebase timebase)
+                                                         transport::CanPort& sensor_port,
+                                                         transport::CanPort& force_port, fieldbus::Timebase timebase)
     : UnicycleCobotFieldbusDevice(config, std::move(timebase)) {
-  Build(drive_port, sensor_port);
+  Build(drive_port, sensor_port, force_port);
 }
 
 UnicycleCobotFieldbusDevice::~UnicycleCobotFieldbusDevice() { Deactivate(); }
 
-void UnicycleCobotFieldbusDevice::Build(transport::CanPort& drive_port, transport::CanPort& sensor_port) {
+void UnicycleCobotFieldbusDevice::Build(transport::CanPort& drive_port, transport::CanPort& sensor_port,
+                                        transport::CanPort& force_port) {
   steering_ = std::make_unique<CobotSteeringDrive>(config_.fieldbus.steering, drive_port, timebase_);
   sensors_ = std::make_unique<CobotSensorNode>(config_.fieldbus.sensors, sensor_port, timebase_);
+  force_ =
+      std::make_unique<fieldbus::CanForceSensor>(config_.fieldbus.sensors.ForceSensorConfig(), force_port, timebase_);
 }
 
 void UnicycleCobotFieldbusDevice::Configure() {
@@ -87,7 +93,9 @@ void UnicycleCobotFieldbusDevice::Configure() {
     const CobotFieldbusConfig& f = config_.fieldbus;
     owned_drive_port_ = fieldbus::OpenCanPort(f.can, fieldbus::Cia402Drive::ReceiveOptions(f.steering.drive));
     owned_sensor_port_ = fieldbus::OpenCanPort(f.can, CobotSensorNode::ReceiveOptions(f.sensors));
-    Build(*owned_drive_port_, *owned_sensor_port_);
+    owned_force_port_ =
+        fieldbus::OpenCanPort(f.can, fieldbus::CanForceSensor::ReceiveOptions(f.sensors.ForceSensorConfig()));
+    Build(*owned_drive_port_, *owned_sensor_port_, *owned_force_port_);
   }
   try {
     steering_->Configure();
@@ -112,8 +120,10 @@ void UnicycleCobotFieldbusDevice::Activate() {
   const int cycles = static_cast<int>(std::ceil(config_.fieldbus.first_frames_timeout_ms * 1e-3 / period_s));
   SteeringSample s;
   SensorSample m;
+  fieldbus::CanForceReading force;
   bool steering_seen = false;
-  for (int k = 0; k < cycles && !(steering_seen && m.started); ++k) {
+  bool force_seen = false;
+  for (int k = 0; k < cycles && !(steering_seen && m.started && force_seen); ++k) {
     (void)steering_->Write(0.0);
     timebase_.wait_ns(period_ns);
     if (steering_->Read(s) != SteeringFault::kNone) {
@@ -121,14 +131,16 @@ void UnicycleCobotFieldbusDevice::Activate() {
     }
     steering_seen = steering_seen || s.fresh;
     (void)sensors_->Read(m);
+    force_seen = force_->Read(force) == fieldbus::CanForceSensorStatus::kOk || force_seen;
   }
   if (!steering_seen) throw Error("device.cobot: no position from the steering drive after activation");
-  if (!m.started) {
-    throw Error("device.cobot: the sensor node (node " + std::to_string(config_.fieldbus.sensors.node_id) +
-                ") sent no wheel and force TPDOs (COB-IDs " + std::to_string(config_.fieldbus.sensors.WheelCobId()) +
-                ", " + std::to_string(config_.fieldbus.sensors.ForceCobId()) + ") within " +
-                std::to_string(static_cast<int>(config_.fieldbus.first_frames_timeout_ms)) +
-                " ms of the SYNCs; check its node id, its PDO mapping and that it is operational");
+  if (!m.started || !force_seen) {
+    throw Error(
+        "device.cobot: the sensor node (node " + std::to_string(config_.fieldbus.sensors.node_id) + ") sent no " +
+        (m.started ? "force" : "wheel") + " TPDO (COB-ID " +
+        std::to_string(m.started ? config_.fieldbus.sensors.ForceCobId() : config_.fieldbus.sensors.WheelCobId()) +
+        ") within " + std::to_string(static_cast<int>(config_.fieldbus.first_frames_timeout_ms)) +
+        " ms of the SYNCs; check its node id, its PDO mapping and that it is operational");
   }
   if (m.fault != SensorFault::kNone) {
     throw Error(std::string("device.cobot: sensor node fault at activation: ") + ToString(m.fault));
@@ -144,6 +156,8 @@ void UnicycleCobotFieldbusDevice::Activate() {
   input_.steering_angle_rad = heading_rad_;
   controller_.SetWallActive(false);
   walls_ = MasterWalls(config_.contact_force_threshold_N);
+  force_fault_ = SensorFault::kNone;
+  force_N_ = Vec2::Zero();
   pending_faults_ = kFaultNone;
   safe_ = false;
   active_ = true;
@@ -157,7 +171,7 @@ void UnicycleCobotFieldbusDevice::Deactivate() noexcept {
 }
 
 bool UnicycleCobotFieldbusDevice::locked() const noexcept {
-  return safe_ || (steering_ && steering_->locked()) || (sensors_ && sensors_->fault() != SensorFault::kNone);
+  return safe_ || (steering_ && steering_->locked()) || sensor_fault() != SensorFault::kNone;
 }
 
 SteeringFault UnicycleCobotFieldbusDevice::steering_fault() const noexcept {
@@ -165,7 +179,8 @@ SteeringFault UnicycleCobotFieldbusDevice::steering_fault() const noexcept {
 }
 
 SensorFault UnicycleCobotFieldbusDevice::sensor_fault() const noexcept {
-  return sensors_ ? sensors_->fault() : SensorFault::kNone;
+  if (sensors_ && sensors_->fault() != SensorFault::kNone) return sensors_->fault();
+  return force_fault_;
 }
 
 void UnicycleCobotFieldbusDevice::Read(Reading& out) noexcept {
@@ -180,7 +195,24 @@ void UnicycleCobotFieldbusDevice::Read(Reading& out) noexcept {
   SteeringSample s;
   SensorSample m;
   const SteeringFault steering = steering_->Read(s);
-  const SensorFault sensor = sensors_->Read(m);
+  (void)sensors_->Read(m);
+  fieldbus::CanForceReading force;
+  switch (force_->Read(force)) {
+    case fieldbus::CanForceSensorStatus::kOk:
+    case fieldbus::CanForceSensorStatus::kNoNewData:
+      if (!std::isfinite(force.force_N[0]) || !std::isfinite(force.force_N[1])) {
+        if (force_fault_ == SensorFault::kNone) force_fault_ = SensorFault::kForceInvalid;
+      } else if (force_fault_ == SensorFault::kNone) {
+        force_N_ = {force.force_N[0], force.force_N[1]};
+      }
+      break;
+    case fieldbus::CanForceSensorStatus::kStale:
+    case fieldbus::CanForceSensorStatus::kBusOff:
+      if (force_fault_ == SensorFault::kNone) force_fault_ = SensorFault::kLost;
+      break;
+  }
+  if (force_fault_ != SensorFault::kNone) force_N_ = Vec2::Zero();
+  const SensorFault sensor = sensor_fault();
   const double heading = config_.fieldbus.steering_offset_rad + s.angle_rad;
   // Odometry: the wheel rolls along its heading (no lateral slip), at the mid-cycle heading.
   const double ds = m.wheel_travel_m - travel_m_;
@@ -192,15 +224,15 @@ void UnicycleCobotFieldbusDevice::Read(Reading& out) noexcept {
   input_.steering_angle_rad = heading;
   input_.speed_m_per_s = speed_estimator_.Step(travel_m_ / r, period_s_) * r;
   input_.steering_rate_rad_per_s = rate_estimator_.Step(heading, period_s_);
-  input_.handle_force_N = m.handle_force_N;
+  input_.handle_force_N = force_N_;
   const Vec2 velocity = input_.speed_m_per_s * UnitAt(heading);
   // The floor's reaction to the operator's push across the wheel (quasi-static: the cart's lateral inertia is
   // not measured): what the constraint renders.
   const Vec2 n = LeftNormal(UnitAt(heading));
-  const Vec2 rendered = -m.handle_force_N.dot(n) * n;
+  const Vec2 rendered = -force_N_.dot(n) * n;
   out.position_m << position_m_.x(), position_m_.y();
   out.velocity_m_per_s << velocity.x(), velocity.y();
-  out.force_N << m.handle_force_N.x(), m.handle_force_N.y();
+  out.force_N << force_N_.x(), force_N_.y();
   out.rendered_force_N << rendered.x(), rendered.y();
   out.faults = FaultBits(steering) | FaultBits(sensor) | pending_faults_;
   pending_faults_ = kFaultNone;

@@ -1,6 +1,7 @@
 #include "teleop/device/cobot/cobot_sensor_node.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -18,24 +19,25 @@ std::int32_t I32(const CanFrame& f, std::size_t at) noexcept {
   const auto b = [&](std::size_t i) { return static_cast<std::uint32_t>(f.data[at + i]); };
   return static_cast<std::int32_t>(b(0) | (b(1) << 8) | (b(2) << 16) | (b(3) << 24));
 }
-std::int16_t I16(const CanFrame& f, std::size_t at) noexcept {
-  const auto b = [&](std::size_t i) { return static_cast<std::uint16_t>(f.data[at + i]); };
-  return static_cast<std::int16_t>(static_cast<std::uint16_t>(b(0) | (b(1) << 8)));
-}
 void PutI32(CanFrame& f, std::size_t at, std::int32_t v) noexcept {
   const auto u = static_cast<std::uint32_t>(v);
   for (std::size_t i = 0; i < 4; ++i) f.data[at + i] = static_cast<std::uint8_t>(u >> (8 * i));
-}
-void PutI16(CanFrame& f, std::size_t at, std::int16_t v) noexcept {
-  const auto u = static_cast<std::uint16_t>(v);
-  f.data[at] = static_cast<std::uint8_t>(u & 0xFFu);
-  f.data[at + 1] = static_cast<std::uint8_t>(u >> 8);
 }
 double MetresPerCount(const CobotSensorNodeConfig& c) noexcept {
   return 2.0 * std::numbers::pi * c.wheel_radius_m / c.wheel_counts_per_rev;
 }
 
 }  // namespace
+
+fieldbus::CanForceSensorConfig CobotSensorNodeConfig::ForceSensorConfig() const noexcept {
+  fieldbus::CanForceSensorConfig f;
+  f.cob_id = ForceCobId();
+  f.axes = 2;
+  f.encoding = fieldbus::ForceSensorEncoding::kInt16;
+  f.scale_N_per_count = force_N_per_unit;
+  f.stale_after_ms = stale_after_ms;
+  return f;
+}
 
 void Validate(const CobotSensorNodeConfig& c) {
   const auto fail = [](const std::string& what) { throw Error("cobot sensor node: " + what); };
@@ -64,6 +66,8 @@ const char* ToString(SensorFault fault) noexcept {
       return "malformed sensor frame";
     case SensorFault::kBusError:
       return "CAN error frame";
+    case SensorFault::kForceInvalid:
+      return "handle force sensor: no valid measurement";
   }
   return "?";
 }
@@ -78,7 +82,7 @@ CobotSensorNode::CobotSensorNode(const CobotSensorNodeConfig& config, transport:
 
 transport::CanReceiveOptions CobotSensorNode::ReceiveOptions(const CobotSensorNodeConfig& config) {
   transport::CanReceiveOptions o;
-  o.filters = {transport::CanFilter::Exact(config.WheelCobId()), transport::CanFilter::Exact(config.ForceCobId())};
+  o.filters = {transport::CanFilter::Exact(config.WheelCobId())};
   return o;
 }
 
@@ -89,9 +93,7 @@ void CobotSensorNode::Latch(SensorFault fault) noexcept {
 void CobotSensorNode::Reset() noexcept {
   fault_ = SensorFault::kNone;
   wheel_seen_ = false;
-  force_seen_ = false;
   travel_m_ = 0.0;
-  force_N_ = Vec2::Zero();
 }
 
 SensorFault CobotSensorNode::Read(SensorSample& out) noexcept {
@@ -127,27 +129,13 @@ SensorFault CobotSensorNode::Read(SensorSample& out) noexcept {
       wheel_seen_ = true;
       last_frame_ns_ = now;
       fresh = true;
-    } else if (f.id == config_.ForceCobId()) {
-      if (f.len != 4) {
-        ++counters_.rejected_frames;
-        Latch(SensorFault::kBadFrame);
-        continue;
-      }
-      ++counters_.force_frames;
-      if (fault_ == SensorFault::kNone) {
-        force_N_ = {I16(f, 0) * config_.force_N_per_unit, I16(f, 2) * config_.force_N_per_unit};
-      }
-      force_seen_ = true;
-      last_frame_ns_ = now;
-      fresh = true;
     }
   }
-  const bool started = wheel_seen_ && force_seen_;
+  const bool started = wheel_seen_;
   if (started && now > last_frame_ns_ && static_cast<double>(now - last_frame_ns_) > config_.stale_after_ms * 1e6) {
     Latch(SensorFault::kLost);
   }
   out.wheel_travel_m = travel_m_;
-  out.handle_force_N = fault_ == SensorFault::kNone ? force_N_ : Vec2::Zero();
   out.fresh = fresh;
   out.started = started;
   out.fault = fault_;
@@ -185,11 +173,8 @@ transport::CanReceiveOptions SimulatedCobotSensorNode::ReceiveOptions(const Cobo
 void SimulatedCobotSensorNode::Set(double wheel_travel_m, const Vec2& handle_force_N) noexcept {
   const double counts = std::round(config_.wheel_sign * wheel_travel_m / MetresPerCount(config_));
   counts_ = static_cast<std::int32_t>(static_cast<std::int64_t>(counts));  // wraps like the encoder
-  const auto scaled = [&](double n) {
-    return static_cast<std::int16_t>(std::clamp(std::round(n / config_.force_N_per_unit), -32768.0, 32767.0));
-  };
-  fx_ = scaled(std::isfinite(handle_force_N.x()) ? handle_force_N.x() : 0.0);
-  fy_ = scaled(std::isfinite(handle_force_N.y()) ? handle_force_N.y() : 0.0);
+  fx_N_ = handle_force_N.x();                                              // NaN is sent as the sensor's invalid value
+  fy_N_ = handle_force_N.y();
 }
 
 void SimulatedCobotSensorNode::Step() noexcept {
@@ -207,11 +192,8 @@ void SimulatedCobotSensorNode::Step() noexcept {
           static_cast<std::int32_t>(static_cast<std::uint32_t>(counts_) + static_cast<std::uint32_t>(count_offset_)));
       (void)port_.Write(wheel);
       CanFrame force{};
-      force.id = config_.ForceCobId();
-      force.len = 4;
-      PutI16(force, 0, fx_);
-      PutI16(force, 2, fy_);
-      (void)port_.Write(force);
+      const std::array<double, 2> f{fx_N_, fy_N_};
+      if (fieldbus::EncodeForceFrame(config_.ForceSensorConfig(), f, force)) (void)port_.Write(force);
     }
   }
 }

@@ -10,6 +10,7 @@
 #include "teleop/device/cobot/master_walls.hpp"
 #include "teleop/device/cobot/rate_estimator.hpp"
 #include "teleop/device/cobot/virtual_wall.hpp"
+#include "teleop/fieldbus/can_force_sensor.hpp"
 
 namespace teleop::device::cobot {
 
@@ -17,8 +18,9 @@ namespace teleop::device::cobot {
 /// master walls as the simulated rig, on measured signals.
 ///  - Steering angle ψ from the CiA 402 drive's position actual value (CobotSteeringDrive), plus
 ///    steering_offset_rad: the cart does not rotate (the xy frame holds it), so ψ is the heading.
-///  - Wheel travel and handle force from the sensor node (CobotSensorNode); the position is integrated from the
-///    wheel travel along ψ (odometry, from initial_position_m): the rig has no absolute position sensor on the bus.
+///  - Wheel travel from the sensor node (CobotSensorNode) and the handle force from its force TPDO, read by the
+///    generic teleop::fieldbus::CanForceSensor; the position is integrated from the wheel travel along ψ (odometry,
+///    from initial_position_m): the rig has no absolute position sensor on the bus.
 ///  - u and ω by the same digital differentiation and filtering as the simulated rig (§3.2).
 ///  - The steering torque of the controller goes to the drive at each Write (RPDO, then the SYNC that also makes
 ///    the sensor node send its TPDOs).
@@ -26,20 +28,21 @@ namespace teleop::device::cobot {
 /// Steering faults stop the cobot (latched until Activate()): a lost drive, a heartbeat timeout or a drive fault
 /// leave the steering with no torque (nothing turns the wheel off its current tangent); an encoder jump holds the
 /// encoder where it is (CobotSteeringDrive); in both cases the wheel brake is engaged where the rig has one
-/// (brake_max_force_N > 0: the sensor node's brake output). A lost sensor node or a wheel encoder jump (latched
-/// too), a bad Command or SetSafe() (until the next good Command) lock the steering on its current heading
-/// (Γ = −K₂ω) and engage the brake. Reading::faults carries kFaultCommunication (lost drive, heartbeat, lost node)
-/// or kFaultDriver (drive fault, encoder jumps; a bad Command once) while the latch holds.
+/// (brake_max_force_N > 0: the sensor node's brake output). A lost sensor node, a wheel encoder jump, a stale or
+/// invalid force reading (latched too), a bad Command or SetSafe() (until the next good Command) lock the steering
+/// on its current heading (Γ = −K₂ω) and engage the brake. Reading::faults carries kFaultCommunication (lost drive,
+/// heartbeat, lost node) or kFaultDriver (drive fault, encoder jumps; a bad Command once) while the latch holds.
 class UnicycleCobotFieldbusDevice final : public Device {
  public:
   /// Opens its two ports on config.fieldbus.can at Configure().
   explicit UnicycleCobotFieldbusDevice(const CobotBackendConfig& config,
                                        fieldbus::Timebase timebase = fieldbus::Timebase::Steady());
   /// On the given ports (tests: the in-process emulated bus). They must outlive the device and receive
-  /// fieldbus::Cia402Drive::ReceiveOptions(config.fieldbus.steering.drive) and
-  /// CobotSensorNode::ReceiveOptions(config.fieldbus.sensors).
+  /// fieldbus::Cia402Drive::ReceiveOptions(config.fieldbus.steering.drive),
+  /// CobotSensorNode::ReceiveOptions(config.fieldbus.sensors) and
+  /// fieldbus::CanForceSensor::ReceiveOptions(config.fieldbus.sensors.ForceSensorConfig()).
   UnicycleCobotFieldbusDevice(const CobotBackendConfig& config, transport::CanPort& drive_port,
-                              transport::CanPort& sensor_port,
+                              transport::CanPort& sensor_port, transport::CanPort& force_port,
                               fieldbus::Timebase timebase = fieldbus::Timebase::Steady());
   ~UnicycleCobotFieldbusDevice() override;
 
@@ -64,7 +67,7 @@ class UnicycleCobotFieldbusDevice final : public Device {
   const CobotSensorNode& sensors() const noexcept { return *sensors_; }
 
  private:
-  void Build(transport::CanPort& drive_port, transport::CanPort& sensor_port);
+  void Build(transport::CanPort& drive_port, transport::CanPort& sensor_port, transport::CanPort& force_port);
   void SendCycle(double steering_torque_Nm, bool brake) noexcept;
 
   CobotBackendConfig config_;
@@ -73,8 +76,12 @@ class UnicycleCobotFieldbusDevice final : public Device {
   std::string name_ = "cobot";
   std::unique_ptr<transport::CanPort> owned_drive_port_;
   std::unique_ptr<transport::CanPort> owned_sensor_port_;
+  std::unique_ptr<transport::CanPort> owned_force_port_;
   std::unique_ptr<CobotSteeringDrive> steering_;
   std::unique_ptr<CobotSensorNode> sensors_;
+  std::unique_ptr<fieldbus::CanForceSensor> force_;
+  SensorFault force_fault_ = SensorFault::kNone;  ///< Latched: stale (kLost) or invalid force readings.
+  Vec2 force_N_ = Vec2::Zero();
   VirtualWallController controller_;
   MasterWalls walls_;
   RateEstimator speed_estimator_;

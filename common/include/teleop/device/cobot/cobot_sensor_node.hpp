@@ -6,7 +6,8 @@
 //  - wheel TPDO (default COB-ID 0x180 + node, 4 bytes): the wheel encoder's position value, INTEGER32 little-endian
 //    (CiA 406 object 0x6004), counts; it may wrap;
 //  - force TPDO (default 0x280 + node, 4 bytes): F_x, F_y as INTEGER16 little-endian (CiA 401 analog inputs 0x6401
-//    sub 1 and 2), force_N_per_unit N per unit, world frame;
+//    sub 1 and 2), force_N_per_unit N per unit, world frame; 0x8000 is "no valid measurement". The host reads it
+//    with the generic teleop::fieldbus::CanForceSensor (ForceSensorConfig()), on a port of its own;
 //  - brake RPDO (default 0x200 + node, 1 byte, only with has_brake): bit 0 of CiA 401 digital outputs 0x6200 sub 1,
 //    1 = wheel brake engaged.
 // The node's own set-up (its PDO mapping, NMT start) is the rig's commissioning, not done here.
@@ -15,6 +16,7 @@
 #include <memory>
 
 #include "teleop/device/cobot/planar.hpp"
+#include "teleop/fieldbus/can_force_sensor.hpp"
 #include "teleop/fieldbus/canopen_timebase.hpp"
 #include "teleop/transport/can_filter.hpp"
 #include "teleop/transport/can_port.hpp"
@@ -39,11 +41,13 @@ struct CobotSensorNodeConfig {
   std::uint32_t WheelCobId() const noexcept { return wheel_cob_id != 0 ? wheel_cob_id : 0x180u + node_id; }
   std::uint32_t ForceCobId() const noexcept { return force_cob_id != 0 ? force_cob_id : 0x280u + node_id; }
   std::uint32_t BrakeCobId() const noexcept { return brake_cob_id != 0 ? brake_cob_id : 0x200u + node_id; }
+  /// The force TPDO as the generic force-sensor client reads it (2 axes, INTEGER16).
+  fieldbus::CanForceSensorConfig ForceSensorConfig() const noexcept;
 };
 /// teleop::Error naming the field.
 void Validate(const CobotSensorNodeConfig& config);
 
-enum class SensorFault : std::uint8_t { kNone, kLost, kWheelJump, kBadFrame, kBusError };
+enum class SensorFault : std::uint8_t { kNone, kLost, kWheelJump, kBadFrame, kBusError, kForceInvalid };
 const char* ToString(SensorFault fault) noexcept;
 
 struct SensorSample {
@@ -56,16 +60,15 @@ struct SensorSample {
 
 struct SensorNodeCounters {
   std::uint64_t wheel_frames = 0;
-  std::uint64_t force_frames = 0;
   std::uint64_t rejected_frames = 0;  ///< Wrong length.
   std::uint64_t error_frames = 0;
   std::uint64_t brake_writes = 0;
   std::uint64_t write_failures = 0;
 };
 
-/// The host's client of the sensor node. Read/WriteBrake run in the control cycle: non-blocking, no allocation.
-/// A fault (lost node, wheel jump, malformed frame, error frame) latches until Reset(); the travel and force then
-/// keep their last trusted values.
+/// The host's client of the sensor node's wheel TPDO and brake RPDO. Read/WriteBrake run in the control cycle:
+/// non-blocking, no allocation. A fault (lost node, wheel jump, malformed frame, error frame) latches until Reset();
+/// the travel then keeps its last trusted value.
 class CobotSensorNode {
  public:
   /// Validates (throws teleop::Error); `port` must outlive the client and receive ReceiveOptions(config).
@@ -91,10 +94,8 @@ class CobotSensorNode {
   fieldbus::Timebase timebase_;
   SensorFault fault_ = SensorFault::kNone;
   bool wheel_seen_ = false;
-  bool force_seen_ = false;
   std::int32_t last_count_ = 0;
   double travel_m_ = 0.0;
-  Vec2 force_N_ = Vec2::Zero();
   std::uint64_t last_frame_ns_ = 0;
   SensorNodeCounters counters_{};
 };
@@ -121,8 +122,8 @@ class SimulatedCobotSensorNode {
   transport::CanPort& port_;
   std::int32_t counts_ = 0;
   std::int32_t count_offset_ = 0;
-  std::int16_t fx_ = 0;
-  std::int16_t fy_ = 0;
+  double fx_N_ = 0.0;
+  double fy_N_ = 0.0;
   bool brake_ = false;
   bool silent_ = false;
 };
