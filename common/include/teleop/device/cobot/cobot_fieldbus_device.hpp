@@ -34,7 +34,7 @@ namespace teleop::device::cobot {
 /// heartbeat, lost node) or kFaultDriver (drive fault, encoder jumps; a bad Command once) while the latch holds.
 class UnicycleCobotFieldbusDevice final : public Device {
  public:
-  /// Opens its two ports on config.fieldbus.can at Configure().
+  /// Opens its three ports (drive, wheel/brake, force) on config.fieldbus.can at Configure().
   explicit UnicycleCobotFieldbusDevice(const CobotBackendConfig& config,
                                        fieldbus::Timebase timebase = fieldbus::Timebase::Steady());
   /// On the given ports (tests: the in-process emulated bus). They must outlive the device and receive
