@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "scenarios.hpp"
+#include "teleop/device/cobot/cobot_backend.hpp"
 #include "teleop/device/cobot/scripted_operator.hpp"
 #include "teleop/device/cobot/tracking_stability.hpp"
 #include "teleop/device/cobot/unicycle_cobot.hpp"
@@ -325,6 +326,7 @@ int RunTrack(const TrackOptions& o) {
 struct WallOptions {
   CommonOptions common;
   std::string overlay = "on";
+  std::string vehicle = "unicycle";
   double speed_m_per_s = 0.3;
   double approach_angle_deg = 60.0;
   double overlay_min_radius_m = 0.1;
@@ -346,6 +348,61 @@ StrikeSetup WallSetup(const WallOptions& o, bool overlay) {
   return s;
 }
 
+/// The bicycle cobot (its plate's reference point, midway between the wheels) strikes the same wall y > 0 as a
+/// fixture plane through the `cobot` backend: the plate starts 150 mm below it with its wheels along the approach
+/// and the scripted operator pushes towards it at the approach angle.
+StrikeResult RunBicycleStrike(const WallOptions& o, bool overlay, const std::string& csv_path) {
+  device::cobot::CobotBackendConfig c;
+  c.kind = device::cobot::CobotBackendConfig::Kind::kBicycle;
+  c.unicycle.controller.overlay_enabled = overlay;
+  c.unicycle.controller.overlay_min_radius_m = o.overlay_min_radius_m;
+  c.initial.position_m = {0.0, -0.15};
+  c.initial.heading_rad = o.approach_angle_deg * kDegToRad;  // the plate's θ: wheels along the approach
+  c.op.enabled = true;
+  c.op.speed_m_per_s = o.speed_m_per_s;
+  c.op.direction_deg = o.approach_angle_deg;
+  device::cobot::BicycleCobotDevice bicycle(c);
+  device::Command plane = device::Command::Force(DofVector::Zero(3));
+  plane.constraint_count = 1;
+  plane.constraints[0].normal = DofVector::Zero(3);
+  plane.constraints[0].normal << 0.0, 1.0, 0.0;
+  plane.constraints[0].offset_m = 0.0;
+  Trajectory traj(csv_path, 5);
+  StrikeResult r;
+  const int steps = static_cast<int>(2.0 / kPeriod_s);
+  const int tail = steps - steps / 4;
+  double sum = 0.0;
+  double sum_sq = 0.0;
+  int n = 0;
+  device::Reading reading;
+  for (int k = 0; k < steps; ++k) {
+    bicycle.Read(reading);
+    bicycle.Write(plane);
+    bicycle.Update(kPeriod_s);
+    const auto& st = bicycle.state();
+    device::cobot::CobotSample s;
+    s.position_m = st.pose.position_m;
+    s.heading_rad = bicycle.virtual_heading_rad();
+    s.speed_m_per_s = Vec2(st.twist(0), st.twist(1)).norm();
+    s.handle_force_N = bicycle.operator_force_N();
+    s.control = bicycle.last_control();
+    traj.Add((k + 1) * kPeriod_s, s);
+    const double p = s.position_m.y();
+    r.max_penetration_m = std::max(r.max_penetration_m, p);
+    if (r.first_contact_s < 0.0 && s.control.mode != WallMode::kCaster) r.first_contact_s = (k + 1) * kPeriod_s;
+    if (k >= tail) {
+      sum += p;
+      sum_sq += p * p;
+      ++n;
+    }
+  }
+  r.steady_error_m = sum / n;
+  r.steady_rms_m = std::sqrt(sum_sq / n);
+  r.engages = bicycle.controller().engage_count();
+  r.releases = bicycle.controller().release_count();
+  return r;
+}
+
 int RunWall(const WallOptions& o) {
   if (o.overlay != "on" && o.overlay != "off") {
     throw Error("cobot-wall: --overlay must be on or off (got '" + o.overlay + "')");
@@ -353,18 +410,26 @@ int RunWall(const WallOptions& o) {
   if (!(o.approach_angle_deg > 0.0 && o.approach_angle_deg < 90.0)) {
     throw Error("cobot-wall: --approach-angle-deg must be in (0, 90)");
   }
+  if (o.vehicle != "unicycle" && o.vehicle != "bicycle") {
+    throw Error("cobot-wall: --vehicle must be unicycle or bicycle (got '" + o.vehicle + "')");
+  }
+  const bool bicycle = o.vehicle == "bicycle";
+  const auto strike = [&](bool with_overlay, const std::string& path) {
+    return bicycle ? RunBicycleStrike(o, with_overlay, path) : RunStrike(WallSetup(o, with_overlay), path);
+  };
   const bool overlay = o.overlay == "on";
   const std::string csv = o.common.output + ".csv";
-  const StrikeResult r = RunStrike(WallSetup(o, overlay), csv);
+  const StrikeResult r = strike(overlay, csv);
   if (!o.common.no_plot) {
     // Fig. 9 shows both strikes: run the other one too, for the plot only.
     const std::string other_csv = o.common.output + "_overlay_" + (overlay ? "off" : "on") + ".csv";
-    const StrikeResult other = RunStrike(WallSetup(o, !overlay), other_csv);
+    const StrikeResult other = strike(!overlay, other_csv);
     const std::string wall_csv = o.common.output + "_constraint.csv";
     WriteConstraintCsv(wall_csv, Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true), -0.02, 0.35);
     std::ostringstream title;
-    title << "cobot-wall: max penetration " << std::setprecision(3) << r.max_penetration_m * 1e3 << " mm with overlay "
-          << o.overlay << ", " << other.max_penetration_m * 1e3 << " mm with it " << (overlay ? "off" : "on");
+    title << "cobot-wall (" << o.vehicle << "): max penetration " << std::setprecision(3) << r.max_penetration_m * 1e3
+          << " mm with overlay " << o.overlay << ", " << other.max_penetration_m * 1e3 << " mm with it "
+          << (overlay ? "off" : "on");
     std::string script = TrajectoryPlot(
         o.common.output + ".png", title.str(),
         {{csv, std::string("overlay ") + o.overlay}, {other_csv, std::string("overlay ") + (overlay ? "off" : "on")}},
@@ -373,14 +438,14 @@ int RunWall(const WallOptions& o) {
     RunGnuplot(o.common.output + ".gp", script);
   }
   if (o.common.json) {
-    std::cout << std::setprecision(6) << "{\"scenario\":\"cobot-wall\",\"overlay\":\"" << o.overlay
-              << "\",\"max_penetration_mm\":" << r.max_penetration_m * 1e3
+    std::cout << std::setprecision(6) << "{\"scenario\":\"cobot-wall\",\"vehicle\":\"" << o.vehicle
+              << "\",\"overlay\":\"" << o.overlay << "\",\"max_penetration_mm\":" << r.max_penetration_m * 1e3
               << ",\"steady_state_error_mm\":" << r.steady_error_m * 1e3 << ",\"engages\":" << r.engages
               << ",\"releases\":" << r.releases << "}\n";
   } else {
-    std::cout << "cobot-wall --overlay " << o.overlay << ": max penetration " << r.max_penetration_m * 1e3
-              << " mm (approach " << o.approach_angle_deg << " deg at " << o.speed_m_per_s << " m/s)\n  " << csv
-              << "\n";
+    std::cout << "cobot-wall --vehicle " << o.vehicle << " --overlay " << o.overlay << ": max penetration "
+              << r.max_penetration_m * 1e3 << " mm (approach " << o.approach_angle_deg << " deg at " << o.speed_m_per_s
+              << " m/s)\n  " << csv << "\n";
   }
   return 0;
 }
@@ -392,6 +457,8 @@ struct StabilityOptions {
   std::vector<double> tau_s{0.05, 0.1, 0.2};
   std::vector<double> lookahead_m{0.01, 0.02, 0.05};
   std::vector<double> ratios{0.25, 0.5, 0.75, 0.9, 1.1, 1.25, 1.5, 2.0};
+  double rate_filter_hz = 300.0;  ///< Cut-off of the ω estimate's low-pass (it sits inside the steering loop).
+  double step_s = kPeriod_s;      ///< Control and integration step.
 };
 
 /// Bilateral line tracking from a 2 mm offset at constant speed. Returns the late/early amplitude ratio of p
@@ -401,7 +468,7 @@ struct StabilityOptions {
 constexpr double kInitialOffset_m = 0.002;
 constexpr double kConvergedRatio = 1.0;
 
-double TrackingGrowth(double speed_m_per_s, double tau_s, double lookahead_m) {
+double TrackingGrowth(const StabilityOptions& o, double speed_m_per_s, double tau_s, double lookahead_m) {
   UnicycleCobotConfig c = UnicycleCobotConfig::Prototype();
   c.plant.steering_damping_Nms_per_rad = 0.0;   // the analysis' first-order steering loop exactly
   c.plant.cornering_stiffness_N_per_rad = 0.0;  // and ideal rolling
@@ -415,7 +482,7 @@ double TrackingGrowth(double speed_m_per_s, double tau_s, double lookahead_m) {
   c.controller.overlay_enabled = false;
   c.controller.release_distance_m = 10.0;  // bilateral, as analysed
   c.controller.release_force_N = 1e6;
-  c.steering_rate_filter.cutoff_hz = 300.0;
+  c.steering_rate_filter.cutoff_hz = o.rate_filter_hz;
   const Constraint wall = Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true);
   UnicyclePlantState initial;
   initial.position_m = {0.0, kInitialOffset_m};
@@ -427,11 +494,11 @@ double TrackingGrowth(double speed_m_per_s, double tau_s, double lookahead_m) {
   op_config.max_force_N = 500.0;
   device::cobot::PushingOperator op(op_config, wall);
   const double arc_m = 60.0 * lookahead_m;
-  const int steps = static_cast<int>(std::clamp(arc_m / speed_m_per_s, 1.0, 30.0) / kPeriod_s);
+  const int steps = static_cast<int>(std::clamp(arc_m / speed_m_per_s, 1.0, 30.0) / o.step_s);
   double early = 0.0;
   double late = 0.0;
   for (int k = 0; k < steps; ++k) {
-    const auto s = cobot.Step(op.Step(cobot.state(), kPeriod_s), kPeriod_s);
+    const auto s = cobot.Step(op.Step(cobot.state(), o.step_s), o.step_s);
     const double p = std::abs(wall.Evaluate(s.position_m).penetration_m);
     if (!std::isfinite(p) || p > 0.2) return 1e3;  // diverged
     if (k >= steps / 4 && k < steps / 2) early = std::max(early, p);
@@ -443,6 +510,9 @@ double TrackingGrowth(double speed_m_per_s, double tau_s, double lookahead_m) {
 }
 
 int RunStability(const StabilityOptions& o) {
+  if (!(o.rate_filter_hz > 0.0) || !(o.step_s > 0.0 && o.step_s <= 0.01)) {
+    throw Error("cobot-stability: --rate-filter-hz must be > 0 and --step-s in (0, 0.01]");
+  }
   const std::string csv_path = o.common.output + ".csv";
   const std::string boundary_path = o.common.output + "_boundary.csv";
   std::ofstream csv = OpenCsv(csv_path);
@@ -459,19 +529,19 @@ int RunStability(const StabilityOptions& o) {
       const double u_formula = device::cobot::MaxStableSpeed_m_per_s(tracker, tau, 0.0);
       for (const double ratio : o.ratios) {
         const double u = ratio * u_formula;
-        const double growth = TrackingGrowth(u, tau, lookahead);
+        const double growth = TrackingGrowth(o, u, tau, lookahead);
         csv << tau << ',' << lookahead << ',' << u << ',' << u * tau << ',' << ratio << ',' << growth << ','
             << (growth < kConvergedRatio ? 1 : 0) << ',' << (ratio < 1.0 ? 1 : 0) << '\n';
       }
       // The simulated boundary: bisection on the speed between stable and unstable.
       double lo = 0.25 * u_formula;
       double hi = 3.0 * u_formula;
-      if (TrackingGrowth(hi, tau, lookahead) < kConvergedRatio) {
+      if (TrackingGrowth(o, hi, tau, lookahead) < kConvergedRatio) {
         lo = hi;  // stable up to the top of the range
       } else {
         for (int i = 0; i < 12; ++i) {
           const double mid = 0.5 * (lo + hi);
-          (TrackingGrowth(mid, tau, lookahead) < kConvergedRatio ? lo : hi) = mid;
+          (TrackingGrowth(o, mid, tau, lookahead) < kConvergedRatio ? lo : hi) = mid;
         }
       }
       const double u_sim = 0.5 * (lo + hi);
@@ -542,6 +612,8 @@ void AddCobotScenarios(CLI::App& app) {
     CLI::App* sub = app.add_subcommand("cobot-wall", "Virtual wall strike with and without overlay (Fig. 9)");
     AddCommon(sub, o->common, "cobot_wall");
     sub->add_option("--overlay", o->overlay, "on or off")->capture_default_str();
+    sub->add_option("--vehicle", o->vehicle, "unicycle, or bicycle (the wall on the plate's reference point)")
+        ->capture_default_str();
     sub->add_option("--speed-m-s", o->speed_m_per_s, "Cart speed (m/s)")->capture_default_str();
     sub->add_option("--approach-angle-deg", o->approach_angle_deg, "Approach angle to the wall (deg)")
         ->capture_default_str();
@@ -556,6 +628,9 @@ void AddCobotScenarios(CLI::App& app) {
     sub->add_option("--tau-s", o->tau_s, "Steering time constants (s)")->delimiter(',');
     sub->add_option("--lookahead-m", o->lookahead_m, "Lookahead distances (m)")->delimiter(',');
     sub->add_option("--ratios", o->ratios, "Speeds as multiples of L/tau")->delimiter(',');
+    sub->add_option("--rate-filter-hz", o->rate_filter_hz, "Cut-off of the steering-rate estimate's low-pass (Hz)")
+        ->capture_default_str();
+    sub->add_option("--step-s", o->step_s, "Control and integration step (s)")->capture_default_str();
     sub->callback([o] { RunStability(*o); });
   }
 }

@@ -4,6 +4,9 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
 #include <string>
 
 #include "teleop/config/yaml_reader.hpp"
@@ -143,7 +146,7 @@ TEST(CobotBackend, BlockedSlaveIsRenderedAsAWallAcrossTheContact) {
 TEST(CobotBackend, BadCommandIsAFaultAndLocksTheSteering) {
   UnicycleCobotDevice device(PushingAt(0.0));
   Command bad = Command::Force(DofVector::Zero(2));
-  bad.force_N[1] = NAN;
+  bad.force_N[1] = std::numeric_limits<double>::quiet_NaN();
   device.Write(bad);
   device.Update(kPeriod_s);
   Reading r;
@@ -176,7 +179,7 @@ TEST(CobotBackend, CycleDoesNotAllocate) {
   EXPECT_EQ(counter.count(), 0u);
 }
 
-TEST(CobotBackend, BicycleMovesAsACasterAndReportsConstraintsItCannotRender) {
+TEST(CobotBackend, BicycleMovesAsACaster) {
   CobotBackendConfig c = PushingAt(30.0);
   c.kind = CobotBackendConfig::Kind::kBicycle;
   const std::unique_ptr<Device> device = MakeDevice(CobotDeviceConfig(c));
@@ -190,14 +193,83 @@ TEST(CobotBackend, BicycleMovesAsACasterAndReportsConstraintsItCannotRender) {
   device->Read(r);
   EXPECT_EQ(r.faults, kFaultNone);
   EXPECT_GT(Vec2(r.position_m[0], r.position_m[1]).norm(), 0.1);
+}
+
+struct BicycleWallRun {
+  double max_penetration_m = 0.0;
+  double x_end_m = 0.0;
+  double y_end_m = 0.0;
+  WallMode mode_before_release = WallMode::kCaster;
+  WallMode mode_end = WallMode::kCaster;
+  int engage_count = 0;
+  int release_count = 0;
+};
+
+/// The bicycle's plate (reference point at its origin) pushed at `approach_deg` from 100 mm below the fixture plane
+/// y > 0.1 m, at 0.2 m/s; after 3 s the operator pulls away (−90°).
+BicycleWallRun BicycleWallApproach(double approach_deg, bool overlay, double plate_deg) {
+  CobotBackendConfig c = PushingAt(approach_deg);
+  c.kind = CobotBackendConfig::Kind::kBicycle;
+  c.unicycle.controller.overlay_enabled = overlay;
+  c.initial.heading_rad = plate_deg * std::numbers::pi / 180.0;  // the plate's θ
+  c.op.then_at_s = 3.0;
+  c.op.then_direction_deg = -90.0;
+  BicycleCobotDevice device(c);
   Command plane = Command::Force(DofVector::Zero(3));
   plane.constraint_count = 1;
   plane.constraints[0].normal = DofVector::Zero(3);
-  plane.constraints[0].normal[1] = 1.0;
-  plane.constraints[0].penetration_m = 0.01;
-  device->Write(plane);
-  device->Read(r);
-  EXPECT_EQ(r.faults & kFaultDriver, kFaultDriver);
+  plane.constraints[0].normal << 0.0, 1.0, 0.0;
+  plane.constraints[0].offset_m = 0.1;
+  BicycleWallRun run;
+  Reading r;
+  for (int k = 0; k < 4000; ++k) {
+    device.Read(r);
+    EXPECT_EQ(r.faults, kFaultNone) << k;
+    run.max_penetration_m = std::max(run.max_penetration_m, r.position_m[1] - 0.1);
+    if (k == 2999) run.mode_before_release = device.controller().mode();
+    device.Write(plane);
+    device.Update(kPeriod_s);
+  }
+  device.Read(r);
+  run.x_end_m = r.position_m[0];
+  run.y_end_m = r.position_m[1];
+  run.mode_end = device.controller().mode();
+  run.engage_count = device.controller().engage_count();
+  run.release_count = device.controller().release_count();
+  return run;
+}
+
+TEST(CobotBackend, BicycleRendersAFixturePlaneOnItsReferencePoint) {
+  // Wheels start across the approach (the plate at 0°, wheels pointing +x): the caster first turns them.
+  for (const double plate_deg : {0.0, 60.0}) {
+    SCOPED_TRACE(plate_deg);
+    const BicycleWallRun on = BicycleWallApproach(45.0, true, plate_deg);
+    const BicycleWallRun off = BicycleWallApproach(45.0, false, plate_deg);
+    std::printf("bicycle, plate %.0f deg, 45 deg approach: max penetration %.2f mm overlay on, %.2f mm off\n",
+                plate_deg, on.max_penetration_m * 1e3, off.max_penetration_m * 1e3);
+    for (const BicycleWallRun* run : {&on, &off}) {
+      EXPECT_EQ(run->mode_before_release, WallMode::kTracking);  // held on the wall while pushing into it
+      EXPECT_EQ(run->mode_end, WallMode::kCaster);               // released once the force points away
+      EXPECT_GE(run->engage_count, 1);
+      EXPECT_GE(run->release_count, 1);
+      EXPECT_LT(run->y_end_m, 0.1 - 0.05);  // and the plate left the wall
+    }
+    EXPECT_LT(on.max_penetration_m, 0.006);   // the unicycle's class (5 mm in FixturePlaneIsRenderedAsASteeredWall)
+    EXPECT_LT(off.max_penetration_m, 0.030);  // bounded without the overlay too
+    EXPECT_LT(on.max_penetration_m, off.max_penetration_m);  // the overlay reduces the penetration
+  }
+  // Without the plane, the same push goes through.
+  CobotBackendConfig c = PushingAt(45.0);
+  c.kind = CobotBackendConfig::Kind::kBicycle;
+  BicycleCobotDevice free(c);
+  Reading r;
+  for (int k = 0; k < 3000; ++k) {
+    free.Read(r);
+    free.Write(Command::Force(DofVector::Zero(3)));
+    free.Update(kPeriod_s);
+  }
+  free.Read(r);
+  EXPECT_GT(r.position_m[1], 0.2);
 }
 
 }  // namespace

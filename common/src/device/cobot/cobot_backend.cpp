@@ -9,6 +9,7 @@
 #include <string>
 
 #include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/cobot/cobot_fieldbus_device.hpp"
 
 namespace teleop::device::cobot {
 namespace {
@@ -21,8 +22,6 @@ using config::Positive;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 const std::string kName = "cobot";
-/// Per-cycle low-pass weight of the free-motion coupling force (about 0.2 s at 1 kHz).
-constexpr double kFreeCouplingAlpha = 0.005;
 
 int ReadCount(const Field& f) {
   const double v = NonNegative(f, "counts per revolution (0 = ideal)");
@@ -51,6 +50,138 @@ void ReadBicycle(const Field& f, CobotBackendConfig& c) {
     c.bicycle_caster.singularity_threshold = config::InRange(*v, 0.0, 0.99, "");
   }
   if (auto v = map.Optional("singularity_guard")) c.bicycle_caster.singularity_guard = v->AsBool();
+}
+
+void ReadCanPort(const Field& f, fieldbus::CanPortConfig& can) {
+  const Map map(f, {"medium", "interface", "bus", "connect_timeout_ms"});
+  if (auto v = map.Optional("medium")) {
+    const std::string medium = v->AsString();
+    if (medium == "socketcan") {
+      can.medium = transport::CanMedium::kSocketCan;
+    } else if (medium == "emulated") {
+      can.medium = transport::CanMedium::kEmulatedBus;
+    } else {
+      v->Fail("must be socketcan (a SocketCAN interface) or emulated (the teleop-canbus daemon), got '" + medium + "'");
+    }
+  }
+  const bool emulated = can.medium == transport::CanMedium::kEmulatedBus;
+  if (auto v = map.Optional("interface")) {
+    if (emulated) v->Fail("only for medium socketcan");
+    can.interface_name = v->AsString();
+    if (can.interface_name.empty() || can.interface_name.size() > 15) {
+      v->Fail("must be a network interface name of 1..15 characters (e.g. can0), got '" + can.interface_name + "'");
+    }
+  } else if (!emulated) {
+    map.Required("interface");
+  }
+  if (auto v = map.Optional("bus")) {
+    if (!emulated) v->Fail("only for medium emulated (the teleop-canbus daemon's address)");
+    const std::string text = v->AsString();
+    const std::size_t colon = text.rfind(':');
+    const std::string port = colon == std::string::npos ? "" : text.substr(colon + 1);
+    if (colon == std::string::npos || colon == 0 || port.empty() || port.size() > 5 ||
+        port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) < 1 || std::stoi(port) > 65535) {
+      v->Fail("must be \"IPv4:PORT\" like \"127.0.0.1:47300\", got '" + text + "'");
+    }
+    can.emulated_bus_host = text.substr(0, colon);
+    can.emulated_bus_port = static_cast<std::uint16_t>(std::stoi(port));
+  }
+  if (auto v = map.Optional("connect_timeout_ms")) can.connect_timeout_ms = Positive(*v, "ms");
+}
+
+std::uint8_t ReadNodeId(const Field& f) { return static_cast<std::uint8_t>(config::IntInRange(f, 1, 127)); }
+
+void ReadSteering(const Field& f, CobotFieldbusConfig& c) {
+  const Map map(f,
+                {"node_id", "mode", "gear_ratio", "position_rad_per_count", "velocity_rad_per_s_per_unit", "direction",
+                 "rated_torque_Nm", "max_torque_Nm", "offset_deg", "max_angle_jump_rad", "hold_stiffness_Nm_per_rad",
+                 "hold_damping_Nms_per_rad", "heartbeat_period_ms", "heartbeat_timeout_ms", "stale_after_ms"});
+  fieldbus::Cia402DriveConfig& d = c.steering.drive;
+  d.node_id = ReadNodeId(map.Required("node_id"));
+  if (auto v = map.Optional("mode")) {
+    const std::string mode = v->AsString();
+    if (mode == "velocity") {
+      v->Fail(
+          "velocity mode (cyclic synchronous velocity, 0x6060 = 9) is not supported by the CiA 402 client, which runs "
+          "cyclic synchronous torque only; use mode: torque (the steering-velocity loop of eq 3c then runs on the "
+          "host, Γ = K2·(ω_c − ω))");
+    }
+    if (mode != "torque") v->Fail("must be torque, got '" + mode + "'");
+  }
+  if (auto v = map.Optional("gear_ratio")) c.steering.gear_ratio = Positive(*v, "motor rad per steering rad");
+  if (auto v = map.Optional("position_rad_per_count")) d.scaling.position_rad_per_count = Positive(*v, "rad");
+  if (auto v = map.Optional("velocity_rad_per_s_per_unit")) {
+    d.scaling.velocity_rad_per_s_per_unit = Positive(*v, "rad/s");
+  }
+  if (auto v = map.Optional("direction")) {
+    const double sign = Finite(*v);
+    if (sign != 1.0 && sign != -1.0) v->Fail("must be 1 or -1, got " + config::Num(sign));
+    d.scaling.sign = sign;
+  }
+  if (auto v = map.Optional("rated_torque_Nm")) d.scaling.rated_torque_Nm = Positive(*v, "N·m");
+  if (auto v = map.Optional("max_torque_Nm")) d.max_torque_Nm = Positive(*v, "N·m");
+  if (auto v = map.Optional("offset_deg")) c.steering_offset_rad = Finite(*v) * kDeg;
+  if (auto v = map.Optional("max_angle_jump_rad")) c.steering.max_angle_jump_rad = Positive(*v, "rad");
+  if (auto v = map.Optional("hold_stiffness_Nm_per_rad"))
+    c.steering.hold_stiffness_Nm_per_rad = Positive(*v, "N·m/rad");
+  if (auto v = map.Optional("hold_damping_Nms_per_rad")) {
+    c.steering.hold_damping_Nms_per_rad = NonNegative(*v, "N·m·s/rad");
+  }
+  if (auto v = map.Optional("heartbeat_period_ms"))
+    d.drive_heartbeat_period_ms = config::InRange(*v, 1.0, 10000.0, "ms");
+  if (auto v = map.Optional("heartbeat_timeout_ms")) d.heartbeat_timeout_ms = config::InRange(*v, 1.0, 60000.0, "ms");
+  if (d.heartbeat_timeout_ms <= d.drive_heartbeat_period_ms) {
+    f.Fail("heartbeat_timeout_ms (" + config::Num(d.heartbeat_timeout_ms) + ") must exceed heartbeat_period_ms (" +
+           config::Num(d.drive_heartbeat_period_ms) + ")");
+  }
+  if (auto v = map.Optional("stale_after_ms")) d.stale_after_ms = Positive(*v, "ms");
+}
+
+void ReadSensors(const Field& f, CobotFieldbusConfig& c) {
+  const Map map(f, {"source", "node_id", "wheel_cob_id", "force_cob_id", "brake_cob_id", "wheel_direction",
+                    "force_N_per_unit", "stale_after_ms", "max_wheel_step_m"});
+  CobotSensorNodeConfig& s = c.sensors;
+  if (auto v = map.Optional("source")) {
+    const std::string source = v->AsString();
+    if (source == "drive") {
+      v->Fail(
+          "the wheel encoder and the handle force from the steering drive's PDOs are not supported (the CiA 402 "
+          "client maps position, velocity and torque only); use source: node (a separate CAN node)");
+    }
+    if (source != "node") v->Fail("must be node, got '" + source + "'");
+  }
+  s.node_id = ReadNodeId(map.Required("node_id"));
+  const auto cob = [](const Field& e) { return static_cast<std::uint32_t>(config::IntInRange(e, 0x081, 0x7FF)); };
+  if (auto v = map.Optional("wheel_cob_id")) s.wheel_cob_id = cob(*v);
+  if (auto v = map.Optional("force_cob_id")) s.force_cob_id = cob(*v);
+  if (auto v = map.Optional("brake_cob_id")) s.brake_cob_id = cob(*v);
+  if (auto v = map.Optional("wheel_direction")) {
+    const double sign = Finite(*v);
+    if (sign != 1.0 && sign != -1.0) v->Fail("must be 1 or -1, got " + config::Num(sign));
+    s.wheel_sign = sign;
+  }
+  if (auto v = map.Optional("force_N_per_unit")) s.force_N_per_unit = Positive(*v, "N");
+  if (auto v = map.Optional("stale_after_ms")) s.stale_after_ms = Positive(*v, "ms");
+  if (auto v = map.Optional("max_wheel_step_m")) s.max_wheel_step_m = Positive(*v, "m");
+  if (s.WheelCobId() == s.ForceCobId()) f.Fail("the wheel and force TPDOs need different COB-IDs");
+}
+
+void ReadFieldbus(const Field& f, CobotBackendConfig& c) {
+  const Map map(f, {"can", "cycle_period_ms", "steering", "sensors", "first_frames_timeout_ms"});
+  CobotFieldbusConfig& b = c.fieldbus;
+  ReadCanPort(map.Required("can"), b.can);
+  if (auto v = map.Optional("cycle_period_ms")) {
+    b.steering.drive.cycle_period_s = config::InRange(*v, 0.125, 100.0, "ms") * 1e-3;
+  }
+  ReadSteering(map.Required("steering"), b);
+  const Field sensors = map.Required("sensors");
+  ReadSensors(sensors, b);
+  if (b.sensors.node_id == b.steering.drive.node_id || b.sensors.node_id == b.steering.drive.host_node_id) {
+    sensors.Fail("node_id " + std::to_string(b.sensors.node_id) +
+                 " is taken (the steering drive's node id, or the host's heartbeat id " +
+                 std::to_string(b.steering.drive.host_node_id) + ")");
+  }
+  if (auto v = map.Optional("first_frames_timeout_ms")) b.first_frames_timeout_ms = Positive(*v, "ms");
 }
 
 CobotBackendConfig ReadCobot(const Field* section, int dof) {
@@ -87,7 +218,9 @@ CobotBackendConfig ReadCobot(const Field* section, int dof) {
                              "initial_position_m",
                              "initial_heading_deg",
                              "operator",
-                             "bicycle"});
+                             "bicycle",
+                             "rig",
+                             "fieldbus"});
     UnicyclePlantConfig& p = c.unicycle.plant;
     CobotSensorConfig& s = c.unicycle.sensors;
     VirtualWallConfig& w = c.unicycle.controller;
@@ -158,6 +291,32 @@ CobotBackendConfig ReadCobot(const Field* section, int dof) {
     if (auto v = map.Optional("initial_heading_deg")) c.initial.heading_rad = Finite(*v) * kDeg;
     if (auto v = map.Optional("operator")) ReadOperator(*v, c.op);
     if (auto v = map.Optional("bicycle")) ReadBicycle(*v, c);
+    if (auto v = map.Optional("rig")) {
+      const std::string rig = v->AsString();
+      if (rig == "simulated") {
+        c.rig = CobotBackendConfig::Rig::kSimulated;
+      } else if (rig == "fieldbus") {
+        c.rig = CobotBackendConfig::Rig::kFieldbus;
+      } else {
+        v->Fail("must be simulated or fieldbus, got '" + rig + "'");
+      }
+    }
+    if (c.rig == CobotBackendConfig::Rig::kFieldbus) {
+      const Field rig = map.Required("rig");
+      if (c.kind != CobotBackendConfig::Kind::kUnicycle) {
+        rig.Fail("the fieldbus rig is a unicycle cobot (one steering drive); kind bicycle is simulated only");
+      }
+      if (auto v = map.Optional("operator")) v->Fail("only for rig: simulated (a real rig has a human operator)");
+      if (s.wheel_encoder_counts_per_rev < 1) {
+        map.Required("wheel_encoder_counts_per_rev").Fail("the fieldbus rig needs the wheel encoder's counts (>= 1)");
+      }
+      ReadFieldbus(map.Required("fieldbus"), c);
+      c.fieldbus.sensors.wheel_radius_m = s.wheel_radius_m;
+      c.fieldbus.sensors.wheel_counts_per_rev = s.wheel_encoder_counts_per_rev;
+      c.fieldbus.sensors.has_brake = p.brake_max_force_N > 0.0;
+    } else if (auto v = map.Optional("fieldbus")) {
+      v->Fail("only for rig: fieldbus");
+    }
     if (w.guard.action == StabilityGuardConfig::Action::kBrake && p.brake_max_force_N <= 0.0) {
       map.Required("stability_action").Fail("brake needs a wheel brake: set brake_max_force_N > 0");
     }
@@ -199,6 +358,8 @@ Vec2 OperatorPush(const CobotOperatorScript& op, double time_s, const Vec2& velo
   return magnitude * direction;
 }
 
+}  // namespace
+
 Capabilities CobotCapabilities(int dof, double brake_N) {
   Capabilities c;
   c.dof = dof;
@@ -211,7 +372,7 @@ Capabilities CobotCapabilities(int dof, double brake_N) {
   return c;
 }
 
-bool CommandUsable(const Command& command, int dof) noexcept {
+bool CobotCommandUsable(const Command& command, int dof) noexcept {
   if (command.force_N.size() != dof || !command.force_N.allFinite()) return false;
   if (command.fixture_force_N.size() != 0 &&
       (command.fixture_force_N.size() != dof || !command.fixture_force_N.allFinite())) {
@@ -228,15 +389,13 @@ bool CommandUsable(const Command& command, int dof) noexcept {
   return true;
 }
 
-}  // namespace
-
 // ---------------------------------------------------------------- unicycle
 
 UnicycleCobotDevice::UnicycleCobotDevice(const CobotBackendConfig& config)
     : config_(config),
       capabilities_(CobotCapabilities(2, config.unicycle.plant.brake_max_force_N)),
       rig_(config.unicycle, Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true), config.initial),
-      contact_wall_(Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true)) {
+      walls_(config.contact_force_threshold_N) {
   rig_.controller().SetWallActive(false);
   last_.position_m = config.initial.position_m;
   last_.heading_rad = config.initial.heading_rad;
@@ -267,58 +426,14 @@ void UnicycleCobotDevice::Read(Reading& out) noexcept {
 }
 
 void UnicycleCobotDevice::Write(const Command& command) noexcept {
-  if (!CommandUsable(command, 2)) {
+  if (!CobotCommandUsable(command, 2)) {
     pending_faults_ |= kFaultDriver;
     rig_.SetLocked(true);
     return;
   }
   rig_.SetLocked(false);
-  const Vec2 position = rig_.state().position_m;
-  // The most penetrated fixture plane.
-  int best = -1;
-  double best_penetration = -std::numeric_limits<double>::infinity();
-  for (int i = 0; i < command.constraint_count; ++i) {
-    const device::Constraint& c = command.constraints[static_cast<std::size_t>(i)];
-    const double penetration = Vec2(c.normal[0], c.normal[1]).dot(position) - c.offset_m;
-    if (penetration > best_penetration) {
-      best_penetration = penetration;
-      best = i;
-    }
-  }
-  // A blocked slave: the coupling force (the law's force without the fixture's share) pushes back hard.
-  Vec2 coupling(command.force_N[0], command.force_N[1]);
-  if (command.fixture_force_N.size() == 2) coupling -= Vec2(command.fixture_force_N[0], command.fixture_force_N[1]);
-  // The contact's share: the coupling force over its free-motion level (the slave's lag while following), which
-  // a slow low-pass tracks while there is no contact. Its direction is the contact normal.
-  const Vec2 contact_force = coupling - free_coupling_N_;
-  const double coupling_N = contact_force.norm();
-  if (!contact_latched_ && coupling_N > config_.contact_force_threshold_N) {
-    const Vec2 normal = -contact_force / coupling_N;
-    contact_latched_ = Constraint::TryHalfPlane(normal, normal.dot(position), contact_wall_);
-  } else if (!contact_latched_) {
-    free_coupling_N_ += kFreeCouplingAlpha * (coupling - free_coupling_N_);
-  } else if (contact_latched_ && coupling_N < 0.5 * config_.contact_force_threshold_N &&
-             !(wall_source_ == kContactWall && rig_.controller().mode() != WallMode::kCaster)) {
-    // Released only once the operator has left the contact wall (the controller is back in caster mode): the
-    // coupling force dips while the wheel settles on the wall, and re-latching deeper each time would weave.
-    contact_latched_ = false;
-  }
-  int source = -1;
-  Constraint wall = contact_wall_;
-  const double contact_penetration = contact_wall_.Evaluate(position).penetration_m;
-  if (contact_latched_ && (best < 0 || contact_penetration >= best_penetration)) {
-    source = kContactWall;
-  } else if (best >= 0) {
-    const device::Constraint& c = command.constraints[static_cast<std::size_t>(best)];
-    if (Constraint::TryHalfPlane(Vec2(c.normal[0], c.normal[1]), c.offset_m, wall)) source = best;
-  }
-  if (source < 0) {
-    rig_.controller().SetWallActive(false);
-  } else {
-    rig_.controller().SetWallActive(true);
-    rig_.controller().SetWall(wall, /*keep_mode=*/source == wall_source_);
-  }
-  wall_source_ = source;
+  const UnicyclePlantState& s = rig_.state();
+  walls_.Apply(command, s.position_m, s.speed_m_per_s * UnitAt(s.heading_rad), rig_.controller());
 }
 
 void UnicycleCobotDevice::Update(double period_s) noexcept {
@@ -337,8 +452,34 @@ void UnicycleCobotDevice::SetSafe() noexcept { rig_.SetLocked(true); }
 
 // ---------------------------------------------------------------- bicycle
 
+namespace {
+/// The wall controller of the bicycle's virtual unicycle: the unicycle's, with τ of the steering loop on the
+/// bicycle's wheels (K₂ and the wheel inertia are the same).
+VirtualWallConfig BicycleWallConfig(const CobotBackendConfig& c) {
+  VirtualWallConfig w = c.unicycle.controller;
+  w.steering_time_constant_s =
+      c.bicycle.steering_inertia_kgm2 / (w.tracker.k2_Nms_per_rad + c.bicycle.steering_damping_Nms_per_rad);
+  Validate(w);
+  return w;
+}
+/// Gain that steers each wheel onto the virtual heading (1/s): a quarter of the steering loop's bandwidth.
+constexpr double kAlignmentFraction = 0.25;
+
+/// The wheels' common heading modulo π, relative to the plate (the mean of β₀ and β₁ brought within ±π/2 of β₀).
+double MeanSteer(const BicyclePlantState& s) noexcept {
+  const double b1 = s.steer_rad[0] + 0.5 * WrapAngle(2.0 * (s.steer_rad[1] - s.steer_rad[0]));
+  return 0.5 * (s.steer_rad[0] + b1);
+}
+}  // namespace
+
+double BicycleCobotDevice::virtual_heading_rad() const noexcept { return state_.pose.angle_rad + MeanSteer(state_); }
+
 BicycleCobotDevice::BicycleCobotDevice(const CobotBackendConfig& config)
-    : config_(config), capabilities_(CobotCapabilities(3, 0.0)) {
+    : config_(config),
+      capabilities_(CobotCapabilities(3, 0.0)),
+      controller_(BicycleWallConfig(config), Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true)),
+      walls_(config.contact_force_threshold_N) {
+  controller_.SetWallActive(false);
   Validate(config_.bicycle);
   Validate(config_.bicycle_caster);
   state_.pose.position_m = config.initial.position_m;
@@ -360,17 +501,13 @@ void BicycleCobotDevice::Read(Reading& out) noexcept {
 }
 
 void BicycleCobotDevice::Write(const Command& command) noexcept {
-  if (!CommandUsable(command, 3)) {
+  if (!CobotCommandUsable(command, 3)) {
     pending_faults_ |= kFaultDriver;
     safe_ = true;
     return;
   }
-  for (int i = 0; i < command.constraint_count; ++i) {
-    if (command.constraints[static_cast<std::size_t>(i)].penetration_m > 0.0) {
-      pending_faults_ |= kFaultDriver;  // constraints are not rendered by the bicycle backend (docs/cobot.md)
-    }
-  }
   safe_ = false;
+  walls_.Apply(command, state_.pose.position_m, Vec2(state_.twist(0), state_.twist(1)), controller_);
 }
 
 void BicycleCobotDevice::Update(double period_s) noexcept {
@@ -380,6 +517,7 @@ void BicycleCobotDevice::Update(double period_s) noexcept {
   }
   const Vec2 force =
       OperatorPush(config_.op, time_s_, Vec2(state_.twist(0), state_.twist(1)), period_s, operator_integral_N_);
+  operator_force_N_ = force;
   BicyclePlantInput in;
   in.handle_force_N = force;
   if (safe_) {
@@ -387,9 +525,30 @@ void BicycleCobotDevice::Update(double period_s) noexcept {
       in.steering_torque_Nm[i] = -config_.bicycle_caster.k2_Nms_per_rad * state_.steer_rate_rad_per_s[i];
     }
   } else {
-    const BicycleCasterOutput out =
-        BicycleCasterStep(config_.bicycle_caster, config_.bicycle.geometry, state_, force, 0.0);
-    in.steering_torque_Nm = out.steering_torque_Nm;
+    // The reference point as a virtual unicycle: heading ψ_v (the wheels' mean), speed along it, its turn rate.
+    const double omega = state_.twist(2);
+    const double psi = virtual_heading_rad();
+    WallControllerInput wall_in;
+    wall_in.position_m = state_.pose.position_m;
+    wall_in.steering_angle_rad = psi;
+    wall_in.speed_m_per_s = Vec2(state_.twist(0), state_.twist(1)).dot(UnitAt(psi));
+    wall_in.steering_rate_rad_per_s = omega + 0.5 * (state_.steer_rate_rad_per_s[0] + state_.steer_rate_rad_per_s[1]);
+    wall_in.handle_force_N = force;
+    last_control_ = controller_.Step(wall_in, period_s);
+    if (last_control_.mode == WallMode::kCaster) {
+      const BicycleCasterOutput out =
+          BicycleCasterStep(config_.bicycle_caster, config_.bicycle.geometry, state_, force, 0.0);
+      in.steering_torque_Nm = out.steering_torque_Nm;
+    } else {
+      // Both wheels turn at the tracker's ω_c and are pulled onto ψ_v (modulo π: a wheel may roll backwards).
+      const double k2 = config_.bicycle_caster.k2_Nms_per_rad;
+      const double alignment_per_s = kAlignmentFraction / controller_.config().steering_time_constant_s;
+      for (std::size_t i = 0; i < 2; ++i) {
+        const double error = 0.5 * WrapAngle(2.0 * (psi - state_.pose.angle_rad - state_.steer_rad[i]));
+        const double rate = last_control_.commanded_rate_rad_per_s - omega + alignment_per_s * error;
+        in.steering_torque_Nm[i] = k2 * (rate - state_.steer_rate_rad_per_s[i]);
+      }
+    }
   }
   Step(config_.bicycle, in, period_s, state_);
   time_s_ += period_s;
@@ -403,10 +562,11 @@ DeviceBackend CobotBackend() {
   DeviceBackend b;
   b.name = kName;
   b.description =
-      "simulated cobot (Colgate et al.): a steered wheel renders walls passively; unicycle (x, y) or bicycle (x, y, θ)";
+      "cobot (Colgate et al.): a steered wheel renders walls passively; unicycle (x, y) or bicycle (x, y, θ), "
+      "simulated or (unicycle) on CAN";
   b.nominal = CobotCapabilities(2, 0.0);
   b.keys = {
-      {"kind", "unicycle (dof 2, default) or bicycle (dof 3, caster only)"},
+      {"kind", "unicycle (dof 2, default) or bicycle (dof 3; walls on the plate's reference point)"},
       {"cart_mass_kg", "moving mass (kg), > 0; default 10"},
       {"rolling_damping_Ns_per_m", "rolling resistance (N·s/m), >= 0; default 20"},
       {"steering_inertia_kgm2", "wheel assembly about the steering axis (kg·m²), > 0; default 0.002"},
@@ -448,6 +608,56 @@ DeviceBackend CobotBackend() {
       {"bicycle.virtual_inertia_kgm2", "caster's virtual inertia (kg·m²), > 0; default 0.4"},
       {"bicycle.singularity_threshold", "singularity measure below which the guard acts, 0..0.99; default 0.05"},
       {"bicycle.singularity_guard", "keep the wheels off the singular configuration; default true"},
+      {"rig", "simulated (default: the models above) or fieldbus (the real unicycle cobot on CAN, needs fieldbus)"},
+      {"fieldbus", "the real rig's CAN bus, steering drive and sensor node (rig: fieldbus only)"},
+      {"fieldbus.can", "the bus: medium, interface or bus"},
+      {"fieldbus.can.medium", "socketcan (default) or emulated (the teleop-canbus daemon)"},
+      {"fieldbus.can.interface", "SocketCAN interface (can0, vcan0, ...); required for socketcan"},
+      {"fieldbus.can.bus", "teleop-canbus address IPv4:PORT (emulated only); default 127.0.0.1:47300"},
+      {"fieldbus.can.connect_timeout_ms", "how long to wait for teleop-canbus (ms), > 0; default 1000"},
+      {"fieldbus.cycle_period_ms", "SYNC period written to the drive (ms), 0.125..100, = 1000/rate_hz; default 1"},
+      {"fieldbus.first_frames_timeout_ms",
+       "activation: wait for the drive's and sensor node's first PDOs (ms); "
+       "default 500"},
+      {"fieldbus.steering", "the steering motor's CiA 402 drive (cyclic synchronous torque)"},
+      {"fieldbus.steering.node_id", "CANopen node id, 1..127; required"},
+      {"fieldbus.steering.mode", "torque (cyclic synchronous torque; velocity is refused: the client has no CSV)"},
+      {"fieldbus.steering.gear_ratio", "motor rad per steering rad, > 0; default 1"},
+      {"fieldbus.steering.position_rad_per_count", "motor rad per position-actual unit (0x6064), > 0; default 1/4096"},
+      {"fieldbus.steering.velocity_rad_per_s_per_unit",
+       "motor rad/s per velocity-actual unit (0x606C), > 0; "
+       "default 1/4096"},
+      {"fieldbus.steering.direction", "1 or -1: the drive's positive direction against the steering angle's"},
+      {"fieldbus.steering.rated_torque_Nm", "the drive's rated torque 0x6076 (N·m, motor side), checked; default 1"},
+      {"fieldbus.steering.max_torque_Nm", "torque limit written to 0x6072 (N·m, motor side), > 0; default 0.5"},
+      {"fieldbus.steering.offset_deg", "cart heading when the steering angle reads 0 (deg); default 0"},
+      {"fieldbus.steering.max_angle_jump_rad",
+       "steering angle step per cycle that is an encoder jump (rad); "
+       "default 0.2"},
+      {"fieldbus.steering.hold_stiffness_Nm_per_rad", "hold after an encoder jump (N·m/rad, motor side); default 2"},
+      {"fieldbus.steering.hold_damping_Nms_per_rad", "hold damping (N·m·s/rad, motor side), >= 0; default 0.05"},
+      {"fieldbus.steering.heartbeat_period_ms", "the drive's heartbeat period 0x1017 (ms); default 50"},
+      {"fieldbus.steering.heartbeat_timeout_ms",
+       "heartbeat consumer timeout (ms), > heartbeat_period_ms; "
+       "default 150"},
+      {"fieldbus.steering.stale_after_ms", "no TPDO for this long: the drive is lost (ms); default 10"},
+      {"fieldbus.sensors", "the wheel encoder, handle force sensor and wheel brake on a separate CAN node"},
+      {"fieldbus.sensors.source",
+       "node (a separate CAN node; drive is refused: the drive's PDOs carry the steering "
+       "axis only)"},
+      {"fieldbus.sensors.node_id", "the sensor node's id, 1..127, not the drive's; required"},
+      {"fieldbus.sensors.wheel_cob_id", "wheel TPDO COB-ID (INTEGER32 counts, CiA 406 0x6004); default 0x180+node"},
+      {"fieldbus.sensors.force_cob_id",
+       "force TPDO COB-ID (2 x INTEGER16, CiA 401 0x6401/1-2, 0x8000 = invalid); default 0x280+node"},
+      {"fieldbus.sensors.brake_cob_id",
+       "brake RPDO COB-ID (1 byte, bit 0, CiA 401 0x6200/1), used when "
+       "brake_max_force_N > 0; default 0x200+node"},
+      {"fieldbus.sensors.wheel_direction", "1 or -1: the wheel encoder's count direction; default 1"},
+      {"fieldbus.sensors.force_N_per_unit", "handle force scaling (N per analog unit), > 0; default 0.01"},
+      {"fieldbus.sensors.stale_after_ms", "no sensor TPDO for this long: the node is lost (ms); default 10"},
+      {"fieldbus.sensors.max_wheel_step_m",
+       "wheel travel step between two TPDOs that is an encoder jump (m); "
+       "default 0.01"},
   };
   b.section_required = false;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
@@ -462,6 +672,7 @@ DeviceBackend CobotBackend() {
                   std::to_string(config.dof));
     }
     if (c.kind == CobotBackendConfig::Kind::kBicycle) return std::make_unique<BicycleCobotDevice>(c);
+    if (c.rig == CobotBackendConfig::Rig::kFieldbus) return std::make_unique<UnicycleCobotFieldbusDevice>(c);
     return std::make_unique<UnicycleCobotDevice>(c);
   };
   b.model = [](const DeviceConfig&) {

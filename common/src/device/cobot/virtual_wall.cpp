@@ -118,6 +118,7 @@ WallControllerOutput VirtualWallController::Step(const WallControllerInput& in, 
     const CasterOutput caster =
         VirtualCasterStep(config_.caster, force.x(), force.y(), in.steering_angle_rad, u, in.steering_rate_rad_per_s);
     out.steering_torque_Nm = caster.steering_torque_Nm;
+    out.commanded_rate_rad_per_s = caster.commanded_rate_rad_per_s;
   } else {
     const ConstraintSample tracked =
         mode_ == WallMode::kOverlay ? overlay_.Evaluate(in.position_m) : wall_.Evaluate(in.position_m);
@@ -126,6 +127,7 @@ WallControllerOutput VirtualWallController::Step(const WallControllerInput& in, 
     const TrackerOutput track = tracker_.Step(tracked, in.steering_angle_rad, u, in.steering_rate_rad_per_s, period_s,
                                               out.stability.lookahead_m);
     out.steering_torque_Nm = track.steering_torque_Nm;
+    out.commanded_rate_rad_per_s = track.commanded_rate_rad_per_s;
     out.theta_rad = track.errors.theta_rad;
     out.brake_command = out.stability.brake_command;
   }

@@ -5,6 +5,8 @@
 
 #include "teleop/device/cobot/bicycle_caster.hpp"
 #include "teleop/device/cobot/bicycle_plant.hpp"
+#include "teleop/device/cobot/cobot_fieldbus_config.hpp"
+#include "teleop/device/cobot/master_walls.hpp"
 #include "teleop/device/cobot/unicycle_cobot.hpp"
 #include "teleop/device/device.hpp"
 #include "teleop/device/device_config.hpp"
@@ -36,7 +38,17 @@ struct CobotBackendConfig {
   CobotOperatorScript op{};
   BicyclePlantConfig bicycle{};
   BicycleCasterConfig bicycle_caster{};
+  /// simulated: the models above are the device; fieldbus: the real unicycle cobot on CAN
+  /// (UnicycleCobotFieldbusDevice).
+  enum class Rig : std::uint8_t { kSimulated, kFieldbus };
+  Rig rig = Rig::kSimulated;
+  CobotFieldbusConfig fieldbus{};
 };
+
+/// What a cobot reports it can do (dof 2 or 3; a brake when brake_N > 0).
+Capabilities CobotCapabilities(int dof, double brake_N);
+/// A Command the cobot can use: sizes match dof, everything finite, constraints in range.
+bool CobotCommandUsable(const Command& command, int dof) noexcept;
 
 /// The `cobot` backend (registered from cobot_backend.cpp): a passive device that renders constraints by steering.
 DeviceBackend CobotBackend();
@@ -62,8 +74,9 @@ class UnicycleCobotDevice final : public Device {
 
   const UnicycleCobot& rig() const noexcept { return rig_; }
   /// Which wall is rendered: -1 none, 0..kMaxConstraints-1 a fixture plane, kContactWall the contact wall.
-  int rendered_wall() const noexcept { return wall_source_; }
-  static constexpr int kContactWall = 100;
+  int rendered_wall() const noexcept { return walls_.source(); }
+  static constexpr int kContactWall = MasterWalls::kContactWall;
+  const MasterWalls& walls() const noexcept { return walls_; }
   const CobotSample& last_sample() const noexcept { return last_; }
 
  private:
@@ -74,15 +87,18 @@ class UnicycleCobotDevice final : public Device {
   Vec2 operator_force_N_ = Vec2::Zero();
   double operator_integral_N_ = 0.0;
   double time_s_ = 0.0;
-  int wall_source_ = -1;
-  bool contact_latched_ = false;
-  Vec2 free_coupling_N_ = Vec2::Zero();  ///< The coupling force in free motion (low-passed), N.
-  Constraint contact_wall_;
+  MasterWalls walls_;
   std::uint32_t pending_faults_ = kFaultNone;
 };
 
-/// The simulated bicycle cobot (x, y, θ) behind the Device interface: virtual caster only. It does not render
-/// constraints yet; a Command with an active plane sets kFaultDriver (the process goes safe: steering held).
+/// The simulated bicycle cobot (x, y, θ) behind the Device interface. In free space the bicycle caster (eq 1 per
+/// wheel). As a master it renders the fixture planes and a blocked slave as virtual walls on the plate's reference
+/// point (its origin, midway between the wheels), with the same switching as the unicycle (caster → overlay →
+/// tracking → caster when the operator pulls away; MasterWalls, VirtualWallController): while a wall is engaged both
+/// wheels are steered parallel (modulo π) to one virtual heading ψ_v, which the unicycle's tracker turns. With
+/// parallel wheels the reference point, which lies on the line through the wheels, moves along ψ_v even at the
+/// singular configuration, so it is a unicycle there. The θ components of a plane's normal are ignored (walls act
+/// on x, y).
 class BicycleCobotDevice final : public Device {
  public:
   explicit BicycleCobotDevice(const CobotBackendConfig& config);
@@ -93,11 +109,23 @@ class BicycleCobotDevice final : public Device {
   void Update(double period_s) noexcept override;
   void SetSafe() noexcept override;
   const BicyclePlantState& state() const noexcept { return state_; }
+  const VirtualWallController& controller() const noexcept { return controller_; }
+  const MasterWalls& walls() const noexcept { return walls_; }
+  int rendered_wall() const noexcept { return walls_.source(); }
+  /// The virtual heading the wheels are steered to while a wall is engaged (world, rad).
+  double virtual_heading_rad() const noexcept;
+  /// The scripted operator's push in the last Update (N, world).
+  const Vec2& operator_force_N() const noexcept { return operator_force_N_; }
+  const WallControllerOutput& last_control() const noexcept { return last_control_; }
 
  private:
   CobotBackendConfig config_;
   Capabilities capabilities_;
   BicyclePlantState state_{};
+  VirtualWallController controller_;
+  MasterWalls walls_;
+  WallControllerOutput last_control_{};
+  Vec2 operator_force_N_ = Vec2::Zero();
   bool safe_ = false;
   std::uint32_t pending_faults_ = kFaultNone;
   double time_s_ = 0.0;

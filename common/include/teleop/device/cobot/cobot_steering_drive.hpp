@@ -18,7 +18,7 @@ namespace teleop::device::cobot {
 ///    so a PD on the drive's torque holds the encoder at its first reading after the jump — a counting error does
 ///    not move the wheel, which stays on its current tangent (the wall's, when tracking) — and the brake is
 ///    requested too. lock_angle_rad() is the last trusted angle.
-/// Not done: the wheel encoder and the handle force sensor on the bus (this class carries the steering axis only).
+/// The steering axis only: the wheel encoder and the handle force sensor are on CobotSensorNode.
 struct CobotSteeringDriveConfig {
   fieldbus::Cia402DriveConfig drive{};
   double gear_ratio = 1.0;                 ///< Motor radians per steering radian.

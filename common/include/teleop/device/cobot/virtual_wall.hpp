@@ -42,6 +42,7 @@ struct WallControllerInput {
 
 struct WallControllerOutput {
   double steering_torque_Nm = 0.0;
+  double commanded_rate_rad_per_s = 0.0;  ///< ω_c of the caster or the tracker (world heading rate).
   double brake_command = 0.0;
   WallMode mode = WallMode::kCaster;
   double penetration_m = 0.0;     ///< p against the wall (not the overlay).
