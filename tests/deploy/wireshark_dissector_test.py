@@ -22,6 +22,8 @@ import subprocess
 import sys
 import tempfile
 import time
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+import teleop_keys  # noqa: E402  (tests/test_utilities)
 
 SKIP = 77
 
@@ -45,6 +47,8 @@ def free_udp_port():
 def write_config(src, dst, ports, csv_path):
     text = open(src).read().replace("47001", str(ports[0])).replace("47002", str(ports[1]))
     text = re.sub(r"(?m)^(\s*csv:).*$", rf'\1 "{csv_path}"', text)
+    # The dissector decodes version-1 samples: this run needs them on the wire (the shipped configs say psk).
+    text = teleop_keys.make_insecure(text)
     with open(dst, "w") as f:
         f.write(text)
 

@@ -26,6 +26,8 @@ import subprocess
 import sys
 import threading
 import time
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+import teleop_keys  # noqa: E402  (tests/test_utilities)
 
 SKIP = 77
 MASTER_ADDR = "10.77.0.1"
@@ -204,6 +206,7 @@ def run_pair(args, ns, procs):
         cfgs[role] = os.path.join(args.workdir, f"{role}.yaml")
         with open(cfgs[role], "w") as f:
             f.write(text)
+    teleop_keys.ensure_key(args.workdir)  # the UDP rig configs: key_file teleop.key beside the config
     mjson = os.path.join(args.workdir, "master.json")
     sjson = os.path.join(args.workdir, "slave.json")
     for p in (mjson, sjson):

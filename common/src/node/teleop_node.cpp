@@ -390,6 +390,7 @@ RunSummary TeleopNode::Run() {
   summary.dof_mismatches = s.dof_mismatches;
   summary.link_fault_cycles = s.link_fault_cycles;
   summary.link_detail = s.link->Summary();
+  summary.link_security = transport::ToString(s.config.link.security.mode);
   summary.stop_reason = s.stop_requested.load() ? "signal" : (s.peer_shutdown ? "peer shutdown" : "duration");
   if (s.dof_mismatches > 0) {
     spdlog::error("{} samples from the peer carried another DOF count than this process's {}: check both configs",

@@ -5,6 +5,7 @@
 
 #include "teleop/transport/can_link_config.hpp"
 #include "teleop/transport/link.hpp"
+#include "teleop/transport/link_security.hpp"
 #include "teleop/transport/udp_link.hpp"
 #include "teleop/types.hpp"
 
@@ -19,6 +20,8 @@ struct LinkConfig {
   CanLinkConfig can{};       ///< Used by "can" and "emulated-can"; its dof is the process's dof.
   double rate_hz = 1000.0;   ///< The loop rate, for the CAN bus-load budget (set from the process config).
   double timeout_ms = 50.0;  ///< Watchdog: no accepted sample for this long → peer lost → safe state.
+  /// `link.security` (docs/security.md): psk on UDP; CAN accepts only insecure (no room for a tag per frame).
+  LinkSecurityConfig security{};
 };
 
 /// The wire's name for a process of role `role` (the one mapping from teleop::Role to proto::SenderRole).

@@ -29,10 +29,11 @@ struct RunSummary {
   Distribution jitter_us{};   ///< |wake - scheduled|.
   Distribution compute_us{};  ///< Cycle body time.
   transport::LinkCounters link{};
-  std::string link_detail;              ///< Medium-specific counters (CAN frames by status, bus load); may be empty.
-  std::uint64_t link_fault_cycles = 0;  ///< Cycles in which the medium itself was down (CAN bus-off).
-  Distribution rtt_ms{};                ///< Round trip to the peer and back (NTP-style, peer hold time removed).
-  std::uint64_t cycles_with_peer = 0;   ///< Cycles in which the peer's sample was fresh (watchdog ok).
+  std::string link_security = "insecure";  ///< link.security.mode: "psk" or "insecure" (counters in `link`).
+  std::string link_detail;                 ///< Medium-specific counters (CAN frames by status, bus load); may be empty.
+  std::uint64_t link_fault_cycles = 0;     ///< Cycles in which the medium itself was down (CAN bus-off).
+  Distribution rtt_ms{};                   ///< Round trip to the peer and back (NTP-style, peer hold time removed).
+  std::uint64_t cycles_with_peer = 0;      ///< Cycles in which the peer's sample was fresh (watchdog ok).
   std::uint64_t watchdog_trips = 0;
   std::uint64_t dof_mismatches = 0;  ///< Valid samples whose DOF count differs from ours: never applied.
   std::uint64_t device_fault_cycles = 0;
