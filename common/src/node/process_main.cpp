@@ -114,7 +114,7 @@ int ProcessMain(int argc, char** argv, Role role) {
     }
     if (config.link.security.mode == transport::LinkSecurityMode::kInsecure) {
       spdlog::warn(
-          "INSECURE LINK (link.security.mode insecure in {}): datagrams are not authenticated; anyone who can reach "
+          "INSECURE LINK (link.security.mode insecure in {}): messages are not authenticated; anyone who can reach "
           "this link can command the device. Benches and closed buses only (docs/security.md)",
           config_path);
     }

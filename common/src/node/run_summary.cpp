@@ -81,7 +81,7 @@ std::string SecureRejectedJson(const transport::LinkCounters& c) {
 std::string SecurityText(const RunSummary& s) {
   const auto& l = s.link;
   if (s.link_security != "psk") {
-    return "INSECURE (link.security.mode " + s.link_security + "): datagrams were not authenticated";
+    return "INSECURE (link.security.mode " + s.link_security + "): messages were not authenticated";
   }
   std::string out =
       fmt::format("psk: sessions {}, handshakes started {}, handshake messages {}, unsent (no session) {}", l.sessions,
@@ -93,7 +93,11 @@ std::string SecurityText(const RunSummary& s) {
                            transport::ToString(static_cast<transport::SecureReceiveStatus>(i)),
                            l.secure_rejected_by_reason[i]);
   }
-  return out + "; refused: " + (refused.empty() ? "none" : refused);
+  out += "; refused: " + (refused.empty() ? "none" : refused);
+  if (l.secure_rejected_by_reason[static_cast<std::size_t>(transport::SecureReceiveStatus::kBadPlaintext)] > 0) {
+    out += " (bad_plaintext: authentic samples of another DOF count or role; check both configs' dof)";
+  }
+  return out;
 }
 
 }  // namespace
