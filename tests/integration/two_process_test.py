@@ -135,6 +135,15 @@ def check(cond, what):
     print(f"  ok: {what}")
 
 
+def rejected_on_clean_link(summary):
+    """Rejections other than a handshake race: on a loaded machine the master may send its next hello before the
+    welcome to the first arrives (link.security.handshake_retry_ms); that late welcome is then refused
+    (bad_handshake_tag, or unexpected_handshake once a session exists) - counted, harmless, and never a sample."""
+    by_reason = summary.get("security", {}).get("rejected_by_reason", {})
+    race = by_reason.get("bad_handshake_tag", 0) + by_reason.get("unexpected_handshake", 0)
+    return summary["packets"]["rejected"] - race
+
+
 def load(path):
     with open(path) as f:
         return json.load(f)
@@ -244,14 +253,14 @@ def main():
         check(x["tracking_error_rms_m"] < 0.005, f"{name} tracking error rms {x['tracking_error_rms_m']*1e3:.3f} mm")
         check(x["nonfinite_inputs"] == 0 and x["device_fault_cycles"] == 0, f"{name} had no faults")
     if physics:
-        check(m["packets"]["rejected"] == 0 and s["packets"]["rejected"] == 0, "nothing rejected on a clean link")
+        check(rejected_on_clean_link(m) == 0 and rejected_on_clean_link(s) == 0, "nothing rejected on a clean link")
         check(m["cycles_with_peer"] > 0.5 * m["cycles"], "master coupled for most of the run")
         check_physics(read_yaml_scalars(msrc), read_yaml_scalars(ssrc), m, s, read_telemetry(mcsv),
                       read_telemetry(scsv))
     if args.scenario == "garbage":
-        rej = s["packets"]["rejected"]
+        rej = rejected_on_clean_link(s)
         check(rej == garbage_sent, f"slave rejected all {garbage_sent} garbage datagrams ({rej})")
-        check(m["packets"]["rejected"] == 0, "master saw no garbage")
+        check(rejected_on_clean_link(m) == 0, "master saw no garbage")
         # Not "no watchdog trip": a loaded machine can stall a process for longer than the timeout. What garbage
         # must never do is reach the law: no fault, no non-finite input, no loss of the real samples.
         check(s["packets"]["lost"] == 0 and s["packets"]["accepted"] > 0, "real samples kept flowing")
