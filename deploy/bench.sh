@@ -30,13 +30,16 @@ command_line="deploy/bench.sh${*:+ $*}"
 if [[ "${TELEOP_BENCH_NO_BUILD:-0}" != 1 ]]; then
   teleop::ensure_packages "${TELEOP_PACKAGES[@]}"
   teleop::build --target teleop-master teleop-slave teleop-analyze teleop-udp-pingpong teleop-loop-bench \
-    teleop-alloc-count control_benchmark proto_codec_benchmark transport_link_benchmark analysis_benchmark
+    teleop-alloc-count control_benchmark proto_codec_benchmark transport_link_benchmark analysis_benchmark \
+    teleop_keygen
   teleop::build --target can_link_benchmark 2>/dev/null || true
 fi
 bin="${TELEOP_BUILD}/bin"
 work="$(mktemp -d "${TMPDIR:-/tmp}/teleop-bench.XXXXXX")"
 raw="${work}/raw"
 mkdir -p "${raw}"
+# The configs authenticate the link (link.security.mode psk, key_file teleop.key beside them): one key for the run.
+"${bin}/teleop-keygen" "${work}/teleop.key" > /dev/null
 pids=()
 cleanup() {
   for p in "${pids[@]:-}"; do [[ -n "$p" ]] && kill "$p" 2>/dev/null || true; done

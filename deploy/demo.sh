@@ -10,21 +10,31 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
 
+# The UDP configs authenticate the link with a pre-shared key (link.security.mode psk, docs/security.md). A fresh
+# key for this run, made here (git does not keep file modes, so no key is committed): echoes its path.
+demo_key() {
+  local key="$1/teleop.key"
+  rm -f "${key}"
+  "${TELEOP_BUILD}/bin/teleop-keygen" "${key}" >/dev/null
+  echo "${key}"
+}
+
 # ---- hybrid device block: master = simulated hybrid motor-brake rig, slave = loopback, 2 DOF, UDP, ~3 s ----
 if [[ "${1:-}" == "--device" && "${2:-}" == "hybrid" ]]; then
   teleop::ensure_packages "${TELEOP_PACKAGES[@]}"
-  teleop::build --target teleop-master teleop-slave
+  teleop::build --target teleop-master teleop-slave teleop_keygen
   out="${TELEOP_BUILD}/demo"
   mkdir -p "${out}"
   cfg="${TELEOP_ROOT}/deploy/configs"
-  "${TELEOP_BUILD}/bin/teleop-slave" --config "${cfg}/hybrid-slave-loopback.yaml" --duration 6 \
+  key=$(demo_key "${out}")
+  "${TELEOP_BUILD}/bin/teleop-slave" --config "${cfg}/hybrid-slave-loopback.yaml" --duration 6 --key-file "${key}" \
     --summary-json "${out}/hybrid-slave-summary.json" --telemetry-csv "${out}/hybrid-slave.csv" \
     > "${out}/hybrid-slave.log" 2>&1 &
   hybrid_slave=$!
   trap 'kill "${hybrid_slave}" 2>/dev/null || true' EXIT
   sleep 0.3
   hybrid_rc=0
-  "${TELEOP_BUILD}/bin/teleop-master" --config "${cfg}/hybrid-master.yaml" --duration 3 \
+  "${TELEOP_BUILD}/bin/teleop-master" --config "${cfg}/hybrid-master.yaml" --duration 3 --key-file "${key}" \
     --summary-json "${out}/hybrid-master-summary.json" --telemetry-csv "${out}/hybrid-master.csv" \
     > "${out}/hybrid-master.log" 2>&1 || hybrid_rc=$?
   wait "${hybrid_slave}" || hybrid_rc=$?
@@ -60,17 +70,18 @@ variant=udp
 # ---- cobot master (docs/cobot.md): its own configs and plot; the rest of the script is the loopback demo.
 if [[ "${1:-}" == "--device" && "${2:-}" == "cobot" ]]; then
   teleop::ensure_packages "${TELEOP_PACKAGES[@]}"
-  teleop::build --target teleop-master teleop-slave
+  teleop::build --target teleop-master teleop-slave teleop_keygen
   out="${TELEOP_BUILD}/demo-cobot"
   mkdir -p "${out}"
   cfg="${TELEOP_ROOT}/deploy/configs"
+  key=$(demo_key "${out}")
   echo "[demo] cobot master + loopback slave (UDP, 1 kHz, 2 DOF, ~5 s)"
-  "${TELEOP_BUILD}/bin/teleop-slave" --config "${cfg}/cobot-slave.yaml" --duration 8 \
+  "${TELEOP_BUILD}/bin/teleop-slave" --config "${cfg}/cobot-slave.yaml" --duration 8 --key-file "${key}" \
     --summary-json "${out}/slave-summary.json" --telemetry-csv "${out}/slave.csv" > "${out}/slave.log" 2>&1 &
   cobot_slave_pid=$!
   sleep 0.3
   master_rc=0
-  "${TELEOP_BUILD}/bin/teleop-master" --config "${cfg}/cobot-master.yaml" --duration 5 \
+  "${TELEOP_BUILD}/bin/teleop-master" --config "${cfg}/cobot-master.yaml" --duration 5 --key-file "${key}" \
     --summary-json "${out}/master-summary.json" --telemetry-csv "${out}/master.csv" > "${out}/master.log" 2>&1 ||
     master_rc=$?
   slave_rc=0
@@ -96,13 +107,14 @@ GNUPLOT
   exit $(( master_rc != 0 || slave_rc != 0 ))
 fi
 teleop::ensure_packages "${TELEOP_PACKAGES[@]}"
-teleop::build --target teleop-master teleop-slave
+teleop::build --target teleop-master teleop-slave teleop_keygen
 
 out="${TELEOP_BUILD}/demo"
 mkdir -p "${out}"
 cfg="${TELEOP_ROOT}/deploy/configs"
 master_cfg="${cfg}/master.yaml"
 slave_cfg="${cfg}/slave.yaml"
+key_args=(--key-file "$(demo_key "${out}")")  # UDP: authenticated; the CAN configs say mode insecure
 pids=()
 cleanup() { for p in "${pids[@]:-}"; do [[ -n "$p" ]] && kill "$p" 2>/dev/null || true; done; }
 trap cleanup EXIT
@@ -110,6 +122,7 @@ trap cleanup EXIT
 if [[ "${variant}" == "can" ]]; then
   master_cfg="${cfg}/master-can.yaml"
   slave_cfg="${cfg}/slave-can.yaml"
+  key_args=()
   teleop::build --target teleop-canbus
   "${TELEOP_BUILD}/bin/teleop-canbus" --port 47300 --bitrate 1000000 --duration-s 12 > "${out}/canbus.log" 2>&1 &
   pids+=($!)
@@ -117,13 +130,13 @@ if [[ "${variant}" == "can" ]]; then
 fi
 
 echo "[demo] starting teleop-slave and teleop-master (${variant}, 1 kHz, loopback plant, ~5 s)"
-"${TELEOP_BUILD}/bin/teleop-slave" --config "${slave_cfg}" --duration 8 \
+"${TELEOP_BUILD}/bin/teleop-slave" --config "${slave_cfg}" --duration 8 "${key_args[@]}" \
   --summary-json "${out}/slave-summary.json" --telemetry-csv "${out}/slave.csv" > "${out}/slave.log" 2>&1 &
 slave_pid=$!
 pids+=("${slave_pid}")
 sleep 0.3
 master_rc=0
-"${TELEOP_BUILD}/bin/teleop-master" --config "${master_cfg}" --duration 5 \
+"${TELEOP_BUILD}/bin/teleop-master" --config "${master_cfg}" --duration 5 "${key_args[@]}" \
   --summary-json "${out}/master-summary.json" --telemetry-csv "${out}/master.csv" > "${out}/master.log" 2>&1 ||
   master_rc=$?
 slave_rc=0

@@ -52,7 +52,8 @@ set(CPACK_PACKAGE_DESCRIPTION_SUMMARY
 set(CPACK_PACKAGE_DESCRIPTION
     "Two processes exchange position, velocity and force at 0.5-4 kHz over UDP or CAN, each running its half of the "
     "three-channel law with a forbidden-region virtual fixture. Includes teleop-analyze (stability), teleop-canbus "
-    "(emulated CAN bus), teleop-plot, systemd units, rig configs, the static library and CMake package.")
+    "(emulated CAN bus), teleop-keygen (the link's pre-shared key), teleop-plot, systemd units, rig configs, the static "
+    "library and CMake package.")
 set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 set(CPACK_INSTALL_PREFIX /usr)

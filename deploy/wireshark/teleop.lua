@@ -1,4 +1,5 @@
--- Wireshark dissector for the teleop UDP wire protocol, version 1 (docs/protocol.md; proto/ is the contract).
+-- Wireshark dissector for the teleop UDP wire protocol, versions 1 and 2 (docs/protocol.md, docs/security.md;
+-- proto/ is the contract).
 --
 --   tshark -X lua_script:deploy/wireshark/teleop.lua -r run.pcapng -Y teleop
 --   wireshark -X lua_script:/usr/share/teleop/wireshark/teleop.lua
@@ -12,6 +13,13 @@
 -- Field names: teleop.magic, .version, .type, .role, .flags (.flags.enabled, .fault, .peer_lost, .saturated,
 -- .in_fixture, .shutdown, .reserved), .dof, .reserved, .payload_length, .seq, .sender_time_ns, .echo_time_ns,
 -- .echo_age_ns, .position, .velocity, .force (one per DOF, in order), .crc, .crc.computed, .crc.status, .status.
+--
+-- Version 2 (the authenticated session, link.security.mode psk): the clear parts only, since the samples are
+-- encrypted. hello/welcome: teleop.ephemeral_key, teleop.handshake_tag; confirm: teleop.session_id,
+-- teleop.handshake_tag; frame: teleop.session_id, teleop.frame_seq (64-bit), teleop.ciphertext_length,
+-- teleop.ciphertext, teleop.aead_tag. teleop.version, .type (hello 2, welcome 3, confirm 4, frame 5), .role and
+-- .status (ok, too_short, bad_length, bad_type; sizes as proto/secure_codec.cpp checks them) as for version 1.
+-- Nothing here checks a tag: that needs the key.
 
 local teleop = Proto("teleop", "teleop bilateral teleoperation sample")
 
@@ -25,7 +33,7 @@ local kMaxAbsVelocity = 100.0
 local kMaxAbsForce = 10000.0
 
 local roles = { [0] = "master", [1] = "slave" }
-local types = { [1] = "sample" }
+local types = { [1] = "sample", [2] = "hello", [3] = "welcome", [4] = "confirm", [5] = "frame" }
 local crc_status = { [0] = "bad", [1] = "good", [2] = "not checked (truncated)" }
 
 local f = teleop.fields
@@ -56,6 +64,14 @@ f.crc = ProtoField.uint32("teleop.crc", "CRC-32C", base.HEX)
 f.crc_computed = ProtoField.uint32("teleop.crc.computed", "CRC-32C computed", base.HEX)
 f.crc_status = ProtoField.uint8("teleop.crc.status", "CRC status", base.DEC, crc_status)
 f.status = ProtoField.string("teleop.status", "Decode status")
+f.ephemeral_key = ProtoField.bytes("teleop.ephemeral_key", "Ephemeral X25519 public key")
+f.handshake_tag = ProtoField.bytes("teleop.handshake_tag", "Handshake MAC (HMAC-SHA-512-256)")
+f.session_id = ProtoField.uint64("teleop.session_id", "Session id", base.HEX)
+f.frame_seq = ProtoField.uint64("teleop.frame_seq", "Frame sequence", base.DEC)
+f.ciphertext_length = ProtoField.uint16("teleop.ciphertext_length", "Ciphertext length", base.DEC)
+f.reserved16 = ProtoField.uint16("teleop.reserved16", "Reserved", base.HEX)
+f.ciphertext = ProtoField.bytes("teleop.ciphertext", "Ciphertext (ChaCha20, the version-1 sample)")
+f.aead_tag = ProtoField.bytes("teleop.aead_tag", "Poly1305 tag")
 
 local e_bad_crc = ProtoExpert.new("teleop.bad_crc", "CRC-32C mismatch: the receiver rejects this sample (bad_crc)",
   expert.group.CHECKSUM, expert.severity.ERROR)
@@ -122,7 +138,7 @@ local function dissect(tvb, pinfo, tree)
   if magic ~= kMagic then reject("bad_magic", it_magic, "not TLOP") end
   local version = tvb(4, 1):uint()
   local it_version = root:add(f.version, tvb(4, 1))
-  if version ~= kVersion then reject("bad_version", it_version, "this dissector knows version 1") end
+  if version ~= kVersion then reject("bad_version", it_version, "this dissector knows versions 1 and 2") end
   local mtype = tvb(5, 1):uint()
   local it_type = root:add(f.type, tvb(5, 1))
   if mtype ~= 1 then reject("bad_type", it_type, "unknown message type") end
@@ -212,14 +228,98 @@ local function dissect(tvb, pinfo, tree)
   return len
 end
 
-function teleop.dissector(tvb, pinfo, tree)
+-- Version 2 (docs/protocol.md, "Authenticated session"): 8-byte common header, then by type.
+local kKeyExchangeSize = 72
+local kConfirmSize = 48
+local kFrameHeader = 28
+local kFrameTag = 16
+
+local function dissect_v2(tvb, pinfo, tree)
+  local len = tvb:len()
+  pinfo.cols.protocol = "TELEOP"
+  local root = tree:add(teleop, tvb(), "teleop secure message")
+  root:add_le(f.magic, tvb(0, 4))
+  root:add(f.version, tvb(4, 1))
+  local mtype = tvb(5, 1):uint()
+  local it_type = root:add(f.type, tvb(5, 1))
+  local role = tvb(6, 1):uint()
+  root:add(f.role, tvb(6, 1))
+  root:add(f.reserved, tvb(7, 1))
+  local who = roles[role] or ("role " .. role)
+  local status = "ok"
+  local info
+  local function expect(size)
+    if len < size then
+      status = "too_short"
+    elseif len > size then
+      status = "bad_length"
+    end
+    return status == "ok"
+  end
+  if mtype == 2 or mtype == 3 then
+    if expect(kKeyExchangeSize) then
+      root:add(f.ephemeral_key, tvb(8, 32))
+      root:add(f.handshake_tag, tvb(40, 32))
+    end
+    info = string.format("%s %s", who, types[mtype])
+  elseif mtype == 4 then
+    if expect(kConfirmSize) then
+      root:add_le(f.session_id, tvb(8, 8))
+      root:add(f.handshake_tag, tvb(16, 32))
+      info = string.format("%s confirm session=0x%s", who, tvb(8, 8):le_uint64():tohex())
+    end
+  elseif mtype == 5 then
+    if len < kFrameHeader + kFrameTag then
+      status = "too_short"
+    else
+      local clen = tvb(24, 2):le_uint()
+      if not expect(kFrameHeader + clen + kFrameTag) then
+        root:add_le(f.ciphertext_length, tvb(24, 2))
+      else
+        root:add_le(f.session_id, tvb(8, 8))
+        root:add_le(f.frame_seq, tvb(16, 8))
+        root:add_le(f.ciphertext_length, tvb(24, 2))
+        root:add_le(f.reserved16, tvb(26, 2))
+        root:add(f.ciphertext, tvb(kFrameHeader, clen))
+        root:add(f.aead_tag, tvb(kFrameHeader + clen, kFrameTag))
+        info = string.format("%s frame seq=%s session=0x%s len=%u", who, tostring(tvb(16, 8):le_uint64()),
+          tvb(8, 8):le_uint64():tohex(), clen)
+      end
+    end
+  else
+    status = "bad_type"
+    it_type:add_proto_expert_info(e_malformed, "bad_type: unknown version-2 message type")
+  end
+  if status ~= "ok" then root:add_proto_expert_info(e_malformed, status .. ": " .. len .. " bytes") end
+  root:add(f.status, status):set_generated()
+  info = info or string.format("%s %s", who, types[mtype] or ("type " .. mtype))
+  if status ~= "ok" then info = info .. " REJECTED: " .. status end
+  pinfo.cols.info = info
+  root:append_text(string.format(", %s", info))
+  return len
+end
+
+-- Version 2 when the bytes say so; everything else through the version-1 path (which names what is wrong).
+local function dispatch(tvb, pinfo, tree)
+  if tvb:len() >= 8 and tvb(0, 4):le_uint() == kMagic and tvb(4, 1):uint() == 2 then
+    return dissect_v2(tvb, pinfo, tree)
+  end
   return dissect(tvb, pinfo, tree)
 end
 
--- Any UDP port: claim a datagram that starts with the magic and the version this dissector knows.
+function teleop.dissector(tvb, pinfo, tree)
+  return dispatch(tvb, pinfo, tree)
+end
+
+-- Any UDP port: claim a datagram that starts with the magic and a version this dissector knows.
 local function heuristic(tvb, pinfo, tree)
-  if tvb:len() < kHeader then return false end
-  if tvb(0, 4):le_uint() ~= kMagic or tvb(4, 1):uint() ~= kVersion then return false end
+  if tvb:len() < 8 or tvb(0, 4):le_uint() ~= kMagic then return false end
+  local version = tvb(4, 1):uint()
+  if version == 2 then
+    dissect_v2(tvb, pinfo, tree)
+    return true
+  end
+  if tvb:len() < kHeader or version ~= kVersion then return false end
   dissect(tvb, pinfo, tree)
   return true
 end

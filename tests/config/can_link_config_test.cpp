@@ -10,7 +10,7 @@ namespace teleop::config {
 namespace {
 
 std::string Config(const std::string& link) {
-  return "role: slave\ndof: 3\nrate_hz: 1000\nlink:\n" + link +
+  return "role: slave\ndof: 3\nrate_hz: 1000\nlink:\n" + link + "  security: {mode: insecure}\n" +
          "law: {kp_N_per_m: 600, kd_Ns_per_m: 2}\n"
          "device: {backend: loopback, loopback: {mass_kg: 0.036, damping_Ns_per_m: 0.49}}\n";
 }

@@ -102,6 +102,7 @@ constexpr const char* kBrakeConfig = R"(role: master
 dof: 2
 rate_hz: 1000
 link:
+  security: {mode: insecure}
   bind: "127.0.0.1:47001"
   peer: "127.0.0.1:47002"
 law:

@@ -21,6 +21,7 @@ constexpr const char* kBase = R"(role: slave
 dof: 3
 rate_hz: 1000
 link:
+  security: {mode: insecure}
   bind: "127.0.0.1:47002"
   peer: "127.0.0.1:47001"
 law:

@@ -24,6 +24,7 @@ constexpr const char* kBase = R"(role: master
 dof: 1
 rate_hz: 1000
 link:
+  security: {mode: insecure}
   bind: "127.0.0.1:47001"
   peer: "127.0.0.1:47002"
   timeout_ms: 50

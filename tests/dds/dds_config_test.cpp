@@ -16,6 +16,7 @@ constexpr const char* kBase = R"(role: slave
 dof: 1
 rate_hz: 1000
 link:
+  security: {mode: insecure}
   bind: "127.0.0.1:47002"
   peer: "127.0.0.1:47001"
 law:
@@ -60,7 +61,7 @@ TEST(DdsConfig, ReadsEveryKey) {
 TEST(DdsConfig, RejectsBadValuesAtTheirKey) {
   // Line 15 is the first line of the section, 16 the first key.
   EXPECT_THAT(ErrorOf("dds:\n  domain_id: 233\n"),
-              HasSubstr("rig.yaml:16:14: key 'dds.domain_id': must be an integer in 0..232"));
+              HasSubstr("rig.yaml:17:14: key 'dds.domain_id': must be an integer in 0..232"));
   EXPECT_THAT(ErrorOf("dds:\n  domain_id: -1\n"), HasSubstr("key 'dds.domain_id'"));
   EXPECT_THAT(ErrorOf("dds:\n  pair: 3rig\n"), HasSubstr("key 'dds.pair': '3rig' is not a valid topic name part"));
   EXPECT_THAT(ErrorOf("dds:\n  pair: \"rig/a\"\n"), HasSubstr("not a valid topic name part"));

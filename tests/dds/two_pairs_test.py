@@ -22,6 +22,8 @@ import statistics
 import subprocess
 import sys
 import time
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+import teleop_keys  # noqa: E402  (tests/test_utilities)
 
 CYCLONE_XML = """<CycloneDDS><Domain id="any">
   <General><Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast></General>
@@ -59,6 +61,7 @@ def write_config(src, dst, ports, domain, pair):
     text += f"\ndds:\n  enabled: true\n  domain_id: {domain}\n  pair: {pair}\n  state_rate_hz: 20\n"
     with open(dst, "w") as f:
         f.write(text)
+    teleop_keys.ensure_key(os.path.dirname(dst))  # link.security key_file: teleop.key, beside the config
 
 
 def read_records(path):

@@ -15,7 +15,7 @@ deb=$(ls "${work}"/out/teleop_*_amd64.deb 2>/dev/null | head -n 1)
 [[ -n "${deb}" ]] || fail "no teleop_*_amd64.deb in ${work}/out"
 ok "built $(basename "${deb}")"
 dpkg-deb -c "${deb}" | awk '{print $6}' >"${work}/contents.txt"
-for f in ./usr/bin/teleop-master ./usr/bin/teleop-slave ./usr/bin/teleop-analyze ./usr/bin/teleop-canbus \
+for f in ./usr/bin/teleop-master ./usr/bin/teleop-slave ./usr/bin/teleop-analyze ./usr/bin/teleop-canbus ./usr/bin/teleop-keygen \
          ./usr/bin/teleop-plot ./usr/bin/teleop-canlog ./etc/teleop/master.yaml ./etc/teleop/slave.yaml \
          ./usr/lib/systemd/system/teleop-master.service ./usr/lib/systemd/system/teleop-slave.service \
          ./usr/lib/systemd/system/teleop-can-up@.service ./usr/share/teleop/can-up.sh ./usr/share/teleop/rt-check.sh \

@@ -12,7 +12,7 @@ mkdir -p "${work}"
 prefix="${work}/prefix"
 
 cmake --install "${build}" --prefix "${prefix}" >"${work}/install.log" || fail "cmake --install (see ${work}/install.log)"
-for f in bin/teleop-master bin/teleop-slave bin/teleop-analyze bin/teleop-canbus bin/teleop-plot \
+for f in bin/teleop-master bin/teleop-slave bin/teleop-analyze bin/teleop-canbus bin/teleop-plot bin/teleop-keygen \
          lib/cmake/teleop/teleopConfig.cmake lib/cmake/teleop/teleopConfigVersion.cmake \
          lib/cmake/teleop/teleopTargets.cmake lib/libteleop_device.a include/teleop/device/device_registry.hpp \
          include/teleop/proto/codec.hpp etc/teleop/master.yaml etc/teleop/slave.yaml \

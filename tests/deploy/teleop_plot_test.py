@@ -14,6 +14,8 @@ import socket
 import subprocess
 import sys
 import tempfile
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+import teleop_keys  # noqa: E402  (tests/test_utilities)
 
 VIEWS = ["positions", "forces", "fixture", "period", "rtt", "loss", "engagement"]
 
@@ -84,6 +86,7 @@ def main():
         with open(cfg, "w") as f:
             f.write(text.replace("127.0.0.1:47002", f"127.0.0.1:{free_udp_port()}").replace("127.0.0.1:47001",
                                                                                            "127.0.0.1:9"))
+        teleop_keys.ensure_key(tmp)  # link.security key_file: teleop.key, beside the config
         real = os.path.join(tmp, "real.csv")
         r = subprocess.run([args.slave, "--config", cfg, "--duration", "0.4", "--telemetry-csv", real],
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=60)

@@ -7,11 +7,15 @@ tshark decodes the capture with the dissector, and the test checks, field by fie
 decodes matches what the sending process itself recorded for that cycle in its telemetry CSV (the sequence number is
 the cycle number; position, velocity, force sensor and flags are what it sent), that every slave echo is a master
 timestamp, that the shutdown sample at the end is flagged, that the CRC of every real sample verifies and the broken
-one is flagged bad, and that the foreign datagram is not taken for teleop. Exit 77 (skip) only when capturing is not
+one is flagged bad, and that the foreign datagram is not taken for teleop. That run uses link.security.mode insecure
+(version 1 on the wire); a second run with the shipped configs as they are (psk, version 2) checks the decoded
+handshake (hello, welcome, one confirm) and frame headers: one session id, frame sequences 0, 1, 2, ... per sender,
+as many frames as each process's summary says it sent, and the 1-DOF sizes. Exit 77 (skip) only when capturing is not
 permitted here (no root / CAP_NET_RAW).
 """
 import argparse
 import csv
+import json
 import math
 import os
 import re
@@ -22,6 +26,8 @@ import subprocess
 import sys
 import tempfile
 import time
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+import teleop_keys  # noqa: E402  (tests/test_utilities)
 
 SKIP = 77
 
@@ -45,6 +51,8 @@ def free_udp_port():
 def write_config(src, dst, ports, csv_path):
     text = open(src).read().replace("47001", str(ports[0])).replace("47002", str(ports[1]))
     text = re.sub(r"(?m)^(\s*csv:).*$", rf'\1 "{csv_path}"', text)
+    # The dissector decodes version-1 samples: this run needs them on the wire (the shipped configs say psk).
+    text = teleop_keys.make_insecure(text)
     with open(dst, "w") as f:
         f.write(text)
 
@@ -100,6 +108,106 @@ def golden(tshark, dissector, tmp):
                 "x 0.25 m, v -1.5 m/s, F 2 N, CRC 0x956B51EE good)" + (f": {wrong}" if wrong else ""))
 
 
+def start_capture(tshark, pcap, ports):
+    """tshark capturing the two ports on lo into `pcap`; None (after a SKIPPED message) when not permitted."""
+    cap = subprocess.Popen([tshark, "-i", "lo", "-q", "-w", pcap, "-f",
+                            f"udp port {ports[0]} or udp port {ports[1]}"],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # tshark says "Capturing on 'Loopback: lo'" once the capture runs.
+    line, deadline = "", time.monotonic() + 30
+    while time.monotonic() < deadline:
+        line = cap.stderr.readline()
+        if "Capturing on" in line or not line:
+            break
+    if "Capturing on" not in line:
+        cap.kill()
+        rest = line + cap.stderr.read()
+        if "permission" in rest.lower() or "not permitted" in rest.lower():
+            print(f"SKIPPED: capturing on lo is not permitted here: {rest.strip()}")
+            return None
+        raise Failure(f"tshark did not start capturing: {rest.strip()}")
+    return cap
+
+
+def stop_capture(cap):
+    cap.send_signal(signal.SIGINT)
+    try:
+        cap.wait(timeout=20)
+    except subprocess.TimeoutExpired:
+        cap.kill()
+
+
+def secure_run(tshark, args, tmp):
+    """A run with the shipped configs as they are (link.security.mode psk): the dissector decodes the version-2
+    handshake and frame headers, and what it shows agrees with the processes' own summaries."""
+    work = os.path.join(tmp, "secure")
+    os.makedirs(work)
+    ports = (free_udp_port(), free_udp_port())
+    mcfg, scfg = os.path.join(work, "master.yaml"), os.path.join(work, "slave.yaml")
+    for src, dst in ((os.path.join(args.configs, "master.yaml"), mcfg), (os.path.join(args.configs, "slave.yaml"),
+                                                                         scfg)):
+        text = open(src).read().replace("47001", str(ports[0])).replace("47002", str(ports[1]))
+        text = re.sub(r"(?m)^(\s*csv:).*$", r'\1 ""', text)
+        check("mode: psk" in text, f"{os.path.basename(src)} authenticates its link (mode psk)")
+        with open(dst, "w") as f:
+            f.write(text)
+    teleop_keys.ensure_key(work)
+    pcap = os.path.join(work, "secure.pcapng")
+    cap = start_capture(tshark, pcap, ports)
+    if cap is None:
+        return SKIP
+    mjson, sjson = os.path.join(work, "master.json"), os.path.join(work, "slave.json")
+    try:
+        slave = subprocess.Popen([args.slave, "--config", scfg, "--duration", "6", "--summary-json", sjson],
+                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        time.sleep(0.3)
+        master = subprocess.run([args.master, "--config", mcfg, "--duration", "1.5", "--summary-json", mjson],
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=60)
+        slave.communicate(timeout=60)
+        time.sleep(0.3)
+    finally:
+        stop_capture(cap)
+    check(master.returncode == 0 and slave.returncode == 0, "secure run: both processes ran and exited 0")
+    summaries = {"master": json.load(open(mjson)), "slave": json.load(open(sjson))}
+    fields = ["frame.number", "udp.srcport", "teleop.version", "teleop.type", "teleop.role", "teleop.session_id",
+              "teleop.frame_seq", "teleop.ciphertext_length", "teleop.status", "udp.length"]
+    # The ports of the run as teleop ports (the preference): random ciphertext can satisfy another protocol's
+    # heuristic, and a port registration is tried before any heuristic.
+    cmd = [tshark, "-r", pcap, "-X", f"lua_script:{args.dissector}", "-o", f"teleop.ports:{ports[0]},{ports[1]}",
+           "-T", "fields", "-E", "separator=\t", "-e", "_ws.col.Protocol"]
+    for name in fields:
+        cmd += ["-e", name]
+    r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=120)
+    errors = [ln for ln in r.stderr.splitlines() if "Running as user" not in ln and ln.strip()]
+    check(r.returncode == 0 and not errors, f"secure run: tshark reads the capture {errors[:3]}")
+    rows = [dict(zip(["protocol"] + fields, ln.split("\t"))) for ln in r.stdout.splitlines()]
+    odd = [x for x in rows if x["teleop.version"] != "2"]
+    check(len(rows) > 1000 and not odd, f"secure run: all {len(rows)} datagrams are version 2 {odd[:2]}")
+    bad = [x for x in rows if x["teleop.status"] != "ok"]
+    check(not bad, f"every version-2 message decodes as ok {bad[:2]}")
+    by_type = {}
+    for x in rows:
+        by_type.setdefault(x["teleop.type"], []).append(x)
+    hellos, welcomes, confirms, frames = (by_type.get(t, []) for t in ("2", "3", "4", "5"))
+    check(len(hellos) >= 1 and all(x["teleop.role"] == "0" for x in hellos), f"{len(hellos)} hello from the master")
+    check(len(welcomes) >= 1 and all(x["teleop.role"] == "1" for x in welcomes),
+          f"{len(welcomes)} welcome from the slave")
+    check(len(confirms) == 1 and confirms[0]["teleop.role"] == "0", "one confirm from the master")
+    session = confirms[0]["teleop.session_id"]
+    check(all(x["teleop.session_id"] == session for x in frames),
+          f"every frame carries the confirmed session id {session}")
+    for role, code, port in (("master", "0", ports[0]), ("slave", "1", ports[1])):
+        mine = [x for x in frames if x["teleop.role"] == code]
+        check(all(int(x["udp.srcport"]) == port for x in mine), f"{role} frames come from its port")
+        seqs = [int(x["teleop.frame_seq"]) for x in mine]
+        check(seqs == list(range(len(seqs))), f"{role}: frame sequences 0..{len(seqs) - 1}, one per frame, in order")
+        sent = summaries[role]["packets"]["sent"]
+        check(len(mine) == sent, f"{role}: {len(mine)} frames captured = {sent} sent (its summary)")
+        check(all(x["teleop.ciphertext_length"] == "64" and x["udp.length"] == str(8 + 28 + 64 + 16) for x in mine),
+              f"{role}: 1-DOF frames, 64 bytes of ciphertext, 108 bytes in all")
+    return 0
+
+
 def same(a, b):
     return math.isclose(a, b, rel_tol=1e-13, abs_tol=1e-300)
 
@@ -117,28 +225,17 @@ def main():
 
     with tempfile.TemporaryDirectory(prefix="teleop-tshark-") as tmp:
         golden(tshark, args.dissector, tmp)
+        if secure_run(tshark, args, tmp) == SKIP:
+            return SKIP
         ports = (free_udp_port(), free_udp_port())
         mcsv, scsv = os.path.join(tmp, "master.csv"), os.path.join(tmp, "slave.csv")
         mcfg, scfg = os.path.join(tmp, "master.yaml"), os.path.join(tmp, "slave.yaml")
         write_config(os.path.join(args.configs, "master.yaml"), mcfg, ports, mcsv)
         write_config(os.path.join(args.configs, "slave.yaml"), scfg, ports, scsv)
         pcap = os.path.join(tmp, "run.pcapng")
-        cap = subprocess.Popen([tshark, "-i", "lo", "-q", "-w", pcap, "-f",
-                                f"udp port {ports[0]} or udp port {ports[1]}"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        # tshark says "Capturing on 'Loopback: lo'" once the capture runs.
-        line, deadline = "", time.monotonic() + 30
-        while time.monotonic() < deadline:
-            line = cap.stderr.readline()
-            if "Capturing on" in line or not line:
-                break
-        if "Capturing on" not in line:
-            cap.kill()
-            rest = line + cap.stderr.read()
-            if "permission" in rest.lower() or "not permitted" in rest.lower():
-                print(f"SKIPPED: capturing on lo is not permitted here: {rest.strip()}")
-                return SKIP
-            raise Failure(f"tshark did not start capturing: {rest.strip()}")
+        cap = start_capture(tshark, pcap, ports)
+        if cap is None:
+            return SKIP
         try:
             slave = subprocess.Popen([args.slave, "--config", scfg, "--duration", "6"],
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
@@ -153,11 +250,7 @@ def main():
             sout, _ = slave.communicate(timeout=60)
             time.sleep(0.3)
         finally:
-            cap.send_signal(signal.SIGINT)
-            try:
-                cap.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                cap.kill()
+            stop_capture(cap)
         print(mout, sout)
         check(master.returncode == 0 and slave.returncode == 0, "both processes ran and exited 0")
         check("rejected 2" in sout, "the slave rejected the two datagrams the test sent")

@@ -18,6 +18,8 @@ import re
 import socket
 import subprocess
 import sys
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+import teleop_keys  # noqa: E402  (tests/test_utilities)
 
 
 class Failure(Exception):
@@ -46,6 +48,7 @@ def write_config(src, dst, ports, replacements=()):
     text = re.sub(r"(?m)^(\s*csv:).*$", r'\1 ""', text)
     with open(dst, "w") as f:
         f.write(text)
+    teleop_keys.ensure_key(os.path.dirname(dst))  # link.security key_file: teleop.key, beside the config
 
 
 def run(cmd, timeout=30):
@@ -139,6 +142,7 @@ def main():
         text = text.replace("47001", str(ports[0])).replace("47002", str(ports[1]))
         with open(cfg, "w") as f:
             f.write(text)
+        teleop_keys.ensure_key(os.path.dirname(cfg))
         code, out = run([args.slave, "--config", cfg, "--duration", "0.3"])
         check(code == 2, f"teleop-slave refuses with exit 2 (got {code})")
         line = next((l for l in out.splitlines() if "[critical]" in l), "")

@@ -26,6 +26,8 @@ import subprocess
 import sys
 import threading
 import time
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+import teleop_keys  # noqa: E402  (tests/test_utilities)
 
 
 def free_udp_port():
@@ -41,6 +43,7 @@ def write_config(src, dst, ports, telemetry_csv=""):
     text = re.sub(r"(?m)^(\s*csv:).*$", lambda m: f'{m.group(1)} "{telemetry_csv}"', text)
     with open(dst, "w") as f:
         f.write(text)
+    teleop_keys.ensure_key(os.path.dirname(dst))  # link.security key_file: teleop.key, beside the config
 
 
 def read_yaml_scalars(path):
@@ -132,6 +135,15 @@ def check(cond, what):
     print(f"  ok: {what}")
 
 
+def rejected_on_clean_link(summary):
+    """Rejections other than a handshake race: on a loaded machine the master may send its next hello before the
+    welcome to the first arrives (link.security.handshake_retry_ms); that late welcome is then refused
+    (bad_handshake_tag, or unexpected_handshake once a session exists) - counted, harmless, and never a sample."""
+    by_reason = summary.get("security", {}).get("rejected_by_reason", {})
+    race = by_reason.get("bad_handshake_tag", 0) + by_reason.get("unexpected_handshake", 0)
+    return summary["packets"]["rejected"] - race
+
+
 def load(path):
     with open(path) as f:
         return json.load(f)
@@ -211,7 +223,10 @@ def main():
     rate = s["rate_hz"]
     # No assertion on the achieved rate: these machines are shared and noisy (the rate is printed above).
     check(s["cycles"] > 100, f"slave ran {s['cycles']} cycles ({s['achieved_rate_hz']:.1f} Hz of {rate:.0f})")
-    check(s["packets"]["sent"] >= s["cycles"], "slave sent one sample per cycle")
+    # An authenticated link sends nothing before its session exists (counted as send_no_session, not an error).
+    unsent = s.get("security", {}).get("send_no_session", 0)
+    check(s["packets"]["sent"] + unsent >= s["cycles"], f"slave sent one sample per cycle ({unsent} before the "
+                                                         "session)")
 
     if args.scenario == "dead_peer":
         check(master.returncode == -signal.SIGKILL, "master was killed")
@@ -238,14 +253,14 @@ def main():
         check(x["tracking_error_rms_m"] < 0.005, f"{name} tracking error rms {x['tracking_error_rms_m']*1e3:.3f} mm")
         check(x["nonfinite_inputs"] == 0 and x["device_fault_cycles"] == 0, f"{name} had no faults")
     if physics:
-        check(m["packets"]["rejected"] == 0 and s["packets"]["rejected"] == 0, "nothing rejected on a clean link")
+        check(rejected_on_clean_link(m) == 0 and rejected_on_clean_link(s) == 0, "nothing rejected on a clean link")
         check(m["cycles_with_peer"] > 0.5 * m["cycles"], "master coupled for most of the run")
         check_physics(read_yaml_scalars(msrc), read_yaml_scalars(ssrc), m, s, read_telemetry(mcsv),
                       read_telemetry(scsv))
     if args.scenario == "garbage":
-        rej = s["packets"]["rejected"]
+        rej = rejected_on_clean_link(s)
         check(rej == garbage_sent, f"slave rejected all {garbage_sent} garbage datagrams ({rej})")
-        check(m["packets"]["rejected"] == 0, "master saw no garbage")
+        check(rejected_on_clean_link(m) == 0, "master saw no garbage")
         # Not "no watchdog trip": a loaded machine can stall a process for longer than the timeout. What garbage
         # must never do is reach the law: no fault, no non-finite input, no loss of the real samples.
         check(s["packets"]["lost"] == 0 and s["packets"]["accepted"] > 0, "real samples kept flowing")

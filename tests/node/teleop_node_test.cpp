@@ -32,7 +32,7 @@ std::string Config(const char* role, bool fixture) {
   std::string text = std::string("role: ") + role + R"(
 dof: 2
 rate_hz: 1000
-link: {bind: "127.0.0.1:47001", peer: "127.0.0.1:47002", timeout_ms: 10000}
+link: {security: {mode: insecure}, bind: "127.0.0.1:47001", peer: "127.0.0.1:47002", timeout_ms: 10000}
 law: {kp_N_per_m: 600, kd_Ns_per_m: 0, max_force_N: 0}
 device: {backend: loopback, loopback: {mass_kg: 0.04, damping_Ns_per_m: 0.41}}
 stability: {check: false}

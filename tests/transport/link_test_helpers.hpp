@@ -26,10 +26,12 @@ inline proto::SampleMessage MakeSample(proto::SenderRole sender, std::uint32_t s
 
 /// Every datagram read ends up under exactly one outcome, and rejected is split into its reasons.
 inline void ExpectCountersBalance(const LinkCounters& c) {
-  EXPECT_EQ(c.received, c.accepted + c.superseded + c.reordered + c.duplicates + c.rejected);
+  EXPECT_EQ(c.received, c.accepted + c.superseded + c.reordered + c.duplicates + c.rejected + c.handshake_messages);
   const std::uint64_t by_reason =
       std::accumulate(c.rejected_by_reason.begin(), c.rejected_by_reason.end(), std::uint64_t{0});
-  EXPECT_EQ(c.rejected, by_reason + c.wrong_sender);
+  const std::uint64_t by_secure_reason =
+      std::accumulate(c.secure_rejected_by_reason.begin(), c.secure_rejected_by_reason.end(), std::uint64_t{0});
+  EXPECT_EQ(c.rejected, by_reason + c.wrong_sender + by_secure_reason);
   EXPECT_EQ(c.rejected_by_reason[0], 0u) << "kOk is never a rejection";
 }
 

@@ -96,7 +96,7 @@ void ParseCan(const Field& f, bool emulated, transport::CanLinkConfig& can) {
 
 void ParseLink(const Field& f, Role role, double rate_hz, int dof, transport::LinkConfig& link) {
   const Map map(f, {"transport", "bind", "peer", "timeout_ms", "accept_only_peer_address", "receive_buffer_bytes",
-                    "can", "emulate"});
+                    "can", "emulate", "security"});
   if (auto v = map.Optional("transport")) {
     link.transport = v->AsString();
     if (link.transport != "udp" && link.transport != "can" && link.transport != "emulated-can") {
@@ -143,6 +143,7 @@ void ParseLink(const Field& f, Role role, double rate_hz, int dof, transport::Li
     }
   }
   if (auto v = map.Optional("accept_only_peer_address")) link.udp.accept_only_peer_address = v->AsBool();
+  ParseSecurity(map, link.transport, dof, link.security);
   if (auto v = map.Optional("receive_buffer_bytes")) {
     link.udp.receive_buffer_bytes = IntInRange(*v, 0, 1 << 30);
   }

@@ -5,6 +5,8 @@
 // yaml_config.cpp reads the top level and calls them. Each lists its allowed keys (anything else is an error), reads
 // its required and optional keys and checks ranges, failing with "FILE:LINE:COL: key 'a.b': reason".
 
+#include <string>
+
 #include "teleop/config/process_config.hpp"
 #include "teleop/config/yaml_reader.hpp"
 
@@ -13,6 +15,8 @@ namespace teleop::config::sections {
 void ParseLink(const Field& f, Role role, double rate_hz, int dof, transport::LinkConfig& link);
 /// `link.emulate` (link_emulate_section.cpp).
 void ParseLinkEmulate(const Field& f, double rate_hz, transport::LinkConfig::Emulation& emulate);
+/// `link.security` (security_section.cpp), required: a config without it is refused with how to make a key.
+void ParseSecurity(const Map& link, const std::string& transport, int dof, transport::LinkSecurityConfig& security);
 void ParseLaw(const Field& f, double rate_hz, control::ThreeChannelLaw::Config& law);
 void ParseFixture(const Field& f, int dof, control::ForbiddenRegionFixture::Config& fixture);
 /// `device:`: the backend's name and its own section, read by the backend's registered reader.

@@ -22,10 +22,18 @@ std::unique_ptr<Link> MakeUdp(const LinkConfig& config, proto::SenderRole local_
   }
   UdpLinkConfig udp = config.udp;
   udp.expected_peer = proto::PeerOf(local_role);
+  udp.security = config.security;
+  udp.peer_silence_ms = config.timeout_ms;
   return std::make_unique<UdpLink>(udp);
 }
 
 std::unique_ptr<Link> MakeCan(const LinkConfig& config, proto::SenderRole local_role, CanMedium medium) {
+  if (config.security.mode != LinkSecurityMode::kInsecure) {
+    throw Error(std::string("link '") + (medium == CanMedium::kSocketCan ? "can" : "emulated-can") +
+                "': link.security.mode " + ToString(config.security.mode) +
+                " is not available on CAN (a 16-byte tag does not fit the frames; docs/security.md, \"CAN\"); on a "
+                "closed bus set link.security.mode: insecure, or use transport udp");
+  }
   CanLinkConfig can = config.can;
   can.medium = medium;
   return MakeCanLink(can, local_role, config.rate_hz);

@@ -68,6 +68,7 @@ int ProcessMain(int argc, char** argv, Role role) {
   std::string telemetry_csv;
   std::string log_level = "info";
   bool allow_unstable = false;
+  std::string key_file;
   app.add_option("-c,--config", config_path, "Process configuration (YAML); see docs/configuration.md")
       ->required()
       ->check(CLI::ExistingFile);
@@ -79,6 +80,9 @@ int ProcessMain(int argc, char** argv, Role role) {
   app.add_option("--telemetry-csv", telemetry_csv, "Per-cycle telemetry CSV (overrides telemetry.csv in the config)");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical, off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
+  app.add_option("--key-file", key_file,
+                 "Pre-shared key file for link.security.mode psk (overrides link.security.key_file; teleop-keygen "
+                 "makes one)");
   app.add_flag("--allow-unstable", allow_unstable,
                "Start even when the fixture stiffness is above the predicted stability limit (experiments only; "
                "docs/stability.md)");
@@ -101,6 +105,19 @@ int ProcessMain(int argc, char** argv, Role role) {
     }
     if (duration_s >= 0.0) config.loop.duration_s = duration_s;
     if (!telemetry_csv.empty()) config.telemetry.csv_path = telemetry_csv;
+    if (!key_file.empty()) {
+      if (config.link.security.mode != transport::LinkSecurityMode::kPsk) {
+        throw Error("--key-file given, but " + config_path + " has link.security.mode " +
+                    ToString(config.link.security.mode) + " (the key is used only with mode psk)");
+      }
+      config.link.security.key_file = key_file;
+    }
+    if (config.link.security.mode == transport::LinkSecurityMode::kInsecure) {
+      spdlog::warn(
+          "INSECURE LINK (link.security.mode insecure in {}): messages are not authenticated; anyone who can reach "
+          "this link can command the device. Benches and closed buses only (docs/security.md)",
+          config_path);
+    }
     if (!StabilityAllowsStart(config, allow_unstable)) return kExitConfigError;
 
     auto device = device::MakeDevice(config.device);

@@ -64,6 +64,42 @@ std::string RejectedJson(const transport::LinkCounters& c) {
   return out + "}";
 }
 
+std::string SecureRejectedJson(const transport::LinkCounters& c) {
+  std::string out = "{";
+  for (std::size_t i = 0; i < c.secure_rejected_by_reason.size(); ++i) {
+    const auto status = static_cast<transport::SecureReceiveStatus>(i);
+    if (status == transport::SecureReceiveStatus::kSample || status == transport::SecureReceiveStatus::kHandshake) {
+      continue;
+    }
+    out += fmt::format(R"({}"{}": {})", out.size() > 1 ? ", " : "", transport::ToString(status),
+                       c.secure_rejected_by_reason[i]);
+  }
+  return out + "}";
+}
+
+// "psk: 1 session, ..." or the insecure warning, for the text summary.
+std::string SecurityText(const RunSummary& s) {
+  const auto& l = s.link;
+  if (s.link_security != "psk") {
+    return "INSECURE (link.security.mode " + s.link_security + "): messages were not authenticated";
+  }
+  std::string out =
+      fmt::format("psk: sessions {}, handshakes started {}, handshake messages {}, unsent (no session) {}", l.sessions,
+                  l.handshakes_started, l.handshake_messages, l.send_no_session);
+  std::string refused;
+  for (std::size_t i = 0; i < l.secure_rejected_by_reason.size(); ++i) {
+    if (l.secure_rejected_by_reason[i] == 0) continue;
+    refused += fmt::format("{}{} {}", refused.empty() ? "" : ", ",
+                           transport::ToString(static_cast<transport::SecureReceiveStatus>(i)),
+                           l.secure_rejected_by_reason[i]);
+  }
+  out += "; refused: " + (refused.empty() ? "none" : refused);
+  if (l.secure_rejected_by_reason[static_cast<std::size_t>(transport::SecureReceiveStatus::kBadPlaintext)] > 0) {
+    out += " (bad_plaintext: authentic samples of another DOF count or role; check both configs' dof)";
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string FormatSummaryText(const RunSummary& s) {
@@ -80,6 +116,7 @@ std::string FormatSummaryText(const RunSummary& s) {
       "  packets           sent {}, received {}, accepted {}, lost {}, reordered {}, duplicates {}, "
       "rejected {}, send errors {}\n",
       l.sent, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors);
+  out += fmt::format("  security          {}\n", SecurityText(s));
   if (!s.link_detail.empty()) out += fmt::format("  link detail       {}\n", s.link_detail);
   if (s.link_emulation) {
     out += fmt::format("  link emulation    {}\n", transport::FormatImpairmentCounters(*s.link_emulation));
@@ -124,6 +161,12 @@ std::string FormatSummaryJson(const RunSummary& s) {
                      "\n",
                      l.sent, l.send_errors, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected,
                      l.wrong_sender, l.superseded, l.bus_errors, RejectedJson(l));
+  out +=
+      fmt::format(R"(  "security": {{"mode": {}, "sessions": {}, "handshakes_started": {}, "handshake_messages": {}, )"
+                  R"("send_no_session": {}, "rejected_by_reason": {}}},)"
+                  "\n",
+                  JsonString(s.link_security), l.sessions, l.handshakes_started, l.handshake_messages,
+                  l.send_no_session, SecureRejectedJson(l));
   out += fmt::format(R"(  "link_detail": {}, "link_fault_cycles": {},)"
                      "\n",
                      JsonString(s.link_detail), s.link_fault_cycles);

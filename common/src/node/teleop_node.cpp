@@ -392,6 +392,7 @@ RunSummary TeleopNode::Run() {
   summary.link_fault_cycles = s.link_fault_cycles;
   summary.link_detail = s.link->Summary();
   if (const auto* emulation = transport::EmulationCountersOf(*s.link)) summary.link_emulation = *emulation;
+  summary.link_security = transport::ToString(s.config.link.security.mode);
   summary.stop_reason = s.stop_requested.load() ? "signal" : (s.peer_shutdown ? "peer shutdown" : "duration");
   if (s.dof_mismatches > 0) {
     spdlog::error("{} samples from the peer carried another DOF count than this process's {}: check both configs",

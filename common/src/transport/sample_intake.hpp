@@ -59,6 +59,25 @@ class SampleIntake {
     ++counters.rejected_by_reason[static_cast<std::size_t>(reason)];
   }
 
+  /// Authenticated link: a valid handshake message (neither a sample nor a rejection).
+  void OfferHandshake(LinkCounters& counters) noexcept {
+    ++counters.received;
+    ++counters.handshake_messages;
+  }
+
+  /// Authenticated link: a datagram the session refused (forged, replayed, old session, version 1, ...).
+  void RejectSecure(SecureReceiveStatus reason, LinkCounters& counters) noexcept {
+    ++counters.received;
+    ++counters.rejected;
+    ++counters.secure_rejected_by_reason[static_cast<std::size_t>(reason)];
+  }
+
+  /// Drops the sample pending in this drain (it belongs to a session that just ended), counted as superseded.
+  void DropPending(LinkCounters& counters) noexcept {
+    if (has_pending_) ++counters.superseded;
+    has_pending_ = false;
+  }
+
   /// The newest sequence accepted (CAN extends its 4-bit counter from it); Reset forgets it.
   const SequenceTracker& tracker() const noexcept { return tracker_; }
   void ResetTracker() noexcept { tracker_.Reset(); }

@@ -44,8 +44,8 @@ PreSharedKey LoadPreSharedKey(const std::string& path) {
   // Open first, then fstat the open file: the checks apply to the bytes read, not to whatever the path names later.
   const Fd file{::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOCTTY)};
   if (file.fd < 0) {
-    throw Error(Describe(path) + ": cannot open: " + std::strerror(errno) +
-                " (how to create one: docs/security.md, \"Key file\")");
+    throw Error(Describe(path) + ": cannot open: " + std::strerror(errno) + " (create one with `teleop-keygen " + path +
+                "`, then copy it to the other machine; docs/security.md)");
   }
   struct stat st {};
   if (::fstat(file.fd, &st) != 0) throw Error(Describe(path) + ": cannot stat: " + std::strerror(errno));

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <ctime>
 // Asio trips -Wnull-dereference in its own inlined scheduler code (GCC 12, -O2); not ours to fix.
@@ -20,6 +21,8 @@
 
 #include "sample_intake.hpp"
 #include "teleop/error.hpp"
+#include "teleop/transport/secure_key_file.hpp"
+#include "teleop/transport/secure_session.hpp"
 
 namespace teleop::transport {
 namespace {
@@ -33,6 +36,8 @@ constexpr std::size_t kMaxSampleBytes =
     proto::wire::kHeaderSize + proto::kMaxWireDof * proto::wire::kBytesPerDof + proto::wire::kCrcSize;
 constexpr std::size_t kReceiveBufferBytes = 512;
 static_assert(kReceiveBufferBytes > kMaxSampleBytes);
+static_assert(kReceiveBufferBytes > proto::kMaxSecureMessageSize);
+constexpr std::size_t kTransmitBufferBytes = std::max(kMaxSampleBytes, proto::kMaxSecureMessageSize);
 
 std::string ToString(const udp::endpoint& endpoint) {
   const asio::ip::address address = endpoint.address();
@@ -96,7 +101,17 @@ struct UdpLink::Impl {
   bool has_peer = false;
   bool accept_only_peer = true;
   detail::SampleIntake intake;
-  std::array<std::uint8_t, kMaxSampleBytes> tx{};
+  std::array<std::uint8_t, kTransmitBufferBytes> tx{};
+  // Authenticated mode only (security.mode kPsk).
+  std::unique_ptr<SecureSession> session;
+  bool initiator = false;  ///< The master drives the handshake.
+  std::array<std::uint8_t, proto::kMaxSecureMessageSize> reply{};
+  proto::SampleMessage opened{};    ///< The sample Receive() decrypted.
+  std::uint64_t session_id = 0;     ///< The session the sequence tracker belongs to.
+  std::int64_t next_hello_ns = 0;   ///< Master: no hello before this (handshake_retry_ms apart).
+  std::int64_t last_sample_ns = 0;  ///< Newest authenticated sample or session start (monotonic).
+  std::int64_t retry_ns = 0;
+  std::int64_t silence_ns = 0;
   std::array<std::uint8_t, kReceiveBufferBytes> rx{};
   alignas(cmsghdr) std::array<std::uint8_t, kControlBytes> control{};
   sockaddr_storage source{};  // written by recvmsg
@@ -145,6 +160,19 @@ UdpLink::UdpLink(const UdpLinkConfig& config) : impl_(std::make_unique<Impl>(con
   impl_->local = impl_->socket.local_endpoint(ec);
   if (ec) throw Error("UDP link: cannot read the local address of " + where + ": " + ec.message());
   impl_->accept_only_peer = config.accept_only_peer_address;
+  if (config.security.mode == LinkSecurityMode::kPsk) {
+    const LinkSecurityConfig& security = config.security;
+    if (!std::isfinite(security.handshake_retry_ms) || security.handshake_retry_ms <= 0.0 ||
+        !std::isfinite(config.peer_silence_ms) || config.peer_silence_ms <= 0.0) {
+      throw Error("UDP link on " + where + ": handshake_retry_ms and peer_silence_ms must be finite and > 0");
+    }
+    SecureSessionConfig session = security.session;
+    session.role = proto::PeerOf(config.expected_peer);
+    impl_->session = std::make_unique<SecureSession>(session, LoadPreSharedKey(security.key_file));
+    impl_->initiator = session.role == proto::SenderRole::kMaster;
+    impl_->retry_ns = static_cast<std::int64_t>(security.handshake_retry_ms * 1e6);
+    impl_->silence_ns = static_cast<std::int64_t>(config.peer_silence_ms * 1e6);
+  }
   if (config.peer_port != 0) SetPeer(config.peer_address, config.peer_port);
 }
 
@@ -162,7 +190,16 @@ void UdpLink::SetPeer(const std::string& address, std::uint16_t port) {
 }
 
 bool UdpLink::Send(const proto::SampleMessage& message) noexcept {
-  const std::size_t size = proto::EncodeSample(message, impl_->tx);
+  std::size_t size = 0;
+  if (impl_->session) {
+    size = impl_->session->Seal(message, impl_->tx);
+    if (size == 0 && impl_->session->session_id() == 0) {
+      ++counters_.send_no_session;  // not connected yet: nothing to send, not a medium error
+      return false;
+    }
+  } else {
+    size = proto::EncodeSample(message, impl_->tx);
+  }
   if (size == 0 || !impl_->has_peer) {
     ++counters_.send_errors;
     return false;
@@ -182,7 +219,57 @@ bool UdpLink::Poll(proto::SampleMessage& newest) noexcept {
   return PollUntil(newest, deadline);
 }
 
+void UdpLink::SendRaw(const std::uint8_t* bytes, std::size_t size) noexcept {
+  if (!impl_->has_peer) return;
+  boost::system::error_code ec;
+  const std::size_t sent = impl_->socket.send_to(asio::buffer(bytes, size), impl_->peer, 0, ec);
+  if (ec || sent != size) ++counters_.send_errors;
+}
+
+void UdpLink::DriveHandshake(std::int64_t now_ns) noexcept {
+  Impl& s = *impl_;
+  if (!s.session || !s.initiator || !s.has_peer) return;
+  const bool established = s.session->session_id() != 0;
+  if (established && now_ns - s.last_sample_ns <= s.silence_ns) return;
+  if (now_ns < s.next_hello_ns) return;
+  s.next_hello_ns = now_ns + s.retry_ns;
+  // Two X25519 operations at the master (~0.1 ms), only while no session carries the slave's samples (start-up,
+  // slave restart, silence past the timeout): cycles in which the master is not coupled anyway.
+  const std::size_t size = s.session->BeginHandshake(s.reply);
+  if (size > 0) SendRaw(s.reply.data(), size);
+  counters_.handshakes_started = s.session->counters().handshakes_started;
+}
+
+bool UdpLink::OfferSecure(std::size_t length, std::int64_t now_ns) noexcept {
+  Impl& s = *impl_;
+  const SecureReceiveResult result = s.session->Receive(std::span<const std::uint8_t>(s.rx.data(), length),
+                                                        static_cast<std::uint64_t>(now_ns), s.reply, s.opened);
+  if (result.reply_size > 0) SendRaw(s.reply.data(), result.reply_size);
+  counters_.handshakes_started = s.session->counters().handshakes_started;
+  const std::uint64_t id = s.session->session_id();
+  if (id != 0 && id != s.session_id) {
+    // A new session (first one, peer restart, re-handshake): its sequence starts again at 0.
+    s.session_id = id;
+    ++counters_.sessions;
+    s.intake.DropPending(counters_);
+    s.intake.ResetTracker();
+    s.last_sample_ns = now_ns;
+  }
+  switch (result.status) {
+    case SecureReceiveStatus::kSample:
+      s.last_sample_ns = now_ns;
+      return s.intake.OfferDecoded(s.opened, counters_) == SequenceTracker::Verdict::kNewer;
+    case SecureReceiveStatus::kHandshake:
+      s.intake.OfferHandshake(counters_);
+      return false;
+    default:
+      s.intake.RejectSecure(result.status, counters_);
+      return false;
+  }
+}
+
 bool UdpLink::PollUntil(proto::SampleMessage& newest, std::int64_t deadline_ns) noexcept {
+  if (impl_->session && impl_->initiator) DriveHandshake(NowNs(CLOCK_MONOTONIC));
   while (true) {
     // The offset between the kernel's clock (realtime) and the loop's (monotonic), read once per drain.
     const std::int64_t monotonic = NowNs(CLOCK_MONOTONIC);
@@ -224,7 +311,10 @@ bool UdpLink::PollOnce(proto::SampleMessage& newest, std::int64_t poll_monotonic
     // A truncated datagram (longer than the buffer) is offered at the buffer's length: more than any sample, so
     // it is rejected as kBadLength.
     const std::size_t length = std::min(static_cast<std::size_t>(size), impl_->rx.size());
-    if (!intake.Offer(std::span<const std::uint8_t>(impl_->rx.data(), length), counters_)) continue;
+    const bool newest_of_drain = impl_->session
+                                     ? OfferSecure(length, poll_monotonic_ns)
+                                     : intake.Offer(std::span<const std::uint8_t>(impl_->rx.data(), length), counters_);
+    if (!newest_of_drain) continue;
     pending_time = poll_monotonic_ns;
     pending_from_kernel = false;
     for (cmsghdr* c = CMSG_FIRSTHDR(&message); c != nullptr; c = CMSG_NXTHDR(&message, c)) {
@@ -247,7 +337,8 @@ bool UdpLink::PollOnce(proto::SampleMessage& newest, std::int64_t poll_monotonic
 std::string UdpLink::Describe() const {
   std::string text = "udp " + ToString(impl_->local) + " -> " + (impl_->has_peer ? ToString(impl_->peer) : "?");
   text += std::string(" (expects ") + proto::ToString(impl_->intake.expected_peer()) +
-          (impl_->accept_only_peer ? ", peer address only)" : ", any address)");
+          (impl_->accept_only_peer ? ", peer address only" : ", any address") +
+          (impl_->session ? ", authenticated: psk)" : ", INSECURE: no authentication)");
   return text;
 }
 

@@ -80,7 +80,7 @@ TEST(HybridBackend, ReadsItsSectionAndRunsAsSlaveAgainstAWall) {
 role: slave
 dof: 2
 rate_hz: 1000
-link: {transport: udp, bind: "127.0.0.1:47112", peer: "127.0.0.1:47111", timeout_ms: 50}
+link: {security: {mode: insecure}, transport: udp, bind: "127.0.0.1:47112", peer: "127.0.0.1:47111", timeout_ms: 50}
 law: {kp_N_per_m: 600, kd_Ns_per_m: 2, kv_Ns_per_m: 0, kf: 0, max_force_N: 60, velocity_filter_hz: 200}
 device:
   backend: hybrid
@@ -116,7 +116,7 @@ TEST(HybridBackend, BadSectionIsRejectedWithItsKey) {
 role: master
 dof: 2
 rate_hz: 1000
-link: {transport: udp, bind: "127.0.0.1:47111", peer: "127.0.0.1:47112", timeout_ms: 50}
+link: {security: {mode: insecure}, transport: udp, bind: "127.0.0.1:47111", peer: "127.0.0.1:47112", timeout_ms: 50}
 law: {kp_N_per_m: 600, kd_Ns_per_m: 2, kv_Ns_per_m: 0, kf: 0, max_force_N: 60, velocity_filter_hz: 200}
 device:
   backend: hybrid

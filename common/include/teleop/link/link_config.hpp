@@ -6,6 +6,7 @@
 #include "teleop/transport/can_link_config.hpp"
 #include "teleop/transport/impairment_model.hpp"
 #include "teleop/transport/link.hpp"
+#include "teleop/transport/link_security.hpp"
 #include "teleop/transport/udp_link.hpp"
 #include "teleop/types.hpp"
 
@@ -27,6 +28,8 @@ struct LinkConfig {
     ImpairmentConfig impairments{};
     std::uint64_t seed = 1;
   } emulate{};
+  /// `link.security` (docs/security.md): psk on UDP; CAN accepts only insecure (no room for a tag per frame).
+  LinkSecurityConfig security{};
 };
 
 /// The wire's name for a process of role `role` (the one mapping from teleop::Role to proto::SenderRole).

@@ -31,6 +31,7 @@ struct RunSummary {
   Distribution jitter_us{};   ///< |wake - scheduled|.
   Distribution compute_us{};  ///< Cycle body time.
   transport::LinkCounters link{};
+  std::string link_security = "insecure";  ///< link.security.mode: "psk" or "insecure" (counters in `link`).
   std::string link_detail;              ///< Medium-specific counters (CAN frames by status, bus load); may be empty.
   std::uint64_t link_fault_cycles = 0;  ///< Cycles in which the medium itself was down (CAN bus-off).
   /// With `link.emulate`: what the emulated network did to the samples this process received (JSON null without).

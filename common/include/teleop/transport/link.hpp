@@ -6,13 +6,14 @@
 
 #include "teleop/proto/codec.hpp"
 #include "teleop/proto/sample_message.hpp"
+#include "teleop/transport/secure_status.hpp"
 #include "teleop/transport/sequence_tracker.hpp"  // IWYU pragma: export
 
 namespace teleop::transport {
 
 /// What a link counts. Every datagram/frame read is counted under exactly one outcome:
-///   received == accepted + superseded + reordered + duplicates + rejected
-/// and rejected == sum(rejected_by_reason) + wrong_sender.
+///   received == accepted + superseded + reordered + duplicates + rejected + handshake_messages
+/// and rejected == sum(rejected_by_reason) + wrong_sender + sum(secure_rejected_by_reason).
 struct LinkCounters {
   std::uint64_t sent = 0;
   std::uint64_t send_errors = 0;  ///< Socket/bus refused a send (buffer full, bus-off, ...).
@@ -26,6 +27,13 @@ struct LinkCounters {
   std::uint64_t wrong_sender = 0;  ///< From an unexpected role or source address (also in rejected).
   std::uint64_t superseded = 0;    ///< Valid and in order, but a newer one arrived in the same drain.
   std::uint64_t bus_errors = 0;    ///< CAN error frames, socket receive errors and similar medium faults.
+  // Authenticated session (link.security.mode psk, docs/security.md); all zero on an insecure link.
+  /// Datagrams the session refused, indexed by SecureReceiveStatus (kSample and kHandshake stay 0); also in rejected.
+  std::array<std::uint64_t, kSecureStatusCount> secure_rejected_by_reason{};
+  std::uint64_t handshake_messages = 0;  ///< Valid handshake messages received (neither samples nor rejected).
+  std::uint64_t sessions = 0;            ///< Sessions established (Link::session_epoch()).
+  std::uint64_t handshakes_started = 0;  ///< Hellos sent (master) or answered (slave).
+  std::uint64_t send_no_session = 0;     ///< Send() while no session exists: nothing sent (not a send error).
 };
 
 /// A bidirectional sample link to the peer process. Both calls are made from the real-time thread: non-blocking,

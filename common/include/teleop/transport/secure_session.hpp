@@ -10,6 +10,7 @@
 #include "teleop/transport/secure_key_file.hpp"
 #include "teleop/transport/secure_rate_limiter.hpp"
 #include "teleop/transport/secure_replay_window.hpp"
+#include "teleop/transport/secure_status.hpp"  // IWYU pragma: export
 
 namespace teleop::transport {
 
@@ -44,27 +45,7 @@ struct SecureSessionConfig {
   double handshake_burst = 4.0;
 };
 
-/// What Receive() did with one datagram. Every datagram is exactly one of these, and one counter.
-enum class SecureReceiveStatus : std::uint8_t {
-  kSample = 0,            ///< An authenticated, fresh, plausible sample: `sample` written.
-  kHandshake,             ///< A valid handshake message; `reply_size` bytes to send may be in `reply`.
-  kRateLimited,           ///< Dropped by the datagram bucket, before parsing.
-  kHandshakeRateLimited,  ///< A hello/welcome over the handshake bucket, before any crypto.
-  kInsecure,              ///< A version-1 (unauthenticated) datagram: ignored, whatever its flags say.
-  kMalformed,             ///< Not a version-2 message of a known type and size (DecodeStatus != kOk).
-  kWrongSender,           ///< Carries our own role, or a role that may not send this type.
-  kUnexpectedHandshake,   ///< A handshake message that does not fit our role or state (e.g. welcome not awaited).
-  kBadHandshakeTag,       ///< Handshake MAC wrong (wrong PSK or forged), or a low-order ephemeral key.
-  kNoSession,             ///< A frame while no session exists: a new handshake is needed.
-  kWrongSession,          ///< A frame of another (older, or forged) session id.
-  kReplayed,              ///< Sequence already accepted in this session.
-  kTooOld,                ///< Sequence behind the replay window.
-  kBadTag,                ///< AEAD verification failed: forged, corrupted, truncated inside, or flipped bits.
-  kBadPlaintext,          ///< Authentic, but the inner sample does not decode or disagrees with the frame/config.
-  kImplausible,           ///< Authentic and valid, beyond the plausibility bounds.
-  kCount,
-};
-const char* ToString(SecureReceiveStatus status) noexcept;
+// SecureReceiveStatus (what Receive() did with one datagram): teleop/transport/secure_status.hpp.
 
 struct SecureReceiveResult {
   SecureReceiveStatus status = SecureReceiveStatus::kMalformed;

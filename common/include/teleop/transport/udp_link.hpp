@@ -5,6 +5,7 @@
 #include <string>
 
 #include "teleop/transport/link.hpp"
+#include "teleop/transport/link_security.hpp"
 
 namespace teleop::transport {
 
@@ -23,11 +24,23 @@ struct UdpLinkConfig {
   /// Spin receive (µs): when a Poll() finds no new sample, keep polling for up to this long before giving up
   /// (a spin before the deadline, for a sample known to be due). 0 = off: Poll() drains once and returns.
   int spin_poll_us = 0;
+  /// kPsk: every datagram goes through a SecureSession (docs/security.md); the key file is loaded in the
+  /// constructor. security.session.dof must be the process's DOF; its role is set from expected_peer.
+  LinkSecurityConfig security{};
+  /// kPsk, master: an established session whose peer sent no authenticated sample for this long is re-handshaken
+  /// (the slave may have restarted). The process sets it to link.timeout_ms.
+  double peer_silence_ms = 50.0;
 };
 
 /// UDP on Boost.Asio: a non-blocking socket bound to bind_address:bind_port, sending to the peer. Poll() drains
 /// the socket each cycle (at most kMaxDatagramsPerPoll, so a flood cannot stall the loop) and keeps the newest
 /// sequence (see Link). Send and Poll use buffers allocated in the constructor: no allocation, no exception.
+///
+/// Authenticated mode (security.mode kPsk): Poll passes every datagram from the peer's address to the session,
+/// sends its handshake replies, and feeds only authenticated samples to the keep-the-newest logic; everything else
+/// is counted by reason (LinkCounters::secure_rejected_by_reason). Send seals. The master drives the handshake
+/// from Poll: a hello at the first Poll and every handshake_retry_ms while no session is established or the peer
+/// has been silent for peer_silence_ms. A new session increments session_epoch() and resets the sequence tracker.
 ///
 /// Receive times: the socket has SO_TIMESTAMPNS, so every datagram carries the kernel's receive time, which the
 /// kernel takes in CLOCK_REALTIME. Poll() converts the one of the newest accepted sample to CLOCK_MONOTONIC (the
@@ -51,6 +64,7 @@ class UdpLink final : public Link {
   /// be due; no sleep). Returns what the last Poll() returned. Real-time safe.
   [[nodiscard]] bool PollUntil(proto::SampleMessage& newest, std::int64_t deadline_ns) noexcept;
   std::int64_t newest_receive_time_ns() const noexcept override { return newest_receive_time_ns_; }
+  std::uint64_t session_epoch() const noexcept override { return counters_.sessions; }
   /// True when the newest sample's receive time came from the kernel (false: the datagram had no timestamp and
   /// the time is when Poll read it).
   bool newest_receive_time_from_kernel() const noexcept { return newest_from_kernel_; }
@@ -67,6 +81,11 @@ class UdpLink final : public Link {
   struct Impl;
   bool PollOnce(proto::SampleMessage& newest, std::int64_t poll_monotonic_ns,
                 std::int64_t realtime_minus_monotonic_ns) noexcept;
+  /// Authenticated mode: one datagram through the session. True when it is now the newest sample of this drain.
+  bool OfferSecure(std::size_t length, std::int64_t now_ns) noexcept;
+  /// Authenticated mode, master: a hello when none is established or the peer went silent.
+  void DriveHandshake(std::int64_t now_ns) noexcept;
+  void SendRaw(const std::uint8_t* bytes, std::size_t size) noexcept;
 
   std::unique_ptr<Impl> impl_;
   LinkCounters counters_{};

@@ -1,0 +1,419 @@
+#!/usr/bin/env python3
+"""Attacks on the authenticated link (docs/security.md): teleop-slave and teleop-master as real processes on
+127.0.0.1 with the shipped configs (link.security.mode psk, loopback plant), attacked from this script.
+
+While the pair is coupled (master alive):
+  spoofed v1 sample    raw socket, source = the master's address and port, a valid version-1 sample (CRC right,
+                       sequence a little ahead) commanding -0.5 m
+  spoofed v2 frame     raw socket, same source: a captured frame's header (session id, sequence ahead), forged
+                       ciphertext and tag
+  spoofed shutdown     raw socket: version-1 samples with the shutdown flag, and captured frames whose encrypted
+                       shutdown bit is flipped (a stream cipher lets anyone flip it; the tag does not)
+  replay (live)        raw socket: captured genuine frames sent again, a second later
+  huge sequence jump   raw socket: a genuine frame with its sequence raised by 2^40 (the header is authenticated
+                       data), and a version-1 sample 2^31 ahead
+Then the master is killed (SIGKILL), and:
+  foreign stream       no privileges: a process binds the master's freed port and streams version-1 samples from
+                       sequence 0 (commanding 0.25 m), plus hellos with a wrong key
+  replay (master dead) from the master's port: the last captured frames, cyclically, for a second
+
+Each: 100 % rejected and counted by reason (the slave's summary; the reason totals must balance exactly), no forged
+value ever reaches the slave's law (its telemetry), the slave's motion is what it is without the attack (excursion
+of the slave at rest, against a quiet window of the same phase), and after the master died the slave's watchdog is never fed: every cycle
+from the timeout on has the peer-lost flag and a frozen peer input. Prints the table docs/security.md shows.
+
+Raw sockets (spoofing and capture) need root or CAP_NET_RAW; without them those rows are skipped with a message and
+only the unprivileged attack runs.
+"""
+import argparse
+import csv
+import datetime
+import json
+import os
+import random
+import re
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import time
+
+sys.dont_write_bytecode = True  # imports from the source tree: leave no __pycache__ there
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+import teleop_keys  # noqa: E402  (tests/test_utilities)
+from two_process_test import Failure, Output, check, free_udp_port, load, write_config  # noqa: E402
+
+FLAG_ENABLED, FLAG_PEER_LOST, FLAG_SHUTDOWN = 1, 4, 32
+FORGED_POSITIONS = (-0.5, 0.25)  # what the forgeries command; genuine positions stay within ±0.1 m here
+LIVE, DEAD = "live", "dead"
+
+
+# ---- wire formats (docs/protocol.md), written out here rather than taken from the library -----------------------
+
+def _crc32c_table():
+    table = []
+    for i in range(256):
+        c = i
+        for _ in range(8):
+            c = (c >> 1) ^ 0x82F63B78 if c & 1 else c >> 1
+        table.append(c)
+    return table
+
+
+CRC_TABLE = _crc32c_table()
+
+
+def crc32c(data):
+    c = 0xFFFFFFFF
+    for b in data:
+        c = CRC_TABLE[(c ^ b) & 0xFF] ^ (c >> 8)
+    return c ^ 0xFFFFFFFF
+
+
+def v1_sample(sequence, position, flags=FLAG_ENABLED, velocity=-12.0, force=-10.0, sender_time_ns=0):
+    """A version-1 sample from the master, 1 DOF, CRC-32C right: exactly what the version-1 receiver accepted."""
+    header = struct.pack("<IBBBBBBHIQQI", 0x504F4C54, 1, 1, 0, flags, 1, 0, 24, sequence & 0xFFFFFFFF,
+                         sender_time_ns, 0, 0)
+    body = header + struct.pack("<ddd", position, velocity, force)
+    return body + struct.pack("<I", crc32c(body))
+
+
+FRAME_SEQUENCE = slice(16, 24)
+
+
+def frame_sequence(frame):
+    return struct.unpack("<Q", frame[FRAME_SEQUENCE])[0]
+
+
+def with_sequence(frame, sequence):
+    return frame[:16] + struct.pack("<Q", sequence) + frame[24:]
+
+
+def forged_frame(frame, sequence, rng):
+    """The captured header (session id, length) with a new sequence; ciphertext and tag random."""
+    return with_sequence(frame, sequence)[:28] + bytes(rng.getrandbits(8) for _ in range(len(frame) - 28))
+
+
+def flipped_shutdown(frame, sequence):
+    """The genuine ciphertext with the plaintext's shutdown flag bit flipped (flags at offset 7 of the sample)."""
+    b = bytearray(with_sequence(frame, sequence))
+    b[28 + 7] ^= FLAG_SHUTDOWN
+    return bytes(b)
+
+
+def bad_hello(rng):
+    """A version-2 hello from "the master" with a random ephemeral key and a MAC made without the PSK."""
+    return struct.pack("<IBBBB", 0x504F4C54, 2, 2, 0, 0) + bytes(rng.getrandbits(8) for _ in range(64))
+
+
+# ---- raw sockets: spoof the master's source port, capture its frames --------------------------------------------
+
+class Raw:
+    """IPv4 raw socket writing UDP datagrams with any source (root or CAP_NET_RAW)."""
+
+    def __init__(self):
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_RAW, socket.IPPROTO_RAW)
+
+    def send(self, payload, src_port, dst_port):
+        udp = struct.pack("!HHHH", src_port, dst_port, 8 + len(payload), 0)  # checksum 0: none (IPv4)
+        ip = struct.pack("!BBHHHBBH4s4s", 0x45, 0, 20 + 8 + len(payload), 0, 0, 64, socket.IPPROTO_UDP, 0,
+                         socket.inet_aton("127.0.0.1"), socket.inet_aton("127.0.0.1"))
+        self.sock.sendto(ip + udp + payload, ("127.0.0.1", 0))
+
+
+def capture(src_port, dst_port, seconds):
+    """Genuine version-2 frames from src_port to dst_port on lo, for `seconds` (AF_PACKET, root)."""
+    s = socket.socket(socket.AF_PACKET, socket.SOCK_DGRAM, socket.htons(0x0800))
+    s.bind(("lo", 0x0800))
+    s.settimeout(0.05)
+    frames = []
+    end = time.monotonic() + seconds
+    try:
+        while time.monotonic() < end:
+            try:
+                data, addr = s.recvfrom(2048)
+            except socket.timeout:
+                continue
+            if addr[2] == socket.PACKET_OUTGOING or len(data) < 28 or data[9] != socket.IPPROTO_UDP:
+                continue
+            ihl = (data[0] & 0x0F) * 4
+            sport, dport = struct.unpack("!HH", data[ihl:ihl + 4])
+            payload = data[ihl + 8:]
+            if sport == src_port and dport == dst_port and len(payload) > 28 and payload[4] == 2 and payload[5] == 5:
+                frames.append(bytes(payload))
+    finally:
+        s.close()
+    return frames
+
+
+def raw_sockets_available():
+    try:
+        Raw().sock.close()
+        socket.socket(socket.AF_PACKET, socket.SOCK_DGRAM, socket.htons(0x0800)).close()
+        return True, ""
+    except (PermissionError, OSError) as e:
+        return False, str(e)
+
+
+# ---- telemetry on the wall clock ----------------------------------------------------------------------------------
+
+def start_wall_time(output_text, program):
+    """Wall time (seconds of the day) at which the loop started: the node's start-up line, logged just before it."""
+    for line in output_text.splitlines():
+        m = re.match(r"^\[(\d\d):(\d\d):(\d\d)\.(\d\d\d)\] \[" + program + r"\] \[info\] " + program + r": \d+ DOF",
+                     line)
+        if m:
+            h, mi, s, ms = (int(x) for x in m.groups())
+            return h * 3600 + mi * 60 + s + ms / 1000.0
+    raise Failure(f"no start-up line from {program} (the test reads its time to align telemetry)")
+
+
+def wall_now():
+    now = datetime.datetime.now()
+    return now.hour * 3600 + now.minute * 60 + now.second + now.microsecond / 1e6
+
+
+def read_telemetry(path, start_wall):
+    with open(path) as f:
+        rows = [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
+    for r in rows:
+        r["wall"] = start_wall + r["time_s"]
+    return rows
+
+
+def between(rows, t0, t1):
+    return [r for r in rows if t0 <= r["wall"] <= t1]
+
+
+# ---- the run ------------------------------------------------------------------------------------------------------
+
+class Attack:
+    def __init__(self, name, phase, reasons):
+        self.name, self.phase, self.reasons = name, phase, reasons
+        self.sent = 0
+        self.t0 = self.t1 = None
+
+    def __enter__(self):
+        self.t0 = wall_now()
+        return self
+
+    def __exit__(self, *exc):
+        self.t1 = wall_now()
+
+
+def paced(send, items, per_ms=2):
+    """Sends `items` at about per_ms per millisecond: under the slave's datagram bucket (20000/s), so every one is
+    judged rather than rate limited, and well inside its socket buffer."""
+    n = 0
+    for i, item in enumerate(items):
+        send(item)
+        n += 1
+        if i % per_ms == per_ms - 1:
+            time.sleep(0.001)
+    return n
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--master", required=True)
+    ap.add_argument("--slave", required=True)
+    ap.add_argument("--configs", required=True)
+    ap.add_argument("--workdir", required=True)
+    args = ap.parse_args()
+    os.makedirs(args.workdir, exist_ok=True)
+    rng = random.Random(10)
+    ports = (free_udp_port(), free_udp_port())
+    master_port, slave_port = ports
+    files = {n: os.path.join(args.workdir, n) for n in ("master.yaml", "slave.yaml", "master.csv", "slave.csv",
+                                                        "slave.json")}
+    for p in files.values():
+        if os.path.exists(p):
+            os.remove(p)
+    write_config(os.path.join(args.configs, "master.yaml"), files["master.yaml"], ports, files["master.csv"])
+    write_config(os.path.join(args.configs, "slave.yaml"), files["slave.yaml"], ports, files["slave.csv"])
+    timeout_s = 0.050  # link.timeout_ms of the shipped configs
+    check("mode: psk" in open(files["slave.yaml"]).read(), "the shipped slave config authenticates (mode psk)")
+
+    privileged, why = raw_sockets_available()
+    if not privileged:
+        print(f"SKIPPED (no raw sockets: {why}): the spoofed-source, capture and replay attacks need root or "
+              "CAP_NET_RAW; only the unprivileged foreign stream runs")
+
+    slave = subprocess.Popen([args.slave, "--config", files["slave.yaml"], "--duration", "0", "--summary-json",
+                              files["slave.json"]], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    slave_out = Output(slave)
+    master = subprocess.Popen([args.master, "--config", files["master.yaml"], "--duration", "0"],
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    master_out = Output(master)
+    attacks = []
+    try:
+        if not (master_out.wait_for("peer connected", 120) and slave_out.wait_for("peer connected", 20)):
+            raise Failure("the two processes never coupled")
+        # The master's scripted operator ramps, holds and pulls back until 4 s, then holds (deploy/configs/master.yaml):
+        # attack a pair at rest, so that any motion during an attack is the attack's.
+        time.sleep(5.5)
+        quiet_live = Attack("(none: coupled, quiet)", LIVE, ())
+        with quiet_live:
+            frames = capture(master_port, slave_port, 1.0) if privileged else []
+            if not privileged:
+                time.sleep(1.0)
+        if privileged:
+            check(len(frames) > 100, f"captured {len(frames)} genuine master frames")
+            raw = Raw()
+            to_slave = lambda payload: raw.send(payload, master_port, slave_port)  # noqa: E731
+            ahead = frame_sequence(frames[-1]) + 5000  # ahead of anything the master sent so far
+            newest_v1 = 0
+            with Attack("spoofed source, v1 sample", LIVE, ("insecure",)) as a:
+                a.sent = paced(to_slave, [v1_sample(newest_v1 + 1 + i, FORGED_POSITIONS[0]) for i in range(300)])
+            attacks.append(a)
+            time.sleep(0.2)
+            with Attack("spoofed source, v2 frame", LIVE, ("bad_tag",)) as a:
+                a.sent = paced(to_slave, [forged_frame(frames[-1], ahead + i, rng) for i in range(300)])
+            attacks.append(a)
+            time.sleep(0.2)
+            with Attack("spoofed shutdown (v1 flag, v2 bit flip)", LIVE, ("insecure", "bad_tag")) as a:
+                items = [v1_sample(10 + i, 0.0, FLAG_ENABLED | FLAG_SHUTDOWN, 0.0, 0.0) for i in range(100)]
+                items += [flipped_shutdown(frames[-1 - i], ahead + 1000 + i) for i in range(100)]
+                a.sent = paced(to_slave, items)
+            attacks.append(a)
+            time.sleep(0.2)
+            with Attack("replay of captured traffic (live)", LIVE, ("replayed", "too_old")) as a:
+                a.sent = paced(to_slave, frames)
+            attacks.append(a)
+            time.sleep(0.2)
+            with Attack("huge sequence jump (v2 +2^40, v1 +2^31)", LIVE, ("bad_tag", "insecure")) as a:
+                items = [with_sequence(frames[-1 - i], frame_sequence(frames[-1 - i]) + (1 << 40)) for i in range(100)]
+                items += [v1_sample((1 << 31) + i, FORGED_POSITIONS[0]) for i in range(100)]
+                a.sent = paced(to_slave, items)
+            attacks.append(a)
+            time.sleep(0.2)
+            last_frames = capture(master_port, slave_port, 0.3)
+            check(len(last_frames) > 30, f"captured the master's last {len(last_frames)} frames before it dies")
+        if master.poll() is not None:
+            raise Failure(f"the master stopped during the live attacks (exit {master.returncode})")
+        kill_wall = wall_now()
+        master.send_signal(signal.SIGKILL)
+        master.wait(timeout=30)
+        time.sleep(0.1)
+        quiet_dead = Attack("(none: master dead, quiet)", DEAD, ())
+        with quiet_dead:
+            time.sleep(0.4)
+        # The master's port is free now: any local user can bind it.
+        foreign = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        foreign.bind(("127.0.0.1", master_port))
+        to_slave_unprivileged = lambda payload: foreign.sendto(payload, ("127.0.0.1", slave_port))  # noqa: E731
+        with Attack("foreign stream after the master died (port reused)", DEAD,
+                    ("insecure", "bad_handshake_tag", "handshake_rate_limited")) as a:
+            a.sent = paced(to_slave_unprivileged, [bad_hello(rng) for _ in range(10)], per_ms=1)
+            a.sent += paced(to_slave_unprivileged,
+                            [v1_sample(i, FORGED_POSITIONS[1], velocity=12.0, force=10.0) for i in range(1000)],
+                            per_ms=1)
+        attacks.append(a)
+        if privileged:
+            with Attack("replay with the master dead", DEAD, ("replayed", "too_old")) as a:
+                replay = last_frames[-300:] + frames[-300:]
+                a.sent = paced(to_slave_unprivileged, (replay * 4)[:2000], per_ms=2)
+            attacks.append(a)
+        foreign.close()
+        time.sleep(0.3)
+        end_wall = wall_now()
+        slave.send_signal(signal.SIGTERM)
+        slave.wait(timeout=60)
+    finally:
+        for p in (master, slave):
+            if p.poll() is None:
+                p.kill()
+    slave_text = slave_out.text()
+    master_out.text()
+    print("---- slave output ----\n" + slave_text)
+
+    check(slave.returncode == 0, f"slave exits 0 after SIGTERM (got {slave.returncode})")
+    s = load(files["slave.json"])
+    pk = s["packets"]
+    sec = s["security"]
+    check(sec["mode"] == "psk", "the slave's summary says security mode psk")
+    check(s["stop_reason"] == "signal", f"the slave ran until stopped (stop reason '{s['stop_reason']}': no spoofed "
+                                        "shutdown stopped it)")
+    counted = sec["rejected_by_reason"]
+    total_sent = sum(a.sent for a in attacks)
+    check(pk["wrong_sender"] == 0, "every attack came from the master's own address and port (none filtered by it)")
+    check(pk["rejected"] == total_sent, f"slave rejected {pk['rejected']} datagrams: all {total_sent} attacks, "
+                                        "nothing else")
+    reasons = sorted({r for a in attacks for r in a.reasons})
+    # Reason groups: each group's counters must add up to what the attacks of that group sent.
+    groups = {}
+    for a in attacks:
+        groups.setdefault(frozenset(a.reasons), []).append(a)
+    merged = []  # union-find-free merge of overlapping reason sets
+    for g in groups:
+        hit = [m for m in merged if m[0] & g]
+        for m in hit:
+            merged.remove(m)
+        reasons_union = frozenset(g).union(*[m[0] for m in hit])
+        members = sum((m[1] for m in hit), []) + groups[g]
+        merged.append((reasons_union, members))
+    for reasons_set, members in merged:
+        expected = sum(a.sent for a in members)
+        got = sum(counted.get(r, 0) for r in reasons_set)
+        check(got == expected, f"reasons {'+'.join(sorted(reasons_set))}: {got} counted = {expected} sent by "
+                               f"{', '.join(a.name for a in members)}")
+    unexpected = {r: n for r, n in counted.items() if n and r not in reasons}
+    check(not unexpected, f"no rejection for any other reason ({unexpected or 'none'})")
+
+    slave_rows = read_telemetry(files["slave.csv"], start_wall_time(slave_text, "teleop-slave"))
+    check(len(slave_rows) > 1000, f"telemetry: slave {len(slave_rows)} records")
+    worst_peer = max(abs(r["peer_position_m_0"]) for r in slave_rows)
+    check(worst_peer < 0.1 and not any(r["peer_position_m_0"] in FORGED_POSITIONS for r in slave_rows),
+          f"no forged position ever reached the slave's law (largest peer input {worst_peer*1e3:.2f} mm)")
+
+    # Excursion: how far the slave moved during the window (and 0.1 s after it) from where it was when the window
+    # began. The pair is at rest, so a quiet window of the same phase shows what "no effect" looks like.
+    def excursion(a):
+        rows = between(slave_rows, a.t0, a.t1 + 0.1)
+        if not rows:
+            raise Failure(f"no slave telemetry in the window of '{a.name}'")
+        return max(abs(r["position_m_0"] - rows[0]["position_m_0"]) for r in rows)
+
+    table = [(quiet_live, None)] + [(a, None) for a in attacks if a.phase == LIVE] + [(quiet_dead, None)] + \
+        [(a, None) for a in attacks if a.phase == DEAD]
+    rows_out = []
+    for a, _ in table:
+        ex = excursion(a)
+        rows_out.append((a.name, a.sent if a.reasons else "-", a.sent if a.reasons else "-",
+                         "+".join(a.reasons) if a.reasons else "-", ex * 1e3))
+    base_live = excursion(quiet_live)
+    base_dead = excursion(quiet_dead)
+    for a in attacks:
+        ex = excursion(a)
+        base = base_live if a.phase == LIVE else base_dead
+        check(ex <= base + 0.1e-3, f"{a.name}: slave excursion {ex*1e3:.4f} mm, quiet window {base*1e3:.4f} mm")
+
+    # The watchdog is never fed after the master died: from the kill + timeout (+ alignment margin) to the end,
+    # every slave cycle says peer lost and its peer input is frozen.
+    after = between(slave_rows, kill_wall + timeout_s + 0.05, end_wall)
+    check(len(after) > 500, f"{len(after)} slave cycles after the master died")
+    lost = sum(1 for r in after if int(r["flags"]) & FLAG_PEER_LOST)
+    check(lost == len(after), f"peer lost in {lost} of {len(after)} cycles after the master died (replays and the "
+                              "foreign stream never fed the watchdog)")
+    frozen = {r["peer_position_m_0"] for r in after}
+    check(len(frozen) == 1, f"the slave's peer input stayed frozen after the master died ({len(frozen)} values)")
+    check(s["watchdog_trips"] >= 1, f"slave watchdog tripped ({s['watchdog_trips']})")
+
+    print("\nattack table (slave side). rejected: the slave's rejected total equals the datagrams sent and each datagram"
+          " has exactly one outcome, so every one was rejected; the reason totals balance per group (checked above)")
+    print(f"| {'attack':<52} | {'sent':>5} | {'rejected':>8} | {'counted reason':<46} | slave excursion |")
+    print(f"| {'-'*52} | {'-'*4}: | {'-'*7}: | {'-'*46} | {'-'*14}: |")
+    for name, sent, rejected, reason, ex_mm in rows_out:
+        print(f"| {name:<52} | {sent!s:>5} | {rejected!s:>8} | {reason:<46} | {ex_mm*1e3:12.1f} µm |")
+    print("\nslave counters: " + json.dumps({k: v for k, v in counted.items() if v}) +
+          f"; sessions {sec['sessions']}; watchdog trips {s['watchdog_trips']}")
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except Failure as e:
+        print(f"FAILED: {e}")
+        sys.exit(1)
+    print("PASSED")
