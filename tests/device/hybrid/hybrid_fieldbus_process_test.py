@@ -33,6 +33,9 @@ import tempfile
 import threading
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "test_utilities"))
+import teleop_keys  # noqa: E402  (link.security key_file: teleop.key, beside each config)
+
 
 def free_port(kind=socket.SOCK_DGRAM):
     with socket.socket(socket.AF_INET, kind) as s:
@@ -190,6 +193,7 @@ def run_fieldbus(args, scenario, tmp):
         slave_yaml = os.path.join(tmp, "slave-fieldbus.yaml")
         open(master_yaml, "w").write(master_text)
         open(slave_yaml, "w").write(slave_text)
+        teleop_keys.ensure_key(tmp)
         duration = 120  # stopped with SIGTERM once the checks are done (a loaded host may be slow to get there)
         slave = subprocess.Popen([os.path.join(args.bin, "teleop-slave"), "--config", slave_yaml,
                                   "--duration", str(duration), "--summary-json", os.path.join(tmp, "slave.json")],
@@ -308,6 +312,7 @@ def run_as_slave(args, tmp):
         text = re.sub(r'(?m)^(\s*csv:).*$', lambda m: f'{m.group(1)} "{os.path.join(tmp, role + ".csv")}"', text)
         paths[role] = os.path.join(tmp, f"{role}.yaml")
         open(paths[role], "w").write(text)
+    teleop_keys.ensure_key(tmp)
     slave = subprocess.Popen([os.path.join(args.bin, "teleop-slave"), "--config", paths["slave"], "--duration", "30",
                               "--summary-json", os.path.join(tmp, "slave.json")],
                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
