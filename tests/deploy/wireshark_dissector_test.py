@@ -23,24 +23,8 @@ import sys
 import tempfile
 import time
 
-SKIP = 77
-
-
-class Failure(Exception):
-    pass
-
-
-def check(cond, what):
-    if not cond:
-        raise Failure(what)
-    print(f"  ok: {what}")
-
-
-def free_udp_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+from teleop_process import Failure, SKIP, check, free_udp_port, run_test, start_capture, stop_capture  # noqa: E402
 
 def write_config(src, dst, ports, csv_path):
     text = open(src).read().replace("47001", str(ports[0])).replace("47002", str(ports[1]))
@@ -123,22 +107,9 @@ def main():
         write_config(os.path.join(args.configs, "master.yaml"), mcfg, ports, mcsv)
         write_config(os.path.join(args.configs, "slave.yaml"), scfg, ports, scsv)
         pcap = os.path.join(tmp, "run.pcapng")
-        cap = subprocess.Popen([tshark, "-i", "lo", "-q", "-w", pcap, "-f",
-                                f"udp port {ports[0]} or udp port {ports[1]}"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        # tshark says "Capturing on 'Loopback: lo'" once the capture runs.
-        line, deadline = "", time.monotonic() + 30
-        while time.monotonic() < deadline:
-            line = cap.stderr.readline()
-            if "Capturing on" in line or not line:
-                break
-        if "Capturing on" not in line:
-            cap.kill()
-            rest = line + cap.stderr.read()
-            if "permission" in rest.lower() or "not permitted" in rest.lower():
-                print(f"SKIPPED: capturing on lo is not permitted here: {rest.strip()}")
-                return SKIP
-            raise Failure(f"tshark did not start capturing: {rest.strip()}")
+        cap = start_capture(pcap, f"udp port {ports[0]} or udp port {ports[1]}")
+        if cap is None:
+            return SKIP
         try:
             slave = subprocess.Popen([args.slave, "--config", scfg, "--duration", "6"],
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
@@ -153,11 +124,7 @@ def main():
             sout, _ = slave.communicate(timeout=60)
             time.sleep(0.3)
         finally:
-            cap.send_signal(signal.SIGINT)
-            try:
-                cap.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                cap.kill()
+            stop_capture(cap)
         print(mout, sout)
         check(master.returncode == 0 and slave.returncode == 0, "both processes ran and exited 0")
         check("rejected 2" in sout, "the slave rejected the two datagrams the test sent")
@@ -229,11 +196,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        rc = main()
-    except Failure as e:
-        print(f"FAILED: {e}")
-        sys.exit(1)
-    if rc == 0:
-        print("PASSED")
-    sys.exit(rc)
+    run_test(main)
