@@ -13,13 +13,9 @@ runs on one machine do not see each other. Every wait is bounded; nothing is tim
 """
 import argparse
 import json
-import math
 import os
 import re
 import signal
-import socket
-import statistics
-import subprocess
 import sys
 import time
 

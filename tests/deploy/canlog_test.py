@@ -12,15 +12,14 @@ import argparse
 import json
 import os
 import re
-import signal
-import socket
 import subprocess
 import sys
 import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
-from teleop_process import Failure, SKIP, check, free_udp_port, run_test, start_capture, stop_capture  # noqa: E402
+from teleop_process import (SKIP, check, free_udp_port, run_test,  # noqa: E402
+                            start_capture, stop_capture)
 
 def main():
     ap = argparse.ArgumentParser()

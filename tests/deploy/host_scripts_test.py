@@ -8,12 +8,11 @@ rt-check.sh: on this host it finishes (status 0 or 1) with one finding per check
 """
 import argparse
 import os
-import subprocess
 import sys
 import tempfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
-from teleop_process import Failure, check, run, run_test  # noqa: E402
+from teleop_process import check, run, run_test  # noqa: E402
 
 
 def can_up(script):

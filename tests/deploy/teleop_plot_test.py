@@ -10,13 +10,12 @@
 """
 import argparse
 import os
-import socket
 import subprocess
 import sys
 import tempfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
-from teleop_process import Failure, check, free_udp_port, run, run_test  # noqa: E402
+from teleop_process import check, free_udp_port, run, run_test  # noqa: E402
 
 VIEWS = ["positions", "forces", "fixture", "period", "rtt", "loss", "engagement"]
 

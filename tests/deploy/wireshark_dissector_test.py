@@ -15,7 +15,6 @@ import csv
 import math
 import os
 import re
-import signal
 import socket
 import struct
 import subprocess
@@ -24,7 +23,8 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
-from teleop_process import Failure, SKIP, check, free_udp_port, run_test, start_capture, stop_capture  # noqa: E402
+from teleop_process import (Failure, SKIP, check, free_udp_port,  # noqa: E402
+                            run_test, start_capture, stop_capture)
 
 def write_config(src, dst, ports, csv_path):
     text = open(src).read().replace("47001", str(ports[0])).replace("47002", str(ports[1]))
@@ -143,7 +143,8 @@ def main():
         frames = len(rows)
         teleop_rows = [x for x in rows if x["teleop.seq"] != ""]
         other = [x for x in rows if x["teleop.seq"] == ""]
-        check(frames > 1000, f"{frames} frames captured")
+        # The run is 1.5 s at 1 kHz, but a loaded machine achieves less: ask for a real run, not a rate.
+        check(frames > 200, f"{frames} frames captured")
         check(len(other) == 1, f"exactly one frame (the foreign datagram) is not teleop ({len(other)})")
 
         mrows, srows = read_csv(mcsv), read_csv(scsv)
