@@ -24,36 +24,30 @@ using teleop::proto::can::CanFrame;
 namespace canopen = teleop::fieldbus::canopen;
 namespace cia402 = teleop::fieldbus::cia402;
 
-void CheckSdo(const CanFrame& frame) {
+/// One direction of expedited SDO: a frame `decode` accepts as `data_kind` has a 1..4-byte value within its size and
+/// re-encodes (with `encode`) to a frame that decodes the same; an abort has a text.
+template <typename Decode, typename Encode>
+void CheckSdoDirection(const CanFrame& frame, canopen::SdoMessage::Kind data_kind, Decode decode, Encode encode) {
   canopen::SdoMessage m{};
-  if (canopen::DecodeSdoRequest(frame, m)) {
-    TELEOP_FUZZ_CHECK(!frame.extended && frame.len == 8);
-    if (m.kind == canopen::SdoMessage::Kind::kDownloadRequest) {
-      TELEOP_FUZZ_CHECK(m.size >= 1 && m.size <= 4);
-      TELEOP_FUZZ_CHECK(m.size == 4 || m.value < (1u << (8 * m.size)));
-      const auto node = static_cast<std::uint8_t>(frame.id & 0x7F);
-      canopen::SdoMessage again{};
-      TELEOP_FUZZ_CHECK(canopen::DecodeSdoRequest(
-          canopen::EncodeSdoDownloadRequest(node, m.index, m.subindex, m.value, m.size), again));
-      TELEOP_FUZZ_CHECK(again.kind == m.kind && again.index == m.index && again.subindex == m.subindex &&
-                        again.value == m.value && again.size == m.size);
-    }
-    if (m.kind == canopen::SdoMessage::Kind::kAbort) TELEOP_FUZZ_CHECK(canopen::DescribeSdoAbort(m.abort_code));
+  if (!decode(frame, m)) return;
+  TELEOP_FUZZ_CHECK(!frame.extended && frame.len == 8);
+  if (m.kind == data_kind) {
+    TELEOP_FUZZ_CHECK(m.size >= 1 && m.size <= 4);
+    TELEOP_FUZZ_CHECK(m.size == 4 || m.value < (1u << (8 * m.size)));
+    const auto node = static_cast<std::uint8_t>(frame.id & 0x7F);
+    canopen::SdoMessage again{};
+    TELEOP_FUZZ_CHECK(decode(encode(node, m.index, m.subindex, m.value, m.size), again));
+    TELEOP_FUZZ_CHECK(again.kind == m.kind && again.index == m.index && again.subindex == m.subindex &&
+                      again.value == m.value && again.size == m.size);
   }
-  if (canopen::DecodeSdoResponse(frame, m)) {
-    TELEOP_FUZZ_CHECK(!frame.extended && frame.len == 8);
-    if (m.kind == canopen::SdoMessage::Kind::kUploadResponse) {
-      TELEOP_FUZZ_CHECK(m.size >= 1 && m.size <= 4);
-      TELEOP_FUZZ_CHECK(m.size == 4 || m.value < (1u << (8 * m.size)));
-      const auto node = static_cast<std::uint8_t>(frame.id & 0x7F);
-      canopen::SdoMessage again{};
-      TELEOP_FUZZ_CHECK(canopen::DecodeSdoResponse(
-          canopen::EncodeSdoUploadResponse(node, m.index, m.subindex, m.value, m.size), again));
-      TELEOP_FUZZ_CHECK(again.kind == m.kind && again.index == m.index && again.subindex == m.subindex &&
-                        again.value == m.value && again.size == m.size);
-    }
-    if (m.kind == canopen::SdoMessage::Kind::kAbort) TELEOP_FUZZ_CHECK(canopen::DescribeSdoAbort(m.abort_code));
-  }
+  if (m.kind == canopen::SdoMessage::Kind::kAbort) TELEOP_FUZZ_CHECK(canopen::DescribeSdoAbort(m.abort_code));
+}
+
+void CheckSdo(const CanFrame& frame) {
+  CheckSdoDirection(frame, canopen::SdoMessage::Kind::kDownloadRequest, canopen::DecodeSdoRequest,
+                    canopen::EncodeSdoDownloadRequest);
+  CheckSdoDirection(frame, canopen::SdoMessage::Kind::kUploadResponse, canopen::DecodeSdoResponse,
+                    canopen::EncodeSdoUploadResponse);
 }
 
 void CheckNmtHeartbeatSyncEmcy(const CanFrame& frame) {
