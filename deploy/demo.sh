@@ -19,22 +19,30 @@ demo_key() {
   echo "${key}"
 }
 
+# A two-machine rig config (deploy/configs/<rig>/*-udp.yaml) for this one machine: its 10.77.0.x addresses become
+# 127.0.0.1 (the ports differ per role) and the real-time settings are relaxed (no root needed).
+one_machine_config() {
+  sed -e 's/10\.77\.0\.[12]:/127.0.0.1:/' -e 's/^\(\s*fifo_priority:\)\s*[0-9]*/\1 0/' \
+      -e 's/^\(\s*lock_memory:\)\s*[a-z]*/\1 false/' "$1" > "$2"
+}
+
 # ---- hybrid device block: master = simulated hybrid motor-brake rig, slave = loopback, 2 DOF, UDP, ~3 s ----
 if [[ "${1:-}" == "--device" && "${2:-}" == "hybrid" ]]; then
   teleop::ensure_packages "${TELEOP_PACKAGES[@]}"
   teleop::build --target teleop-master teleop-slave teleop_keygen
   out="${TELEOP_BUILD}/demo"
   mkdir -p "${out}"
-  cfg="${TELEOP_ROOT}/deploy/configs"
   key=$(demo_key "${out}")
-  "${TELEOP_BUILD}/bin/teleop-slave" --config "${cfg}/hybrid-slave-loopback.yaml" --duration 6 --key-file "${key}" \
+  one_machine_config "${TELEOP_ROOT}/deploy/configs/hybrid/master-udp.yaml" "${out}/hybrid-master.yaml"
+  one_machine_config "${TELEOP_ROOT}/deploy/configs/hybrid/slave-udp.yaml" "${out}/hybrid-slave.yaml"
+  "${TELEOP_BUILD}/bin/teleop-slave" --config "${out}/hybrid-slave.yaml" --duration 6 --key-file "${key}" \
     --summary-json "${out}/hybrid-slave-summary.json" --telemetry-csv "${out}/hybrid-slave.csv" \
     > "${out}/hybrid-slave.log" 2>&1 &
   hybrid_slave=$!
   trap 'kill "${hybrid_slave}" 2>/dev/null || true' EXIT
   sleep 0.3
   hybrid_rc=0
-  "${TELEOP_BUILD}/bin/teleop-master" --config "${cfg}/hybrid-master.yaml" --duration 3 --key-file "${key}" \
+  "${TELEOP_BUILD}/bin/teleop-master" --config "${out}/hybrid-master.yaml" --duration 3 --key-file "${key}" \
     --summary-json "${out}/hybrid-master-summary.json" --telemetry-csv "${out}/hybrid-master.csv" \
     > "${out}/hybrid-master.log" 2>&1 || hybrid_rc=$?
   wait "${hybrid_slave}" || hybrid_rc=$?
@@ -73,15 +81,16 @@ if [[ "${1:-}" == "--device" && "${2:-}" == "cobot" ]]; then
   teleop::build --target teleop-master teleop-slave teleop_keygen
   out="${TELEOP_BUILD}/demo-cobot"
   mkdir -p "${out}"
-  cfg="${TELEOP_ROOT}/deploy/configs"
   key=$(demo_key "${out}")
+  one_machine_config "${TELEOP_ROOT}/deploy/configs/cobot/master-udp.yaml" "${out}/master.yaml"
+  one_machine_config "${TELEOP_ROOT}/deploy/configs/cobot/slave-udp.yaml" "${out}/slave.yaml"
   echo "[demo] cobot master + loopback slave (UDP, 1 kHz, 2 DOF, ~5 s)"
-  "${TELEOP_BUILD}/bin/teleop-slave" --config "${cfg}/cobot-slave.yaml" --duration 8 --key-file "${key}" \
+  "${TELEOP_BUILD}/bin/teleop-slave" --config "${out}/slave.yaml" --duration 8 --key-file "${key}" \
     --summary-json "${out}/slave-summary.json" --telemetry-csv "${out}/slave.csv" > "${out}/slave.log" 2>&1 &
   cobot_slave_pid=$!
   sleep 0.3
   master_rc=0
-  "${TELEOP_BUILD}/bin/teleop-master" --config "${cfg}/cobot-master.yaml" --duration 5 --key-file "${key}" \
+  "${TELEOP_BUILD}/bin/teleop-master" --config "${out}/master.yaml" --duration 5 --key-file "${key}" \
     --summary-json "${out}/master-summary.json" --telemetry-csv "${out}/master.csv" > "${out}/master.log" 2>&1 ||
     master_rc=$?
   slave_rc=0

@@ -221,6 +221,9 @@ TEST(StabilityCheck, CouplingUnstableWithoutFixtureIsRefused) {
   const std::string message = DescribeFailure(config, report);
   EXPECT_THAT(message, HasSubstr("UNSTABLE even without a fixture (predicted limit 0 N/m, configured fixture 0 N/m"));
   EXPECT_THAT(message, HasSubstr("Raise rate_hz"));
+  // The units and the assumptions are separate words ("0 N/m, 250 Hz"), not glued ("0 N/m250 Hz").
+  EXPECT_THAT(message, HasSubstr("configured fixture 0 N/m, 250 Hz, bilateral"));
+  EXPECT_THAT(message, ::testing::Not(::testing::ContainsRegex("N/m[0-9]")));
 }
 
 // Per DOF: each axis with its own gains; the fixture only along the axes its planes touch; identical axes analysed

@@ -13,17 +13,16 @@ runs on one machine do not see each other. Every wait is bounded; nothing is tim
 """
 import argparse
 import json
-import math
 import os
 import re
 import signal
-import socket
-import statistics
-import subprocess
 import sys
 import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 import teleop_keys  # noqa: E402  (tests/test_utilities)
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+from teleop_process import Failure, Processes, check, free_udp_port  # noqa: E402
 
 CYCLONE_XML = """<CycloneDDS><Domain id="any">
   <General><Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast></General>
@@ -36,22 +35,6 @@ STALE_AFTER_S = 1.0
 # A kill must show within this long: the stale limit plus generous slack for a loaded machine (refresh 0.2 s).
 KILL_VISIBLE_WITHIN_S = STALE_AFTER_S + 4.0
 MASTER_DURATION_S = 7.0
-
-
-class Failure(Exception):
-    pass
-
-
-def check(cond, what):
-    if not cond:
-        raise Failure(what)
-    print(f"  ok: {what}")
-
-
-def free_udp_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def write_config(src, dst, ports, domain, pair):
@@ -109,13 +92,10 @@ def main():
     domain = 10 + os.getpid() % 140
     pairs = [f"tp{os.getpid()}a", f"tp{os.getpid()}b"]
     record = os.path.join(work, "supervise.jsonl")
-    procs = {}
-    logs = []
+    procs = Processes(env=env)
 
     def spawn(key, cmd):
-        log = open(os.path.join(work, key + ".log"), "w")
-        logs.append(log)
-        procs[key] = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env)
+        procs.start(key, cmd, log_path=os.path.join(work, key + ".log"))
 
     try:
         spawn("supervise", [args.supervise, "--domain", str(domain), "--interval", "0.2", "--stale-after",
@@ -228,18 +208,13 @@ def main():
         return 0
     except Failure as e:
         print(f"FAIL: {e}")
-        for log in logs:
+        for log in procs.logs:
             log.flush()
             print(f"--- {log.name}")
             print(open(log.name).read()[-3000:])
         return 1
     finally:
-        for p in procs.values():
-            if p.poll() is None:
-                p.kill()
-                p.wait()
-        for log in logs:
-            log.close()
+        procs.stop_all()
 
 
 if __name__ == "__main__":

@@ -12,31 +12,14 @@ import argparse
 import json
 import os
 import re
-import signal
-import socket
 import subprocess
 import sys
 import tempfile
 import time
 
-SKIP = 77
-
-
-class Failure(Exception):
-    pass
-
-
-def check(cond, what):
-    if not cond:
-        raise Failure(what)
-    print(f"  ok: {what}")
-
-
-def free_udp_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+from teleop_process import (SKIP, check, free_udp_port, run_test,  # noqa: E402
+                            start_capture, stop_capture)
 
 def main():
     ap = argparse.ArgumentParser()
@@ -48,9 +31,6 @@ def main():
     ap.add_argument("--checker", required=True)
     ap.add_argument("--dbc", required=True)
     args = ap.parse_args()
-    tshark = "/usr/bin/tshark"
-    if not os.path.exists(tshark):
-        raise Failure("tshark is not installed: apt-get install tshark (it is in TELEOP_PACKAGES)")
     with tempfile.TemporaryDirectory(prefix="teleop-canlog-") as tmp:
         port = free_udp_port()
         cfg = {}
@@ -61,20 +41,9 @@ def main():
             with open(cfg[role], "w") as f:
                 f.write(re.sub(r"127\.0\.0\.1:47300", f"127.0.0.1:{port}", text))
         pcap = os.path.join(tmp, "bus.pcapng")
-        cap = subprocess.Popen([tshark, "-i", "lo", "-q", "-w", pcap, "-f", f"udp port {port}"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        line, deadline = "", time.monotonic() + 30
-        while time.monotonic() < deadline:
-            line = cap.stderr.readline()
-            if "Capturing on" in line or not line:
-                break
-        if "Capturing on" not in line:
-            cap.kill()
-            rest = line + cap.stderr.read()
-            if "permission" in rest.lower() or "not permitted" in rest.lower():
-                print(f"SKIPPED: capturing on lo is not permitted here: {rest.strip()}")
-                return SKIP
-            raise Failure(f"tshark did not start capturing: {rest.strip()}")
+        cap = start_capture(pcap, f"udp port {port}")
+        if cap is None:
+            return SKIP
         procs = []
         try:
             bus = subprocess.Popen([args.canbus, "--port", str(port), "--bitrate", "1000000", "--duration-s", "15",
@@ -98,11 +67,7 @@ def main():
                 if p.poll() is None:
                     p.kill()
                     p.wait()
-            cap.send_signal(signal.SIGINT)
-            try:
-                cap.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                cap.kill()
+            stop_capture(cap)
         check(master.returncode == 0 and slave.returncode == 0, "both processes ran over the emulated bus")
         m, s = json.load(open(mjson)), json.load(open(sjson))
 
@@ -142,11 +107,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        rc = main()
-    except Failure as e:
-        print(f"FAILED: {e}")
-        sys.exit(1)
-    if rc == 0:
-        print("PASSED")
-    sys.exit(rc)
+    run_test(main)

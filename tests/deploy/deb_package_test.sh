@@ -33,6 +33,13 @@ dpkg-deb -I "${deb}" >"${work}/info.txt"
 grep -q "^ Package: teleop$" "${work}/info.txt" || fail "package name"
 grep -q "^ Depends:.*libyaml-cpp" "${work}/info.txt" || fail "Depends has no libyaml-cpp (dpkg-shlibdeps)"
 grep -q "^ Depends:.*python3-matplotlib" "${work}/info.txt" || fail "Depends has no python3-matplotlib (teleop-plot)"
+if grep -q '^TELEOP_DDS:BOOL=ON$' "${build}/CMakeCache.txt"; then
+  grep -q "^ Depends:.*libddsc0debian" "${work}/info.txt" || fail "built with DDS but Depends has no libddsc0debian"
+  ok "built with DDS (TELEOP_DDS=ON): Depends has libddsc0debian, Cyclone DDS's runtime"
+else
+  grep -q "^ Depends:.*libddsc" "${work}/info.txt" && fail "built without DDS but Depends names libddsc"
+  ok "built without DDS (TELEOP_DDS=OFF): Depends does not name Cyclone DDS"
+fi
 ok "control: $(grep '^ Depends:' "${work}/info.txt" | sed 's/^ //')"
 dpkg-deb -e "${deb}" "${work}/control"
 [[ "$(cat "${work}/control/conffiles")" == $'/etc/teleop/master.yaml\n/etc/teleop/slave.yaml' ]] ||

@@ -8,24 +8,11 @@ rt-check.sh: on this host it finishes (status 0 or 1) with one finding per check
 """
 import argparse
 import os
-import subprocess
 import sys
 import tempfile
 
-
-class Failure(Exception):
-    pass
-
-
-def check(cond, what):
-    if not cond:
-        raise Failure(what)
-    print(f"  ok: {what}")
-
-
-def run(cmd):
-    r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=60)
-    return r.returncode, r.stdout, r.stderr
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+from teleop_process import check, run, run_test  # noqa: E402
 
 
 def can_up(script):
@@ -144,9 +131,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except Failure as e:
-        print(f"FAILED: {e}")
-        sys.exit(1)
-    print("PASSED")
+    run_test(main)

@@ -47,6 +47,19 @@ TEST(RigConfigs, TheLoopbackRigIsThere) {
   EXPECT_GE(files.size(), 6u);
 }
 
+// Each simulated rig has the four two-machine files: master and slave, over UDP and over CAN.
+TEST(RigConfigs, EachRigHasUdpAndCanPairs) {
+  for (const char* rig : {"loopback", "hybrid", "cobot"}) {
+    for (const char* name : {"master-udp.yaml", "slave-udp.yaml", "master-can.yaml", "slave-can.yaml"}) {
+      const fs::path path = fs::path(TELEOP_RIG_CONFIG_DIR) / rig / name;
+      ASSERT_TRUE(fs::exists(path)) << path;
+      const ProcessConfig config = LoadProcessConfig(path.string());
+      const bool can = std::string(name).find("-can") != std::string::npos;
+      EXPECT_EQ(config.link.transport, can ? "can" : "udp") << path;
+    }
+  }
+}
+
 TEST(RigConfigs, TheHybridRealRigAndHybridAsSlavePairsAreThere) {
   // Loaded, checked and paired by the tests below like every rig file; run as processes by
   // device.hybrid_process.* (tests/device/hybrid/hybrid_fieldbus_process_test.py).

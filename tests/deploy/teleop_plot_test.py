@@ -10,35 +10,20 @@
 """
 import argparse
 import os
-import socket
 import subprocess
 import sys
 import tempfile
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 import teleop_keys  # noqa: E402  (tests/test_utilities)
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+from teleop_process import check, free_udp_port, run, run_test  # noqa: E402
+
 VIEWS = ["positions", "forces", "fixture", "period", "rtt", "loss", "engagement"]
 
 
-class Failure(Exception):
-    pass
-
-
-def check(cond, what):
-    if not cond:
-        raise Failure(what)
-    print(f"  ok: {what}")
-
-
 def plot(tool, args):
-    r = subprocess.run([tool] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=120)
-    return r.returncode, r.stdout, r.stderr
-
-
-def free_udp_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+    return run([tool] + args, timeout_s=120)
 
 
 def check_pngs(out_dir, stem):
@@ -120,9 +105,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except Failure as e:
-        print(f"FAILED: {e}")
-        sys.exit(1)
-    print("PASSED")
+    run_test(main)

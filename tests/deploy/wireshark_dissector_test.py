@@ -19,7 +19,6 @@ import json
 import math
 import os
 import re
-import signal
 import socket
 import struct
 import subprocess
@@ -29,24 +28,9 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 import teleop_keys  # noqa: E402  (tests/test_utilities)
 
-SKIP = 77
-
-
-class Failure(Exception):
-    pass
-
-
-def check(cond, what):
-    if not cond:
-        raise Failure(what)
-    print(f"  ok: {what}")
-
-
-def free_udp_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
+from teleop_process import (Failure, SKIP, check, free_udp_port,  # noqa: E402
+                            run_test, start_capture, stop_capture)
 
 def write_config(src, dst, ports, csv_path):
     text = open(src).read().replace("47001", str(ports[0])).replace("47002", str(ports[1]))
@@ -108,35 +92,6 @@ def golden(tshark, dissector, tmp):
                 "x 0.25 m, v -1.5 m/s, F 2 N, CRC 0x956B51EE good)" + (f": {wrong}" if wrong else ""))
 
 
-def start_capture(tshark, pcap, ports):
-    """tshark capturing the two ports on lo into `pcap`; None (after a SKIPPED message) when not permitted."""
-    cap = subprocess.Popen([tshark, "-i", "lo", "-q", "-w", pcap, "-f",
-                            f"udp port {ports[0]} or udp port {ports[1]}"],
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    # tshark says "Capturing on 'Loopback: lo'" once the capture runs.
-    line, deadline = "", time.monotonic() + 30
-    while time.monotonic() < deadline:
-        line = cap.stderr.readline()
-        if "Capturing on" in line or not line:
-            break
-    if "Capturing on" not in line:
-        cap.kill()
-        rest = line + cap.stderr.read()
-        if "permission" in rest.lower() or "not permitted" in rest.lower():
-            print(f"SKIPPED: capturing on lo is not permitted here: {rest.strip()}")
-            return None
-        raise Failure(f"tshark did not start capturing: {rest.strip()}")
-    return cap
-
-
-def stop_capture(cap):
-    cap.send_signal(signal.SIGINT)
-    try:
-        cap.wait(timeout=20)
-    except subprocess.TimeoutExpired:
-        cap.kill()
-
-
 def secure_run(tshark, args, tmp):
     """A run with the shipped configs as they are (link.security.mode psk): the dissector decodes the version-2
     handshake and frame headers, and what it shows agrees with the processes' own summaries."""
@@ -153,7 +108,7 @@ def secure_run(tshark, args, tmp):
             f.write(text)
     teleop_keys.ensure_key(work)
     pcap = os.path.join(work, "secure.pcapng")
-    cap = start_capture(tshark, pcap, ports)
+    cap = start_capture(pcap, f"udp port {ports[0]} or udp port {ports[1]}")
     if cap is None:
         return SKIP
     mjson, sjson = os.path.join(work, "master.json"), os.path.join(work, "slave.json")
@@ -233,7 +188,7 @@ def main():
         write_config(os.path.join(args.configs, "master.yaml"), mcfg, ports, mcsv)
         write_config(os.path.join(args.configs, "slave.yaml"), scfg, ports, scsv)
         pcap = os.path.join(tmp, "run.pcapng")
-        cap = start_capture(tshark, pcap, ports)
+        cap = start_capture(pcap, f"udp port {ports[0]} or udp port {ports[1]}")
         if cap is None:
             return SKIP
         try:
@@ -269,7 +224,8 @@ def main():
         frames = len(rows)
         teleop_rows = [x for x in rows if x["teleop.seq"] != ""]
         other = [x for x in rows if x["teleop.seq"] == ""]
-        check(frames > 1000, f"{frames} frames captured")
+        # The run is 1.5 s at 1 kHz, but a loaded machine achieves less: ask for a real run, not a rate.
+        check(frames > 200, f"{frames} frames captured")
         check(len(other) == 1, f"exactly one frame (the foreign datagram) is not teleop ({len(other)})")
 
         mrows, srows = read_csv(mcsv), read_csv(scsv)
@@ -322,11 +278,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        rc = main()
-    except Failure as e:
-        print(f"FAILED: {e}")
-        sys.exit(1)
-    if rc == 0:
-        print("PASSED")
-    sys.exit(rc)
+    run_test(main)

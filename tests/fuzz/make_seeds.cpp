@@ -9,6 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "teleop/fieldbus/canopen_frames.hpp"
+#include "teleop/fieldbus/canopen_pdo.hpp"
+#include "teleop/fieldbus/canopen_sdo.hpp"
 #include "teleop/proto/can/sample_codec.hpp"
 #include "teleop/proto/codec.hpp"
 #include "teleop/proto/secure_message.hpp"
@@ -133,5 +136,42 @@ int main(int argc, char** argv) {
       Write(can_dir, "dof" + std::to_string(dof) + (fd ? "_fd" : "_classic"), stream);
     }
   }
+
+  // CANopen harness: 9 mapping bytes (a valid TPDO: 2 entries), then per frame: control, id (LE16), length, data.
+  namespace co = teleop::fieldbus::canopen;
+  const auto frame_bytes = [](Bytes& stream, const can::CanFrame& frame) {
+    stream.push_back(static_cast<std::uint8_t>(frame.extended ? 1 : 0));
+    stream.push_back(static_cast<std::uint8_t>(frame.id & 0xFF));
+    stream.push_back(static_cast<std::uint8_t>(frame.id >> 8));
+    stream.push_back(frame.len);
+    stream.insert(stream.end(), frame.data.begin(), frame.data.begin() + frame.len);
+  };
+  const std::filesystem::path canopen_dir = root / "canopen_frames";
+  const Bytes mapping = {0x84, 0x01, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00};  // TPDO 1, 2 entries of 16 bits
+  const std::uint8_t node = 5;
+  const std::vector<std::pair<std::string, std::vector<can::CanFrame>>> streams = {
+      {"sdo", {co::EncodeSdoUploadRequest(node, 0x6041, 0), co::EncodeSdoUploadResponse(node, 0x6041, 0, 0x0237, 2),
+               co::EncodeSdoDownloadRequest(node, 0x6060, 0, 10, 1), co::EncodeSdoDownloadResponse(node, 0x6060, 0),
+               co::EncodeSdoAbort(co::cob::kSdoTx + node, 0x6071, 0, 0x06020000u)}},
+      {"nmt_heartbeat_sync_emcy",
+       {co::EncodeNmt(co::NmtCommand::kStart, node), co::EncodeHeartbeat(node, co::NmtState::kOperational),
+        co::EncodeSync(), co::EncodeSync(co::cob::kSync, 7),
+        co::EncodeEmergency(node, co::Emergency{0x2310, 0x03, {1, 2, 3, 4, 5}})}},
+  };
+  for (const auto& [name, frames] : streams) {
+    Bytes stream = mapping;
+    for (const can::CanFrame& frame : frames) frame_bytes(stream, frame);
+    Write(canopen_dir, name, stream);
+  }
+  Bytes pdo_stream = mapping;
+  co::PdoMapping pdo{};
+  pdo.number = 1;
+  pdo.entry_count = 2;
+  pdo.entries[0] = {0x6041, 0, 16};
+  pdo.entries[1] = {0x6077, 0, 16};
+  can::CanFrame frame{};
+  const std::array<std::uint32_t, 2> values = {0x0237, 0xFF38};
+  if (co::PackPdo(pdo, co::cob::DefaultTpdo(1, node), values, frame)) frame_bytes(pdo_stream, frame);
+  Write(canopen_dir, "pdo", pdo_stream);
   return 0;
 }

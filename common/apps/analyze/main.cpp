@@ -4,7 +4,8 @@
 //   teleop-analyze sweep --side slave --kp 600 --kd 2 --variable rate --values 250,500,1000 --output fig7
 //   teleop-analyze check --config deploy/configs/slave.yaml
 //
-// Exit codes: 0 success (check: stable), 1 check: unstable, 2 bad arguments or input.
+// Exit codes: 0 success (check: stable), 1 check: unstable, max-stiffness: unstable even without a fixture (no
+// stable stiffness), 2 bad arguments or input (max-stiffness: no limit below the search ceiling of 1e9 N/m).
 
 #include <CLI/CLI.hpp>
 #include <cmath>
@@ -178,6 +179,22 @@ int RunMaxStiffness(const SystemOptions& o) {
   LimitOptions options;
   options.threads = o.threads;
   const StabilityLimit limit = FindMaxStableStiffness(system, side, humans, options);
+  // Two results that are not a limit: print why instead of a number a script would take for one.
+  if (limit.unstable_without_fixture) {
+    std::cerr << "teleop-analyze: no fixture stiffness is stable: the coupling alone (no fixture) is predicted "
+                 "UNSTABLE for these gains at "
+              << system.rate_hz << " Hz (K_p master " << system.gains.kpm_N_per_m << " N/m, slave "
+              << system.gains.kps_N_per_m << " N/m); lower --kp, raise --kd or --rate\n";
+    return kExitUnstable;
+  }
+  if (!std::isfinite(limit.max_stable_stiffness_N_per_m) ||
+      limit.max_stable_stiffness_N_per_m >= options.max_stiffness_N_per_m) {
+    std::cerr << "teleop-analyze: no limit found: the model stays stable up to the search ceiling "
+              << options.max_stiffness_N_per_m
+              << " N/m, which no real device renders; check the operator and device parameters (masses, dampings, "
+                 "--human-* or --human-bounds) for values far outside the physical range\n";
+    return kExitBadInput;
+  }
   if (o.json) {
     std::cout << LimitJson(limit, system, side, humans.size()) << "\n";
   } else {

@@ -45,9 +45,9 @@ Endpoint ParseEndpoint(const Field& f) {
 
 // The `link.can` section (docs/can.md): used by transport "can" (SocketCAN) and "emulated-can" (teleop-canbus).
 void ParseCan(const Field& f, bool emulated, transport::CanLinkConfig& can) {
-  const Map map(
-      f, {"interface", "bus", "fd", "bit_rate_switch", "nominal_bitrate_bit_per_s", "data_bitrate_bit_per_s",
-          "extended_id", "master_to_slave_base_id", "slave_to_master_base_id", "max_bus_load", "connect_timeout_ms"});
+  const Map map(f, {"interface", "bus", "fd", "bit_rate_switch", "nominal_bitrate_bit_per_s", "data_bitrate_bit_per_s",
+                    "extended_id", "master_to_slave_base_id", "slave_to_master_base_id", "max_bus_load",
+                    "connect_timeout_ms", "log_path"});
   if (auto v = map.Optional("interface")) {
     can.interface_name = v->AsString();
     if (can.interface_name.empty() || can.interface_name.size() > 15) {
@@ -90,6 +90,7 @@ void ParseCan(const Field& f, bool emulated, transport::CanLinkConfig& can) {
     can.max_bus_load = InRange(*v, 0.01, 1.0, "(fraction of bus time)");
   }
   if (auto v = map.Optional("connect_timeout_ms")) can.connect_timeout_ms = Positive(*v, "ms");
+  if (auto v = map.Optional("log_path")) can.log_path = v->AsString();  // opened (and refused) at start-up
 }
 
 }  // namespace

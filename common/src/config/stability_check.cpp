@@ -261,7 +261,7 @@ std::string DescribeFailure(const ProcessConfig& config, const StabilityReport& 
   out << config.source_path << ": ";
   if (c.limit.unstable_without_fixture) {
     out << "the " << ToString(config.role) << "'s coupling is predicted UNSTABLE even without a fixture (predicted "
-        << "limit " << Whole(limit) << " N/m, configured fixture " << Whole(c.stiffness_N_per_m) << " N/m";
+        << "limit " << Whole(limit) << " N/m, configured fixture " << Whole(c.stiffness_N_per_m) << " N/m, ";
   } else {
     out << ToString(config.role) << " fixture " << Whole(c.stiffness_N_per_m)
         << " N/m is above the predicted stability limit " << Whole(limit) << " N/m (";

@@ -4,7 +4,12 @@
 
 #include <CLI/CLI.hpp>
 #include <atomic>
+#include <cerrno>
+#include <cmath>
 #include <csignal>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 
@@ -56,6 +61,21 @@ bool StabilityAllowsStart(const config::ProcessConfig& config, bool allow_unstab
   return true;
 }
 
+/// Throws teleop::Error when `path` cannot be written (missing folder, no permission, a directory), so that a run
+/// is not lost for want of its summary file. An existing file is left as it is; a file created by the probe is
+/// removed again.
+void CheckWritable(const std::string& path) {
+  const bool existed = std::filesystem::exists(path);
+  errno = 0;
+  std::ofstream probe(path, std::ios::app);
+  if (!probe) {
+    throw Error("cannot write the summary to " + path + (errno != 0 ? std::string(": ") + std::strerror(errno) : "") +
+                " (--summary-json); checked at start-up");
+  }
+  probe.close();
+  if (!existed) std::filesystem::remove(path);
+}
+
 }  // namespace
 
 int ProcessMain(int argc, char** argv, Role role) {
@@ -75,7 +95,15 @@ int ProcessMain(int argc, char** argv, Role role) {
   app.add_option("-d,--duration", duration_s,
                  "Stop after this many seconds (overrides the config; 0 = run until "
                  "SIGINT/SIGTERM)")
-      ->check(CLI::Range(0.0, 1e6));
+      ->check(CLI::Range(0.0, 1e6))
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            // CLI::Range lets NaN through (every comparison with NaN is false): "nan" would run forever.
+            return std::isfinite(std::strtod(text.c_str(), nullptr))
+                       ? std::string()
+                       : "must be a finite number of seconds, got '" + text + "'";
+          },
+          "FINITE"));
   app.add_option("--summary-json", summary_json, "Also write the end-of-run summary to this file as JSON");
   app.add_option("--telemetry-csv", telemetry_csv, "Per-cycle telemetry CSV (overrides telemetry.csv in the config)");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical, off")
@@ -118,6 +146,7 @@ int ProcessMain(int argc, char** argv, Role role) {
           "this link can command the device. Benches and closed buses only (docs/security.md)",
           config_path);
     }
+    if (!summary_json.empty()) CheckWritable(summary_json);  // found now, not after the run
     if (!StabilityAllowsStart(config, allow_unstable)) return kExitConfigError;
 
     auto device = device::MakeDevice(config.device);

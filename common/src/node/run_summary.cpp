@@ -5,6 +5,8 @@
 #include <cmath>
 #include <string>
 
+#include "teleop/json_text.hpp"
+
 namespace teleop::node {
 
 Distribution FromHistogram(const runtime::LatencyHistogram& histogram, double ns_per_unit) noexcept {
@@ -20,33 +22,6 @@ namespace {
 
 // JSON has no NaN/inf: write null for them.
 std::string Num(double v) { return std::isfinite(v) ? fmt::format("{:.9g}", v) : std::string("null"); }
-
-std::string JsonString(const std::string& text) {
-  std::string out = "\"";
-  for (const char c : text) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          out += fmt::format("\\u{:04x}", static_cast<unsigned>(c));
-        } else {
-          out += c;
-        }
-    }
-  }
-  return out + "\"";
-}
 
 std::string DistJson(const Distribution& d) {
   return fmt::format(R"({{"count": {}, "p50": {}, "p99": {}, "max": {}}})", d.count, Num(d.p50), Num(d.p99),

@@ -193,7 +193,7 @@ std::string CanLink::Summary() const {
     if (!by_status.empty()) by_status += ", ";
     by_status += fmt::format("{} {}", proto::can::ToString(static_cast<FrameStatus>(i)), can_.frames_by_status[i]);
   }
-  return fmt::format(
+  std::string text = fmt::format(
       "CAN frames sent {}, received {} ({}); partial cycles {}, resyncs {}; tx: saturated fields {}, non-finite "
       "fields {}, buffer full {}, refused bus-off {}; error frames {} (bus-off {}, error-passive {}, warning {}, "
       "protocol {}, no-ack {}, overflow {}, tx-timeout {}, restarted {}){}",
@@ -201,6 +201,8 @@ std::string CanLink::Summary() const {
       can_.tx_saturated_fields, can_.tx_non_finite_fields, can_.tx_buffer_full, can_.tx_refused_bus_off,
       can_.error_frames, can_.bus_off, can_.error_passive, can_.error_warning, can_.protocol_errors, can_.no_ack,
       can_.controller_overflow, can_.tx_timeouts, can_.restarts, bus_off_ ? "; LINK FAULT: bus-off" : "");
+  if (const std::string port = port_->Summary(); !port.empty()) text += "; " + port;  // e.g. its candump log
+  return text;
 }
 
 }  // namespace teleop::transport

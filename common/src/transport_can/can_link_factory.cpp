@@ -3,6 +3,7 @@
 #include "teleop/error.hpp"
 #include "teleop/transport/can_bus_budget.hpp"
 #include "teleop/transport/can_link.hpp"
+#include "teleop/transport/can_log_port.hpp"
 #include "teleop/transport/can_socket_port.hpp"
 #include "teleop/transport/can_udp_bus_port.hpp"
 
@@ -24,6 +25,11 @@ std::unique_ptr<Link> MakeCanLink(const CanLinkConfig& config, proto::SenderRole
       break;
   }
   if (!port) throw Error("CAN link: unknown medium");
+  if (!config.log_path.empty()) {
+    const std::string name = config.medium == CanMedium::kSocketCan ? config.interface_name : "vcan0";
+    port = std::make_unique<CandumpLogPort>(std::move(port), config.log_path, name);
+    spdlog::info("CAN: candump log of this process's frames in {} (interface name {})", config.log_path, name);
+  }
   return std::make_unique<CanLink>(format, local_role, std::move(port), budget);
 }
 

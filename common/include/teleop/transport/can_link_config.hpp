@@ -27,6 +27,7 @@ struct CanLinkConfig {
   std::string emulated_bus_host = "127.0.0.1";     ///< teleop-canbus address (kEmulatedBus).
   std::uint16_t emulated_bus_port = 47300;         ///< teleop-canbus UDP port (kEmulatedBus).
   double connect_timeout_ms = 1000.0;              ///< How long to wait for teleop-canbus to answer at start-up.
+  std::string log_path;  ///< Non-empty: a candump -L log of this node's frames (CandumpLogPort).
 };
 
 }  // namespace teleop::transport

@@ -30,6 +30,8 @@ class CanPort {
   /// Reads one pending frame; false when none is pending.
   [[nodiscard]] virtual bool Read(proto::can::CanFrame& frame) noexcept = 0;
   virtual std::string Describe() const = 0;
+  /// What the port adds to the link's run summary (e.g. its candump log's counts); empty by default.
+  virtual std::string Summary() const { return {}; }
 };
 
 }  // namespace teleop::transport
