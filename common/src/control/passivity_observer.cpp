@@ -78,6 +78,7 @@ PassivityController::Output PassivityController::Step(const Input& input, double
       (exchange && input.peer_energy_valid && input.peer_input_energy_J.size() != dof) || !std::isfinite(period_s) ||
       period_s <= 0.0 || !AllFinite(input.force_N) || !AllFinite(input.velocity_m_per_s)) {
     ++state_.nonfinite_inputs;
+    state_.has_last = false;  // the interval's force is unknown: the next step starts a new one
     return out;
   }
   bool acted = false;
@@ -86,60 +87,60 @@ PassivityController::Output PassivityController::Step(const Input& input, double
     const auto k = static_cast<std::size_t>(i);
     const double u = input.force_N[i];
     const double v = input.velocity_m_per_s[i];
-    const double delivered_J = u * v * period_s;  // > 0: the network gives energy to the device this step
     double& w = state_.observed_J[k];
 
-    // Credit: what this port may give out.
-    if (exchange) {
-      if (input.peer_energy_valid) {
-        const double peer = input.peer_input_energy_J[i];
-        if (std::isfinite(peer) && peer >= 0.0) {
-          if (peer > state_.peer_base_J[k]) w += peer - state_.peer_base_J[k];
-          state_.peer_base_J[k] = peer;  // a decrease is a restarted peer: new base, no credit
-        }
+    // 1. Observer: the work of the force held over the last interval, [n-1, n]. With v(n) the backward difference
+    //    (x(n) - x(n-1))/T this is exact: the law's share u(n-1)·Δx, the damper's -α(n-1)·v(n-1)·Δx.
+    if (state_.has_last) {
+      const double law_J = state_.last_law_force_N[k] * v * period_s;
+      const double damper_J = state_.last_damping_Ns_per_m[k] * state_.last_velocity_m_per_s[k] * v * period_s;
+      if (law_J < 0.0) {
+        state_.input_energy_J[k] -= law_J;
+        if (!exchange) w -= law_J;  // observer (and off): what this port absorbed it may give back
+      } else {
+        state_.output_energy_J[k] += law_J;
+        w -= law_J;
       }
-    } else if (delivered_J < 0.0) {
-      w -= delivered_J;  // observer (and off): what this port absorbed it may give back
+      state_.dissipated_J[k] += damper_J;
+      w += damper_J;
     }
-    if (delivered_J < 0.0) {
-      state_.input_energy_J[k] -= delivered_J;
-    } else {
-      state_.output_energy_J[k] += delivered_J;
-      w -= delivered_J;
+    if (exchange && input.peer_energy_valid) {
+      const double peer = input.peer_input_energy_J[i];
+      if (std::isfinite(peer) && peer >= 0.0) {
+        if (peer > state_.peer_base_J[k]) w += peer - state_.peer_base_J[k];
+        state_.peer_base_J[k] = peer;  // a decrease is a restarted peer: new base, no credit
+      }
     }
     state_.min_observed_J = std::min(state_.min_observed_J, w);
 
-    // Controller: a damper that dissipates exactly the deficit, within its bounds.
+    // 2. Controller: the coming interval would deliver about u·v·T; a damper takes out exactly what W cannot cover.
+    const double v2t = v * v * period_s;
+    const double coming_J = u * v * period_s;
+    const double predicted = w - (exchange ? std::max(0.0, coming_J) : coming_J);
     const double alpha_max = config_.max_damping_Ns_per_m[i];
-    if (w < 0.0 && config_.mode != PassivityMode::kOff && alpha_max > 0.0 && v != 0.0) {
-      const double v2t = v * v * period_s;
-      double alpha = std::min(-w / v2t, alpha_max);
-      double u_pc = u - alpha * v;
-      if (config_.max_force_N > 0.0 && std::fabs(u_pc) > config_.max_force_N) {
-        // |u| ≤ max (the law saturates), so the clamped force lies between u and u - α·v: 0 ≤ α' ≤ α.
-        u_pc = std::clamp(u_pc, -config_.max_force_N, config_.max_force_N);
-        alpha = std::max(0.0, (u - u_pc) / v);
-      }
-      const double dissipated = alpha * v2t;
-      if (alpha > 0.0) {
-        acted = true;
-        out.force_N[i] = u_pc;
-        out.damping_Ns_per_m[i] = alpha;
-        state_.dissipated_J[k] += dissipated;
-        w += dissipated;
-      }
-      if (w < 0.0) {
-        saturated = true;
-        // α = -w/(v²T) zeroes w up to rounding; a residue of a few ulp is not a deficit.
-        if (-w <= 1e-12 * (std::fabs(dissipated) + std::fabs(delivered_J))) {
-          w = 0.0;
-          saturated = false;
+    double alpha = 0.0;
+    // Rounding of the cumulative sums is not a deficit.
+    const double tolerance_J = 1e-15 + 1e-12 * (state_.output_energy_J[k] + std::fabs(coming_J));
+    if (predicted < -tolerance_J && config_.mode != PassivityMode::kOff) {
+      if (alpha_max > 0.0 && v2t > 0.0) {
+        alpha = std::min(-predicted / v2t, alpha_max);
+        double u_pc = u - alpha * v;
+        if (config_.max_force_N > 0.0 && std::fabs(u_pc) > config_.max_force_N) {
+          // |u| ≤ max (the law saturates), so the clamped force lies between u and u - α·v: 0 ≤ α' ≤ α.
+          u_pc = std::clamp(u_pc, -config_.max_force_N, config_.max_force_N);
+          alpha = std::max(0.0, (u - u_pc) / v);
         }
+        out.force_N[i] = u_pc;
       }
-    } else if (w < 0.0 && config_.mode != PassivityMode::kOff) {
-      saturated = true;
+      if (predicted + alpha * v2t < -tolerance_J) saturated = true;
     }
+    out.damping_Ns_per_m[i] = alpha;
+    acted = acted || alpha > 0.0;
+    state_.last_law_force_N[k] = u;
+    state_.last_damping_Ns_per_m[k] = alpha;
+    state_.last_velocity_m_per_s[k] = v;
   }
+  state_.has_last = true;
   out.acted = acted;
   if (acted) ++state_.acting_steps;
   if (saturated) ++state_.saturated_steps;

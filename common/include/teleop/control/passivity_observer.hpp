@@ -22,27 +22,31 @@ const char* ToString(PassivityMode mode) noexcept;
 /// force u to the device, which moves at v; the power it delivers to the device is P = u·v. The devices, the
 /// operator and the environment are assumed passive; what can make the teleoperator active is the network (a
 /// delayed link, a sampled spring). Energies accumulate per DOF over the run, in J (N·m; N·m·rad for a rotational
-/// DOF):
+/// DOF). The force u'(n-1) is held over the interval [n-1, n]; with v(n) the backward difference (x(n)-x(n-1))/T
+/// its work u'(n-1)·v(n)·T is exact, and step n settles it (a measured or low-pass-filtered velocity makes it an
+/// approximation):
 ///
-///   E_in(n)  = Σ max(0, -u·v)·T    energy the network absorbed from the device at this port
-///   E_out(n) = Σ max(0,  u·v)·T    energy the network delivered to the device (the law's force, before the PC)
-///   E_pc(n)  = Σ α·v²·T            energy the controller's damper dissipated
+///   E_in(n)  = Σ max(0, -u(k-1)·v(k))·T          energy the law absorbed from the device at this port
+///   E_out(n) = Σ max(0,  u(k-1)·v(k))·T          energy the law delivered to the device (before the PC)
+///   E_pc(n)  = Σ α(k-1)·v(k-1)·v(k)·T            energy the controller's damper dissipated
 ///
 /// The observed energy W(n) (the PO) is what the port may still deliver without the network being active:
 ///
-///   observer:         W(n) = E_in(n)      + E_pc(n) - E_out(n)    (Hannaford & Ryu 2002, eq. 11, one port)
+///   observer:         W(n) = E_in(n)      + E_pc(n) - E_out(n)    (Hannaford & Ryu 2002, one port)
 ///   energy_exchange:  W(n) = E_in,peer(n) + E_pc(n) - E_out(n)    E_in,peer as last received over the link
 ///
-/// When W(n) would drop below 0, the PC (a variable damper in parallel with the device, impedance causality)
-/// applies u' = u - α·v with α = -W/(v²·T), which dissipates exactly the deficit, so W(n) = 0; α is bounded by
-/// max_damping_Ns_per_m (a deficit the bound leaves is carried to the next step) and by max_force_N. α ≥ 0 always:
-/// the damper only ever takes energy out. In energy_exchange each side sends its E_in with every sample; a side
-/// outputs only what the other side has supplied, and E_in(n-D) ≤ E_in(n) for any delay D, so the two ports
-/// together never deliver more than they absorbed (Ryu et al. 2010, eq. 15): passive for any delay, jitter or loss.
+/// The PC (a variable damper in parallel with the device, impedance causality) predicts the coming interval's
+/// delivery u(n)·v(n)·T (energy_exchange: only its positive part) and, when W(n) minus it would be negative,
+/// applies u' = u - α·v with α = -(W - u·v·T)/(v²·T): exactly the deficit, so W(n+1) = 0 when v is steady. α is
+/// bounded by max_damping_Ns_per_m (a deficit the bound leaves is carried to the next step) and by max_force_N.
+/// α ≥ 0 always: the damper only ever takes energy out. In energy_exchange each side sends its E_in with every
+/// sample; a side outputs only what the other side has supplied, and E_in(n-D) ≤ E_in(n) for any delay D, so the
+/// two ports together never deliver more than they absorbed (Ryu, Artigas & Preusche 2010): passive for any
+/// delay, jitter or loss.
 ///
 /// In energy_exchange the credit is the increase of the peer's E_in between two received values; a decrease (peer
 /// restarted) takes the new value as the base without credit. Non-finite u or v: passed through unchanged and
-/// counted (the law already zeroes its command on non-finite input).
+/// counted (the law already zeroes its command on non-finite input), and the next step starts a new interval.
 class PassivityController {
  public:
   struct Config {
@@ -67,11 +71,15 @@ class PassivityController {
 
   /// Per-DOF arrays hold `dof` valid entries.
   struct State {
-    std::array<double, kMaxDof> input_energy_J{};   ///< E_in (sent to the peer in energy_exchange).
-    std::array<double, kMaxDof> output_energy_J{};  ///< E_out.
-    std::array<double, kMaxDof> dissipated_J{};     ///< E_pc.
-    std::array<double, kMaxDof> observed_J{};       ///< W after this step.
-    std::array<double, kMaxDof> peer_base_J{};      ///< The peer E_in already credited.
+    std::array<double, kMaxDof> input_energy_J{};         ///< E_in (sent to the peer in energy_exchange).
+    std::array<double, kMaxDof> output_energy_J{};        ///< E_out.
+    std::array<double, kMaxDof> dissipated_J{};           ///< E_pc.
+    std::array<double, kMaxDof> observed_J{};             ///< W after this step.
+    std::array<double, kMaxDof> peer_base_J{};            ///< The peer E_in already credited.
+    std::array<double, kMaxDof> last_law_force_N{};       ///< u(n-1), held over the last interval.
+    std::array<double, kMaxDof> last_damping_Ns_per_m{};  ///< α(n-1).
+    std::array<double, kMaxDof> last_velocity_m_per_s{};  ///< v(n-1), the velocity α(n-1) acted on.
+    bool has_last = false;
     double min_observed_J = 0.0;  ///< min over steps and DOF of W before the controller acted (the PO's deficit).
     std::uint64_t steps = 0;
     std::uint64_t acting_steps = 0;      ///< Steps in which α > 0 on some DOF.
