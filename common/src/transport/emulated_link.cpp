@@ -13,8 +13,7 @@
 namespace teleop::transport {
 namespace {
 
-constexpr std::size_t kMaxSampleBytes =
-    proto::wire::kHeaderSize + proto::kMaxWireDof * proto::wire::kBytesPerDof + proto::wire::kCrcSize;
+constexpr std::size_t kMaxSampleBytes = proto::kMaxEncodedSampleBytes;
 // Delivery order within one instant: slots sort by (deliver_ns, order). Sends are kOrderStep apart so that an
 // overtaking datagram (order - 1) and a duplicate (order + 1) fit between neighbours.
 constexpr std::uint64_t kOrderStep = 1024;
