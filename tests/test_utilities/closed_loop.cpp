@@ -100,7 +100,7 @@ ClosedLoop::ClosedLoop(const ClosedLoopConfig& config)
       config.master_passivity.dof != dof || config.slave_passivity.dof != dof) {
     throw Error("closed loop: master law, slave law, both plants and both passivity configs must have the same dof");
   }
-  const auto slots = static_cast<std::size_t>(config.delay_cycles + 1);
+  const auto slots = static_cast<std::size_t>(config.delay_cycles) + 1;
   master_to_slave_.ring.assign(slots, WireSample{});
   slave_to_master_.ring.assign(slots, WireSample{});
 }

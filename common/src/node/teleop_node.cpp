@@ -233,7 +233,9 @@ control::ThreeChannelLaw::Output TeleopNode::Impl::Control(const PeerState& peer
 
 // ---- time-domain passivity (docs/stability.md)
 void TeleopNode::Impl::Passivate(control::ThreeChannelLaw::Output& out, double period_s) noexcept {
-  passivity_input.force_N = out.command_N;
+  // On a device fault Actuate puts the device in its safe state instead: the port then sees no force.
+  const bool device_fault = reading.faults != device::kFaultNone;
+  passivity_input.force_N = device_fault ? zero_command : out.command_N;
   passivity_input.velocity_m_per_s = out.velocity_m_per_s;
   passivity_input.peer_energy_valid = have_peer && peer.has_energy;
   if (passivity_input.peer_energy_valid) {
@@ -242,7 +244,7 @@ void TeleopNode::Impl::Passivate(control::ThreeChannelLaw::Output& out, double p
     ++passivity_peer_without_energy;
   }
   const control::PassivityController::Output pc = passivity.Step(passivity_input, period_s);
-  out.command_N = pc.force_N;
+  if (!device_fault) out.command_N = pc.force_N;
   passivity_damping = pc.damping_Ns_per_m;
 }
 // ---- end time-domain passivity
