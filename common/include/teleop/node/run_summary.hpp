@@ -48,7 +48,7 @@ struct RunSummary {
   std::string passivity_mode = "off";               ///< "off" (observe only), "observer", "energy_exchange".
   std::uint64_t passivity_cycles = 0;               ///< Cycles in which the passivity controller acted.
   double passivity_dissipated_J = 0.0;              ///< Energy its damper dissipated, all DOF.
-  double passivity_min_observed_J = 0.0;            ///< Minimum of the observed energy W (< 0: the law was active).
+  double passivity_min_observed_J = 0.0;            ///< Minimum of the observed energy W (docs/stability.md).
   std::uint64_t passivity_peer_without_energy = 0;  ///< energy_exchange: peer samples without the energy block.
 };
 
