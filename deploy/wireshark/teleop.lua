@@ -7,12 +7,14 @@
 --
 -- Recognises a sample on any UDP port by its magic "TLOP" and version (a heuristic dissector), and on the ports of
 -- the preference "teleop.ports" (default 47001,47002, the shipped configs') also when it is malformed. Decodes the
--- 36-byte header, dof x (position, velocity, force) and the CRC-32C, which it verifies (teleop.crc.status) and reports
+-- 36-byte header, dof x (position, velocity, force), the optional energy block (dof x (input, output energy), told
+-- by payload_length = 40 x dof) and the CRC-32C, which it verifies (teleop.crc.status) and reports
 -- as an expert error when wrong. Header checks mirror the decoder's DecodeStatus order: too short, bad magic, bad
 -- version, bad type, bad dof, bad length, bad CRC, non-finite, out of range (teleop.status names the first that fails).
 -- Field names: teleop.magic, .version, .type, .role, .flags (.flags.enabled, .fault, .peer_lost, .saturated,
 -- .in_fixture, .shutdown, .reserved), .dof, .reserved, .payload_length, .seq, .sender_time_ns, .echo_time_ns,
--- .echo_age_ns, .position, .velocity, .force (one per DOF, in order), .crc, .crc.computed, .crc.status, .status.
+-- .echo_age_ns, .position, .velocity, .force (one per DOF, in order), .input_energy, .output_energy (energy block
+-- only, one per DOF), .crc, .crc.computed, .crc.status, .status.
 --
 -- Version 2 (the authenticated session, link.security.mode psk): the clear parts only, since the samples are
 -- encrypted. hello/welcome: teleop.ephemeral_key, teleop.handshake_tag; confirm: teleop.session_id,
@@ -27,6 +29,8 @@ local kMagic = 0x504F4C54 -- "TLOP" little-endian
 local kVersion = 1
 local kHeader = 36
 local kPerDof = 24
+local kEnergyPerDof = 16
+local kMaxEnergy = 1e9
 local kMaxDof = 6
 local kMaxAbsPosition = 10.0
 local kMaxAbsVelocity = 100.0
@@ -60,6 +64,9 @@ f.dof_tree = ProtoField.bytes("teleop.dof_entry", "DOF entry")
 f.position = ProtoField.double("teleop.position", "Position (m or rad)")
 f.velocity = ProtoField.double("teleop.velocity", "Velocity (m/s or rad/s)")
 f.force = ProtoField.double("teleop.force", "Force (N or N·m)")
+f.energy_tree = ProtoField.bytes("teleop.energy_entry", "Energy entry")
+f.input_energy = ProtoField.double("teleop.input_energy", "Input energy (J)")
+f.output_energy = ProtoField.double("teleop.output_energy", "Output energy (J)")
 f.crc = ProtoField.uint32("teleop.crc", "CRC-32C", base.HEX)
 f.crc_computed = ProtoField.uint32("teleop.crc.computed", "CRC-32C computed", base.HEX)
 f.crc_status = ProtoField.uint8("teleop.crc.status", "CRC status", base.DEC, crc_status)
@@ -168,11 +175,15 @@ local function dissect(tvb, pinfo, tree)
   root:add_le(f.echo_age, tvb(32, 4))
 
   local n = (dof >= 1 and dof <= kMaxDof) and dof or 0
-  local need = kHeader + kPerDof * n + 4
-  if n > 0 and payload ~= kPerDof * n then reject("bad_length", it_payload, "must be 24 x dof") end
+  local energy = n > 0 and payload == (kPerDof + kEnergyPerDof) * n
+  local block = energy and (kPerDof + kEnergyPerDof) or kPerDof
+  local need = kHeader + block * n + 4
+  if n > 0 and payload ~= kPerDof * n and not energy then
+    reject("bad_length", it_payload, "must be 24 x dof (40 x dof with the energy block)")
+  end
   if n > 0 and len < need then
     reject("too_short", root, len .. " bytes, dof " .. dof .. " needs " .. need)
-    n = math.max(0, math.floor((len - kHeader - 4) / kPerDof))
+    n = math.max(0, math.floor((len - kHeader - 4) / block))
   elseif n > 0 and len > need then
     reject("bad_length", root, (len - need) .. " bytes after the CRC")
   end
@@ -197,7 +208,20 @@ local function dissect(tvb, pinfo, tree)
     end
   end
 
-  local crc_off = kHeader + kPerDof * n
+  for i = 0, (energy and n or 0) - 1 do
+    local base_off = kHeader + kPerDof * n + kEnergyPerDof * i
+    if base_off + kEnergyPerDof > len then break end
+    local sub = root:add(f.energy_tree, tvb(base_off, kEnergyPerDof))
+    sub:set_text("Energy DOF " .. i)
+    local ein, eout = tvb(base_off, 8):le_float(), tvb(base_off + 8, 8):le_float()
+    sub:add_le(f.input_energy, tvb(base_off, 8))
+    sub:add_le(f.output_energy, tvb(base_off + 8, 8))
+    sub:append_text(string.format(": in %.6g J, out %.6g J", ein, eout))
+    if not (finite(ein) and finite(eout)) then values_ok = false end
+    if ein < 0 or eout < 0 or ein > kMaxEnergy or eout > kMaxEnergy then in_range = false end
+  end
+
+  local crc_off = kHeader + block * n
   if dof >= 1 and dof <= kMaxDof and len >= need then
     local sent = tvb(crc_off, 4):le_uint()
     local computed = crc32c(tvb, 0, crc_off)

@@ -84,11 +84,12 @@ const char* ToString(DecodeStatus status) noexcept {
   return "invalid";
 }
 
-std::size_t MaxEncodedSampleSize() noexcept { return EncodedSampleSize(kMaxWireDof); }
+std::size_t MaxEncodedSampleSize() noexcept { return kMaxEncodedSampleBytes; }
 
-std::size_t EncodedSampleSize(int dof) noexcept {
+std::size_t EncodedSampleSize(int dof, bool has_energy) noexcept {
   if (!ValidDof(dof)) return 0;
-  return wire::kHeaderSize + static_cast<std::size_t>(dof) * wire::kBytesPerDof + wire::kCrcSize;
+  const std::size_t per_dof = wire::kBytesPerDof + (has_energy ? wire::kEnergyBytesPerDof : 0);
+  return wire::kHeaderSize + static_cast<std::size_t>(dof) * per_dof + wire::kCrcSize;
 }
 
 DecodeStatus ValidateSample(const SampleMessage& message) noexcept {
@@ -106,12 +107,18 @@ DecodeStatus ValidateSample(const SampleMessage& message) noexcept {
       if (s == DecodeStatus::kNonFinite) return s;
       if (s != DecodeStatus::kOk) worst = s;
     }
+    if (message.has_energy) {
+      for (const double e : {message.input_energy_J[i], message.output_energy_J[i]}) {
+        if (!std::isfinite(e)) return DecodeStatus::kNonFinite;
+        if (e < 0.0 || e > kMaxEnergy_J) worst = DecodeStatus::kOutOfRange;
+      }
+    }
   }
   return worst;
 }
 
 std::size_t EncodeSample(const SampleMessage& message, std::span<std::uint8_t> out) noexcept {
-  const std::size_t size = EncodedSampleSize(message.dof);
+  const std::size_t size = EncodedSampleSize(message.dof, message.has_energy);
   if (size == 0 || out.size() < size) return 0;
   std::uint8_t* p = out.data();
   PutU32(p + wire::kMagicOffset, wire::kMagic);
@@ -121,7 +128,7 @@ std::size_t EncodeSample(const SampleMessage& message, std::span<std::uint8_t> o
   PutU8(p + wire::kFlagsOffset, message.flags);
   PutU8(p + wire::kDofOffset, message.dof);
   PutU8(p + wire::kReservedOffset, 0);
-  PutU16(p + wire::kPayloadLengthOffset, static_cast<std::uint16_t>(message.dof * wire::kBytesPerDof));
+  PutU16(p + wire::kPayloadLengthOffset, static_cast<std::uint16_t>(size - wire::kHeaderSize - wire::kCrcSize));
   PutU32(p + wire::kSequenceOffset, message.sequence);
   PutU64(p + wire::kSenderTimeOffset, message.sender_time_ns);
   PutU64(p + wire::kEchoTimeOffset, message.echo_time_ns);
@@ -131,6 +138,12 @@ std::size_t EncodeSample(const SampleMessage& message, std::span<std::uint8_t> o
     PutF64(q, message.position_m[i]);
     PutF64(q + 8, message.velocity_m_per_s[i]);
     PutF64(q + 16, message.force_N[i]);
+  }
+  if (message.has_energy) {
+    for (std::size_t i = 0; i < message.dof; ++i, q += wire::kEnergyBytesPerDof) {
+      PutF64(q, message.input_energy_J[i]);
+      PutF64(q + 8, message.output_energy_J[i]);
+    }
   }
   const std::size_t crc_offset = size - wire::kCrcSize;
   PutU32(p + crc_offset, Crc32c(out.first(crc_offset)));
@@ -145,8 +158,10 @@ DecodeStatus DecodeSample(std::span<const std::uint8_t> bytes, SampleMessage& ou
   if (p[wire::kTypeOffset] != static_cast<std::uint8_t>(MessageType::kSample)) return DecodeStatus::kBadType;
   const int dof = p[wire::kDofOffset];
   if (!ValidDof(dof)) return DecodeStatus::kBadDof;
-  const std::size_t payload = static_cast<std::size_t>(dof) * wire::kBytesPerDof;
-  if (GetU16(p + wire::kPayloadLengthOffset) != payload) return DecodeStatus::kBadLength;
+  const std::size_t values = static_cast<std::size_t>(dof) * wire::kBytesPerDof;
+  const std::size_t with_energy = values + static_cast<std::size_t>(dof) * wire::kEnergyBytesPerDof;
+  const std::size_t payload = GetU16(p + wire::kPayloadLengthOffset);
+  if (payload != values && payload != with_energy) return DecodeStatus::kBadLength;
   const std::size_t size = wire::kHeaderSize + payload + wire::kCrcSize;
   if (bytes.size() < size) return DecodeStatus::kTooShort;
   if (bytes.size() > size) return DecodeStatus::kBadLength;
@@ -167,6 +182,13 @@ DecodeStatus DecodeSample(std::span<const std::uint8_t> bytes, SampleMessage& ou
     m.position_m[i] = GetF64(q);
     m.velocity_m_per_s[i] = GetF64(q + 8);
     m.force_N[i] = GetF64(q + 16);
+  }
+  m.has_energy = payload == with_energy;
+  if (m.has_energy) {
+    for (std::size_t i = 0; i < m.dof; ++i, q += wire::kEnergyBytesPerDof) {
+      m.input_energy_J[i] = GetF64(q);
+      m.output_energy_J[i] = GetF64(q + 8);
+    }
   }
   const DecodeStatus status = ValidateSample(m);
   if (status != DecodeStatus::kOk) return status;

@@ -59,8 +59,10 @@ DecodeStatus CheckExactSize(std::size_t size, std::size_t expected) noexcept {
 }
 
 bool IsSamplePlaintextSize(std::size_t n) noexcept {
-  return n >= kMinFramePlaintextBytes && n <= kMaxFramePlaintextBytes &&
-         (n - kMinFramePlaintextBytes) % wire::kBytesPerDof == 0;
+  for (int dof = 1; dof <= kMaxWireDof; ++dof) {
+    if (n == EncodedSampleSize(dof, false) || n == EncodedSampleSize(dof, true)) return true;
+  }
+  return false;
 }
 
 }  // namespace

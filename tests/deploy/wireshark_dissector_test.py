@@ -61,6 +61,36 @@ GOLDEN = bytes.fromhex(
     "EE516B95".replace(" ", ""))
 
 
+# tests/proto/codec_test.cpp kTwoDofEnergyGolden (golden_sample_bytes.py two_dof_energy()): a 2-DOF master sample
+# with the energy block (docs/protocol.md, "Energy block"): in/out energies 1.5/0.25 J and 0/2 J.
+ENERGY_GOLDEN = bytes.fromhex("544C4F500101000102005000070000000094357700000000C051267700000000E8030000000000000000C03F000000000000E03F000000000000F0BF000000000000D0BF000000000000E8BF0000000000000840000000000000F83F000000000000D03F00000000000000000000000000000040FC370378")
+
+
+def golden_energy(tshark, dissector, tmp):
+    """The energy-block golden sample, through text2pcap and the dissector."""
+    dump = os.path.join(tmp, "energy.txt")
+    with open(dump, "w") as f:
+        f.write("000000 " + " ".join(f"{b:02x}" for b in ENERGY_GOLDEN) + "\n")
+    pcap = os.path.join(tmp, "energy.pcap")
+    r = subprocess.run(["text2pcap", "-q", "-u", "47002,47001", dump, pcap], stdout=subprocess.PIPE,
+                       stderr=subprocess.STDOUT, text=True)
+    check(r.returncode == 0, "text2pcap wrapped the energy sample in a UDP datagram" + (r.stdout if r.returncode else ""))
+    fields = ["teleop.dof", "teleop.payload_length", "teleop.force", "teleop.input_energy", "teleop.output_energy",
+              "teleop.crc.status", "teleop.status"]
+    cmd = [tshark, "-r", pcap, "-X", f"lua_script:{dissector}", "-T", "fields", "-E", "separator=\t",
+           "-E", "aggregator=;"]
+    for name in fields:
+        cmd += ["-e", name]
+    out = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True).stdout.strip()
+    got = dict(zip(fields, out.split("\t")))
+    want = {"teleop.dof": "2", "teleop.payload_length": "80", "teleop.force": "-1;3",
+            "teleop.input_energy": "1.5;0", "teleop.output_energy": "0.25;2", "teleop.crc.status": "1",
+            "teleop.status": "ok"}
+    wrong = [f"{k} is {got.get(k)!r}, expected {v}" for k, v in want.items() if got.get(k, "") != v]
+    check(not wrong, "the energy-block golden sample decodes (payload 80, energies 1.5/0.25 J and 0/2 J, CRC good)"
+          + (f": {wrong}" if wrong else ""))
+
+
 def golden(tshark, dissector, tmp):
     """The protocol page's hand-checked sample, through text2pcap and the dissector."""
     dump = os.path.join(tmp, "golden.txt")
@@ -180,6 +210,7 @@ def main():
 
     with tempfile.TemporaryDirectory(prefix="teleop-tshark-") as tmp:
         golden(tshark, args.dissector, tmp)
+        golden_energy(tshark, args.dissector, tmp)
         if secure_run(tshark, args, tmp) == SKIP:
             return SKIP
         ports = (free_udp_port(), free_udp_port())

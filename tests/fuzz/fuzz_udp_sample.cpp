@@ -22,7 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     return 0;
   }
   TELEOP_FUZZ_CHECK(ValidateSample(message) == DecodeStatus::kOk);
-  std::array<std::uint8_t, 256> out{};
+  std::array<std::uint8_t, kMaxEncodedSampleBytes> out{};
   const std::size_t n = EncodeSample(message, out);
   TELEOP_FUZZ_CHECK(n == size);
   TELEOP_FUZZ_CHECK(std::memcmp(out.data(), data, size) == 0);

@@ -62,6 +62,15 @@ int main(int argc, char** argv) {
   for (int dof = 1; dof <= kMaxWireDof; ++dof) {
     Write(root / "udp_sample", "dof" + std::to_string(dof), EncodeV1(Sample(SenderRole::kSlave, dof, 7u * dof)));
   }
+  for (const int dof : {1, kMaxWireDof}) {  // with the energy block (time-domain passivity, energy_exchange)
+    SampleMessage m = Sample(SenderRole::kMaster, dof, 11u * dof);
+    m.has_energy = true;
+    for (int i = 0; i < dof; ++i) {
+      m.input_energy_J[i] = 0.5 * (i + 1);
+      m.output_energy_J[i] = 0.25 * i;
+    }
+    Write(root / "udp_sample", "dof" + std::to_string(dof) + "_energy", EncodeV1(m));
+  }
 
   const std::filesystem::path secure = root / "secure_messages";
   KeyExchangeMessage kx{};

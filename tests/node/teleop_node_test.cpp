@@ -45,16 +45,18 @@ config::ProcessConfig Parse(const std::string& text) { return config::ParseProce
 
 /// A master and a slave node over one emulated medium; raw pointers to their mock devices (owned by the nodes).
 struct Pair {
-  explicit Pair(bool slave_fixture = false) {
-    medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
+  explicit Pair(bool slave_fixture = false) : Pair(Config("master", false), Config("slave", slave_fixture)) {}
+  Pair(const std::string& master_config, const std::string& slave_config,
+       const transport::EmulatedMediumConfig& medium_config = {}) {
+    medium = std::make_shared<transport::EmulatedMedium>(medium_config);
     auto m = std::make_unique<MockDevice>(2);
     auto s = std::make_unique<MockDevice>(2);
     master_device = m.get();
     slave_device = s.get();
     master =
-        std::make_unique<TeleopNode>(Parse(Config("master", false)), std::move(m),
+        std::make_unique<TeleopNode>(Parse(master_config), std::move(m),
                                      std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kMaster));
-    slave = std::make_unique<TeleopNode>(Parse(Config("slave", slave_fixture)), std::move(s),
+    slave = std::make_unique<TeleopNode>(Parse(slave_config), std::move(s),
                                          std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kSlave));
   }
   void Step() {
@@ -213,6 +215,79 @@ TEST(TeleopNode, TheCycleAllocatesNothing) {
   }
   EXPECT_EQ(counter.count(), 0u);
   EXPECT_NEAR(pair.slave_device->last_command.force_N[0], -kFixture_N_per_m * 0.002 + kKp_N_per_m * 0.003, 1e-9);
+}
+
+// ---- time-domain passivity (docs/stability.md) through the node: the controller sits between the law and the
+// device, and in energy_exchange the energies cross the link in the energy block.
+
+std::string PassiveConfig(const char* role, const char* mode) {
+  return Config(role, false) + "passivity: {mode: " + mode + ", max_damping_Ns_per_m: 1000}\n";
+}
+
+/// The slave starts 10 mm from a still master and moves toward it at 10 mm/s: its law pulls with 6 N in the
+/// direction it moves (0.06 W into the slave). From cycle `master_moves_from` on, the master moves away at 10 mm/s
+/// against its own 6 N pull: it absorbs 0.06 W from its device, which energy_exchange lets the slave give out.
+struct DraggedSlave {
+  explicit DraggedSlave(const char* mode, int master_moves_from = 1 << 30, double delay_s = 0.0) {
+    transport::EmulatedMediumConfig medium;
+    medium.master_to_slave.delay_s = medium.slave_to_master.delay_s = delay_s;
+    pair = std::make_unique<Pair>(PassiveConfig("master", mode), PassiveConfig("slave", mode), medium);
+    pair->slave_device->position_m << 0.01, 0.0;
+    moves_from = master_moves_from;
+  }
+  void Step() {
+    const int k = static_cast<int>(pair->cycle);
+    pair->slave_device->position_m[0] -= 1e-5;
+    if (k >= moves_from) pair->master_device->position_m[0] -= 1e-5;
+    pair->Step();
+  }
+  std::unique_ptr<Pair> pair;
+  int moves_from = 0;
+};
+
+TEST(TeleopNodePassivity, OffLeavesTheLawsCommandAlone) {
+  DraggedSlave run("off");
+  for (int k = 0; k < 50; ++k) run.Step();
+  // Eq. 9: K_p (X_m - X_s), the slave at 10 mm - 50 · 10 µm (its sample of the cycle before is what the master used).
+  EXPECT_NEAR(run.pair->slave_device->last_command.force_N[0], -kKp_N_per_m * (0.01 - 50e-5), 1e-9);
+}
+
+TEST(TeleopNodePassivity, EnergyExchangeGivesTheSlaveOnlyWhatTheMasterSupplied) {
+  DraggedSlave run("energy_exchange", /*master_moves_from=*/100);
+  for (int k = 0; k < 100; ++k) run.Step();
+  // The master has put nothing in: the slave's controller damps its pull to (nearly) zero power.
+  const double still = run.pair->slave_device->last_command.force_N[0];
+  EXPECT_NEAR(still, 0.0, 1e-6) << "law command " << -kKp_N_per_m * 0.009;
+  // The master now absorbs 0.06 W: the energy block carries it over, and the slave pulls with the law's force.
+  for (int k = 0; k < 20; ++k) run.Step();
+  const double released = run.pair->slave_device->last_command.force_N[0];
+  EXPECT_NEAR(released, -kKp_N_per_m * (0.01 - 120e-5 + 20e-5), 0.05) << "the law's own command";
+  // On the master, absorbing, the controller never acts; its command is the law's.
+  EXPECT_NEAR(run.pair->master_device->last_command.force_N[0], kKp_N_per_m * (0.01 - 120e-5 + 20e-5), 0.05);
+}
+
+TEST(TeleopNodePassivity, EnergyExchangeOverADelayedLinkWaitsForTheEnergyToArrive) {
+  // 20 ms one way: the slave's credit for the master's motion from cycle 100 arrives from cycle ~121 on.
+  DraggedSlave run("energy_exchange", /*master_moves_from=*/100, /*delay_s=*/0.020);
+  for (int k = 0; k < 115; ++k) run.Step();
+  EXPECT_NEAR(run.pair->slave_device->last_command.force_N[0], 0.0, 1e-6);
+  for (int k = 0; k < 20; ++k) run.Step();
+  EXPECT_LT(run.pair->slave_device->last_command.force_N[0], -1.0);
+}
+
+TEST(TeleopNodePassivity, ObserverDampsTheDraggedSlaveWithoutAnyPeerEnergy) {
+  DraggedSlave run("observer", /*master_moves_from=*/0);
+  for (int k = 0; k < 100; ++k) run.Step();
+  // Local observer only: the slave may give back what it absorbed (nothing), whatever the master does.
+  EXPECT_NEAR(run.pair->slave_device->last_command.force_N[0], 0.0, 1e-6);
+}
+
+TEST(TeleopNodePassivity, TheCycleAllocatesNothingWithEnergyExchange) {
+  DraggedSlave run("energy_exchange", /*master_moves_from=*/50, /*delay_s=*/0.005);
+  for (int k = 0; k < 10; ++k) run.Step();
+  test::AllocationCounter counter;
+  for (int k = 0; k < 500; ++k) run.Step();
+  EXPECT_EQ(counter.count(), 0u);
 }
 
 }  // namespace

@@ -70,6 +70,24 @@ SampleMessage SixDofGoldenMessage() {
   return m;
 }
 
+SampleMessage TwoDofEnergyGoldenMessage() {
+  SampleMessage m;
+  m.sender = SenderRole::kMaster;
+  m.flags = kFlagEnabled;
+  m.dof = 2;
+  m.sequence = 7;
+  m.sender_time_ns = 2000000000;
+  m.echo_time_ns = 1999000000;
+  m.echo_age_ns = 1000;
+  m.position_m = {0.125, -0.25};
+  m.velocity_m_per_s = {0.5, -0.75};
+  m.force_N = {-1.0, 3.0};
+  m.has_energy = true;
+  m.input_energy_J = {1.5, 0.0};
+  m.output_energy_J = {0.25, 2.0};
+  return m;
+}
+
 TEST(Crc32c, MatchesTheCastagnoliCheckValue) {
   const std::array<std::uint8_t, 9> check = {'1', '2', '3', '4', '5', '6', '7', '8', '9'};
   EXPECT_EQ(Crc32c(check), 0xE3069283u);
@@ -79,7 +97,10 @@ TEST(Crc32c, MatchesTheCastagnoliCheckValue) {
 TEST(Codec, SizesFollowTheLayout) {
   EXPECT_EQ(EncodedSampleSize(1), 64u);
   EXPECT_EQ(EncodedSampleSize(6), 184u);
-  EXPECT_EQ(MaxEncodedSampleSize(), 184u);
+  EXPECT_EQ(EncodedSampleSize(1, true), 80u);
+  EXPECT_EQ(EncodedSampleSize(6, true), 280u);
+  EXPECT_EQ(MaxEncodedSampleSize(), 280u);
+  EXPECT_EQ(EncodedSampleSize(0, true), 0u);
   EXPECT_EQ(EncodedSampleSize(0), 0u);
   EXPECT_EQ(EncodedSampleSize(7), 0u);
 }
@@ -181,6 +202,68 @@ TEST(Codec, DocumentedHexDumpIsWhatTheEncoderWrites) {
   EXPECT_EQ(DecodeSample(documented, decoded), DecodeStatus::kOk);
 }
 
+// The energy block (docs/protocol.md, "Energy block"): payload length 80 = 2 × (24 + 16), after the two value
+// blocks 1.5, 0.25 (DOF 0: input, output energy) and 0.0, 2.0 (DOF 1), J.
+constexpr std::array<std::uint8_t, 120> kTwoDofEnergyGolden = {
+    0x54, 0x4C, 0x4F, 0x50, 0x01, 0x01, 0x00, 0x01, 0x02, 0x00, 0x50, 0x00,  //
+    0x07, 0x00, 0x00, 0x00, 0x00, 0x94, 0x35, 0x77, 0x00, 0x00, 0x00, 0x00,  //
+    0xC0, 0x51, 0x26, 0x77, 0x00, 0x00, 0x00, 0x00, 0xE8, 0x03, 0x00, 0x00,  //
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xC0, 0x3F, 0x00, 0x00, 0x00, 0x00,  //
+    0x00, 0x00, 0xE0, 0x3F, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF0, 0xBF,  //
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xD0, 0xBF, 0x00, 0x00, 0x00, 0x00,  //
+    0x00, 0x00, 0xE8, 0xBF, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x08, 0x40,  //
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF8, 0x3F, 0x00, 0x00, 0x00, 0x00,  //
+    0x00, 0x00, 0xD0, 0x3F, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,  //
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x40, 0xFC, 0x37, 0x03, 0x78,
+};
+
+TEST(Codec, TwoDofEnergyGoldenBytes) {
+  const SampleMessage m = TwoDofEnergyGoldenMessage();
+  EXPECT_EQ(Encode(m), Bytes(kTwoDofEnergyGolden.begin(), kTwoDofEnergyGolden.end()));
+  SampleMessage decoded;
+  ASSERT_EQ(DecodeSample(kTwoDofEnergyGolden, decoded), DecodeStatus::kOk);
+  EXPECT_TRUE(decoded.has_energy);
+  EXPECT_EQ(decoded.input_energy_J[0], 1.5);
+  EXPECT_EQ(decoded.output_energy_J[0], 0.25);
+  EXPECT_EQ(decoded.input_energy_J[1], 0.0);
+  EXPECT_EQ(decoded.output_energy_J[1], 2.0);
+  EXPECT_EQ(decoded.force_N[1], 3.0);
+  // Without the block, the same message is the plain layout and decodes with has_energy = false.
+  SampleMessage plain = m;
+  plain.has_energy = false;
+  const Bytes plain_bytes = Encode(plain);
+  ASSERT_EQ(plain_bytes.size(), EncodedSampleSize(2));
+  ASSERT_EQ(DecodeSample(plain_bytes, decoded), DecodeStatus::kOk);
+  EXPECT_FALSE(decoded.has_energy);
+  EXPECT_EQ(decoded.input_energy_J[0], 0.0);
+}
+
+TEST(Codec, EnergyBlockIsValidated) {
+  SampleMessage m = TwoDofEnergyGoldenMessage();
+  m.input_energy_J[1] = -1e-3;  // energies are cumulative magnitudes
+  EXPECT_EQ(ValidateSample(m), DecodeStatus::kOutOfRange);
+  SampleMessage decoded;
+  EXPECT_EQ(DecodeSample(Encode(m), decoded), DecodeStatus::kOutOfRange);
+  m = TwoDofEnergyGoldenMessage();
+  m.output_energy_J[0] = 2 * kMaxEnergy_J;
+  EXPECT_EQ(DecodeSample(Encode(m), decoded), DecodeStatus::kOutOfRange);
+  m = TwoDofEnergyGoldenMessage();
+  m.input_energy_J[0] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(DecodeSample(Encode(m), decoded), DecodeStatus::kNonFinite);
+  // Values past dof are not sent and not checked.
+  m = TwoDofEnergyGoldenMessage();
+  m.input_energy_J[2] = -5.0;
+  EXPECT_EQ(DecodeSample(Encode(m), decoded), DecodeStatus::kOk);
+  // A length field between the two layouts, or the energy length with the plain size, is rejected.
+  Bytes b(kTwoDofEnergyGolden.begin(), kTwoDofEnergyGolden.end());
+  b[wire::kPayloadLengthOffset] = 64;
+  FixCrc(b);
+  EXPECT_EQ(DecodeSample(b, decoded), DecodeStatus::kBadLength);
+  Bytes truncated(kTwoDofEnergyGolden.begin(), kTwoDofEnergyGolden.begin() + 88);
+  FixCrc(truncated);
+  EXPECT_EQ(DecodeSample(truncated, decoded), DecodeStatus::kTooShort);
+}
+
 TEST(Codec, SixDofGoldenBytes) {
   const SampleMessage m = SixDofGoldenMessage();
   EXPECT_EQ(Encode(m), Bytes(kSixDofGolden.begin(), kSixDofGolden.end()));
@@ -230,7 +313,7 @@ TEST(Codec, RoundTripProperty) {
         return unit(rng) * limit;
     }
   };
-  std::array<std::uint8_t, 256> buffer{};
+  std::array<std::uint8_t, kMaxEncodedSampleBytes> buffer{};
   for (int n = 0; n < count; ++n) {
     SampleMessage m;
     m.sender = (u64(rng) & 1) != 0 ? SenderRole::kSlave : SenderRole::kMaster;
@@ -245,8 +328,15 @@ TEST(Codec, RoundTripProperty) {
       m.velocity_m_per_s[i] = value(kMaxAbsVelocity_m_per_s);
       m.force_N[i] = value(kMaxAbsForce_N);
     }
+    m.has_energy = (u64(rng) & 1) != 0;
+    if (m.has_energy) {
+      for (std::size_t i = 0; i < m.dof; ++i) {
+        m.input_energy_J[i] = std::fabs(value(kMaxEnergy_J));
+        m.output_energy_J[i] = std::fabs(value(kMaxEnergy_J));
+      }
+    }
     const std::size_t size = EncodeSample(m, buffer);
-    ASSERT_EQ(size, EncodedSampleSize(m.dof));
+    ASSERT_EQ(size, EncodedSampleSize(m.dof, m.has_energy));
     SampleMessage d;
     ASSERT_EQ(DecodeSample(std::span(buffer).first(size), d), DecodeStatus::kOk) << "case " << n;
     ASSERT_EQ(d.sender, m.sender);
@@ -262,6 +352,11 @@ TEST(Codec, RoundTripProperty) {
       ASSERT_EQ(std::bit_cast<std::uint64_t>(d.velocity_m_per_s[i]),
                 std::bit_cast<std::uint64_t>(m.velocity_m_per_s[i]));
       ASSERT_EQ(std::bit_cast<std::uint64_t>(d.force_N[i]), std::bit_cast<std::uint64_t>(m.force_N[i]));
+    }
+    ASSERT_EQ(d.has_energy, m.has_energy);
+    for (std::size_t i = 0; m.has_energy && i < m.dof; ++i) {
+      ASSERT_EQ(d.input_energy_J[i], m.input_energy_J[i]);
+      ASSERT_EQ(d.output_energy_J[i], m.output_energy_J[i]);
     }
   }
 }

@@ -6,7 +6,8 @@ code with the C++ encoder in proto/. It is the reference the golden arrays in te
 hex dump in docs/protocol.md are checked against:
 
   golden_sample_bytes.py                       print both messages (C++ initialisers and a hex dump)
-  golden_sample_bytes.py --check-cpp FILE      FILE's kOneDofGolden / kSixDofGolden arrays are these bytes
+  golden_sample_bytes.py --check-cpp FILE      FILE's kOneDofGolden / kSixDofGolden / kTwoDofEnergyGolden arrays
+                                               are these bytes
   golden_sample_bytes.py --check-doc FILE      the hex dump in FILE's "Example: 1 DOF" section is the 1-DOF message
 
 Exit 0 when every check given passes, 1 otherwise (each difference is printed).
@@ -34,13 +35,18 @@ def crc32c(data):
     return crc ^ 0xFFFFFFFF
 
 
-def sample(sender, flags, sequence, sender_time_ns, echo_time_ns, echo_age_ns, dofs):
-    """One sample datagram: the 36-byte header, 24 bytes per DOF (position, velocity, force as binary64), CRC-32C
-    of everything before it, all little-endian, no padding."""
-    header = struct.pack("<IBBBBBBHIQQI", MAGIC, VERSION, TYPE_SAMPLE, sender, flags, len(dofs), 0, 24 * len(dofs),
-                         sequence, sender_time_ns, echo_time_ns, echo_age_ns)
+def sample(sender, flags, sequence, sender_time_ns, echo_time_ns, echo_age_ns, dofs, energies=None):
+    """One sample datagram: the 36-byte header, 24 bytes per DOF (position, velocity, force as binary64), then
+    when `energies` is given the energy block (16 bytes per DOF: input, output energy as binary64), CRC-32C of
+    everything before it, all little-endian, no padding. payload_length says which: 24 or 40 bytes per DOF."""
+    per_dof = 24 if energies is None else 40
+    header = struct.pack("<IBBBBBBHIQQI", MAGIC, VERSION, TYPE_SAMPLE, sender, flags, len(dofs), 0,
+                         per_dof * len(dofs), sequence, sender_time_ns, echo_time_ns, echo_age_ns)
     assert len(header) == 36
     body = header + b"".join(struct.pack("<ddd", *d) for d in dofs)
+    if energies is not None:
+        assert len(energies) == len(dofs)
+        body += b"".join(struct.pack("<dd", *e) for e in energies)
     return body + struct.pack("<I", crc32c(body))
 
 
@@ -55,6 +61,12 @@ def six_dof():
     # 10 (i+1) - 25 N; sequence at its wrap point.
     return sample(ROLE_MASTER, FLAG_ENABLED, 0xFFFFFFFF, 1000000000, 999000000, 123456,
                   [(0.01 * (i + 1), -0.5 * (i + 1), 10.0 * (i + 1) - 25.0) for i in range(6)])
+
+
+def two_dof_energy():
+    # tests/proto/codec_test.cpp, TwoDofEnergyGoldenMessage(): the energy block (time-domain passivity).
+    return sample(ROLE_MASTER, FLAG_ENABLED, 7, 2000000000, 1999000000, 1000,
+                  [(0.125, 0.5, -1.0), (-0.25, -0.75, 3.0)], energies=[(1.5, 0.25), (0.0, 2.0)])
 
 
 def cpp_array(data):
@@ -111,13 +123,16 @@ def main():
     ok = compare("CRC-32C check value of '123456789'", struct.pack("<I", crc32c(b"123456789")),
                  struct.pack("<I", 0xE3069283))
     if not args.check_cpp and not args.check_doc:
-        for name, data in (("kOneDofGolden", one_dof()), ("kSixDofGolden", six_dof())):
+        for name, data in (("kOneDofGolden", one_dof()), ("kSixDofGolden", six_dof()),
+                           ("kTwoDofEnergyGolden", two_dof_energy())):
             print(f"constexpr std::array<std::uint8_t, {len(data)}> {name} = {cpp_array(data)};")
         print(" ".join(f"{b:02X}" for b in one_dof()))
     if args.check_cpp:
         text = open(args.check_cpp).read()
         ok &= compare("kOneDofGolden in " + args.check_cpp, parse_cpp_array(text, "kOneDofGolden"), one_dof())
         ok &= compare("kSixDofGolden in " + args.check_cpp, parse_cpp_array(text, "kSixDofGolden"), six_dof())
+        ok &= compare("kTwoDofEnergyGolden in " + args.check_cpp, parse_cpp_array(text, "kTwoDofEnergyGolden"),
+                      two_dof_energy())
     if args.check_doc:
         ok &= compare("hex dump in " + args.check_doc, parse_doc_dump(open(args.check_doc).read()), one_dof())
     return 0 if ok else 1

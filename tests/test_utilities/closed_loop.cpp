@@ -64,6 +64,13 @@ ClosedLoopConfig MakeOneDofConfig(const OneDofSetup& setup) {
   return config;
 }
 
+control::PassivityController::Config ClosedLoopConfig::PassivityOff(int dof) {
+  control::PassivityController::Config config;
+  config.dof = dof;
+  config.max_damping_Ns_per_m = ZeroDof(dof);
+  return config;
+}
+
 void ClosedLoop::DelayLine::Push(const WireSample& sample) {
   ring[pushed % ring.size()] = sample;
   ++pushed;
@@ -80,6 +87,8 @@ ClosedLoop::ClosedLoop(const ClosedLoopConfig& config)
       period_s_(1.0 / config.rate_hz),
       master_law_(config.master_law),
       slave_law_(config.slave_law),
+      master_pc_(config.master_passivity),
+      slave_pc_(config.slave_passivity),
       master_plant_(config.master_plant),
       slave_plant_(config.slave_plant),
       master_sender_velocity_({config.master_law.dof, config.master_law.velocity_filter_hz}),
@@ -87,10 +96,11 @@ ClosedLoop::ClosedLoop(const ClosedLoopConfig& config)
   if (!std::isfinite(config.rate_hz) || config.rate_hz <= 0.0) throw Error("closed loop: rate_hz must be > 0");
   if (config.delay_cycles < 0 || config.delay_cycles > 1000) throw Error("closed loop: delay_cycles must be 0..1000");
   const int dof = config.master_law.dof;
-  if (config.slave_law.dof != dof || config.master_plant.dof != dof || config.slave_plant.dof != dof) {
-    throw Error("closed loop: master law, slave law and both plants must have the same dof");
+  if (config.slave_law.dof != dof || config.master_plant.dof != dof || config.slave_plant.dof != dof ||
+      config.master_passivity.dof != dof || config.slave_passivity.dof != dof) {
+    throw Error("closed loop: master law, slave law, both plants and both passivity configs must have the same dof");
   }
-  const auto slots = static_cast<std::size_t>(config.delay_cycles + 1);
+  const auto slots = static_cast<std::size_t>(config.delay_cycles) + 1;
   master_to_slave_.ring.assign(slots, WireSample{});
   slave_to_master_.ring.assign(slots, WireSample{});
 }
@@ -101,10 +111,16 @@ const ClosedLoopSample& ClosedLoop::Step() {
   master_plant_.Read(master_reading);
   slave_plant_.Read(slave_reading);
 
+  const int dof = config_.master_law.dof;
+  auto energy_of = [dof](const control::PassivityController& pc) {
+    DofVector e(dof);
+    for (int i = 0; i < dof; ++i) e[i] = pc.state().input_energy_J[static_cast<std::size_t>(i)];
+    return e;
+  };
   master_to_slave_.Push({master_reading.position_m, master_sender_velocity_.Step(master_reading.position_m, period_s_),
-                         master_reading.force_N});
+                         master_reading.force_N, energy_of(master_pc_)});
   slave_to_master_.Push({slave_reading.position_m, slave_sender_velocity_.Step(slave_reading.position_m, period_s_),
-                         slave_reading.force_N});
+                         slave_reading.force_N, energy_of(slave_pc_)});
 
   auto make_input = [](const device::Reading& own, const WireSample* peer) {
     ThreeChannelLaw::Input input;
@@ -117,10 +133,23 @@ const ClosedLoopSample& ClosedLoop::Step() {
     }
     return input;
   };
-  const ThreeChannelLaw::Output master_out =
-      master_law_.Step(make_input(master_reading, slave_to_master_.Delayed(config_.delay_cycles)), period_s_);
-  const ThreeChannelLaw::Output slave_out =
-      slave_law_.Step(make_input(slave_reading, master_to_slave_.Delayed(config_.delay_cycles)), period_s_);
+  const WireSample* from_slave = slave_to_master_.Delayed(config_.delay_cycles);
+  const WireSample* from_master = master_to_slave_.Delayed(config_.delay_cycles);
+  ThreeChannelLaw::Output master_out = master_law_.Step(make_input(master_reading, from_slave), period_s_);
+  ThreeChannelLaw::Output slave_out = slave_law_.Step(make_input(slave_reading, from_master), period_s_);
+  // Time-domain passivity: the law's command passes through the port's controller, as in the processes.
+  auto passivate = [this, dof](control::PassivityController& pc, ThreeChannelLaw::Output& out, const WireSample* peer) {
+    control::PassivityController::Input in;
+    in.force_N = out.command_N;
+    in.velocity_m_per_s = out.velocity_m_per_s;
+    in.peer_energy_valid = peer != nullptr;
+    in.peer_input_energy_J = peer != nullptr ? peer->input_energy_J : ZeroDof(dof);
+    const control::PassivityController::Output pc_out = pc.Step(in, period_s_);
+    out.command_N = pc_out.force_N;
+    return pc_out.acted;
+  };
+  const bool master_acted = passivate(master_pc_, master_out, from_slave);
+  const bool slave_acted = passivate(slave_pc_, slave_out, from_master);
 
   ClosedLoopSample& s = last_;
   s.cycle = cycle_++;
@@ -140,6 +169,22 @@ const ClosedLoopSample& ClosedLoop::Step() {
   s.slave_status = slave_out.status;
   s.master_faults = master_reading.faults;
   s.slave_faults = slave_reading.faults;
+  s.master_observed_J = master_pc_.state().observed_J[0];
+  s.slave_observed_J = slave_pc_.state().observed_J[0];
+  s.master_pc_acted = master_acted;
+  s.slave_pc_acted = slave_acted;
+  // The work the commands held over the last interval did on the devices (exact: true positions).
+  if (cycle_ > 1) {
+    for (int i = 0; i < dof; ++i) {
+      network_energy_J_ -= last_master_command_N_[i] * (s.master_position_m[i] - last_master_position_m_[i]) +
+                           last_slave_command_N_[i] * (s.slave_position_m[i] - last_slave_position_m_[i]);
+    }
+  }
+  last_master_command_N_ = master_out.command_N;
+  last_slave_command_N_ = slave_out.command_N;
+  last_master_position_m_ = s.master_position_m;
+  last_slave_position_m_ = s.slave_position_m;
+  s.network_energy_J = network_energy_J_;
 
   device::FillCommand(master_out, master_law_.fixture(), master_reading.position_m, master_command_);
   device::FillCommand(slave_out, slave_law_.fixture(), slave_reading.position_m, slave_command_);

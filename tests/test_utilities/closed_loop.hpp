@@ -4,6 +4,7 @@
 #include <functional>
 #include <vector>
 
+#include "teleop/control/passivity_observer.hpp"
 #include "teleop/control/three_channel_law.hpp"
 #include "teleop/control/velocity_estimator.hpp"
 #include "teleop/device/law_command.hpp"
@@ -29,6 +30,11 @@ struct ClosedLoopConfig {
   control::ThreeChannelLaw::Config slave_law = control::ThreeChannelLaw::ZeroGains(Role::kSlave, 1);
   device::LoopbackPlantConfig master_plant = device::LoopbackPlantConfig::PaperMaster();
   device::LoopbackPlantConfig slave_plant = device::LoopbackPlantConfig::PaperSlave();
+  /// Time-domain passivity on each port (off by default: observe only). In energy_exchange each side's E_in
+  /// travels with its sample through the same delay line.
+  control::PassivityController::Config master_passivity = PassivityOff(1);
+  control::PassivityController::Config slave_passivity = PassivityOff(1);
+  static control::PassivityController::Config PassivityOff(int dof);
 };
 
 /// 1-DOF set-up in the paper's terms (eqs. 7-9), for tests and the stability cross-checks. Unset gains are 0.
@@ -84,6 +90,14 @@ struct ClosedLoopSample {
   control::ThreeChannelLaw::StepStatus slave_status = control::ThreeChannelLaw::StepStatus::kOk;
   std::uint32_t master_faults = 0;
   std::uint32_t slave_faults = 0;
+  double master_observed_J = 0.0;  ///< The passivity observer's W on each port, DOF 0, after this cycle.
+  double slave_observed_J = 0.0;
+  /// Energy the two ports' network (laws + delayed link + passivity controllers) has absorbed from both devices
+  /// up to this cycle: Σ -(u'_m(k-1)·Δx_m(k) + u'_s(k-1)·Δx_s(k)) over all DOF, the exact work of the held commands
+  /// on the true positions (J). Negative: the network has generated energy.
+  double network_energy_J = 0.0;
+  bool master_pc_acted = false;
+  bool slave_pc_acted = false;
 };
 
 class ClosedLoop {
@@ -107,12 +121,15 @@ class ClosedLoop {
   device::LoopbackPlant& slave_plant() noexcept { return slave_plant_; }
   const control::ThreeChannelLaw& master_law() const noexcept { return master_law_; }
   const control::ThreeChannelLaw& slave_law() const noexcept { return slave_law_; }
+  const control::PassivityController& master_passivity() const noexcept { return master_pc_; }
+  const control::PassivityController& slave_passivity() const noexcept { return slave_pc_; }
 
  private:
   struct WireSample {
     DofVector position_m;
     DofVector velocity_m_per_s;
     DofVector force_N;
+    DofVector input_energy_J;  ///< The sender's passivity E_in (energy_exchange).
   };
   /// Fixed ring of delay+1 samples, one per direction.
   struct DelayLine {
@@ -127,6 +144,13 @@ class ClosedLoop {
   double period_s_;
   control::ThreeChannelLaw master_law_;
   control::ThreeChannelLaw slave_law_;
+  control::PassivityController master_pc_;
+  control::PassivityController slave_pc_;
+  double network_energy_J_ = 0.0;
+  DofVector last_master_command_N_;
+  DofVector last_slave_command_N_;
+  DofVector last_master_position_m_;
+  DofVector last_slave_position_m_;
   device::LoopbackPlant master_plant_;
   device::LoopbackPlant slave_plant_;
   device::Command master_command_;

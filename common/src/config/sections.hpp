@@ -23,5 +23,8 @@ void ParseFixture(const Field& f, int dof, control::ForbiddenRegionFixture::Conf
 void ParseDevice(const Field& f, Role role, int dof, device::DeviceConfig& device);
 void ParseTelemetry(const Field& f, TelemetryConfig& telemetry);
 void ParseStability(const Field& f, int dof, StabilityConfig& stability);
+/// `passivity:` (read after `link:`: energy_exchange is refused over CAN).
+void ParsePassivity(const Field& f, int dof, const transport::LinkConfig& link,
+                    control::PassivityController::Config& passivity);
 
 }  // namespace teleop::config::sections

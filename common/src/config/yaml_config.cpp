@@ -30,6 +30,7 @@ using sections::ParseDevice;
 using sections::ParseFixture;
 using sections::ParseLaw;
 using sections::ParseLink;
+using sections::ParsePassivity;
 using sections::ParseStability;
 using sections::ParseTelemetry;
 
@@ -58,7 +59,7 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
     throw Error(name + ": the config is empty; it needs at least role, dof, rate_hz, link, law and device");
   }
   const Map map(root, {"role", "dof", "rate_hz", "duration_s", "realtime", "link", "law", "fixture", "device",
-                       "telemetry", "stability", "dds"});
+                       "telemetry", "stability", "dds", "passivity"});
   ProcessConfig config;
   config.source_path = name;
   config.role = ParseRole(map.Required("role"));
@@ -79,6 +80,11 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
   if (auto v = map.Optional("telemetry")) ParseTelemetry(*v, config.telemetry);
   if (auto v = map.Optional("stability")) ParseStability(*v, config.dof, config.stability);
   if (auto v = map.Optional("dds")) detail::ParseDds(*v, config.loop.rate_hz, config.dds);  // docs/dds.md
+  // Time-domain passivity (docs/stability.md): absent = off (observe only).
+  config.passivity.dof = config.dof;
+  config.passivity.max_damping_Ns_per_m = ZeroDof(config.dof);
+  if (auto v = map.Optional("passivity")) ParsePassivity(*v, config.dof, config.link, config.passivity);
+  config.passivity.max_force_N = config.law.max_force_N;
   return config;
 }
 

@@ -111,6 +111,14 @@ std::string FormatSummaryText(const RunSummary& s) {
   out += fmt::format("  fixture           max penetration {:.3f} mm\n", s.fixture_max_penetration_m * 1e3);
   out += fmt::format("  faults            device fault cycles {}, non-finite inputs {}, saturated cycles {}\n",
                      s.device_fault_cycles, s.nonfinite_inputs, s.saturated_cycles);
+  out += fmt::format(
+      "  passivity         {}: controller acted in {} cycles, dissipated {:.6g} J, observed energy min "
+      "{:.6g} J",
+      s.passivity_mode, s.passivity_cycles, s.passivity_dissipated_J, s.passivity_min_observed_J);
+  if (s.passivity_peer_without_energy > 0) {
+    out += fmt::format(", {} peer samples without energy", s.passivity_peer_without_energy);
+  }
+  out += "\n";
   out += fmt::format("  telemetry         {} records, {} dropped\n", s.telemetry_records, s.telemetry_dropped);
   return out;
 }
@@ -159,6 +167,11 @@ std::string FormatSummaryJson(const RunSummary& s) {
   out += fmt::format(R"(  "tracking_error_rms_m": {}, "tracking_error_max_m": {}, "fixture_max_penetration_m": {},)"
                      "\n",
                      Num(s.tracking_error_rms_m), Num(s.tracking_error_max_m), Num(s.fixture_max_penetration_m));
+  out += fmt::format(R"(  "passivity": {{"mode": {}, "cycles": {}, "dissipated_J": {}, "min_observed_J": {}, )"
+                     R"("peer_without_energy": {}}},)"
+                     "\n",
+                     JsonString(s.passivity_mode), s.passivity_cycles, Num(s.passivity_dissipated_J),
+                     Num(s.passivity_min_observed_J), s.passivity_peer_without_energy);
   out += fmt::format(R"(  "telemetry_records": {}, "telemetry_dropped": {})"
                      "\n}}\n",
                      s.telemetry_records, s.telemetry_dropped);

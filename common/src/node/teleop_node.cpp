@@ -38,6 +38,15 @@ void CopyToRecord(const DofVector& v, double (&out)[kMaxDof]) noexcept {
   for (int i = 0; i < kMaxDof; ++i) out[i] = i < v.size() ? v[i] : 0.0;
 }
 
+// ---- time-domain passivity (docs/stability.md): a config built in code may leave the controller's config unsized.
+control::PassivityController::Config PassivityConfigOf(const config::ProcessConfig& cfg) {
+  control::PassivityController::Config pc = cfg.passivity;
+  pc.dof = cfg.dof;
+  if (pc.max_damping_Ns_per_m.size() != cfg.dof) pc.max_damping_Ns_per_m = ZeroDof(cfg.dof);
+  pc.max_force_N = cfg.law.max_force_N;
+  return pc;
+}
+
 }  // namespace
 
 struct TeleopNode::Impl {
@@ -46,6 +55,7 @@ struct TeleopNode::Impl {
         device(std::move(dev)),
         link(std::move(lnk)),
         law(cfg.law),
+        passivity(PassivityConfigOf(cfg)),  // time-domain passivity
         loop(cfg.loop),
         watchdog(cfg.link.timeout_ms * 1e-3),
         events(1024) {
@@ -62,6 +72,8 @@ struct TeleopNode::Impl {
     input.peer_position_m = ZeroDof(dof);
     input.peer_velocity_m_per_s = ZeroDof(dof);
     input.peer_force_N = ZeroDof(dof);
+    passivity_input.peer_input_energy_J = ZeroDof(dof);  // time-domain passivity
+    passivity_damping = ZeroDof(dof);
     zero_command = ZeroDof(dof);
     outgoing.sender = transport::ToSender(config.role);
     rate = static_cast<std::uint64_t>(config.loop.rate_hz);
@@ -96,6 +108,8 @@ struct TeleopNode::Impl {
   void Sense() noexcept;
   PeerState Receive(std::uint64_t cycle, std::int64_t now_ns, double t_s) noexcept;
   control::ThreeChannelLaw::Output Control(const PeerState& peer_state, double period_s) noexcept;
+  /// Time-domain passivity: the law's command through the port's passivity controller (docs/stability.md).
+  void Passivate(control::ThreeChannelLaw::Output& out, double period_s) noexcept;
   /// Returns whether the device reported a fault (then it was put into its safe state instead of commanded).
   bool Actuate(const control::ThreeChannelLaw::Output& out, std::uint64_t cycle, double period_s) noexcept;
   std::uint8_t Transmit(const control::ThreeChannelLaw::Output& out, const PeerState& peer_state, bool fault,
@@ -109,6 +123,7 @@ struct TeleopNode::Impl {
   std::unique_ptr<device::Device> device;
   std::unique_ptr<transport::Link> link;
   control::ThreeChannelLaw law;
+  control::PassivityController passivity;  ///< Time-domain passivity (docs/stability.md); off = observe only.
   runtime::PeriodicLoop loop;
   runtime::LinkWatchdog watchdog;
   std::unique_ptr<dds::Bridge> bridge;  ///< DDS bridge, or null. Declared before `events`: outlives its observer.
@@ -120,6 +135,9 @@ struct TeleopNode::Impl {
   device::Reading reading;
   device::Command command;
   control::ThreeChannelLaw::Input input;
+  control::PassivityController::Input passivity_input;
+  DofVector passivity_damping;
+  std::uint64_t passivity_peer_without_energy = 0;  ///< energy_exchange: samples from the peer without the block.
   DofVector zero_command;
   proto::SampleMessage incoming{};
   proto::SampleMessage peer{};
@@ -209,8 +227,28 @@ control::ThreeChannelLaw::Output TeleopNode::Impl::Control(const PeerState& peer
     CopyFromWire(peer.velocity_m_per_s, dof, input.peer_velocity_m_per_s);
     CopyFromWire(peer.force_N, dof, input.peer_force_N);
   }
-  return law.Step(input, period_s);
+  control::ThreeChannelLaw::Output out = law.Step(input, period_s);
+  Passivate(out, period_s);  // time-domain passivity: the command passes through the controller before FillCommand
+  return out;
 }
+
+// ---- time-domain passivity (docs/stability.md)
+void TeleopNode::Impl::Passivate(control::ThreeChannelLaw::Output& out, double period_s) noexcept {
+  // On a device fault Actuate puts the device in its safe state instead: the port then sees no force.
+  const bool device_fault = reading.faults != device::kFaultNone;
+  passivity_input.force_N = device_fault ? zero_command : out.command_N;
+  passivity_input.velocity_m_per_s = out.velocity_m_per_s;
+  passivity_input.peer_energy_valid = have_peer && peer.has_energy;
+  if (passivity_input.peer_energy_valid) {
+    CopyFromWire(peer.input_energy_J, config.dof, passivity_input.peer_input_energy_J);
+  } else if (have_peer && passivity.config().mode == control::PassivityMode::kEnergyExchange) {
+    ++passivity_peer_without_energy;
+  }
+  const control::PassivityController::Output pc = passivity.Step(passivity_input, period_s);
+  if (!device_fault) out.command_N = pc.force_N;
+  passivity_damping = pc.damping_Ns_per_m;
+}
+// ---- end time-domain passivity
 
 bool TeleopNode::Impl::Actuate(const control::ThreeChannelLaw::Output& out, std::uint64_t cycle,
                                double period_s) noexcept {
@@ -246,6 +284,12 @@ std::uint8_t TeleopNode::Impl::Transmit(const control::ThreeChannelLaw::Output& 
   CopyToWire(reading.position_m, outgoing.position_m);
   CopyToWire(out.velocity_m_per_s, outgoing.velocity_m_per_s);
   CopyToWire(reading.force_N, outgoing.force_N);
+  // Time-domain passivity, energy_exchange: this port's energies travel with the sample (the energy block).
+  outgoing.has_energy = passivity.config().mode == control::PassivityMode::kEnergyExchange;
+  if (outgoing.has_energy) {
+    outgoing.input_energy_J = passivity.state().input_energy_J;
+    outgoing.output_energy_J = passivity.state().output_energy_J;
+  }
   (void)link->Send(outgoing);  // a refused send is counted by the link
   return flags;
 }
@@ -291,6 +335,10 @@ void TeleopNode::Impl::Record(const control::ThreeChannelLaw::Output& out, const
     r.flags = flags;
     r.rtt_s = last_rtt_s;
     r.compute_s = static_cast<double>(MonotonicNowNs() - now_ns) * 1e-9;
+    for (int i = 0; i < config.dof; ++i) {  // time-domain passivity
+      r.passivity_observed_J[i] = passivity.state().observed_J[static_cast<std::size_t>(i)];
+      r.passivity_damping_Ns_per_m[i] = i < passivity_damping.size() ? passivity_damping[i] : 0.0;
+    }
     if (to_csv && telemetry->Push(r)) ++telemetry_records;
     if (to_dds) PushBridgeState(r, out, peer_state, fault);  // DDS bridge
   }
@@ -393,6 +441,17 @@ RunSummary TeleopNode::Run() {
   summary.link_detail = s.link->Summary();
   if (const auto* emulation = transport::EmulationCountersOf(*s.link)) summary.link_emulation = *emulation;
   summary.link_security = transport::ToString(s.config.link.security.mode);
+  summary.passivity_mode = control::ToString(s.passivity.config().mode);  // time-domain passivity
+  summary.passivity_cycles = s.passivity.state().acting_steps;
+  summary.passivity_dissipated_J = s.passivity.total_dissipated_J();
+  summary.passivity_min_observed_J = s.passivity.state().min_observed_J;
+  summary.passivity_peer_without_energy = s.passivity_peer_without_energy;
+  if (s.passivity_peer_without_energy > 0) {
+    spdlog::error(
+        "passivity energy_exchange: {} samples from the peer carried no energy block, so this side could "
+        "give out nothing: set passivity.mode: energy_exchange on both processes",
+        s.passivity_peer_without_energy);
+  }
   summary.stop_reason = s.stop_requested.load() ? "signal" : (s.peer_shutdown ? "peer shutdown" : "duration");
   if (s.dof_mismatches > 0) {
     spdlog::error("{} samples from the peer carried another DOF count than this process's {}: check both configs",

@@ -59,6 +59,8 @@ std::string TelemetryCsvHeader(int dof) {
     for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}_{}", kVectorNames[v], i);
   }
   fmt::format_to(std::back_inserter(out), ",fixture_penetration_m,law_status,flags,rtt_s,compute_s");
+  for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",passivity_observed_J_{}", i);
+  for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",passivity_damping_Ns_per_m_{}", i);
   return fmt::to_string(out);
 }
 
@@ -72,6 +74,8 @@ std::string TelemetryCsvRow(const TelemetryRecord& r, int dof) {
   }
   fmt::format_to(std::back_inserter(out), ",{},{},{},{},{}", r.fixture_penetration_m, r.law_status, r.flags, r.rtt_s,
                  r.compute_s);
+  for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.passivity_observed_J[i]);
+  for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.passivity_damping_Ns_per_m[i]);
   return fmt::to_string(out);
 }
 

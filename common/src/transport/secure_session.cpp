@@ -406,7 +406,7 @@ std::size_t SecureSession::Seal(const proto::SampleMessage& sample, std::span<st
     ++counters_.seal_refused;
     return 0;
   }
-  const std::size_t plain_size = proto::EncodedSampleSize(sample.dof);
+  const std::size_t plain_size = proto::EncodedSampleSize(sample.dof, sample.has_energy);
   const std::size_t total = sw::kFrameHeaderSize + plain_size + proto::kFrameTagBytes;
   if (out.size() < total) {
     ++counters_.seal_refused;

@@ -32,8 +32,7 @@ using asio::ip::udp;
 
 // Longer than any valid sample, so an oversized datagram is read (truncated) as more than a sample and rejected
 // as kBadLength instead of being mistaken for a shorter valid one.
-constexpr std::size_t kMaxSampleBytes =
-    proto::wire::kHeaderSize + proto::kMaxWireDof * proto::wire::kBytesPerDof + proto::wire::kCrcSize;
+constexpr std::size_t kMaxSampleBytes = proto::kMaxEncodedSampleBytes;
 constexpr std::size_t kReceiveBufferBytes = 512;
 static_assert(kReceiveBufferBytes > kMaxSampleBytes);
 static_assert(kReceiveBufferBytes > proto::kMaxSecureMessageSize);

@@ -3,6 +3,7 @@
 #include <optional>
 #include <string>
 
+#include "teleop/control/passivity_observer.hpp"
 #include "teleop/control/three_channel_law.hpp"
 #include "teleop/dds/bridge_config.hpp"
 #include "teleop/device/device_config.hpp"
@@ -61,6 +62,9 @@ struct ProcessConfig {
   TelemetryConfig telemetry{};
   StabilityConfig stability{};
   dds::BridgeConfig dds{};  ///< The DDS bridge (docs/dds.md); off unless dds.enabled.
+  /// Time-domain passivity on this device's port (docs/stability.md); off (observe only) unless passivity.mode.
+  /// dof and max_damping_Ns_per_m are sized by the reader; max_force_N is the law's.
+  control::PassivityController::Config passivity{};
   std::string source_path;  ///< The file it was read from (for messages).
 };
 

@@ -49,6 +49,12 @@ struct RunSummary {
   std::uint64_t telemetry_records = 0;
   std::uint64_t telemetry_dropped = 0;
   std::string stop_reason;  ///< "duration", "signal", "peer shutdown", ...
+  // Time-domain passivity (docs/stability.md).
+  std::string passivity_mode = "off";               ///< "off" (observe only), "observer", "energy_exchange".
+  std::uint64_t passivity_cycles = 0;               ///< Cycles in which the passivity controller acted.
+  double passivity_dissipated_J = 0.0;              ///< Energy its damper dissipated, all DOF.
+  double passivity_min_observed_J = 0.0;            ///< Minimum of the observed energy W (docs/stability.md).
+  std::uint64_t passivity_peer_without_energy = 0;  ///< energy_exchange: peer samples without the energy block.
 };
 
 /// Fills a Distribution from a histogram of nanoseconds, scaled to the given unit (1e3 → µs, 1e6 → ms).

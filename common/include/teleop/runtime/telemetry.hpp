@@ -34,6 +34,8 @@ struct TelemetryRecord {
   std::uint32_t flags = 0;                                  ///< proto::StateFlags bits of the sample sent this cycle.
   double rtt_s = std::numeric_limits<double>::quiet_NaN();  ///< Round trip to the peer; NaN when unknown.
   double compute_s = 0.0;                                   ///< Cycle body time so far.
+  double passivity_observed_J[kMaxDof] = {};        ///< Time-domain passivity: the observer's W (docs/stability.md).
+  double passivity_damping_Ns_per_m[kMaxDof] = {};  ///< The controller's damping α this cycle (0: did not act).
 };
 static_assert(std::is_trivially_copyable_v<TelemetryRecord>);
 

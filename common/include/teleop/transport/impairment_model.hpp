@@ -77,8 +77,7 @@ struct ImpairmentCounters {
 class ImpairmentModel {
  public:
   /// The largest datagram a slot holds (a sample of kMaxWireDof DOF).
-  static constexpr std::size_t kMaxDatagramBytes =
-      proto::wire::kHeaderSize + proto::kMaxWireDof * proto::wire::kBytesPerDof + proto::wire::kCrcSize;
+  static constexpr std::size_t kMaxDatagramBytes = proto::kMaxEncodedSampleBytes;  // with the passivity energy block
 
   enum class Verdict : std::uint8_t { kQueued, kDropped, kOverflow };
 

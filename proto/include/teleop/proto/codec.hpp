@@ -36,7 +36,7 @@ inline constexpr std::size_t kSenderOffset = 6;          // u8
 inline constexpr std::size_t kFlagsOffset = 7;           // u8
 inline constexpr std::size_t kDofOffset = 8;             // u8
 inline constexpr std::size_t kReservedOffset = 9;        // u8, sent as 0
-inline constexpr std::size_t kPayloadLengthOffset = 10;  // u16, bytes of payload = dof * kBytesPerDof
+inline constexpr std::size_t kPayloadLengthOffset = 10;  // u16, dof * kBytesPerDof [+ dof * kEnergyBytesPerDof]
 inline constexpr std::size_t kSequenceOffset = 12;       // u32
 inline constexpr std::size_t kSenderTimeOffset = 16;     // u64 ns
 inline constexpr std::size_t kEchoTimeOffset = 24;       // u64 ns
@@ -44,12 +44,18 @@ inline constexpr std::size_t kEchoAgeOffset = 32;        // u32 ns
 inline constexpr std::size_t kHeaderSize = 36;
 inline constexpr std::size_t kBytesPerDof = 24;  ///< position f64, velocity f64, force f64.
 inline constexpr std::size_t kCrcSize = 4;       ///< CRC-32C over every byte before it.
+/// The optional energy block (time-domain passivity, docs/protocol.md "Energy block"): after the dof value blocks,
+/// per DOF input energy f64 then output energy f64. Present exactly when payload_length = dof · (24 + 16).
+inline constexpr std::size_t kEnergyBytesPerDof = 16;
 }  // namespace wire
 
-/// Largest encoded sample (bytes): header + 6 DOF × 3 doubles + CRC = 184.
+/// Largest encoded sample (bytes): header + 6 DOF × (3 + 2) doubles + CRC = 280 (184 without the energy block).
+inline constexpr std::size_t kMaxEncodedSampleBytes =
+    wire::kHeaderSize + kMaxWireDof * (wire::kBytesPerDof + wire::kEnergyBytesPerDof) + wire::kCrcSize;
+/// kMaxEncodedSampleBytes.
 std::size_t MaxEncodedSampleSize() noexcept;
-/// Encoded size for `dof` DOF (64 for 1 DOF); 0 when dof is outside 1..kMaxWireDof.
-std::size_t EncodedSampleSize(int dof) noexcept;
+/// Encoded size for `dof` DOF (64 for 1 DOF; 80 with the energy block); 0 when dof is outside 1..kMaxWireDof.
+std::size_t EncodedSampleSize(int dof, bool has_energy = false) noexcept;
 
 /// Checks the fields a receiver checks after the CRC: role, flags, dof, finiteness and ranges of the first `dof`
 /// values. Returns kOk, kBadDof, kOutOfRange or kNonFinite. A sender may call it to refuse to send garbage.
@@ -60,7 +66,8 @@ std::size_t EncodedSampleSize(int dof) noexcept;
 /// rejects them. No allocation.
 [[nodiscard]] std::size_t EncodeSample(const SampleMessage& message, std::span<std::uint8_t> out) noexcept;
 /// Decodes and validates one datagram. `out` is written only on kOk. No allocation, never throws.
-/// Checks in this order: size ≥ header, magic, version, type, dof, length field, size, CRC, then ValidateSample.
+/// Checks in this order: size ≥ header, magic, version, type, dof, length field (dof · 24, or dof · 40 with the
+/// energy block), size, CRC, then ValidateSample.
 [[nodiscard]] DecodeStatus DecodeSample(std::span<const std::uint8_t> bytes, SampleMessage& out) noexcept;
 
 }  // namespace teleop::proto

@@ -44,6 +44,8 @@ inline constexpr std::uint8_t kKnownFlags = 0x3F;
 inline constexpr double kMaxAbsPosition_m = 10.0;
 inline constexpr double kMaxAbsVelocity_m_per_s = 100.0;
 inline constexpr double kMaxAbsForce_N = 10000.0;
+/// Accepted range of the energy block's cumulative energies: 0..this (J). At 10 kW it takes a day to get there.
+inline constexpr double kMaxEnergy_J = 1e9;
 
 /// One cycle's state of one side, as exchanged at the loop rate. SI units, sender's base frame.
 /// The master sends its handle position/velocity and the operator force it measures; the slave sends its tool
@@ -59,6 +61,12 @@ struct SampleMessage {
   std::array<double, kMaxWireDof> position_m{};
   std::array<double, kMaxWireDof> velocity_m_per_s{};
   std::array<double, kMaxWireDof> force_N{};
+  /// The energy block (time-domain passivity, energy_exchange; docs/protocol.md "Energy block"): sent when true.
+  /// Per DOF, the sender's port energies since its start (J, ≥ 0, non-decreasing): what its law absorbed from its
+  /// device (E_in, the peer's credit) and delivered to it (E_out, for diagnostics).
+  bool has_energy = false;
+  std::array<double, kMaxWireDof> input_energy_J{};
+  std::array<double, kMaxWireDof> output_energy_J{};
 };
 
 /// NTP-style round trip estimated from one received sample (docs/protocol.md, "Round-trip time").

@@ -62,10 +62,11 @@ inline constexpr std::size_t kFrameReserved2Offset = 26;  // u16, sent as 0
 inline constexpr std::size_t kFrameHeaderSize = 28;
 }  // namespace secure_wire
 
-/// Smallest and largest sample plaintext a frame carries: the version-1 encoding of 1 and kMaxWireDof DOF.
+/// Smallest and largest sample plaintext a frame carries: the version-1 encoding of 1 DOF, and of kMaxWireDof DOF
+/// with the energy block (EncodedSampleSize).
 inline constexpr std::size_t kMinFramePlaintextBytes = 64;
-inline constexpr std::size_t kMaxFramePlaintextBytes = 184;
-/// Largest frame: 28 + 184 + 16 = 228 bytes.
+inline constexpr std::size_t kMaxFramePlaintextBytes = kMaxEncodedSampleBytes;  // 280
+/// Largest frame: 28 + 280 + 16 = 324 bytes.
 inline constexpr std::size_t kMaxSecureFrameSize =
     secure_wire::kFrameHeaderSize + kMaxFramePlaintextBytes + kFrameTagBytes;
 /// Largest version-2 message of any type.
@@ -121,7 +122,8 @@ struct SecureFrameView {
 // field, then the size), reserved bytes 0 and role 0/1 (kOutOfRange). `out` is written only on kOk.
 [[nodiscard]] DecodeStatus DecodeKeyExchange(std::span<const std::uint8_t> bytes, KeyExchangeMessage& out) noexcept;
 [[nodiscard]] DecodeStatus DecodeConfirm(std::span<const std::uint8_t> bytes, ConfirmMessage& out) noexcept;
-/// A frame's sealed length must be a version-1 sample size for some dof (64 + 24·k, k = 0..5).
+/// A frame's sealed length must be a version-1 sample size for some dof (64 + 24·k, or 80 + 40·k with the energy
+/// block, k = 0..5).
 [[nodiscard]] DecodeStatus DecodeSecureFrame(std::span<const std::uint8_t> bytes, SecureFrameView& out) noexcept;
 
 /// The 12-byte AEAD nonce of a frame: u32 sender role, u64 sequence (little-endian). Unique per key because each

@@ -1,0 +1,56 @@
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "teleop/control/passivity_observer.hpp"
+
+namespace teleop::test {
+
+/// The delay demonstration of docs/stability.md ("Time-domain passivity"): the paper's 1-DOF master and slave
+/// (§4.1 masses and damping), coupled by a PD law (K_p, K_d on both sides), lock-step at rate_hz with a delay of
+/// `delay_cycles` samples in each direction. The operator drives the master with a force F_h*(t) = A·sin(2πft)
+/// and no hand impedance (m_h = b_h = k_h = 0: a pure force source, the least stabilising operator); the slave starts
+/// `initial_offset_m` away from the master. A stable pair tracks with a steady error; an unstable one oscillates
+/// with a growing amplitude.
+struct PassivityDelaySetup {
+  double rate_hz = 1000.0;
+  double kp_N_per_m = 300.0;
+  double kd_Ns_per_m = 1.0;
+  double max_damping_Ns_per_m = 20.0;  ///< The passivity controller's bound on α.
+  double max_force_N = 0.0;            ///< The laws' saturation (0 = none).
+  double initial_offset_m = 0.002;
+  double operator_amplitude_N = 0.2;
+  double operator_frequency_hz = 1.0;
+  double duration_s = 4.0;
+};
+
+/// What one run did. Amplitudes are the peak-to-peak of the tracking error x_s - x_m in a window.
+struct PassivityDelayResult {
+  int delay_cycles = 0;
+  control::PassivityMode mode = control::PassivityMode::kOff;
+  double early_amplitude_m = 0.0;  ///< Window [0.5, 1.0) s.
+  double late_amplitude_m = 0.0;   ///< The last 0.5 s.
+  double growth = 0.0;             ///< late / early amplitude (> 1: the oscillation grows).
+  double max_abs_position_m = 0.0;
+  double late_tracking_rms_m = 0.0;   ///< RMS of x_s - x_m over the last 0.5 s.
+  double late_master_pp_m = 0.0;      ///< Peak-to-peak master position over the last 0.5 s (how far it moved).
+  double min_network_energy_J = 0.0;  ///< min over the run of the energy the laws + link absorbed (< 0: generated).
+  double final_network_energy_J = 0.0;
+  double dissipated_J = 0.0;        ///< By both passivity controllers.
+  std::uint64_t acting_cycles = 0;  ///< Cycles in which either controller acted.
+  bool diverged = false;            ///< Position beyond 1 m or not finite: stopped early.
+  /// Unstable: the oscillation grew (late amplitude > 2 × early and > 0.5 mm) or the run diverged.
+  bool unstable() const noexcept;
+};
+
+PassivityDelayResult RunPassivityDelay(const PassivityDelaySetup& setup, int delay_cycles, control::PassivityMode mode);
+
+/// Runs every delay in [first, last] with every mode given.
+std::vector<PassivityDelayResult> SweepPassivityDelay(const PassivityDelaySetup& setup, int first_delay, int last_delay,
+                                                      const std::vector<control::PassivityMode>& modes);
+
+/// The smallest delay of `results` at which the run in `mode` is unstable; -1 if none.
+int FirstUnstableDelay(const std::vector<PassivityDelayResult>& results, control::PassivityMode mode);
+
+}  // namespace teleop::test
