@@ -17,5 +17,9 @@ void ParseFixture(const Field& f, int dof, control::ForbiddenRegionFixture::Conf
 void ParseDevice(const Field& f, Role role, int dof, device::DeviceConfig& device);
 void ParseTelemetry(const Field& f, TelemetryConfig& telemetry);
 void ParseStability(const Field& f, int dof, StabilityConfig& stability);
+void ParseEngagement(const Field& f, node::EngagementConfig& engagement);
+/// `safety:`; `role` decides the allowed reactions (the default is set before, by DefaultReaction).
+void ParseSafety(const Field& f, Role role, node::SafetyConfig& safety);
+node::Reaction DefaultReaction(Role role) noexcept;
 
 }  // namespace teleop::config::sections

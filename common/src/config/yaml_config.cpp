@@ -58,7 +58,7 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
     throw Error(name + ": the config is empty; it needs at least role, dof, rate_hz, link, law and device");
   }
   const Map map(root, {"role", "dof", "rate_hz", "duration_s", "realtime", "link", "law", "fixture", "device",
-                       "telemetry", "stability", "dds"});
+                       "telemetry", "stability", "dds", "engagement", "safety"});
   ProcessConfig config;
   config.source_path = name;
   config.role = ParseRole(map.Required("role"));
@@ -79,6 +79,9 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
   if (auto v = map.Optional("telemetry")) ParseTelemetry(*v, config.telemetry);
   if (auto v = map.Optional("stability")) ParseStability(*v, config.dof, config.stability);
   if (auto v = map.Optional("dds")) detail::ParseDds(*v, config.loop.rate_hz, config.dds);  // docs/dds.md
+  config.safety.reaction = sections::DefaultReaction(config.role);
+  if (auto v = map.Optional("engagement")) sections::ParseEngagement(*v, config.engagement);
+  if (auto v = map.Optional("safety")) sections::ParseSafety(*v, config.role, config.safety);
   return config;
 }
 

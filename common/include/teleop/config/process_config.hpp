@@ -7,6 +7,7 @@
 #include "teleop/dds/bridge_config.hpp"
 #include "teleop/device/device_config.hpp"
 #include "teleop/link/link_config.hpp"
+#include "teleop/node/engagement_config.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
 #include "teleop/types.hpp"
 
@@ -60,8 +61,10 @@ struct ProcessConfig {
   control::ThreeChannelLaw::Config law{};
   TelemetryConfig telemetry{};
   StabilityConfig stability{};
-  dds::BridgeConfig dds{};  ///< The DDS bridge (docs/dds.md); off unless dds.enabled.
-  std::string source_path;  ///< The file it was read from (for messages).
+  dds::BridgeConfig dds{};              ///< The DDS bridge (docs/dds.md); off unless dds.enabled.
+  node::EngagementConfig engagement{};  ///< How coupling starts and restarts (teleop/node/engagement.hpp).
+  node::SafetyConfig safety{};          ///< Safe states, fault records, reading checks.
+  std::string source_path;              ///< The file it was read from (for messages).
 };
 
 }  // namespace teleop::config

@@ -2,7 +2,9 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
+#include "teleop/node/fault_recorder.hpp"
 #include "teleop/runtime/latency_histogram.hpp"
 #include "teleop/transport/link.hpp"
 #include "teleop/types.hpp"
@@ -15,6 +17,24 @@ struct Distribution {
   double p50 = 0.0;
   double p99 = 0.0;
   double max = 0.0;
+};
+
+/// Coupling over the run (teleop/node/engagement.hpp).
+struct EngagementSummary {
+  std::string reaction;     ///< safety.reaction: what the process does while not coupled.
+  std::string final_state;  ///< Engagement state at the end.
+  std::uint64_t times_engaged = 0;
+  std::uint64_t couplings_lost = 0;  ///< Aligning or engaged ended (an outage).
+  std::uint64_t engaged_cycles = 0;
+  double aligning_mean_s = 0.0;  ///< Aligning durations of the alignings that reached engaged.
+  double aligning_max_s = 0.0;
+  double max_reference_step_m = 0.0;  ///< Largest one-cycle jump of the coupling reference while (re)engaging.
+  double max_aligning_force_rate_N_per_s = 0.0;  ///< Largest coupling-force rate while aligning and at engagement.
+  std::uint64_t latency_gate_trips = 0;
+  std::uint64_t new_sessions = 0;
+  std::uint64_t encoder_jumps = 0;  ///< Readings refused by the node's checks (safety.*), each a device fault.
+  std::uint64_t out_of_range_readings = 0;
+  std::uint64_t nonfinite_readings = 0;
 };
 
 /// What a process prints at the end of a run and writes with --summary-json. The field names are the JSON keys.
@@ -44,6 +64,9 @@ struct RunSummary {
   std::uint64_t telemetry_records = 0;
   std::uint64_t telemetry_dropped = 0;
   std::string stop_reason;  ///< "duration", "signal", "peer shutdown", ...
+  EngagementSummary engagement{};
+  std::vector<FaultReport> faults;          ///< Every fault: what, when, the reaction, its record file.
+  std::uint64_t fault_records_skipped = 0;  ///< Faults without a record (writer busy, safety.max_fault_records).
 };
 
 /// Fills a Distribution from a histogram of nanoseconds, scaled to the given unit (1e3 → µs, 1e6 → ms).

@@ -34,6 +34,7 @@ struct TelemetryRecord {
   std::uint32_t flags = 0;                                  ///< proto::StateFlags bits of the sample sent this cycle.
   double rtt_s = std::numeric_limits<double>::quiet_NaN();  ///< Round trip to the peer; NaN when unknown.
   double compute_s = 0.0;                                   ///< Cycle body time so far.
+  int engagement = 0;  ///< node::EngagementState as an integer (0 disengaged .. 3 engaged; teleop/node/engagement.hpp).
 };
 static_assert(std::is_trivially_copyable_v<TelemetryRecord>);
 
