@@ -90,6 +90,9 @@ def median(xs):
     return xs[n // 2] if n % 2 else 0.5 * (xs[n // 2 - 1] + xs[n // 2])
 
 
+ENGAGED = 3  # node::EngagementState::kEngaged, the telemetry column `engagement`
+
+
 class Failure(Exception):
     pass
 
@@ -289,7 +292,9 @@ def check_physics(mc, sc, m, s, mt, st):
 
     for name, rows, kv, kf, k_fixture, at in (("master", mt, kvm, kfm, 0.0, 0.0),
                                               ("slave", st, kvs, 0.0, k_vf, fixture_at)):
-        coupled = [r for r in rows if r["law_status"] == 0]
+        # Engaged (telemetry column `engagement` 3): aligning cycles run the law against a moving reference with a
+        # rate-limited coupling force, and the safe-state reaction against a virtual peer; neither is eq. 8/9.
+        coupled = [r for r in rows if r["law_status"] == 0 and r["engagement"] == ENGAGED]
         expect(len(coupled) > 0.5 * len(rows), f"{name}: {len(coupled)} of {len(rows)} records coupled and unsaturated")
         worst = max(abs(r["command_N_0"] - expected_command(r, kv, kf, k_fixture, at)) for r in coupled)
         expect(worst < 1e-9, f"{name}: command = eq. {8 if name == 'master' else 9} on every coupled cycle "
@@ -303,15 +308,15 @@ def check_physics(mc, sc, m, s, mt, st):
     #    faster than the phase between the two loops, D = one period (the one-sample-delay prediction
     #    velocity × period); when the loops run nearly in phase, one side waits a further period, D = 2 periods.
     lag_s = (b_s + kvs) / kp  # s: tracking error per unit velocity of the slave
-    slave_ramp = [r for r in st if r["law_status"] == 0 and contact_at * 0.2 < r["position_m_0"] < contact_at * 0.8
-                  and r["velocity_m_per_s_0"] > 2e-3]
+    slave_ramp = [r for r in st if r["law_status"] == 0 and r["engagement"] == ENGAGED
+                  and contact_at * 0.2 < r["position_m_0"] < contact_at * 0.8 and r["velocity_m_per_s_0"] > 2e-3]
     lag = median([(r["peer_position_m_0"] - r["position_m_0"]) / r["velocity_m_per_s_0"] for r in slave_ramp])
     # ±20 %: the median over the ramp of an estimate that the velocity filter and the loops' jitter disturb by a few
     # per cent (measured: within 3 %); a halved K_p or a lost K_vs changes it by 50 % or more.
     expect(abs(lag / lag_s - 1) < 0.2, f"slave lag on the ramp {lag*1e3:.3f} ms of velocity, predicted "
           f"(b_s + K_vs)/K_p = {lag_s*1e3:.3f} ms ({len(slave_ramp)} samples)")
-    master_ramp = [r for r in mt if r["law_status"] == 0 and contact_at * 0.2 < r["position_m_0"] < contact_at * 0.8
-                   and r["velocity_m_per_s_0"] > 2e-3]
+    master_ramp = [r for r in mt if r["law_status"] == 0 and r["engagement"] == ENGAGED
+                   and contact_at * 0.2 < r["position_m_0"] < contact_at * 0.8 and r["velocity_m_per_s_0"] > 2e-3]
     delay = median([(r["position_m_0"] - r["peer_position_m_0"]) / r["velocity_m_per_s_0"] - lag_s
                     for r in master_ramp])
     # 0.8..2.2 periods: D is one or two periods (above), ±20 % for the same estimate noise as the slave's.
@@ -329,7 +334,7 @@ def check_physics(mc, sc, m, s, mt, st):
           f"environment force {k_w*p_static:.4f} N")
     # The last 0.65 s of the hold (from 2.3 s): the contact mode settles with time constant 2 m_s / b_s ≈ 0.15 s,
     # so 0.3 s after the ramp ends the transient (measured: < 2 % of p at the ramp's end) is below 0.1 %.
-    hold = [r for r in mt if r["law_status"] == 0 and 2.3 <= r["cycle"] * period <= 2.95]
+    hold = [r for r in mt if r["law_status"] == 0 and r["engagement"] == ENGAGED and 2.3 <= r["cycle"] * period <= 2.95]
     expect(len(hold) > 300, f"master recorded {len(hold)} cycles of the settled hold")
     p_hold = median([r["peer_position_m_0"] - contact_at for r in hold])
     e_hold = median([r["position_m_0"] - r["peer_position_m_0"] for r in hold])

@@ -35,7 +35,7 @@ std::uint32_t ReadingCheck::Check(const device::Reading& reading, double period_
     const double bound = safety_.max_speed_m_per_s * period_s + safety_.encoder_slack_m;
     if ((x - previous_m_).cwiseAbs().maxCoeff() > bound) {
       ++encoder_jumps_;
-      faults |= device::kFaultOutOfRange;
+      faults |= device::kFaultImplausible;
     }
   }
   previous_m_ = x;

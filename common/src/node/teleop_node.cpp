@@ -439,9 +439,17 @@ std::uint8_t TeleopNode::Impl::Transmit(const control::ThreeChannelLaw::Output& 
   if (out.fixture_penetration_m > 0.0) flags |= proto::kFlagInFixture;
   if (loop.stopping()) flags |= proto::kFlagShutdown;
   outgoing.flags = flags;
-  CopyToWire(reading.position_m, outgoing.position_m);
-  CopyToWire(out.velocity_m_per_s, outgoing.velocity_m_per_s);
-  CopyToWire(reading.force_N, outgoing.force_N);
+  if ((flags & proto::kFlagFault) != 0) {
+    // The values are not to be used (the peer decouples on the flag), and a NaN or absurd reading would make the
+    // sample unencodable or implausible and the flag would never arrive: send zeros with it.
+    outgoing.position_m.fill(0.0);
+    outgoing.velocity_m_per_s.fill(0.0);
+    outgoing.force_N.fill(0.0);
+  } else {
+    CopyToWire(reading.position_m, outgoing.position_m);
+    CopyToWire(out.velocity_m_per_s, outgoing.velocity_m_per_s);
+    CopyToWire(reading.force_N, outgoing.force_N);
+  }
   (void)link->Send(outgoing);  // a refused send is counted by the link
   return flags;
 }

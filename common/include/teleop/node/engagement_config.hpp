@@ -16,8 +16,9 @@ struct EngagementConfig {
   double align_speed_m_per_s = 0.05;
   /// Aligning lasts at least this long; K_f's peer force ramps in linearly over it (ms).
   double align_min_time_ms = 50.0;
-  /// Reference within this of the peer's position (every axis) ends aligning (m).
-  double align_tolerance_m = 1e-4;
+  /// Reference within this of the peer's position (every axis) ends aligning (m). The small default means "caught
+  /// up": the step at the switch to engaged is then the peer's own motion in one cycle.
+  double align_tolerance_m = 1e-6;
   /// While aligning, the coupling part of the command (command minus the fixture's share) changes by at most this
   /// rate (N/s per axis). The fixture is never rate limited.
   double max_force_rate_N_per_s = 100.0;
