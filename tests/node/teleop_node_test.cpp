@@ -199,6 +199,29 @@ TEST(TeleopNode, RefusesACobotWithDampingAndAnUnboundedForceOnALimitedMotor) {
   refuse(std::make_unique<MockDevice>(3), Config("master", false), "dof");
 }
 
+TEST(TeleopNode, TheBrakeReactionNeedsABrakeAndHoldsItWhileNotCoupled) {
+  auto medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
+  std::string text = Config("slave", false);
+  text.replace(text.find("safety: {"), 9, "safety: {reaction: brake, ");
+  try {
+    TeleopNode node(Parse(text), std::make_unique<MockDevice>(2),
+                    std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kSlave));
+    FAIL() << "a brake reaction was accepted on a device without a brake";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("key 'safety.reaction'"));
+    EXPECT_THAT(e.what(), HasSubstr("'mock' has none"));
+  }
+  auto braked = std::make_unique<MockDevice>(2);
+  braked->mutable_capabilities().has_brake = true;
+  MockDevice* d = braked.get();
+  TeleopNode node(Parse(text), std::move(braked),
+                  std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kSlave));
+  for (std::uint64_t k = 0; k < 3; ++k) node.Step(k, kPeriod_s, static_cast<std::int64_t>(k) * 1'000'000);
+  EXPECT_EQ(node.engagement(), EngagementState::kHandshaking) << "no master";
+  EXPECT_EQ(d->safe_calls, 3u) << "the brake (Device::SetSafe) every cycle while not coupled";
+  EXPECT_EQ(d->writes, 0u);
+}
+
 TEST(TeleopNode, ConfigureAndActivateFailuresReachTheCaller) {
   auto medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
   auto a = std::make_unique<MockDevice>(2);

@@ -84,6 +84,7 @@ void Aligner::Start(const DofVector& local_position_m, double t_s) noexcept {
   last_step_m_ = 0.0;
   ramp_ = 0.0;
   aligned_ = false;
+  caught_up_ = false;
 }
 
 const DofVector& Aligner::Step(const DofVector& peer_position_m, double t_s, double period_s) noexcept {
@@ -101,6 +102,7 @@ const DofVector& Aligner::Step(const DofVector& peer_position_m, double t_s, dou
   const double min_s = config_.align_min_time_ms * 1e-3;
   const double elapsed = t_s - start_s_;
   ramp_ = min_s > 0.0 ? std::clamp(elapsed / min_s, 0.0, 1.0) : 1.0;
+  caught_up_ = reached;
   aligned_ = reached && ramp_ >= 1.0;
   return reference_m_;
 }

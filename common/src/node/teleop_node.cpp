@@ -346,7 +346,8 @@ control::ThreeChannelLaw::Output TeleopNode::Impl::Control(const EngagementMachi
       const DofVector& ref = aligner.Step(peer_local_m, t_s, period_s);
       max_reference_step_m = std::max(max_reference_step_m, aligner.last_step_m());
       input.peer_position_m = ref / scale;
-      input.peer_velocity_m_per_s = aligner.reference_velocity_m_per_s() / scale;
+      // Once caught up the reference is the peer: its velocity is the peer's (no K_d step at the switch).
+      if (!aligner.caught_up()) input.peer_velocity_m_per_s = aligner.reference_velocity_m_per_s() / scale;
       input.peer_force_N *= aligner.ramp();
       last_reference_m = ref;
     } else {
@@ -506,7 +507,7 @@ void TeleopNode::Impl::Record(const control::ThreeChannelLaw::Output& out, const
   const bool to_csv = telemetry && cycle % static_cast<std::uint64_t>(config.telemetry.decimation) == 0;
   const bool to_dds = bridge && cycle % bridge_decimation == 0;  // DDS bridge
   if (to_csv && telemetry->Push(r)) ++telemetry_records;
-  if (to_dds) PushBridgeState(r, out, peer_state, safe);  // DDS bridge
+  if (to_dds) PushBridgeState(r, out, peer_state, local_faults != device::kFaultNone);  // DDS bridge
   (void)now_ns;
 }
 

@@ -99,6 +99,8 @@ class Aligner {
   double ramp() const noexcept { return ramp_; }
   /// The reference reached the peer and the minimum time has passed.
   bool aligned() const noexcept { return aligned_; }
+  /// The reference is within align_tolerance_m of the peer on every axis (it follows the peer from now on).
+  bool caught_up() const noexcept { return caught_up_; }
 
  private:
   EngagementConfig config_;
@@ -108,6 +110,7 @@ class Aligner {
   double last_step_m_ = 0.0;
   double ramp_ = 0.0;
   bool aligned_ = false;
+  bool caught_up_ = false;
 };
 
 /// Bounds the rate of change of a per-axis force (N/s). Allocation-free after construction.

@@ -58,7 +58,7 @@ struct RunSummary {
   std::uint64_t device_fault_cycles = 0;
   std::uint64_t nonfinite_inputs = 0;
   std::uint64_t saturated_cycles = 0;
-  double tracking_error_rms_m = 0.0;  ///< |local - peer| in the local frame over cycles with a fresh peer.
+  double tracking_error_rms_m = 0.0;  ///< |local - peer| in the local frame over the engaged cycles.
   double tracking_error_max_m = 0.0;
   double fixture_max_penetration_m = 0.0;
   std::uint64_t telemetry_records = 0;
