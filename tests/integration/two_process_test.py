@@ -39,6 +39,9 @@ def write_config(src, dst, ports, telemetry_csv=""):
     text = text.replace("47001", str(ports[0])).replace("47002", str(ports[1]))
     # Telemetry only where the physics is checked from it; elsewhere keep the run light.
     text = re.sub(r"(?m)^(\s*csv:).*$", lambda m: f'{m.group(1)} "{telemetry_csv}"', text)
+    # Fault records (the last cycles before a fault) next to the config, not in the working directory.
+    if not re.search(r"(?m)^safety:", text):
+        text += f'\nsafety: {{fault_record_dir: "{os.path.dirname(os.path.abspath(dst))}"}}\n'
     with open(dst, "w") as f:
         f.write(text)
 
@@ -222,6 +225,12 @@ def main():
         check(s["stop_reason"] == "duration", f"slave ran to its duration ({s['stop_reason']})")
         check(s["cycles_with_peer"] < s["cycles"], "slave decoupled after the master died and kept its loop")
         check(s["stop_reason"] == "duration" and s["device_fault_cycles"] == 0, "slave stayed in a safe state")
+        lost = [f for f in s["faults"] if f["kind"] == "peer lost"]
+        check(len(lost) >= 1 and lost[0]["reaction"] == s["engagement"]["reaction"] == "hold",
+              f"the summary names the fault and the reaction ({lost[:1]})")
+        check(lost[0]["record"].endswith(".csv") and os.path.exists(lost[0]["record"]),
+              f"the fault record was written ({lost[0]['record']})")
+        check(s["engagement"]["final_state"] == "handshaking", "the slave waits for a master, reaction latched")
         return
     check(master.returncode == 0, f"master exits 0 (got {master.returncode})")
     m = load(mjson)
@@ -240,6 +249,7 @@ def main():
         check(0 < x["rtt_ms"]["p50"] < 1000, f"{name} RTT p50 {x['rtt_ms']['p50']:.3f} ms is a plausible value")
         check(x["tracking_error_rms_m"] < 0.005, f"{name} tracking error rms {x['tracking_error_rms_m']*1e3:.3f} mm")
         check(x["nonfinite_inputs"] == 0 and x["device_fault_cycles"] == 0, f"{name} had no faults")
+        check(x["engagement"]["times_engaged"] >= 1, f"{name} engaged {x['engagement']['times_engaged']} time(s)")
     if physics:
         check(m["packets"]["rejected"] == 0 and s["packets"]["rejected"] == 0, "nothing rejected on a clean link")
         check(m["cycles_with_peer"] > 0.5 * m["cycles"], "master coupled for most of the run")
