@@ -41,6 +41,9 @@ def write_config(src, dst, ports, telemetry_csv=""):
     text = text.replace("47001", str(ports[0])).replace("47002", str(ports[1]))
     # Telemetry only where the physics is checked from it; elsewhere keep the run light.
     text = re.sub(r"(?m)^(\s*csv:).*$", lambda m: f'{m.group(1)} "{telemetry_csv}"', text)
+    # Fault records (the last cycles before a fault) next to the config, not in the working directory.
+    if not re.search(r"(?m)^safety:", text):
+        text += f'\nsafety: {{fault_record_dir: "{os.path.dirname(os.path.abspath(dst))}"}}\n'
     with open(dst, "w") as f:
         f.write(text)
     teleop_keys.ensure_key(os.path.dirname(dst))  # link.security key_file: teleop.key, beside the config
@@ -91,6 +94,9 @@ def median(xs):
     if n == 0:
         raise Failure("no telemetry samples in the window (test bug or a run far too short)")
     return xs[n // 2] if n % 2 else 0.5 * (xs[n // 2 - 1] + xs[n // 2])
+
+
+ENGAGED = 3  # node::EngagementState::kEngaged, the telemetry column `engagement`
 
 
 class Failure(Exception):
@@ -234,6 +240,12 @@ def main():
         check(s["stop_reason"] == "duration", f"slave ran to its duration ({s['stop_reason']})")
         check(s["cycles_with_peer"] < s["cycles"], "slave decoupled after the master died and kept its loop")
         check(s["stop_reason"] == "duration" and s["device_fault_cycles"] == 0, "slave stayed in a safe state")
+        lost = [f for f in s["faults"] if f["kind"] == "peer lost"]
+        check(len(lost) >= 1 and lost[0]["reaction"] == s["engagement"]["reaction"] == "hold",
+              f"the summary names the fault and the reaction ({lost[:1]})")
+        check(lost[0]["record"].endswith(".csv") and os.path.exists(lost[0]["record"]),
+              f"the fault record was written ({lost[0]['record']})")
+        check(s["engagement"]["final_state"] == "handshaking", "the slave waits for a master, reaction latched")
         return
     check(master.returncode == 0, f"master exits 0 (got {master.returncode})")
     m = load(mjson)
@@ -252,6 +264,7 @@ def main():
         check(0 < x["rtt_ms"]["p50"] < 1000, f"{name} RTT p50 {x['rtt_ms']['p50']:.3f} ms is a plausible value")
         check(x["tracking_error_rms_m"] < 0.005, f"{name} tracking error rms {x['tracking_error_rms_m']*1e3:.3f} mm")
         check(x["nonfinite_inputs"] == 0 and x["device_fault_cycles"] == 0, f"{name} had no faults")
+        check(x["engagement"]["times_engaged"] >= 1, f"{name} engaged {x['engagement']['times_engaged']} time(s)")
     if physics:
         check(rejected_on_clean_link(m) == 0 and rejected_on_clean_link(s) == 0, "nothing rejected on a clean link")
         check(m["cycles_with_peer"] > 0.5 * m["cycles"], "master coupled for most of the run")
@@ -304,7 +317,9 @@ def check_physics(mc, sc, m, s, mt, st):
 
     for name, rows, kv, kf, k_fixture, at in (("master", mt, kvm, kfm, 0.0, 0.0),
                                               ("slave", st, kvs, 0.0, k_vf, fixture_at)):
-        coupled = [r for r in rows if r["law_status"] == 0]
+        # Engaged (telemetry column `engagement` 3): aligning cycles run the law against a moving reference with a
+        # rate-limited coupling force, and the safe-state reaction against a virtual peer; neither is eq. 8/9.
+        coupled = [r for r in rows if r["law_status"] == 0 and r["engagement"] == ENGAGED]
         expect(len(coupled) > 0.5 * len(rows), f"{name}: {len(coupled)} of {len(rows)} records coupled and unsaturated")
         worst = max(abs(r["command_N_0"] - expected_command(r, kv, kf, k_fixture, at)) for r in coupled)
         expect(worst < 1e-9, f"{name}: command = eq. {8 if name == 'master' else 9} on every coupled cycle "
@@ -318,15 +333,15 @@ def check_physics(mc, sc, m, s, mt, st):
     #    faster than the phase between the two loops, D = one period (the one-sample-delay prediction
     #    velocity × period); when the loops run nearly in phase, one side waits a further period, D = 2 periods.
     lag_s = (b_s + kvs) / kp  # s: tracking error per unit velocity of the slave
-    slave_ramp = [r for r in st if r["law_status"] == 0 and contact_at * 0.2 < r["position_m_0"] < contact_at * 0.8
-                  and r["velocity_m_per_s_0"] > 2e-3]
+    slave_ramp = [r for r in st if r["law_status"] == 0 and r["engagement"] == ENGAGED
+                  and contact_at * 0.2 < r["position_m_0"] < contact_at * 0.8 and r["velocity_m_per_s_0"] > 2e-3]
     lag = median([(r["peer_position_m_0"] - r["position_m_0"]) / r["velocity_m_per_s_0"] for r in slave_ramp])
     # ±20 %: the median over the ramp of an estimate that the velocity filter and the loops' jitter disturb by a few
     # per cent (measured: within 3 %); a halved K_p or a lost K_vs changes it by 50 % or more.
     expect(abs(lag / lag_s - 1) < 0.2, f"slave lag on the ramp {lag*1e3:.3f} ms of velocity, predicted "
           f"(b_s + K_vs)/K_p = {lag_s*1e3:.3f} ms ({len(slave_ramp)} samples)")
-    master_ramp = [r for r in mt if r["law_status"] == 0 and contact_at * 0.2 < r["position_m_0"] < contact_at * 0.8
-                   and r["velocity_m_per_s_0"] > 2e-3]
+    master_ramp = [r for r in mt if r["law_status"] == 0 and r["engagement"] == ENGAGED
+                   and contact_at * 0.2 < r["position_m_0"] < contact_at * 0.8 and r["velocity_m_per_s_0"] > 2e-3]
     delay = median([(r["position_m_0"] - r["peer_position_m_0"]) / r["velocity_m_per_s_0"] - lag_s
                     for r in master_ramp])
     # 0.8..2.2 periods: D is one or two periods (above), ±20 % for the same estimate noise as the slave's.
@@ -344,7 +359,7 @@ def check_physics(mc, sc, m, s, mt, st):
           f"environment force {k_w*p_static:.4f} N")
     # The last 0.65 s of the hold (from 2.3 s): the contact mode settles with time constant 2 m_s / b_s ≈ 0.15 s,
     # so 0.3 s after the ramp ends the transient (measured: < 2 % of p at the ramp's end) is below 0.1 %.
-    hold = [r for r in mt if r["law_status"] == 0 and 2.3 <= r["cycle"] * period <= 2.95]
+    hold = [r for r in mt if r["law_status"] == 0 and r["engagement"] == ENGAGED and 2.3 <= r["cycle"] * period <= 2.95]
     expect(len(hold) > 300, f"master recorded {len(hold)} cycles of the settled hold")
     p_hold = median([r["peer_position_m_0"] - contact_at for r in hold])
     e_hold = median([r["position_m_0"] - r["peer_position_m_0"] for r in hold])

@@ -37,6 +37,7 @@ law: {kp_N_per_m: 600, kd_Ns_per_m: 0, max_force_N: 0}
 device: {backend: loopback, loopback: {mass_kg: 0.04, damping_Ns_per_m: 0.41}}
 stability: {check: false}
 )";
+  text += "safety: {fault_record_dir: \"" + ::testing::TempDir() + "\"}\n";
   if (fixture) text += "fixture: {stiffness_N_per_m: 2000, half_space: {axis: 0, offset_m: 0.005}}\n";
   return text;
 }
@@ -59,11 +60,24 @@ struct Pair {
     slave = std::make_unique<TeleopNode>(Parse(slave_config), std::move(s),
                                          std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kSlave));
   }
+  // Both nodes on the medium's simulated clock: deterministic, watchdog and engagement included.
   void Step() {
-    master->Step(cycle, kPeriod_s);
-    slave->Step(cycle, kPeriod_s);
+    const std::int64_t now_ns = 1'000'000'000 + static_cast<std::int64_t>(cycle) * 1'000'000;
+    master->Step(cycle, kPeriod_s, now_ns);
+    slave->Step(cycle, kPeriod_s, now_ns);
     medium->Advance(kPeriod_s);
     ++cycle;
+  }
+  /// Steps until both sides are engaged (coupling passes through aligning), then `extra` cycles more.
+  void Engage(int extra = 2) {
+    for (int k = 0; k < 5000 && !(master->engagement() == EngagementState::kEngaged &&
+                                  slave->engagement() == EngagementState::kEngaged);
+         ++k) {
+      Step();
+    }
+    ASSERT_EQ(master->engagement(), EngagementState::kEngaged);
+    ASSERT_EQ(slave->engagement(), EngagementState::kEngaged);
+    for (int k = 0; k < extra; ++k) Step();
   }
   std::shared_ptr<transport::EmulatedMedium> medium;
   MockDevice* master_device = nullptr;
@@ -99,7 +113,7 @@ TEST(TeleopNode, LifecycleThenReadWriteUpdateEveryCycleThenDeactivate) {
 TEST(TeleopNode, TheSlaveIsCommandedTowardsTheMasterOverTheLink) {
   Pair pair;
   pair.master_device->position_m << 0.01, -0.002;
-  for (int k = 0; k < 5; ++k) pair.Step();
+  pair.Engage();
   // Eq. 9 with K_d = K_v = 0 and still positions: F_s = K_p (X_m - X_s), per axis; the master gets the opposite.
   const device::Command& s = pair.slave_device->last_command;
   EXPECT_NEAR(s.force_N[0], kKp_N_per_m * 0.01, 1e-9);
@@ -111,7 +125,7 @@ TEST(TeleopNode, TheSlaveIsCommandedTowardsTheMasterOverTheLink) {
 TEST(TeleopNode, TheCommandCarriesTheFixturesPlanesWithTheirPenetration) {
   Pair pair(/*slave_fixture=*/true);
   pair.slave_device->position_m << 0.008, 0.0;  // 3 mm into the region x > 5 mm; the master stays at 0
-  for (int k = 0; k < 3; ++k) pair.Step();
+  pair.Engage();
   const device::Command& c = pair.slave_device->last_command;
   ASSERT_EQ(c.constraint_count, 1);
   EXPECT_EQ(c.fixture_stiffness_N_per_m, kFixture_N_per_m);
@@ -127,7 +141,7 @@ TEST(TeleopNode, TheCommandCarriesTheFixturesPlanesWithTheirPenetration) {
 TEST(TeleopNode, ADeviceFaultHoldsTheSafeStateAndTellsThePeer) {
   Pair pair;
   pair.master_device->position_m << 0.01, 0.0;
-  for (int k = 0; k < 5; ++k) pair.Step();
+  pair.Engage();
   ASSERT_GT(pair.slave_device->last_command.force_N[0], 1.0);
   pair.master_device->faults = device::kFaultCommunication;
   const std::uint64_t writes = pair.master_device->writes;
@@ -138,11 +152,14 @@ TEST(TeleopNode, ADeviceFaultHoldsTheSafeStateAndTellsThePeer) {
   EXPECT_EQ(pair.master_device->call(0), Call::kRead);
   EXPECT_EQ(pair.master_device->call(1), Call::kSetSafe);
   EXPECT_EQ(pair.master_device->call(2), Call::kUpdate);
-  // The slave sees the fault flag and decouples: K_p off, no damping configured, so zero force.
+  // The slave sees the fault flag and decouples into its reaction (hold where it is: still, so zero force).
+  EXPECT_EQ(pair.slave->engagement(), EngagementState::kHandshaking);
   EXPECT_EQ(pair.slave_device->last_command.force_N[0], 0.0);
   pair.master_device->faults = device::kFaultNone;
   for (int k = 0; k < 5; ++k) pair.Step();
   EXPECT_EQ(pair.master_device->writes, writes + 5) << "commanded again once the fault clears";
+  EXPECT_EQ(pair.master->engagement(), EngagementState::kAligning) << "re-engages only through aligning";
+  pair.Engage();
   EXPECT_NEAR(pair.slave_device->last_command.force_N[0], kKp_N_per_m * 0.01, 1e-9);
 }
 
@@ -184,6 +201,29 @@ TEST(TeleopNode, RefusesACobotWithDampingAndAnUnboundedForceOnALimitedMotor) {
   refuse(std::make_unique<MockDevice>(3), Config("master", false), "dof");
 }
 
+TEST(TeleopNode, TheBrakeReactionNeedsABrakeAndHoldsItWhileNotCoupled) {
+  auto medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
+  std::string text = Config("slave", false);
+  text.replace(text.find("safety: {"), 9, "safety: {reaction: brake, ");
+  try {
+    TeleopNode node(Parse(text), std::make_unique<MockDevice>(2),
+                    std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kSlave));
+    FAIL() << "a brake reaction was accepted on a device without a brake";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("key 'safety.reaction'"));
+    EXPECT_THAT(e.what(), HasSubstr("'mock' has none"));
+  }
+  auto braked = std::make_unique<MockDevice>(2);
+  braked->mutable_capabilities().has_brake = true;
+  MockDevice* d = braked.get();
+  TeleopNode node(Parse(text), std::move(braked),
+                  std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kSlave));
+  for (std::uint64_t k = 0; k < 3; ++k) node.Step(k, kPeriod_s, static_cast<std::int64_t>(k) * 1'000'000);
+  EXPECT_EQ(node.engagement(), EngagementState::kHandshaking) << "no master";
+  EXPECT_EQ(d->safe_calls, 3u) << "the brake (Device::SetSafe) every cycle while not coupled";
+  EXPECT_EQ(d->writes, 0u);
+}
+
 TEST(TeleopNode, ConfigureAndActivateFailuresReachTheCaller) {
   auto medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
   auto a = std::make_unique<MockDevice>(2);
@@ -206,13 +246,14 @@ TEST(TeleopNode, TheCycleAllocatesNothing) {
   Pair pair(/*slave_fixture=*/true);
   pair.master_device->position_m << 0.01, 0.0;
   pair.slave_device->position_m << 0.007, 0.0;
-  for (int k = 0; k < 10; ++k) pair.Step();  // connected, fixture active
+  pair.Engage();  // connected, fixture active
   test::AllocationCounter counter;
   for (int k = 0; k < 2000; ++k) {
     if (k == 500) pair.master_device->faults = device::kFaultDriver;  // fault, peer decouples
     if (k == 700) pair.master_device->faults = device::kFaultNone;
     pair.Step();
   }
+  ASSERT_EQ(pair.slave->engagement(), EngagementState::kEngaged) << "re-engaged within the 1300 cycles";
   EXPECT_EQ(counter.count(), 0u);
   EXPECT_NEAR(pair.slave_device->last_command.force_N[0], -kFixture_N_per_m * 0.002 + kKp_N_per_m * 0.003, 1e-9);
 }

@@ -26,5 +26,9 @@ void ParseStability(const Field& f, int dof, StabilityConfig& stability);
 /// `passivity:` (read after `link:`: energy_exchange is refused over CAN).
 void ParsePassivity(const Field& f, int dof, const transport::LinkConfig& link,
                     control::PassivityController::Config& passivity);
+void ParseEngagement(const Field& f, node::EngagementConfig& engagement);
+/// `safety:`; `role` decides the allowed reactions (the default is set before, by DefaultReaction).
+void ParseSafety(const Field& f, Role role, node::SafetyConfig& safety);
+node::Reaction DefaultReaction(Role role) noexcept;
 
 }  // namespace teleop::config::sections

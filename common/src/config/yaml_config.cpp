@@ -59,7 +59,7 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
     throw Error(name + ": the config is empty; it needs at least role, dof, rate_hz, link, law and device");
   }
   const Map map(root, {"role", "dof", "rate_hz", "duration_s", "realtime", "link", "law", "fixture", "device",
-                       "telemetry", "stability", "dds", "passivity"});
+                       "telemetry", "stability", "dds", "passivity", "engagement", "safety"});
   ProcessConfig config;
   config.source_path = name;
   config.role = ParseRole(map.Required("role"));
@@ -85,6 +85,9 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
   config.passivity.max_damping_Ns_per_m = ZeroDof(config.dof);
   if (auto v = map.Optional("passivity")) ParsePassivity(*v, config.dof, config.link, config.passivity);
   config.passivity.max_force_N = config.law.max_force_N;
+  config.safety.reaction = sections::DefaultReaction(config.role);
+  if (auto v = map.Optional("engagement")) sections::ParseEngagement(*v, config.engagement);
+  if (auto v = map.Optional("safety")) sections::ParseSafety(*v, config.role, config.safety);
   return config;
 }
 

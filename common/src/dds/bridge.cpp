@@ -66,6 +66,16 @@ const char* EventKindName(node::Event::Kind kind) noexcept {
       return "nonfinite_input";
     case Kind::kOverrun:
       return "overrun";
+    case Kind::kNewSession:
+      return "new_session";
+    case Kind::kLatencyGate:
+      return "latency_gate";
+    case Kind::kCouplingLost:
+      return "coupling_lost";
+    case Kind::kAligning:
+      return "aligning";
+    case Kind::kEngaged:
+      return "engaged";
   }
   return "unknown";
 }

@@ -4,6 +4,8 @@
 
 #include <chrono>
 
+#include "teleop/node/engagement.hpp"
+
 namespace teleop::node {
 
 EventLog::EventLog(std::size_t capacity)
@@ -53,6 +55,23 @@ void EventLog::Drain() {
         break;
       case Event::Kind::kOverrun:
         spdlog::warn("cycle {}: overrun ({} so far)", e.cycle, e.value);
+        break;
+      case Event::Kind::kNewSession:
+        spdlog::info("cycle {}: new link session (epoch {}), re-engaging through aligning", e.cycle, e.value);
+        break;
+      case Event::Kind::kLatencyGate:
+        spdlog::warn("cycle {}: round trip {:.3f} ms above engagement.max_rtt_ms, latency gate closed", e.cycle,
+                     e.value);
+        break;
+      case Event::Kind::kCouplingLost:
+        spdlog::warn("cycle {}: coupling off ({}), safe-state reaction latched", e.cycle,
+                     ToString(static_cast<Outage>(static_cast<int>(e.value))));
+        break;
+      case Event::Kind::kAligning:
+        spdlog::info("cycle {}: aligning", e.cycle);
+        break;
+      case Event::Kind::kEngaged:
+        spdlog::info("cycle {}: engaged", e.cycle);
         break;
     }
     if (EventObserver* observer = observer_.load(std::memory_order_acquire)) observer->OnEvent(e);

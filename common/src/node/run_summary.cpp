@@ -120,6 +120,27 @@ std::string FormatSummaryText(const RunSummary& s) {
   }
   out += "\n";
   out += fmt::format("  telemetry         {} records, {} dropped\n", s.telemetry_records, s.telemetry_dropped);
+  const auto& e = s.engagement;
+  out += fmt::format(
+      "  engagement        engaged {} times ({} cycles), coupling lost {} times, now {}; aligning mean {:.1f} ms, "
+      "max {:.1f} ms; max re-engagement step {:.4f} mm, max aligning force rate {:.1f} N/s\n",
+      e.times_engaged, e.engaged_cycles, e.couplings_lost, e.final_state, e.aligning_mean_s * 1e3,
+      e.aligning_max_s * 1e3, e.max_reference_step_m * 1e3, e.max_aligning_force_rate_N_per_s);
+  out += fmt::format(
+      "  safe state        reaction '{}'; latency gate trips {}, new sessions {}; readings refused: "
+      "{} non-finite, {} out of range, {} encoder jumps\n",
+      e.reaction, e.latency_gate_trips, e.new_sessions, e.nonfinite_readings, e.out_of_range_readings, e.encoder_jumps);
+  for (const FaultReport& f : s.faults) {
+    out +=
+        fmt::format("  fault             {} at cycle {} (t = {:.3f} s, peer sample {:.1f} ms old){}: {}; record {}\n",
+                    ToString(f.kind), f.cycle, f.time_s, f.peer_sample_age_s * 1e3,
+                    f.device_faults != 0 ? fmt::format(" bits 0x{:x}", f.device_faults) : std::string(), f.reaction,
+                    f.file.empty() ? std::string("not written") : f.file);
+  }
+  if (s.fault_records_skipped > 0) {
+    out += fmt::format("  fault records     {} not written (writer busy or safety.max_fault_records)\n",
+                       s.fault_records_skipped);
+  }
   return out;
 }
 
@@ -172,9 +193,34 @@ std::string FormatSummaryJson(const RunSummary& s) {
                      "\n",
                      JsonString(s.passivity_mode), s.passivity_cycles, Num(s.passivity_dissipated_J),
                      Num(s.passivity_min_observed_J), s.passivity_peer_without_energy);
-  out += fmt::format(R"(  "telemetry_records": {}, "telemetry_dropped": {})"
-                     "\n}}\n",
+  out += fmt::format(R"(  "telemetry_records": {}, "telemetry_dropped": {},)"
+                     "\n",
                      s.telemetry_records, s.telemetry_dropped);
+  const auto& e = s.engagement;
+  out += fmt::format(
+      R"(  "engagement": {{"reaction": {}, "final_state": {}, "times_engaged": {}, "couplings_lost": {}, )"
+      R"("engaged_cycles": {}, "aligning_mean_s": {}, "aligning_max_s": {}, "max_reengagement_step_m": {}, )"
+      R"("max_aligning_force_rate_N_per_s": {}, "latency_gate_trips": {}, "new_sessions": {}, "encoder_jumps": {}, )"
+      R"("out_of_range_readings": {}, "nonfinite_readings": {}}},)"
+      "\n",
+      JsonString(e.reaction), JsonString(e.final_state), e.times_engaged, e.couplings_lost, e.engaged_cycles,
+      Num(e.aligning_mean_s), Num(e.aligning_max_s), Num(e.max_reference_step_m),
+      Num(e.max_aligning_force_rate_N_per_s), e.latency_gate_trips, e.new_sessions, e.encoder_jumps,
+      e.out_of_range_readings, e.nonfinite_readings);
+  out += R"(  "faults": [)";
+  for (std::size_t i = 0; i < s.faults.size(); ++i) {
+    const FaultReport& f = s.faults[i];
+    out += fmt::format(R"({}{{"kind": {}, "cycle": {}, "time_s": {}, "reaction": {}, "peer_sample_age_s": {}, )"
+                       R"("device_faults": {}, "record": {}}})",
+                       i == 0 ? "\n    " : ",\n    ", JsonString(ToString(f.kind)), f.cycle, Num(f.time_s),
+                       JsonString(f.reaction), Num(f.peer_sample_age_s), f.device_faults, JsonString(f.file));
+  }
+  out += fmt::format(R"({}],)"
+                     "\n",
+                     s.faults.empty() ? "" : "\n  ");
+  out += fmt::format(R"(  "fault_records_skipped": {})"
+                     "\n}}\n",
+                     s.fault_records_skipped);
   return out;
 }
 

@@ -58,7 +58,7 @@ std::string TelemetryCsvHeader(int dof) {
   for (int v = 0; v < kVectorCount; ++v) {
     for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}_{}", kVectorNames[v], i);
   }
-  fmt::format_to(std::back_inserter(out), ",fixture_penetration_m,law_status,flags,rtt_s,compute_s");
+  fmt::format_to(std::back_inserter(out), ",fixture_penetration_m,law_status,flags,rtt_s,compute_s,engagement");
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",passivity_observed_J_{}", i);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",passivity_damping_Ns_per_m_{}", i);
   return fmt::to_string(out);
@@ -72,8 +72,8 @@ std::string TelemetryCsvRow(const TelemetryRecord& r, int dof) {
     const double* values = VectorField(r, v);
     for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", values[i]);
   }
-  fmt::format_to(std::back_inserter(out), ",{},{},{},{},{}", r.fixture_penetration_m, r.law_status, r.flags, r.rtt_s,
-                 r.compute_s);
+  fmt::format_to(std::back_inserter(out), ",{},{},{},{},{},{}", r.fixture_penetration_m, r.law_status, r.flags, r.rtt_s,
+                 r.compute_s, r.engagement);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.passivity_observed_J[i]);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.passivity_damping_Ns_per_m[i]);
   return fmt::to_string(out);

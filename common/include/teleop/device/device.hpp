@@ -51,7 +51,8 @@ enum FaultBits : std::uint32_t {
   kFaultCommunication = 1u << 2,    ///< Driver lost its bus (CAN/Modbus).
   kFaultOvertemperature = 1u << 3,
   kFaultEmergencyStop = 1u << 4,
-  kFaultDriver = 1u << 5,  ///< Any other driver-reported fault (also: a rejected command or update).
+  kFaultDriver = 1u << 5,       ///< Any other driver-reported fault (also: a rejected command or update).
+  kFaultImplausible = 1u << 6,  ///< Set by the node: an encoder jump beyond safety.max_speed_m_per_s (docs).
 };
 
 /// Most constraints one Command carries: the forbidden-region fixture's plane capacity

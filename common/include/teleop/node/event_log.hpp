@@ -20,6 +20,11 @@ struct Event {
     kDeviceFaultCleared,
     kNonFiniteInput,
     kOverrun,
+    kNewSession,    ///< value: the link's session epoch.
+    kLatencyGate,   ///< value: the round trip (ms).
+    kCouplingLost,  ///< value: the node::Outage.
+    kAligning,
+    kEngaged,  ///< value: the longest aligning so far (s).
   };
   Kind kind = Kind::kPeerConnected;
   std::uint64_t cycle = 0;

@@ -3,7 +3,9 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
+#include "teleop/node/fault_recorder.hpp"
 #include "teleop/runtime/latency_histogram.hpp"
 #include "teleop/transport/impairment_model.hpp"
 #include "teleop/transport/link.hpp"
@@ -17,6 +19,24 @@ struct Distribution {
   double p50 = 0.0;
   double p99 = 0.0;
   double max = 0.0;
+};
+
+/// Coupling over the run (teleop/node/engagement.hpp).
+struct EngagementSummary {
+  std::string reaction;     ///< safety.reaction: what the process does while not coupled.
+  std::string final_state;  ///< Engagement state at the end.
+  std::uint64_t times_engaged = 0;
+  std::uint64_t couplings_lost = 0;  ///< Aligning or engaged ended (an outage).
+  std::uint64_t engaged_cycles = 0;
+  double aligning_mean_s = 0.0;  ///< Aligning durations of the alignings that reached engaged.
+  double aligning_max_s = 0.0;
+  double max_reference_step_m = 0.0;  ///< Largest one-cycle jump of the coupling reference while (re)engaging.
+  double max_aligning_force_rate_N_per_s = 0.0;  ///< Largest coupling-force rate while aligning and at engagement.
+  std::uint64_t latency_gate_trips = 0;
+  std::uint64_t new_sessions = 0;
+  std::uint64_t encoder_jumps = 0;  ///< Readings refused by the node's checks (safety.*), each a device fault.
+  std::uint64_t out_of_range_readings = 0;
+  std::uint64_t nonfinite_readings = 0;
 };
 
 /// What a process prints at the end of a run and writes with --summary-json. The field names are the JSON keys.
@@ -43,7 +63,7 @@ struct RunSummary {
   std::uint64_t device_fault_cycles = 0;
   std::uint64_t nonfinite_inputs = 0;
   std::uint64_t saturated_cycles = 0;
-  double tracking_error_rms_m = 0.0;  ///< |local - peer| in the local frame over cycles with a fresh peer.
+  double tracking_error_rms_m = 0.0;  ///< |local - peer| in the local frame over the engaged cycles.
   double tracking_error_max_m = 0.0;
   double fixture_max_penetration_m = 0.0;
   std::uint64_t telemetry_records = 0;
@@ -55,6 +75,9 @@ struct RunSummary {
   double passivity_dissipated_J = 0.0;              ///< Energy its damper dissipated, all DOF.
   double passivity_min_observed_J = 0.0;            ///< Minimum of the observed energy W (docs/stability.md).
   std::uint64_t passivity_peer_without_energy = 0;  ///< energy_exchange: peer samples without the energy block.
+  EngagementSummary engagement{};
+  std::vector<FaultReport> faults;          ///< Every fault: what, when, the reaction, its record file.
+  std::uint64_t fault_records_skipped = 0;  ///< Faults without a record (writer busy, safety.max_fault_records).
 };
 
 /// Fills a Distribution from a histogram of nanoseconds, scaled to the given unit (1e3 → µs, 1e6 → ms).

@@ -7,6 +7,7 @@
 #include "teleop/config/process_config.hpp"
 #include "teleop/control/three_channel_law.hpp"
 #include "teleop/device/device.hpp"
+#include "teleop/node/engagement.hpp"
 #include "teleop/node/run_summary.hpp"
 #include "teleop/transport/link.hpp"
 
@@ -41,6 +42,13 @@ class TeleopNode {
   /// One cycle outside the periodic loop, for tests and lock-step simulations that step both sides in one thread.
   /// `cycle` counts from 0. Same code as a cycle of Run(): allocation-free, never throws.
   void Step(std::uint64_t cycle, double period_s) noexcept;
+  /// The same on a clock the caller drives (CLOCK_MONOTONIC-like ns): lock-step simulations are deterministic,
+  /// watchdog and engagement included.
+  void Step(std::uint64_t cycle, double period_s, std::int64_t now_ns) noexcept;
+  /// After Step()s: deactivates the device, writes pending fault records, stops the writers and returns the summary.
+  RunSummary Finish();
+  /// Where the node is in coupling to its peer (after the last cycle).
+  EngagementState engagement() const noexcept;
 
  private:
   struct Impl;

@@ -36,6 +36,7 @@ struct TelemetryRecord {
   double compute_s = 0.0;                                   ///< Cycle body time so far.
   double passivity_observed_J[kMaxDof] = {};        ///< Time-domain passivity: the observer's W (docs/stability.md).
   double passivity_damping_Ns_per_m[kMaxDof] = {};  ///< The controller's damping α this cycle (0: did not act).
+  int engagement = 0;  ///< node::EngagementState as an integer (0 disengaged .. 3 engaged; teleop/node/engagement.hpp).
 };
 static_assert(std::is_trivially_copyable_v<TelemetryRecord>);
 
