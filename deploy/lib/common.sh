@@ -4,6 +4,7 @@ set -euo pipefail
 
 TELEOP_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 TELEOP_BUILD="${TELEOP_BUILD:-${TELEOP_ROOT}/build}"
+TELEOP_BUILD_SANITIZED="${TELEOP_BUILD_SANITIZED:-${TELEOP_ROOT}/build-debug}"
 
 # Debian 12 packages the build, the demo and the tests need. One list, so both commands agree.
 TELEOP_PACKAGES=(
@@ -60,4 +61,13 @@ teleop::build() {
     cmake --preset release >/dev/null
   fi
   cmake --build "${TELEOP_BUILD}" --parallel "$(nproc)" "$@"
+}
+
+# Configures (once) the `debug` preset (ASan + UBSan) into build-debug/ and builds only the GoogleTest executables.
+teleop::build_sanitized() {
+  cd "${TELEOP_ROOT}"
+  if [[ ! -f "${TELEOP_BUILD_SANITIZED}/build.ninja" ]]; then
+    cmake --preset debug >/dev/null
+  fi
+  cmake --build "${TELEOP_BUILD_SANITIZED}" --parallel "$(nproc)" --target teleop_unit_tests
 }
