@@ -14,6 +14,7 @@
 #include "teleop/error.hpp"
 #include "teleop/link/link_config.hpp"
 #include "teleop/node/event_log.hpp"
+#include "teleop/runtime/data_age.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
 #include "teleop/runtime/telemetry.hpp"
 #include "teleop/runtime/watchdog.hpp"
@@ -129,12 +130,16 @@ struct TeleopNode::Impl {
   bool peer_shutdown = false;
   bool device_faulted = false;
   std::int64_t start_ns = 0;
-  std::int64_t peer_rx_ns = 0;
+  std::int64_t peer_rx_ns = 0;            ///< When the medium received `peer` (kernel timestamp on UDP), loop clock.
+  std::int64_t peer_clock_offset_ns = 0;  ///< Peer clock − ours, from the newest round trip (valid: have_offset).
+  bool have_offset = false;
+  std::int64_t law_start_ns = 0;  ///< When this cycle's law ran (for the data age).
   std::uint32_t sequence = 0;
   std::uint8_t last_flags = 0;
 
   // Run statistics.
   runtime::LatencyHistogram rtt_ns;
+  runtime::DataAgeTracker data_age;  ///< Age of the peer sample the law uses (docs/performance.md, "Data age").
   std::uint64_t cycles_with_peer = 0;
   std::uint64_t device_fault_cycles = 0;
   std::uint64_t saturated_cycles = 0;
@@ -164,15 +169,23 @@ TeleopNode::Impl::PeerState TeleopNode::Impl::Receive(std::uint64_t cycle, std::
       ++dof_mismatches;
     } else {
       peer = incoming;
-      peer_rx_ns = now_ns;
+      // The medium's receive time (the kernel's timestamp on UDP) makes the round trip and the data age the
+      // network's and the sample's, not the phase between two cycles; the cycle start where the link has none.
+      const std::int64_t received_ns = link->newest_receive_time_ns();
+      peer_rx_ns = received_ns > 0 ? received_ns : now_ns;
       if (!have_peer) events.Push({Event::Kind::kPeerConnected, cycle, 0.0});
       have_peer = true;
       watchdog.Feed(t_s);
-      const proto::RoundTripEstimate rtt = proto::EstimateRoundTrip(peer, static_cast<std::uint64_t>(now_ns));
+      const proto::RoundTripEstimate rtt = proto::EstimateRoundTrip(peer, static_cast<std::uint64_t>(peer_rx_ns));
       if (rtt.valid) {
         rtt_ns.Add(rtt.rtt_ns);
         last_rtt_s = static_cast<double>(rtt.rtt_ns) * 1e-9;
+        peer_clock_offset_ns = rtt.offset_ns;
+        have_offset = true;
       }
+      const std::int64_t sent_local_ns =
+          have_offset ? static_cast<std::int64_t>(peer.sender_time_ns) - peer_clock_offset_ns : 0;
+      data_age.OnNewSample(peer_rx_ns, sent_local_ns, loop.cycle_triggered());
       if ((peer.flags & proto::kFlagShutdown) != 0 && !peer_shutdown) {
         peer_shutdown = true;
         events.Push({Event::Kind::kPeerShutdown, cycle, 0.0});
@@ -208,6 +221,7 @@ control::ThreeChannelLaw::Output TeleopNode::Impl::Control(const PeerState& peer
     CopyFromWire(peer.velocity_m_per_s, dof, input.peer_velocity_m_per_s);
     CopyFromWire(peer.force_N, dof, input.peer_force_N);
   }
+  law_start_ns = MonotonicNowNs();
   return law.Step(input, period_s);
 }
 
@@ -231,10 +245,7 @@ bool TeleopNode::Impl::Actuate(const control::ThreeChannelLaw::Output& out, std:
 std::uint8_t TeleopNode::Impl::Transmit(const control::ThreeChannelLaw::Output& out, const PeerState& peer_state,
                                         bool fault, std::int64_t now_ns) noexcept {
   outgoing.sequence = sequence++;
-  outgoing.sender_time_ns = static_cast<std::uint64_t>(now_ns);
   outgoing.echo_time_ns = have_peer ? peer.sender_time_ns : 0;
-  outgoing.echo_age_ns =
-      have_peer ? static_cast<std::uint32_t>(std::min<std::int64_t>(MonotonicNowNs() - peer_rx_ns, 0xFFFFFFFF)) : 0;
   std::uint8_t flags = proto::kFlagEnabled;
   if (fault || out.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput) flags |= proto::kFlagFault;
   if ((have_peer && !peer_state.fresh) || peer_state.link_faulted) flags |= proto::kFlagPeerLost;
@@ -245,6 +256,12 @@ std::uint8_t TeleopNode::Impl::Transmit(const control::ThreeChannelLaw::Output& 
   CopyToWire(reading.position_m, outgoing.position_m);
   CopyToWire(out.velocity_m_per_s, outgoing.velocity_m_per_s);
   CopyToWire(reading.force_N, outgoing.force_N);
+  // Send time and echo age taken right before the send call (docs/protocol.md, "Round-trip time").
+  const std::int64_t send_ns = MonotonicNowNs();
+  outgoing.sender_time_ns = static_cast<std::uint64_t>(send_ns);
+  outgoing.echo_age_ns =
+      have_peer ? static_cast<std::uint32_t>(std::clamp<std::int64_t>(send_ns - peer_rx_ns, 0, 0xFFFFFFFF)) : 0;
+  (void)now_ns;
   (void)link->Send(outgoing);  // a refused send is counted by the link
   return flags;
 }
@@ -263,6 +280,8 @@ void TeleopNode::Impl::Record(const control::ThreeChannelLaw::Output& out, const
     tracking_max = std::max(tracking_max, e);
   }
   max_penetration = std::max(max_penetration, out.fixture_penetration_m);
+  const std::int64_t age_ns = peer_state.usable ? data_age.ReceiveAgeNs(law_start_ns) : -1;
+  data_age.OnCycle(law_start_ns, peer_state.usable);
   // Overruns are reported at most once a second so that a loaded machine does not flood the log.
   if (loop.stats().overruns > reported_overruns && (overrun_event_cycle == 0 || cycle >= overrun_event_cycle + rate)) {
     reported_overruns = loop.stats().overruns;
@@ -290,6 +309,7 @@ void TeleopNode::Impl::Record(const control::ThreeChannelLaw::Output& out, const
     r.flags = flags;
     r.rtt_s = last_rtt_s;
     r.compute_s = static_cast<double>(MonotonicNowNs() - now_ns) * 1e-9;
+    r.data_age_s = age_ns >= 0 ? static_cast<double>(age_ns) * 1e-9 : std::numeric_limits<double>::quiet_NaN();
     if (to_csv && telemetry->Push(r)) ++telemetry_records;
     if (to_dds) PushBridgeState(r, out, peer_state, fault);  // DDS bridge
   }
@@ -349,6 +369,17 @@ RunSummary TeleopNode::Run() {
   s.stop_on_peer_shutdown.store(true);
   spdlog::info("teleop-{}: {} DOF at {:.0f} Hz, device '{}', link {}", ToString(s.config.role), s.config.dof,
                s.config.loop.rate_hz, s.device->name(), s.link->Describe());
+  const bool realtime = s.config.loop.fifo_priority > 0 && s.config.loop.lock_memory;
+  if (!realtime) {
+    spdlog::warn(
+        "teleop-{}: running without real-time settings (realtime.fifo_priority {}, realtime.lock_memory {}): "
+        "expect wake-up jitter several times that of a real-time loop (docs/performance.md)",
+        ToString(s.config.role), s.config.loop.fifo_priority, s.config.loop.lock_memory);
+  }
+  // Phase-locked cycles: the slave's cycle starts when the master's sample arrives (the master is the clock).
+  if (s.config.loop.sync == runtime::CycleSync::kTriggered && s.config.role == Role::kSlave) {
+    s.loop.SetTrigger([&s](std::int64_t deadline_ns) { return s.link->WaitReadable(deadline_ns); });
+  }
   const auto wall_start = std::chrono::steady_clock::now();
   s.loop.Run([&s](std::uint64_t cycle, double period_s) { s.Cycle(cycle, period_s); });
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
@@ -373,6 +404,14 @@ RunSummary TeleopNode::Run() {
   summary.compute_us = FromHistogram(st.compute_ns, 1e3);
   summary.link = s.link->counters();
   summary.rtt_ms = FromHistogram(s.rtt_ns, 1e6);
+  summary.sync = runtime::ToString(s.config.loop.sync);
+  summary.triggered_cycles = st.triggered_cycles;
+  summary.trigger_timeouts = st.trigger_timeouts;
+  summary.data_age_us = FromHistogram(s.data_age.receive_age_ns(), 1e3);
+  summary.data_age_sender_us = FromHistogram(s.data_age.sender_age_ns(), 1e3);
+  summary.data_age_cycles = s.data_age.age_cycles();
+  summary.realtime_settings_applied = st.realtime_settings_applied;
+  summary.cpu_dma_latency_held = st.cpu_dma_latency_held;
   summary.cycles_with_peer = s.cycles_with_peer;
   summary.watchdog_trips = s.watchdog.trips();
   summary.device_fault_cycles = s.device_fault_cycles;

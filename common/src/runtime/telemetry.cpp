@@ -58,7 +58,7 @@ std::string TelemetryCsvHeader(int dof) {
   for (int v = 0; v < kVectorCount; ++v) {
     for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}_{}", kVectorNames[v], i);
   }
-  fmt::format_to(std::back_inserter(out), ",fixture_penetration_m,law_status,flags,rtt_s,compute_s");
+  fmt::format_to(std::back_inserter(out), ",fixture_penetration_m,law_status,flags,rtt_s,compute_s,data_age_s");
   return fmt::to_string(out);
 }
 
@@ -70,8 +70,8 @@ std::string TelemetryCsvRow(const TelemetryRecord& r, int dof) {
     const double* values = VectorField(r, v);
     for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", values[i]);
   }
-  fmt::format_to(std::back_inserter(out), ",{},{},{},{},{}", r.fixture_penetration_m, r.law_status, r.flags, r.rtt_s,
-                 r.compute_s);
+  fmt::format_to(std::back_inserter(out), ",{},{},{},{},{},{}", r.fixture_penetration_m, r.law_status, r.flags, r.rtt_s,
+                 r.compute_s, r.data_age_s);
   return fmt::to_string(out);
 }
 

@@ -34,6 +34,8 @@ struct TelemetryRecord {
   std::uint32_t flags = 0;                                  ///< proto::StateFlags bits of the sample sent this cycle.
   double rtt_s = std::numeric_limits<double>::quiet_NaN();  ///< Round trip to the peer; NaN when unknown.
   double compute_s = 0.0;                                   ///< Cycle body time so far.
+  /// Age of the peer sample the law used this cycle: cycle start - its (kernel) receive time; NaN when none.
+  double data_age_s = std::numeric_limits<double>::quiet_NaN();
 };
 static_assert(std::is_trivially_copyable_v<TelemetryRecord>);
 
