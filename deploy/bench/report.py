@@ -173,7 +173,7 @@ def main():
                 w(f"| ping-pong {b} B ({mode}) | {fmt(pp['p50_us'])} | {fmt(pp['p99_us'])} | {fmt(pp['max_us'])} |")
     w("")
     w("| rate | mode | sync | round trip p50 / p99 (µs) | p50 − ping-pong p50 (µs) | slave data age p50 / p99 / max "
-      "(µs) | master data age p50 / p99 / max (µs) | slave age in cycles 0/1/2/3+ | slave trigger timeouts | "
+      "(µs) | master data age p50 / p99 / max (µs) | slave age in cycles 0/1/2/3+ | slave trigger timeouts while coupled | "
       "overruns master / slave |")
     w("|---|---|---|---|---|---|---|---|---|---|")
     pairs_seen = []
@@ -193,7 +193,8 @@ def main():
                     a = s.get("data_age_us", {})
                     return f"{fmt(a.get('p50'))} / {fmt(a.get('p99'))} / {fmt(a.get('max'))}" if a.get("count") else "–"
                 cyc = "/".join(str(x) for x in sl.get("data_age_cycles", [])) or "–"
-                timeouts = (f"{sl.get('trigger_timeouts')} of {sl.get('cycles')}" if sync == "triggered" else "–")
+                timeouts = (f"{sl.get('trigger_timeouts_coupled')} of {sl.get('cycles_with_peer')}"
+                            if sync == "triggered" else "–")
                 w(f"| {rate} Hz | {mode} | {sync} | {fmt(rtt_p50)} / {fmt(r['p99'] * 1e3 if r.get('count') else None)} | "
                   f"{fmt(gap)} | {age(sl)} | {age(m)} | {cyc} | {timeouts} | {m.get('overruns')} / {sl.get('overruns')} |")
     w("")
@@ -222,10 +223,17 @@ def main():
                       f"compute p50 ({fmt(bound)} µs): " + ("met." if ma["p50"] < bound else
                                                             f"missed by {ma['p50'] - bound:.1f} µs."))
         w("")
-    w("Where the round trip stays above the ping-pong floor: the ping-pong blocks in `recvfrom` and answers at once, "
-      "the processes receive through the kernel timestamp (taken when the datagram is queued, before the reader is "
-      "woken) and send from a loop that first senses, runs the law and actuates; on a loaded machine the wake-up of "
-      "each process adds its scheduling delay, which the ping-pong pays too but once per direction only.")
+    w("Reading the table. The processes' round trip can be *below* the ping-pong's: the kernel stamps a datagram "
+      "when it is queued on the receiving socket (on loopback, inside the sender's send call), before the reader "
+      "wakes, so the processes' figure is send call → kernel → send call → kernel, while the ping-pong's includes "
+      "two wake-ups of a blocked reader (pinned to different CPUs in the `rt` rows: a cross-CPU wake-up on this VM "
+      "costs tens of µs). The wake-up is in the data age instead: a triggered slave's data age is the time from the "
+      "master's sample reaching its socket to its law running (its wake-up from `ppoll`, then Sense). The master "
+      "is the clock: it uses the slave's reply at its next cycle, so its data age stays near one period minus the "
+      "slave's response time, whatever the mode. A triggered master's compute time includes the wake-up of the "
+      "slave inside its send call (the slave waits on the socket), which free-running does not pay. Trigger "
+      "timeouts are counted while the pair was coupled (before the master starts, the slave free-runs on timeouts "
+      "by design).")
     w("")
 
     # Micro-benchmarks.

@@ -46,6 +46,8 @@ for role in ("master", "slave"):
 slave = data["slave-1000-off-triggered"]
 if slave["triggered_cycles"] + slave["trigger_timeouts"] != slave["cycles"]:
     sys.exit("slave: triggered + timeouts != cycles")
+if not slave["trigger_timeouts_coupled"] <= min(slave["trigger_timeouts"], slave["cycles_with_peer"]):
+    sys.exit("slave: more timeouts while coupled than timeouts or coupled cycles")
 if not slave["triggered_cycles"] > 0:
     sys.exit("slave: no cycle was triggered by the master's sample")
 # A generous bound, not a timing target: the triggered slave's median sample is younger than a period (1 ms).

@@ -1,6 +1,6 @@
 // A master and a slave TeleopNode running their real loops in two threads over UDP on 127.0.0.1: with sync.mode
 // triggered the slave's cycles are started by the master's samples, so its law uses the master's sample of the same
-// cycle (data age 0 cycles); free-running, the sample it uses was already waiting (1 cycle). Behaviour only: the
+// cycle (data age 0 cycles); free-running, the sample it uses was already waiting (1 cycle or more). Behaviour only: the
 // medians of the age in cycles and the consistency of the summary's counters, never a duration.
 
 #include <gtest/gtest.h>
@@ -86,6 +86,9 @@ TEST(PhaseLock, TriggeredTheSlavesLawUsesTheMastersSampleOfTheSameCycle) {
   EXPECT_EQ(run.slave.sync, "triggered");
   EXPECT_EQ(run.slave.triggered_cycles + run.slave.trigger_timeouts, run.slave.cycles);
   EXPECT_GT(run.slave.triggered_cycles, run.slave.trigger_timeouts);
+  EXPECT_LE(run.slave.trigger_timeouts_coupled, run.slave.trigger_timeouts);
+  EXPECT_LT(run.slave.trigger_timeouts_coupled, run.slave.cycles_with_peer / 2) << "coupled, the master's samples "
+                                                                                   "start the slave's cycles";
   EXPECT_EQ(Median(run.slave.data_age_cycles), 0) << "the slave's cycle is started by the master's sample";
   // The master is the clock: it uses the slave's reply at its next cycle.
   EXPECT_EQ(run.master.triggered_cycles, 0u);
@@ -100,7 +103,9 @@ TEST(PhaseLock, FreeRunningTheSlavesLawUsesASampleOneCycleOld) {
   EXPECT_EQ(run.slave.sync, "free");
   EXPECT_EQ(run.slave.triggered_cycles + run.slave.trigger_timeouts, 0u);
   EXPECT_EQ(run.slave.data_age_cycles[0], 0u) << "a free-running cycle is never started by the sample";
-  EXPECT_EQ(Median(run.slave.data_age_cycles), 1);
+  // 1 when the slave's phase lags the master's, 2 when the two clocks are so close that the slave often wakes just
+  // before the master's sample (the two loops here start together); exactly 1 at a set phase: cycle_trigger_test.
+  EXPECT_GE(Median(run.slave.data_age_cycles), 1);
 }
 
 }  // namespace

@@ -98,8 +98,8 @@ std::string FormatSummaryText(const RunSummary& s) {
   }
   out += fmt::format("  sync              {}", s.sync);
   if (s.triggered_cycles + s.trigger_timeouts > 0) {
-    out +=
-        fmt::format(", {} cycles triggered by the peer's sample, {} timeouts", s.triggered_cycles, s.trigger_timeouts);
+    out += fmt::format(", {} cycles triggered by the peer's sample, {} timeouts ({} while coupled)", s.triggered_cycles,
+                       s.trigger_timeouts, s.trigger_timeouts_coupled);
   }
   out += "\n";
   out += s.realtime_settings_applied
@@ -144,9 +144,9 @@ std::string FormatSummaryJson(const RunSummary& s) {
   out += fmt::format(R"(  "rtt_ms": {},)"
                      "\n",
                      DistJson(s.rtt_ms));
-  out += fmt::format(R"(  "sync": {}, "triggered_cycles": {}, "trigger_timeouts": {},)"
+  out += fmt::format(R"(  "sync": {}, "triggered_cycles": {}, "trigger_timeouts": {}, "trigger_timeouts_coupled": {},)"
                      "\n",
-                     JsonString(s.sync), s.triggered_cycles, s.trigger_timeouts);
+                     JsonString(s.sync), s.triggered_cycles, s.trigger_timeouts, s.trigger_timeouts_coupled);
   out += fmt::format(R"(  "data_age_us": {}, "data_age_sender_us": {}, "data_age_cycles": [{}, {}, {}, {}],)"
                      "\n",
                      DistJson(s.data_age_us), DistJson(s.data_age_sender_us), s.data_age_cycles[0],

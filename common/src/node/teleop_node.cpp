@@ -140,6 +140,7 @@ struct TeleopNode::Impl {
   // Run statistics.
   runtime::LatencyHistogram rtt_ns;
   runtime::DataAgeTracker data_age;  ///< Age of the peer sample the law uses (docs/performance.md, "Data age").
+  std::uint64_t coupled_trigger_timeouts = 0;  ///< Triggered cycles that timed out while the peer was fresh.
   std::uint64_t cycles_with_peer = 0;
   std::uint64_t device_fault_cycles = 0;
   std::uint64_t saturated_cycles = 0;
@@ -282,6 +283,7 @@ void TeleopNode::Impl::Record(const control::ThreeChannelLaw::Output& out, const
   max_penetration = std::max(max_penetration, out.fixture_penetration_m);
   const std::int64_t age_ns = peer_state.usable ? data_age.ReceiveAgeNs(law_start_ns) : -1;
   data_age.OnCycle(law_start_ns, peer_state.usable);
+  if (peer_state.usable && loop.triggered_mode() && !loop.cycle_triggered()) ++coupled_trigger_timeouts;
   // Overruns are reported at most once a second so that a loaded machine does not flood the log.
   if (loop.stats().overruns > reported_overruns && (overrun_event_cycle == 0 || cycle >= overrun_event_cycle + rate)) {
     reported_overruns = loop.stats().overruns;
@@ -407,6 +409,7 @@ RunSummary TeleopNode::Run() {
   summary.sync = runtime::ToString(s.config.loop.sync);
   summary.triggered_cycles = st.triggered_cycles;
   summary.trigger_timeouts = st.trigger_timeouts;
+  summary.trigger_timeouts_coupled = s.coupled_trigger_timeouts;
   summary.data_age_us = FromHistogram(s.data_age.receive_age_ns(), 1e3);
   summary.data_age_sender_us = FromHistogram(s.data_age.sender_age_ns(), 1e3);
   summary.data_age_cycles = s.data_age.age_cycles();

@@ -37,8 +37,10 @@ struct RunSummary {
   std::string sync = "free";           ///< Config sync.mode: "free" or "triggered".
   std::uint64_t triggered_cycles = 0;  ///< Cycles started by the peer's sample (a triggered slave).
   std::uint64_t trigger_timeouts = 0;  ///< Cycles started by the timeout instead (free-running fallback).
-  Distribution data_age_us{};          ///< Age of the peer sample the law used: law start − its receive time.
-  Distribution data_age_sender_us{};   ///< The same from the peer's send call (clock offset from the round trip).
+  /// Of those, the cycles in which the peer was fresh (the rest ran before the peer came or after it went).
+  std::uint64_t trigger_timeouts_coupled = 0;
+  Distribution data_age_us{};         ///< Age of the peer sample the law used: law start − its receive time.
+  Distribution data_age_sender_us{};  ///< The same from the peer's send call (clock offset from the round trip).
   /// Cycles that used the peer's sample by its age in cycles: 0 (this cycle was triggered by it), 1, 2, 3 or more.
   std::array<std::uint64_t, 4> data_age_cycles{};
   bool realtime_settings_applied = false;  ///< SCHED_FIFO, locked memory (and cpu_dma_latency when asked) held.
