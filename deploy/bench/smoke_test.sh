@@ -50,11 +50,12 @@ if not slave["trigger_timeouts_coupled"] <= min(slave["trigger_timeouts"], slave
     sys.exit("slave: more timeouts while coupled than timeouts or coupled cycles")
 if not slave["triggered_cycles"] > 0:
     sys.exit("slave: no cycle was triggered by the master's sample")
-# A generous bound, not a timing target: the triggered slave's median sample is younger than a period (1 ms).
-if not slave["data_age_us"]["p50"] <= 1000.0:
-    sys.exit(f"slave: median data age {slave['data_age_us']['p50']} us is more than a period")
+# Behaviour, not timing (on a loaded host the master itself stalls and the slave times out often): some of the
+# slave's cycles used the master's sample of the same cycle, and the master, the clock, never does.
+if not slave["data_age_cycles"][0] > 0:
+    sys.exit(f"slave: no cycle used the sample that triggered it: {slave['data_age_cycles']}")
 master = data["master-1000-off-triggered"]
-if master["triggered_cycles"] != 0:
+if master["triggered_cycles"] != 0 or master["data_age_cycles"][0] != 0:
     sys.exit("master: the master is the clock, yet it counted triggered cycles")
 md = open(sys.argv[2]).read()
 for heading in ("## Loop timing beside cyclictest", "## Round trip and data age, free-running and phase-locked",

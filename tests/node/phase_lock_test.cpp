@@ -1,7 +1,7 @@
 // A master and a slave TeleopNode running their real loops in two threads over UDP on 127.0.0.1: with sync.mode
 // triggered the slave's cycles are started by the master's samples, so its law uses the master's sample of the same
-// cycle (data age 0 cycles); free-running, the sample it uses was already waiting (1 cycle or more). Behaviour only: the
-// medians of the age in cycles and the consistency of the summary's counters, never a duration.
+// cycle (data age 0 cycles); free-running, the sample it uses was already waiting (1 cycle or more). Behaviour only:
+// the medians of the age in cycles and the consistency of the summary's counters, never a duration.
 
 #include <gtest/gtest.h>
 
@@ -17,7 +17,8 @@
 namespace teleop::node {
 namespace {
 
-// 250 Hz: a period of 4 ms leaves a loaded test machine room to wake up; the watchdog is generous.
+// 250 Hz: a period of 4 ms leaves a loaded test machine room to wake up; a timeout margin of a whole period (the
+// slave times out only when the master stalls for more than 4 ms); a generous watchdog.
 std::string Config(const char* role, const char* sync) {
   return std::string("role: ") + role + R"(
 dof: 1
@@ -28,7 +29,7 @@ law: {kp_N_per_m: 600, kd_Ns_per_m: 0, max_force_N: 0}
 device: {backend: loopback, loopback: {mass_kg: 0.04, damping_Ns_per_m: 0.41}}
 stability: {check: false}
 sync: {mode: )" +
-         sync + "}\n";
+         sync + ", timeout_margin_us: 4000}\n";
 }
 
 struct PairSummaries {

@@ -139,7 +139,8 @@ struct TeleopNode::Impl {
 
   // Run statistics.
   runtime::LatencyHistogram rtt_ns;
-  runtime::DataAgeTracker data_age;  ///< Age of the peer sample the law uses (docs/performance.md, "Data age").
+  runtime::DataAgeTracker
+      data_age;  ///< Age of the peer sample the law uses (docs/performance.md, "Round trip and data age").
   std::uint64_t coupled_trigger_timeouts = 0;  ///< Triggered cycles that timed out while the peer was fresh.
   std::uint64_t cycles_with_peer = 0;
   std::uint64_t device_fault_cycles = 0;

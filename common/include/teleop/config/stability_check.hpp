@@ -23,7 +23,8 @@ std::string StabilityNotApplicable(const ProcessConfig& config);
 
 /// The data age a triggered slave is assumed to see when `stability.peer_delay_fraction` is absent (s): the
 /// master's sample is used this long after the master's cycle started (send, network, wake-up). The bench
-/// (docs/performance.md, "Data age") measures it; set stability.peer_delay_fraction from a measured p99 instead.
+/// (docs/performance.md, "Round trip and data age") measures it; set stability.peer_delay_fraction from a measured p99
+/// instead.
 inline constexpr double kTriggeredDataAge_s = 100e-6;
 
 /// The sampled teleoperator seen along DOF `axis` of this process: its law gains for that DOF, its fixture

@@ -7,7 +7,7 @@
 
 namespace teleop::runtime {
 
-/// The age of the peer sample the law uses, measured every cycle (docs/performance.md, "Data age"):
+/// The age of the peer sample the law uses, measured every cycle (docs/performance.md, "Round trip and data age"):
 ///   - receive age: cycle start − the time the medium received the sample (the kernel's receive timestamp on UDP);
 ///   - sender age: cycle start − the time the peer sent it, on our clock (its send time minus the clock offset
 ///     estimated from the round trip; only once an offset is known);
