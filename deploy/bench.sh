@@ -52,6 +52,7 @@ else
   modes=(off rt)
 fi
 syncs=(free triggered)
+spin_us=100  # the triggered-spin runs (real-time only): poll the socket from 100 us before the master's sample is due
 ncpu=$(nproc)
 cpu_master=0; cpu_slave=$(( ncpu > 1 ? 1 : 0 ))
 can_rt=0
@@ -87,7 +88,11 @@ make_config() {  # role rate mode [sync] > file
   sed -e "s/^rate_hz: .*/rate_hz: ${rate}/" -e "s/fifo_priority: .*/fifo_priority: ${fifo}/" \
     -e "s/^  cpu: .*/  cpu: ${cpu}/" -e "s/lock_memory: .*/lock_memory: ${lock}\n  cpu_dma_latency_us: ${dma}/" \
     -e 's/127.0.0.1:47001/127.0.0.1:47601/' -e 's/127.0.0.1:47002/127.0.0.1:47602/' "${src}"
-  echo "sync: {mode: ${sync}}"
+  if [[ ${sync} == triggered-spin ]]; then
+    echo "sync: {mode: triggered, spin_us: ${spin_us}}"
+  else
+    echo "sync: {mode: ${sync}}"
+  fi
 }
 
 run_pair() {  # rate mode tag sync [extra master args...]
@@ -141,10 +146,12 @@ for mode in "${modes[@]}"; do
   if [[ ${mode} == rt && ${can_rt} -eq 0 ]]; then log "not root: skipping the real-time runs"; continue; fi
   echo "{\"mode\": \"${mode}\", \"loadavg\": \"$(cut -d' ' -f1-3 /proc/loadavg)\"}" > "${raw}/mode-${mode}.json"
   for rate in "${rates[@]}"; do
-    for sync in "${syncs[@]}"; do
+    mode_syncs=("${syncs[@]}")
+    [[ ${mode} == rt ]] && mode_syncs+=(triggered-spin)
+    for sync in "${mode_syncs[@]}"; do
       log "  ${rate} Hz ${mode} ${sync}"
       tag="${rate}-${mode}"
-      [[ ${sync} == triggered ]] && tag="${rate}-${mode}-triggered"
+      [[ ${sync} != free ]] && tag="${rate}-${mode}-${sync}"
       run_pair "${rate}" "${mode}" "${tag}" "${sync}"
     done
   done

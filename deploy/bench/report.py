@@ -70,6 +70,11 @@ def main():
     w("**This run was made on a shared VM while other builds were running** (see the load average above): the "
       "timing figures are noisy and pessimistic; the computed figures (limits, CAN bits, allocations) are not "
       "affected.")
+    loads = [f"`{mode}` runs {data[f'mode-{mode}']['loadavg']}" for mode in ("off", "rt")
+             if (data.get(f"mode-{mode}") or {}).get("loadavg")]
+    if loads:
+        w("")
+        w("Load average (1, 5, 15 min) when each set of process runs started: " + "; ".join(loads) + ".")
     if m.get("smoke"):
         w("")
         w("**Smoke run**: tiny durations, one rate; the figures only show that every step works.")
@@ -141,7 +146,7 @@ def main():
     w("| rate | mode | process | cycles | overruns | compute p50 / p99 / max (µs) | period p50 / p99 (µs) |")
     w("|---|---|---|---|---|---|---|")
     for rate in (1000, 2000, 4000, 8000):
-        for mode in ("off", "off-triggered", "rt", "rt-triggered", "off-csv"):
+        for mode in ("off", "off-triggered", "rt", "rt-triggered", "rt-triggered-spin", "off-csv"):
             for role in ("master", "slave"):
                 s = data.get(f"{role}-{rate}-{mode}")
                 if not s:
@@ -159,7 +164,8 @@ def main():
       "C, two processes, blocking receive) of the same size (1-DOF sample: 64 bytes). **Data age** (`data_age_us`): "
       "how old the peer's sample is when the law uses it (law start − the kernel receive time of that sample); "
       "`free` runs each process on its own clock, `triggered` (`sync.mode: triggered`) starts the slave's cycle when "
-      "the master's sample arrives (docs/configuration.md, `sync`).")
+      "the master's sample arrives (docs/configuration.md, `sync`); `triggered-spin` (real-time runs only) adds "
+      "`sync.spin_us: 100`: the slave polls its socket without sleeping from 100 µs before the sample is due.")
     w("")
     w("| what | p50 (µs) | p99 (µs) | max (µs) |")
     w("|---|---|---|---|")
@@ -179,8 +185,8 @@ def main():
     pairs_seen = []
     for rate in (1000, 2000, 4000, 8000):
         for mode in ("off", "rt"):
-            for sync in ("free", "triggered"):
-                tag = f"{rate}-{mode}" + ("-triggered" if sync == "triggered" else "")
+            for sync in ("free", "triggered", "triggered-spin"):
+                tag = f"{rate}-{mode}" + ("" if sync == "free" else f"-{sync}")
                 m, sl = data.get(f"master-{tag}"), data.get(f"slave-{tag}")
                 if not m or not sl:
                     continue
@@ -194,7 +200,7 @@ def main():
                     return f"{fmt(a.get('p50'))} / {fmt(a.get('p99'))} / {fmt(a.get('max'))}" if a.get("count") else "–"
                 cyc = "/".join(str(x) for x in sl.get("data_age_cycles", [])) or "–"
                 timeouts = (f"{sl.get('trigger_timeouts_coupled')} of {sl.get('cycles_with_peer')}"
-                            if sync == "triggered" else "–")
+                            if sync != "free" else "–")
                 w(f"| {rate} Hz | {mode} | {sync} | {fmt(rtt_p50)} / {fmt(r['p99'] * 1e3 if r.get('count') else None)} | "
                   f"{fmt(gap)} | {age(sl)} | {age(m)} | {cyc} | {timeouts} | {m.get('overruns')} / {sl.get('overruns')} |")
     w("")
@@ -213,13 +219,13 @@ def main():
                 w(f"- round trip ({sync}): p50 {fmt(r['p50'] * 1e3)} µs, {fmt(gap)} µs from the floor: "
                   + ("met (target ≤ 20 µs)." if gap <= 20 else f"missed by {gap - 20:.1f} µs (target ≤ 20 µs)."))
             a = sl.get("data_age_us", {})
-            if sync == "triggered" and a.get("count"):
-                w(f"- slave data age (triggered): p50 {fmt(a['p50'])} µs: "
+            if sync != "free" and a.get("count"):
+                w(f"- slave data age ({sync}): p50 {fmt(a['p50'])} µs: "
                   + ("met (target < 50 µs)." if a["p50"] < 50 else f"missed by {a['p50'] - 50:.1f} µs (target < 50 µs)."))
                 ma = m.get("data_age_us", {})
                 bound = 1e6 / rate - m.get("compute_us", {}).get("p50", 0.0)
                 if ma.get("count"):
-                    w(f"- master data age (triggered): p50 {fmt(ma['p50'])} µs against one period minus the master's "
+                    w(f"- master data age ({sync}): p50 {fmt(ma['p50'])} µs against one period minus the master's "
                       f"compute p50 ({fmt(bound)} µs): " + ("met." if ma["p50"] < bound else
                                                             f"missed by {ma['p50'] - bound:.1f} µs."))
         w("")

@@ -254,6 +254,11 @@ TEST(YamlConfig, SyncModeAndItsTimeoutMargin) {
   EXPECT_EQ(t.loop.trigger_timeout_margin_ns, 300'000);
   const std::string sync = "rate_hz: 1000\nsync: {mode: ";
   ExpectError(Replace(kBase, "rate_hz: 1000", sync + "pll}"), "pll", "sync.mode", "'free' or 'triggered'");
+  EXPECT_EQ(ParseProcessConfig(Replace(kBase, "rate_hz: 1000", sync + "triggered, spin_us: 50}"), "test.yaml")
+                .loop.trigger_spin_ns,
+            50'000);
+  ExpectError(Replace(kBase, "rate_hz: 1000", sync + "triggered, spin_us: 2000}"), "2000", "sync.spin_us",
+              "at most one period");
   ExpectError(Replace(kBase, "rate_hz: 1000", sync + "triggered, timeout_margin_us: 1500}"), "1500",
               "sync.timeout_margin_us", "at most one period");
   ExpectError(Replace(kBase, "rate_hz: 1000", sync + "triggered, timeout_margin_us: 0}"), "0}",

@@ -90,6 +90,30 @@ TEST(PeriodicLoopTriggered, ASilentPeerIsATimeoutEveryCycleAndTheLoopKeepsRunnin
   EXPECT_FALSE(any_triggered);
 }
 
+TEST(PeriodicLoopTriggered, SpinPollsTheTriggerWithoutSleepingBeforeTheExpectedArrival) {
+  PeriodicLoop loop({.rate_hz = 1000.0, .sync = CycleSync::kTriggered, .trigger_spin_ns = 200'000});
+  std::int64_t last_deadline = 0;
+  int polls = 0;
+  int sleeps = 0;
+  loop.SetTrigger([&](std::int64_t deadline_ns) {
+    if (deadline_ns == 0) {  // a poll without sleeping; the peer's sample comes on the third
+      return ++polls % 3 == 0;
+    }
+    ++sleeps;
+    last_deadline = deadline_ns;
+    timespec until{static_cast<time_t>(deadline_ns / 1'000'000'000), static_cast<long>(deadline_ns % 1'000'000'000)};
+    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr);
+    return false;
+  });
+  loop.Run([&](std::uint64_t cycle, double) {
+    if (cycle + 1 == 5) loop.Stop();
+  });
+  EXPECT_EQ(loop.stats().triggered_cycles, 5u) << "each cycle started by a spin poll that saw the sample";
+  EXPECT_EQ(sleeps, 5) << "one sleep per cycle, up to the spin window";
+  EXPECT_EQ(polls, 15);
+  EXPECT_GT(last_deadline, 0);
+}
+
 TEST(PeriodicLoopTriggered, WithoutATriggerOrInFreeModeTheLoopRunsOnItsClock) {
   PeriodicLoop free_loop({.rate_hz = 1000.0, .duration_s = 0.005});
   bool called = false;

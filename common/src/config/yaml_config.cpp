@@ -56,7 +56,7 @@ void ParseRealtime(const Field& f, runtime::PeriodicLoopConfig& loop) {
 
 // Phase-locked cycles (docs/configuration.md, `sync`).
 void ParseSync(const Field& f, const transport::LinkConfig& link, runtime::PeriodicLoopConfig& loop) {
-  const Map map(f, {"mode", "timeout_margin_us"});
+  const Map map(f, {"mode", "timeout_margin_us", "spin_us"});
   if (auto v = map.Optional("mode")) {
     const std::string mode = v->AsString();
     if (mode == "free") {
@@ -76,6 +76,10 @@ void ParseSync(const Field& f, const transport::LinkConfig& link, runtime::Perio
     const double period_us = 1e6 / loop.rate_hz;
     const double margin_us = InRange(*v, 1.0, period_us, "µs (at most one period)");
     loop.trigger_timeout_margin_ns = std::llround(margin_us * 1e3);
+  }
+  if (auto v = map.Optional("spin_us")) {
+    const double period_us = 1e6 / loop.rate_hz;
+    loop.trigger_spin_ns = std::llround(InRange(*v, 0.0, period_us, "µs (0 = off, at most one period)") * 1e3);
   }
 }
 

@@ -228,6 +228,17 @@ void PeriodicLoop::RunFree(const Body& body, std::int64_t start, std::int64_t en
   }
 }
 
+bool PeriodicLoop::WaitForTheTrigger(std::int64_t expected_ns, std::int64_t deadline_ns) {
+  if (config_.trigger_spin_ns <= 0) return trigger_(deadline_ns);
+  // Sleep in the trigger until the spin window opens, then poll it without sleeping (a deadline already past).
+  if (trigger_(std::min(expected_ns - config_.trigger_spin_ns, deadline_ns))) return true;
+  while (!stop_.load(std::memory_order_relaxed)) {
+    if (trigger_(0)) return true;
+    if (MonotonicNowNs() >= deadline_ns) return false;
+  }
+  return false;
+}
+
 void PeriodicLoop::RunTriggered(const Body& body, std::int64_t start, std::int64_t end) {
   const std::int64_t period = period_ns_;
   TriggerSchedule::Config schedule_config;
@@ -241,7 +252,7 @@ void PeriodicLoop::RunTriggered(const Body& body, std::int64_t start, std::int64
   std::uint64_t cycle = 0;
   while (!stop_.load(std::memory_order_relaxed) && MonotonicNowNs() < end) {
     if (!SleepUntil(schedule.earliest_start_ns(), stop_)) break;
-    const bool fired = trigger_(std::min(schedule.deadline_ns(), end));
+    const bool fired = WaitForTheTrigger(schedule.expected_ns(), std::min(schedule.deadline_ns(), end));
     if (stop_.load(std::memory_order_relaxed)) break;
     const std::int64_t wake = MonotonicNowNs();
     stats_.jitter_ns.Add(schedule.CycleStarted(wake, fired));
