@@ -152,7 +152,7 @@ DataAgeTracker SimulatePair(bool triggered, std::int64_t slave_phase_ns, std::in
 }
 
 TEST(PhaseLockedPair, TriggeredTheSlaveUsesTheMastersSampleOfTheSameCycle) {
-  const DataAgeTracker age = SimulatePair(/*triggered=*/true, 0, /*latency=*/15'000, /*wake=*/10'000, 1000);
+  const DataAgeTracker age = SimulatePair(/*triggered=*/true, 0, /*latency_ns=*/15'000, /*wake_ns=*/10'000, 1000);
   EXPECT_EQ(age.MedianAgeCycles(), 0);
   EXPECT_EQ(age.age_cycles()[0], age.receive_age_ns().count()) << "every cycle was started by its sample";
   EXPECT_EQ(age.receive_age_ns().max_ns(), 10'000) << "the age is the wake-up latency";

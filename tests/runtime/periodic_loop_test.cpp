@@ -96,8 +96,9 @@ TEST(PeriodicLoopTriggered, SpinPollsTheTriggerWithoutSleepingBeforeTheExpectedA
   int polls = 0;
   int sleeps = 0;
   loop.SetTrigger([&](std::int64_t deadline_ns) {
-    if (deadline_ns == 0) {  // a poll without sleeping; the peer's sample comes on the third
-      return ++polls % 3 == 0;
+    if (deadline_ns == 0) {  // a poll without sleeping: the peer's sample is there (the first poll, whatever the
+      ++polls;               // time: a deadline missed on a loaded machine cannot turn it into a timeout)
+      return true;
     }
     ++sleeps;
     last_deadline = deadline_ns;
@@ -110,7 +111,7 @@ TEST(PeriodicLoopTriggered, SpinPollsTheTriggerWithoutSleepingBeforeTheExpectedA
   });
   EXPECT_EQ(loop.stats().triggered_cycles, 5u) << "each cycle started by a spin poll that saw the sample";
   EXPECT_EQ(sleeps, 5) << "one sleep per cycle, up to the spin window";
-  EXPECT_EQ(polls, 15);
+  EXPECT_EQ(polls, 5);
   EXPECT_GT(last_deadline, 0);
 }
 
