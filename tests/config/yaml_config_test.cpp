@@ -43,7 +43,6 @@ device:
 using test::ErrorOf;
 using test::ExpectError;
 using test::Replace;
-using test::Where;
 
 TEST(YamlConfig, BaseConfigParsesWithDefaults) {
   const ProcessConfig c = ParseProcessConfig(kBase, "test.yaml");

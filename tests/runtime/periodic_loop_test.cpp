@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <array>
 #include <cerrno>
 #include <cstdint>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -242,8 +244,10 @@ TEST(PeriodicLoopDmaLatency, HoldsTheRequestOpenWithTheValueForTheRunOnly) {
   EXPECT_FALSE(loop.stats().realtime_settings_applied) << "no SCHED_FIFO, no mlockall";
   EXPECT_EQ(std::filesystem::file_size(path), sizeof(std::int32_t)) << "exactly one 32-bit value written";
   std::ifstream in(path, std::ios::binary);
+  std::array<char, sizeof(std::int32_t)> bytes{};
+  in.read(bytes.data(), bytes.size());
   std::int32_t value = 0;
-  in.read(reinterpret_cast<char*>(&value), sizeof value);
+  std::memcpy(&value, bytes.data(), sizeof value);
   EXPECT_TRUE(in.good());
   EXPECT_EQ(value, 7);
   std::filesystem::remove(path);
