@@ -4,13 +4,14 @@
 #   deploy/bench.sh                 # full run: writes docs/performance.md and docs/performance.json
 #   deploy/bench.sh --smoke --out DIR   # seconds: every step once, tiny durations, writes DIR/performance.{md,json}
 #
-# Side by side in the same run: loop timing of both processes at 1, 2, 4 kHz and of the loop alone at 8 kHz
-# (teleop-loop-bench: the processes' config caps the rate at 4 kHz) beside cyclictest at the same interval and
-# priority, with and without real-time settings; the round trip from the processes' summaries beside a plain C
-# UDP ping-pong of the same size; control step, encode/decode, link and CAN benchmarks; allocations per cycle of a
-# process run (LD_PRELOAD counter); analysis time beside an independent NumPy/SciPy implementation; the cost of
-# writing every cycle to CSV. Real-time settings = SCHED_FIFO 80, mlockall, one CPU per process and
-# /dev/cpu_dma_latency held at 0 (by this script, for the processes' runs; cyclictest holds it itself).
+# Side by side in the same run: loop timing of both processes at 1, 2, 4, 8 kHz, free-running and phase-locked
+# (sync.mode triggered), and of the loop alone (teleop-loop-bench) beside cyclictest at the same interval and
+# priority, with and without real-time settings; the round trip and the data age from the processes' summaries
+# beside a plain C UDP ping-pong of the same size; control step, encode/decode, link and CAN benchmarks;
+# allocations per cycle of a process run (LD_PRELOAD counter); analysis time beside an independent NumPy/SciPy
+# implementation; the cost of writing every cycle to CSV. Real-time settings = SCHED_FIFO 80, mlockall, one CPU per
+# process and /dev/cpu_dma_latency held at 0 (realtime.cpu_dma_latency_us: 0 in the processes' configs; the loop
+# bench and cyclictest hold it themselves).
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
 
@@ -43,7 +44,6 @@ mkdir -p "${raw}"
 pids=()
 cleanup() {
   for p in "${pids[@]:-}"; do [[ -n "$p" ]] && kill "$p" 2>/dev/null || true; done
-  exec 9>&- || true
   rm -rf "${work}"
 }
 trap cleanup EXIT
@@ -51,9 +51,11 @@ trap cleanup EXIT
 if [[ ${smoke} -eq 1 ]]; then
   run_s=1; slave_extra_s=1; cyclic_s=1; loop_s=0.5; pingpong_count=500; bench_time=0.01; rates=(1000); modes=(off)
 else
-  run_s=3; slave_extra_s=3; cyclic_s=3; loop_s=3; pingpong_count=20000; bench_time=0.2; rates=(1000 2000 4000)
+  run_s=2; slave_extra_s=3; cyclic_s=2; loop_s=2; pingpong_count=20000; bench_time=0.2; rates=(1000 2000 4000 8000)
   modes=(off rt)
 fi
+syncs=(free triggered)
+spin_us=100  # the triggered-spin runs (real-time only): poll the socket from 100 us before the master's sample is due
 ncpu=$(nproc)
 cpu_master=0; cpu_slave=$(( ncpu > 1 ? 1 : 0 ))
 can_rt=0
@@ -79,22 +81,28 @@ log() { echo "[bench] $*" >&2; }
 
 # --- processes: configs per rate and mode ------------------------------------------------------------------------
 # Ports of their own (47601/47602) so a demo running beside does not collide.
-make_config() {  # role rate mode > file
-  local role=$1 rate=$2 mode=$3 src="${TELEOP_ROOT}/deploy/configs/$1.yaml" fifo=0 cpu=-1 lock=false
+make_config() {  # role rate mode [sync] > file
+  local role=$1 rate=$2 mode=$3 sync=${4:-free} src="${TELEOP_ROOT}/deploy/configs/$1.yaml" fifo=0 cpu=-1 lock=false
+  local dma=-1
   if [[ ${mode} == rt ]]; then
-    fifo=80; lock=true
+    fifo=80; lock=true; dma=0
     cpu=$([[ ${role} == master ]] && echo ${cpu_master} || echo ${cpu_slave})
   fi
   sed -e "s/^rate_hz: .*/rate_hz: ${rate}/" -e "s/fifo_priority: .*/fifo_priority: ${fifo}/" \
-    -e "s/^  cpu: .*/  cpu: ${cpu}/" -e "s/lock_memory: .*/lock_memory: ${lock}/" \
+    -e "s/^  cpu: .*/  cpu: ${cpu}/" -e "s/lock_memory: .*/lock_memory: ${lock}\n  cpu_dma_latency_us: ${dma}/" \
     -e 's/127.0.0.1:47001/127.0.0.1:47601/' -e 's/127.0.0.1:47002/127.0.0.1:47602/' "${src}"
+  if [[ ${sync} == triggered-spin ]]; then
+    echo "sync: {mode: triggered, spin_us: ${spin_us}}"
+  else
+    echo "sync: {mode: ${sync}}"
+  fi
 }
 
-run_pair() {  # rate mode tag [extra master args...]
-  local rate=$1 mode=$2 tag=$3
-  shift 3
-  make_config master "${rate}" "${mode}" > "${work}/master-${tag}.yaml"
-  make_config slave "${rate}" "${mode}" > "${work}/slave-${tag}.yaml"
+run_pair() {  # rate mode tag sync [extra master args...]
+  local rate=$1 mode=$2 tag=$3 sync=$4
+  shift 4
+  make_config master "${rate}" "${mode}" "${sync}" > "${work}/master-${tag}.yaml"
+  make_config slave "${rate}" "${mode}" "${sync}" > "${work}/slave-${tag}.yaml"
   "${bin}/teleop-slave" --config "${work}/slave-${tag}.yaml" --duration "$(( run_s + slave_extra_s ))" \
     --summary-json "${raw}/slave-${tag}.json" > "${work}/slave-${tag}.log" 2>&1 &
   local slave_pid=$!
@@ -104,15 +112,6 @@ run_pair() {  # rate mode tag [extra master args...]
     --summary-json "${raw}/master-${tag}.json" "$@" > "${work}/master-${tag}.log" 2>&1 || log "master ${tag} failed"
   wait "${slave_pid}" || true
 }
-
-# Holds /dev/cpu_dma_latency at 0 on fd 9 while the real-time runs last (what cyclictest does by default).
-hold_dma_latency() {
-  if [[ -w /dev/cpu_dma_latency ]] && exec 9>/dev/cpu_dma_latency; then
-    printf '\x00\x00\x00\x00' >&9 && echo true && return
-  fi
-  echo false
-}
-release_dma_latency() { exec 9>&- || true; }
 
 cyclictest_run() {  # interval_us mode tag
   local interval=$1 mode=$2 tag=$3 args
@@ -145,24 +144,27 @@ print(json.dumps({"interval_us": int(sys.argv[2]), "mode": sys.argv[3], "count":
 PY
 }
 
-log "loop timing of the processes (${rates[*]} Hz; modes ${modes[*]}) and cyclictest beside"
+log "loop timing of the processes (${rates[*]} Hz; modes ${modes[*]}; ${syncs[*]}) and cyclictest beside"
 for mode in "${modes[@]}"; do
-  dma_held=false
-  if [[ ${mode} == rt ]]; then
-    if [[ ${can_rt} -eq 0 ]]; then log "not root: skipping the real-time runs"; continue; fi
-    dma_held=$(hold_dma_latency)
-  fi
-  echo "{\"mode\": \"${mode}\", \"cpu_dma_latency_held\": ${dma_held}}" > "${raw}/mode-${mode}.json"
+  if [[ ${mode} == rt && ${can_rt} -eq 0 ]]; then log "not root: skipping the real-time runs"; continue; fi
+  echo "{\"mode\": \"${mode}\", \"loadavg\": \"$(cut -d' ' -f1-3 /proc/loadavg)\"}" > "${raw}/mode-${mode}.json"
   for rate in "${rates[@]}"; do
-    log "  ${rate} Hz ${mode}"
-    run_pair "${rate}" "${mode}" "${rate}-${mode}"
+    mode_syncs=("${syncs[@]}")
+    [[ ${mode} == rt ]] && mode_syncs+=(triggered-spin)
+    for sync in "${mode_syncs[@]}"; do
+      log "  ${rate} Hz ${mode} ${sync}"
+      tag="${rate}-${mode}"
+      [[ ${sync} != free ]] && tag="${rate}-${mode}-${sync}"
+      run_pair "${rate}" "${mode}" "${tag}" "${sync}"
+    done
   done
-  [[ ${mode} == rt ]] && release_dma_latency
-  for rate in "${rates[@]}" 8000; do
+  rates_with_8k=("${rates[@]}")
+  [[ " ${rates[*]} " == *" 8000 "* ]] || rates_with_8k+=(8000)
+  for rate in "${rates_with_8k[@]}"; do
     cyclictest_run $(( 1000000 / rate )) "${mode}" "${rate}-${mode}"
   done
-  # The loop alone, including 8 kHz (above the processes' rate cap).
-  for rate in "${rates[@]}" 8000; do
+  # The loop alone (an empty body), beside the processes.
+  for rate in "${rates_with_8k[@]}"; do
     if [[ ${mode} == rt ]]; then
       "${bin}/teleop-loop-bench" --rate "${rate}" --duration "${loop_s}" --fifo 80 --cpu "${cpu_slave}" --lock \
         --dma-latency-us 0 > "${raw}/loop-${rate}-${mode}.json" || true
@@ -173,7 +175,7 @@ for mode in "${modes[@]}"; do
 done
 
 log "cost of writing every cycle to CSV (1 kHz, no real-time settings)"
-run_pair 1000 off "1000-off-csv" --telemetry-csv "${work}/master.csv"
+run_pair 1000 off "1000-off-csv" free --telemetry-csv "${work}/master.csv"
 
 log "allocations per cycle of a process run (two durations, LD_PRELOAD counter)"
 alloc_lib="${TELEOP_BUILD}/lib/libteleop-alloc-count.so"
@@ -241,6 +243,26 @@ fi
     echo ","
     "${bin}/teleop-analyze" max-stiffness --side slave --kp 600 --kd 2 --rate 1000 --threads 1 \
       --peer-delay-samples 1 --json
+    # A triggered pair: the master sees the slave's reply one sample late, the slave the master's sample late by the
+    # data age measured above (p99 of the 1 kHz triggered slave, real-time run if there was one) and by the
+    # start-up check's default assumption (100 us).
+    measured=$(/usr/bin/python3 - "${raw}/slave-1000-rt-triggered.json" "${raw}/slave-1000-off-triggered.json" <<'PY'
+import json, sys
+for path in sys.argv[1:]:
+    try:
+        age = json.load(open(path))["data_age_us"]
+    except (OSError, ValueError, KeyError):
+        continue
+    if age.get("count"):
+        print(f"{min(1.0, age['p99'] * 1e-3):.4f}")
+        break
+PY
+)
+    for f in 0.1 ${measured}; do
+      echo ","
+      "${bin}/teleop-analyze" max-stiffness --side slave --kp 600 --kd 2 --rate 1000 --threads 1 \
+        --velocity-filter-hz 200 --peer-delay-samples 1 --slave-peer-delay-fraction "${f}" --json
+    done
     # The shipped slave config (deploy/configs/slave.yaml) also filters the velocity at 200 Hz.
     for f in "${fractions[@]}"; do
       echo ","

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,7 +28,8 @@ struct Case {
   bool unilateral = false;
   int delay = 0;
   double filter_hz = 0.0;
-  double delay_fraction = 0.0;  ///< peer_delay_fraction (with delay = 0)
+  double delay_fraction = 0.0;                          ///< peer_delay_fraction (with delay = 0)
+  std::optional<double> slave_fraction = std::nullopt;  ///< slave_peer_delay_fraction: a triggered pair
 };
 
 std::ostream& operator<<(std::ostream& out, const Case& c) { return out << c.name; }
@@ -92,6 +94,7 @@ TEST_P(ModelVsSimulation, PerturbationDecaysBelowAndGrowsAboveThePredictedLimit)
   system.peer_delay_samples = c.delay;
   system.velocity_filter_hz = c.filter_hz;
   system.peer_delay_fraction = c.delay_fraction;
+  system.slave_peer_delay_fraction = c.slave_fraction;
   const std::vector<HumanModel> humans = MakeHumanGrid(DefaultFingerBounds(), 3);
   const StabilityLimit limit = FindMaxStableStiffness(system, c.side, humans);
   ASSERT_FALSE(limit.unstable_without_fixture);
@@ -133,34 +136,40 @@ TEST_P(ModelVsSimulation, PerturbationDecaysBelowAndGrowsAboveThePredictedLimit)
 
 INSTANTIATE_TEST_SUITE_P(
     RatesGainsSides, ModelVsSimulation,
-    ::testing::Values(Case{"slave_500Hz_kp600_kd2", FixtureSide::kSlave, 500.0, Gains(600, 2)},
-                      Case{"slave_1000Hz_kp600_kd2", FixtureSide::kSlave, 1000.0, Gains(600, 2)},
-                      Case{"slave_2000Hz_kp800_kd6", FixtureSide::kSlave, 2000.0, Gains(800, 6)},
-                      Case{"master_500Hz_kp600_kd2", FixtureSide::kMaster, 500.0, Gains(600, 2)},
-                      Case{"master_1000Hz_kp1000_kd4", FixtureSide::kMaster, 1000.0, Gains(1000, 4)},
-                      Case{"master_250Hz_kp300_kd1_kv0.5", FixtureSide::kMaster, 250.0, Gains(300, 1, 0.5)},
-                      Case{"slave_unilateral_500Hz", FixtureSide::kSlave, 500.0, SlaveOnly(1000, 6), true},
-                      Case{"slave_unilateral_1000Hz", FixtureSide::kSlave, 1000.0, SlaveOnly(1000, 6), true},
-                      Case{"master_unilateral_500Hz", FixtureSide::kMaster, 500.0, SlaveOnly(1000, 6), true},
-                      Case{"master_unilateral_2000Hz", FixtureSide::kMaster, 2000.0, SlaveOnly(1000, 6), true},
-                      Case{"slave_1000Hz_delay1", FixtureSide::kSlave, 1000.0, Gains(600, 2), false, 1},
-                      Case{"master_1000Hz_delay1", FixtureSide::kMaster, 1000.0, Gains(600, 2), false, 1},
-                      Case{"slave_1000Hz_filter200", FixtureSide::kSlave, 1000.0, Gains(600, 2), false, 0, 200.0},
-                      Case{"master_2000Hz_delay1_filter200", FixtureSide::kMaster, 2000.0, Gains(600, 2), false, 1,
-                           200.0},
-                      Case{"slave_1000Hz_kvs1", FixtureSide::kSlave, 1000.0, Damped(600, 2, 0, 1)},
-                      Case{"slave_1000Hz_kvm2_delay1", FixtureSide::kSlave, 1000.0, Damped(600, 2, 2, 0), false, 1},
-                      Case{"master_500Hz_kvm1", FixtureSide::kMaster, 500.0, Damped(600, 2, 1, 0)},
-                      Case{"master_1000Hz_kvs2_delay1_filter200", FixtureSide::kMaster, 1000.0, Damped(600, 2, 0, 2),
-                           false, 1, 200.0},
-                      Case{"slave_2000Hz_kv0.5_1.5_delay1_filter200", FixtureSide::kSlave, 2000.0,
-                           Damped(800, 4, 0.5, 1.5), false, 1, 200.0},
-                      // Fractional peer delay (ZOH with the peer terms split at τ): a phase-locked pair.
-                      Case{"slave_1000Hz_frac0.05", FixtureSide::kSlave, 1000.0, Gains(600, 2), false, 0, 0.0, 0.05},
-                      Case{"slave_1000Hz_frac0.5", FixtureSide::kSlave, 1000.0, Gains(600, 2), false, 0, 0.0, 0.5},
-                      Case{"master_1000Hz_frac0.3", FixtureSide::kMaster, 1000.0, Gains(600, 2), false, 0, 0.0, 0.3},
-                      Case{"slave_2000Hz_kvm2_frac0.7_filter200", FixtureSide::kSlave, 2000.0, Damped(800, 4, 2, 0),
-                           false, 0, 200.0, 0.7}),
+    ::testing::Values(
+        Case{"slave_500Hz_kp600_kd2", FixtureSide::kSlave, 500.0, Gains(600, 2)},
+        Case{"slave_1000Hz_kp600_kd2", FixtureSide::kSlave, 1000.0, Gains(600, 2)},
+        Case{"slave_2000Hz_kp800_kd6", FixtureSide::kSlave, 2000.0, Gains(800, 6)},
+        Case{"master_500Hz_kp600_kd2", FixtureSide::kMaster, 500.0, Gains(600, 2)},
+        Case{"master_1000Hz_kp1000_kd4", FixtureSide::kMaster, 1000.0, Gains(1000, 4)},
+        Case{"master_250Hz_kp300_kd1_kv0.5", FixtureSide::kMaster, 250.0, Gains(300, 1, 0.5)},
+        Case{"slave_unilateral_500Hz", FixtureSide::kSlave, 500.0, SlaveOnly(1000, 6), true},
+        Case{"slave_unilateral_1000Hz", FixtureSide::kSlave, 1000.0, SlaveOnly(1000, 6), true},
+        Case{"master_unilateral_500Hz", FixtureSide::kMaster, 500.0, SlaveOnly(1000, 6), true},
+        Case{"master_unilateral_2000Hz", FixtureSide::kMaster, 2000.0, SlaveOnly(1000, 6), true},
+        Case{"slave_1000Hz_delay1", FixtureSide::kSlave, 1000.0, Gains(600, 2), false, 1},
+        Case{"master_1000Hz_delay1", FixtureSide::kMaster, 1000.0, Gains(600, 2), false, 1},
+        Case{"slave_1000Hz_filter200", FixtureSide::kSlave, 1000.0, Gains(600, 2), false, 0, 200.0},
+        Case{"master_2000Hz_delay1_filter200", FixtureSide::kMaster, 2000.0, Gains(600, 2), false, 1, 200.0},
+        Case{"slave_1000Hz_kvs1", FixtureSide::kSlave, 1000.0, Damped(600, 2, 0, 1)},
+        Case{"slave_1000Hz_kvm2_delay1", FixtureSide::kSlave, 1000.0, Damped(600, 2, 2, 0), false, 1},
+        Case{"master_500Hz_kvm1", FixtureSide::kMaster, 500.0, Damped(600, 2, 1, 0)},
+        Case{"master_1000Hz_kvs2_delay1_filter200", FixtureSide::kMaster, 1000.0, Damped(600, 2, 0, 2), false, 1,
+             200.0},
+        Case{"slave_2000Hz_kv0.5_1.5_delay1_filter200", FixtureSide::kSlave, 2000.0, Damped(800, 4, 0.5, 1.5), false, 1,
+             200.0},
+        // Fractional peer delay (ZOH with the peer terms split at τ): a phase-locked pair.
+        Case{"slave_1000Hz_frac0.05", FixtureSide::kSlave, 1000.0, Gains(600, 2), false, 0, 0.0, 0.05},
+        Case{"slave_1000Hz_frac0.5", FixtureSide::kSlave, 1000.0, Gains(600, 2), false, 0, 0.0, 0.5},
+        Case{"master_1000Hz_frac0.3", FixtureSide::kMaster, 1000.0, Gains(600, 2), false, 0, 0.0, 0.3},
+        Case{"slave_2000Hz_kvm2_frac0.7_filter200", FixtureSide::kSlave, 2000.0, Damped(800, 4, 2, 0), false, 0, 200.0,
+             0.7},
+        // A triggered pair (sync.mode triggered): the master sees the slave's reply one sample late,
+        // the slave sees the master's sample a fraction late (the process's start-up model).
+        Case{"slave_1000Hz_triggered0.1", FixtureSide::kSlave, 1000.0, Gains(600, 2), false, 1, 0.0, 0.0, 0.1},
+        Case{"master_1000Hz_triggered0.1", FixtureSide::kMaster, 1000.0, Gains(600, 2), false, 1, 0.0, 0.0, 0.1},
+        Case{"slave_4000Hz_kvs1_triggered0.4_filter200", FixtureSide::kSlave, 4000.0, Damped(800, 4, 0, 1), false, 1,
+             200.0, 0.0, 0.4}),
     [](const ::testing::TestParamInfo<Case>& param_info) {
       std::string name = param_info.param.name;
       std::replace(name.begin(), name.end(), '.', '_');

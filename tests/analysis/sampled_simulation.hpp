@@ -44,11 +44,13 @@ class SampledSimulation {
     const double t = system_.period_s();
     const double ym = (1.0 - filter_) * ym_prev_ + filter_ * (xm_ - xm_prev_) / t;
     const double ys = (1.0 - filter_) * ys_prev_ + filter_ * (xs_ - xs_prev_) / t;
-    const bool delayed = system_.peer_delay_samples > 0;
-    const double xs_peer = delayed ? xs_prev_ : xs_;
-    const double ys_peer = delayed ? ys_prev_ : ys;
-    const double xm_peer = delayed ? xm_prev_ : xm_;
-    const double ym_peer = delayed ? ym_prev_ : ym;
+    // Each side's view of its peer: the previous sample (a whole-sample delay) or this one, held back by τ.
+    const bool master_delayed = system_.peer_delay_samples > 0;
+    const bool slave_delayed = system_.slave_peer_delay_fraction ? false : master_delayed;
+    const double xs_peer = master_delayed ? xs_prev_ : xs_;
+    const double ys_peer = master_delayed ? ys_prev_ : ys;
+    const double xm_peer = slave_delayed ? xm_prev_ : xm_;
+    const double ym_peer = slave_delayed ? ym_prev_ : ym;
     const LawGains& g = gains_;
     // Eq. 8 (F_e = 0) and eq. 9, fixtures as springs about the equilibrium; the terms of the peer's data apart.
     const double f_am_local =
@@ -62,12 +64,23 @@ class SampledSimulation {
     ym_prev_ = ym;
     ys_prev_ = ys;
 
-    const double tau = delayed ? 0.0 : std::clamp(system_.peer_delay_fraction, 0.0, 1.0) * t;
-    // [0, τ): the previous peer terms still act; [τ, T): the new ones. Substeps shared in proportion.
-    const int early_steps = tau > 0.0 ? std::max(1, static_cast<int>(std::lround(substeps_ * tau / t))) : 0;
-    const int late_steps = tau < t ? std::max(1, substeps_ - early_steps) : 0;
-    Integrate(tau, early_steps, f_am_local + f_am_peer_prev_, f_as_local + f_as_peer_prev_);
-    Integrate(t - tau, late_steps, f_am_local + f_am_peer, f_as_local + f_as_peer);
+    const double tau_m = master_delayed ? 0.0 : std::clamp(system_.peer_delay_fraction, 0.0, 1.0) * t;
+    const double tau_s =
+        system_.slave_peer_delay_fraction ? std::clamp(*system_.slave_peer_delay_fraction, 0.0, 1.0) * t : tau_m;
+    // [0, τ): the previous peer terms still act; [τ, T): the new ones. The two devices are coupled only through
+    // the sampled forces, so each is integrated over the period with its own split.
+    const double xs_start = xs_;
+    const double vs_start = vs_;
+    Integrate(tau_m, Steps(tau_m, true), f_am_local + f_am_peer_prev_, 0.0);
+    Integrate(t - tau_m, Steps(tau_m, false), f_am_local + f_am_peer, 0.0);
+    const double xm_end = xm_;
+    const double vm_end = vm_;
+    xs_ = xs_start;
+    vs_ = vs_start;
+    Integrate(tau_s, Steps(tau_s, true), 0.0, f_as_local + f_as_peer_prev_);
+    Integrate(t - tau_s, Steps(tau_s, false), 0.0, f_as_local + f_as_peer);
+    xm_ = xm_end;
+    vm_ = vm_end;
     f_am_peer_prev_ = f_am_peer;
     f_as_peer_prev_ = f_as_peer;
   }
@@ -81,6 +94,14 @@ class SampledSimulation {
   }
 
  private:
+  // Substeps of the piece before (early) or after τ, shared in proportion.
+  int Steps(double tau_s, bool early) const {
+    const double t = system_.period_s();
+    const int early_steps = tau_s > 0.0 ? std::max(1, static_cast<int>(std::lround(substeps_ * tau_s / t))) : 0;
+    if (early) return early_steps;
+    return tau_s < t ? std::max(1, substeps_ - early_steps) : 0;
+  }
+
   void Integrate(double duration_s, int steps, double f_am, double f_as) {
     if (steps <= 0 || duration_s <= 0.0) return;
     const double mm = system_.master.mass_kg + human_.mass_kg;

@@ -56,6 +56,14 @@ TEST(CanLinkConfig, EmulatedBusNeedsNoInterfaceAndTakesTheDaemonAddress) {
   EXPECT_EQ(d.link.can.emulated_bus_port, 47300);  // the documented default
 }
 
+TEST(CanLinkConfig, TriggeredCyclesNeedUdp) {
+  const std::string text = Config("  transport: emulated-can\n") + "sync: {mode: triggered}\n";
+  EXPECT_NE(ErrorOf(text).find("key 'sync.mode': 'triggered' needs link.transport udp"), std::string::npos)
+      << ErrorOf(text);
+  EXPECT_EQ(ParseProcessConfig(Config("  transport: emulated-can\n") + "sync: {mode: free}\n", "can.yaml").loop.sync,
+            runtime::CycleSync::kFree);
+}
+
 TEST(CanLinkConfig, ErrorsNameFileLineAndKey) {
   EXPECT_NE(ErrorOf(Config("  transport: can\n")).find("can.yaml:5:3: key 'link.can'"), std::string::npos);
   EXPECT_NE(ErrorOf(Config("  transport: can\n  can: {fd: true}\n")).find("interface"), std::string::npos);

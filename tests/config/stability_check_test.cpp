@@ -125,6 +125,49 @@ TEST(StabilityCheck, ShippedSlaveLimitAgreesWithTheFineStepSimulation) {
   }
 }
 
+// sync.mode triggered: the slave's law sees the master's sample a fraction of a period late (by default the assumed
+// data age of kTriggeredDataAge_s, or stability.peer_delay_fraction), the master the slave's reply one sample late. The
+// pair is allowed a stiffer slave fixture than free-running, less than the paper's undelayed model, and the limit of
+// that model is where the fine-step simulation of the same asymmetric delays turns unstable.
+TEST(StabilityCheck, TriggeredPairAllowsAStifferSlaveFixtureThatTheSimulationConfirms) {
+  const std::string shipped = SlaveWithoutStability();  // the defaults of the stability section
+  const ProcessConfig free = ParseProcessConfig(shipped, "slave.yaml");
+  const ProcessConfig triggered = ParseProcessConfig(shipped + "sync: {mode: triggered}\n", "slave.yaml");
+  const analysis::SampledTeleoperator model = StabilityModel(triggered, 0);
+  ASSERT_TRUE(model.slave_peer_delay_fraction.has_value());
+  EXPECT_DOUBLE_EQ(*model.slave_peer_delay_fraction, kTriggeredDataAge_s * 1000.0);
+  EXPECT_EQ(model.peer_delay_samples, 1) << "the master still sees the slave's reply one sample late";
+  EXPECT_FALSE(StabilityModel(free, 0).slave_peer_delay_fraction.has_value());
+  const ProcessConfig measured =
+      ParseProcessConfig(shipped + "sync: {mode: triggered}\nstability: {peer_delay_fraction: 0.3}\n", "slave.yaml");
+  EXPECT_DOUBLE_EQ(*StabilityModel(measured, 0).slave_peer_delay_fraction, 0.3);
+
+  const double free_limit = CheckProcessStability(free).axes[0].limit.max_stable_stiffness_N_per_m;
+  const StabilityReport report = CheckProcessStability(triggered);
+  const double limit = report.axes[0].limit.max_stable_stiffness_N_per_m;
+  const double measured_limit = CheckProcessStability(measured).axes[0].limit.max_stable_stiffness_N_per_m;
+  ProcessConfig paper = free;
+  paper.stability.peer_delay_samples = 0;
+  const double paper_limit = CheckProcessStability(paper).axes[0].limit.max_stable_stiffness_N_per_m;
+  EXPECT_GT(limit, free_limit * 1.01) << "fresher data on the slave allows a stiffer fixture";
+  EXPECT_LT(limit, paper_limit) << "but not as stiff as with no delay on either side";
+  EXPECT_LT(measured_limit, limit) << "an older data age allows less";
+  EXPECT_GT(measured_limit, free_limit);
+
+  constexpr int kSamples = 10000;
+  for (const double factor : {0.98, 1.02}) {
+    analysis::SampledTeleoperator at = model;
+    at.gains = analysis::EffectiveGains(model, analysis::FixtureSide::kSlave);
+    at.gains.slave_fixture_N_per_m = factor * limit;
+    const double ratio = EnvelopeRatio(at, report.axes[0].limit.limiting_human, kSamples);
+    if (factor < 1.0) {
+      EXPECT_LT(ratio, 0.1) << "limiting operator at " << factor * limit << " N/m did not settle";
+    } else {
+      EXPECT_GT(ratio, 10.0) << "limiting operator at " << factor * limit << " N/m did not grow";
+    }
+  }
+}
+
 TEST(StabilityCheck, ShippedMasterIsStable) {
   const ProcessConfig config = LoadProcessConfig(Deploy("master.yaml"));
   const StabilityReport report = CheckProcessStability(config);

@@ -44,7 +44,6 @@ device:
 using test::ErrorOf;
 using test::ExpectError;
 using test::Replace;
-using test::Where;
 
 TEST(YamlConfig, BaseConfigParsesWithDefaults) {
   const ProcessConfig c = ParseProcessConfig(kBase, "test.yaml");
@@ -227,7 +226,7 @@ TEST(YamlConfigErrors, WrongTypeIntegerAndBool) {
 }
 
 TEST(YamlConfigErrors, OutOfRange) {
-  ExpectError(Replace(kBase, "rate_hz: 1000", "rate_hz: 5000"), "5000", "rate_hz", "250..4000 Hz");
+  ExpectError(Replace(kBase, "rate_hz: 1000", "rate_hz: 9000"), "9000", "rate_hz", "250..8000 Hz");
   ExpectError(Replace(kBase, "dof: 1", "dof: 7"), "7", "dof", "1..6");
   ExpectError(Replace(kBase, "kp_N_per_m: 600", "kp_N_per_m: -600"), "-600", "law.kp_N_per_m", ">= 0");
   ExpectError(Replace(kBase, "kp_N_per_m: 600", "kp_N_per_m: .nan"), ".nan", "law.kp_N_per_m", "finite");
@@ -239,6 +238,49 @@ TEST(YamlConfigErrors, OutOfRange) {
               "law.velocity_filter_hz", "half of rate_hz");
   ExpectError(Replace(kBase, "rate_hz: 1000", "rate_hz: 1000\nrealtime: {fifo_priority: 120}"), "120",
               "realtime.fifo_priority", "0..99");
+}
+
+TEST(YamlConfig, UdpRunsAt8kHz) {
+  EXPECT_EQ(ParseProcessConfig(Replace(kBase, "rate_hz: 1000", "rate_hz: 8000"), "test.yaml").loop.rate_hz, 8000.0);
+}
+
+TEST(YamlConfig, SyncModeAndItsTimeoutMargin) {
+  const ProcessConfig free = ParseProcessConfig(kBase, "test.yaml");
+  EXPECT_EQ(free.loop.sync, runtime::CycleSync::kFree) << "free-running is the default";
+  EXPECT_EQ(free.loop.trigger_timeout_margin_ns, 0) << "0 = a quarter period";
+  const ProcessConfig t = ParseProcessConfig(
+      Replace(kBase, "rate_hz: 1000", "rate_hz: 1000\nsync: {mode: triggered, timeout_margin_us: 300}"), "test.yaml");
+  EXPECT_EQ(t.loop.sync, runtime::CycleSync::kTriggered);
+  EXPECT_EQ(t.loop.trigger_timeout_margin_ns, 300'000);
+  const std::string sync = "rate_hz: 1000\nsync: {mode: ";
+  ExpectError(Replace(kBase, "rate_hz: 1000", sync + "pll}"), "pll", "sync.mode", "'free' or 'triggered'");
+  EXPECT_EQ(ParseProcessConfig(Replace(kBase, "rate_hz: 1000", sync + "triggered, spin_us: 50}"), "test.yaml")
+                .loop.trigger_spin_ns,
+            50'000);
+  ExpectError(Replace(kBase, "rate_hz: 1000", sync + "triggered, spin_us: 2000}"), "2000", "sync.spin_us",
+              "at most one period");
+  ExpectError(Replace(kBase, "rate_hz: 1000", sync + "triggered, timeout_margin_us: 1500}"), "1500",
+              "sync.timeout_margin_us", "at most one period");
+  ExpectError(Replace(kBase, "rate_hz: 1000", sync + "triggered, timeout_margin_us: 0}"), "0}",
+              "sync.timeout_margin_us", "1..1000");
+}
+
+TEST(YamlConfig, RealtimeHoldsCpuDmaLatency) {
+  EXPECT_EQ(ParseProcessConfig(kBase, "test.yaml").loop.cpu_dma_latency_us, -1) << "left alone by default";
+  const ProcessConfig c = ParseProcessConfig(
+      Replace(kBase, "rate_hz: 1000", "rate_hz: 1000\nrealtime: {cpu_dma_latency_us: 0}"), "test.yaml");
+  EXPECT_EQ(c.loop.cpu_dma_latency_us, 0);
+  ExpectError(Replace(kBase, "rate_hz: 1000", "rate_hz: 1000\nrealtime: {cpu_dma_latency_us: -2}"), "-2",
+              "realtime.cpu_dma_latency_us", "-1..1000000");
+}
+
+TEST(YamlConfig, StabilityPeerDelayFraction) {
+  EXPECT_FALSE(ParseProcessConfig(kBase, "test.yaml").stability.peer_delay_fraction.has_value());
+  const ProcessConfig c = ParseProcessConfig(
+      Replace(kBase, "rate_hz: 1000", "rate_hz: 1000\nstability: {peer_delay_fraction: 0.05}"), "test.yaml");
+  EXPECT_EQ(c.stability.peer_delay_fraction, 0.05);
+  ExpectError(Replace(kBase, "rate_hz: 1000", "rate_hz: 1000\nstability: {peer_delay_fraction: 1.5}"), "1.5",
+              "stability.peer_delay_fraction", "0..1");
 }
 
 TEST(YamlConfigErrors, BadListLength) {

@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <array>
 #include <cerrno>
 #include <cstdint>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -44,6 +46,87 @@ TEST(PeriodicLoop, RunsUntilStoppedFromTheBodyAndFillsStats) {
   EXPECT_GE(stats.jitter_ns.min_ns(), 0) << "an absolute sleep never wakes early";
   EXPECT_LE(stats.overruns, stats.cycles + stats.skipped_slots);
   EXPECT_TRUE(loop.stopping());
+}
+
+// Triggered (phase-locked) mode with a fake trigger: what starts each cycle is counted, the body sees it, and a
+// trigger that never fires still runs the loop (timeouts, the free-running fallback).
+TEST(PeriodicLoopTriggered, EveryCycleStartedByTheTriggerIsCountedAndVisibleToTheBody) {
+  PeriodicLoop loop({.rate_hz = 1000.0, .sync = CycleSync::kTriggered});
+  std::vector<std::int64_t> deadlines;
+  deadlines.reserve(64);
+  loop.SetTrigger([&](std::int64_t deadline_ns) {
+    deadlines.push_back(deadline_ns);
+    return true;  // the peer's sample is always there
+  });
+  ASSERT_TRUE(loop.triggered_mode());
+  std::uint64_t seen_triggered = 0;
+  loop.Run([&](std::uint64_t cycle, double) {
+    if (loop.cycle_triggered()) ++seen_triggered;
+    if (cycle + 1 == 20) loop.Stop();
+  });
+  EXPECT_EQ(loop.stats().cycles, 20u);
+  EXPECT_EQ(loop.stats().triggered_cycles, 20u);
+  EXPECT_EQ(loop.stats().trigger_timeouts, 0u);
+  EXPECT_EQ(seen_triggered, 20u);
+  ASSERT_EQ(deadlines.size(), 20u);
+  for (std::size_t i = 1; i < deadlines.size(); ++i) {
+    EXPECT_GT(deadlines[i], deadlines[i - 1]) << "each deadline is one period after the last trigger";
+  }
+}
+
+TEST(PeriodicLoopTriggered, ASilentPeerIsATimeoutEveryCycleAndTheLoopKeepsRunning) {
+  PeriodicLoop loop({.rate_hz = 2000.0, .sync = CycleSync::kTriggered, .trigger_timeout_margin_ns = 100'000});
+  loop.SetTrigger([](std::int64_t deadline_ns) {
+    timespec until{static_cast<time_t>(deadline_ns / 1'000'000'000), static_cast<long>(deadline_ns % 1'000'000'000)};
+    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr);
+    return false;
+  });
+  bool any_triggered = false;
+  loop.Run([&](std::uint64_t cycle, double) {
+    any_triggered = any_triggered || loop.cycle_triggered();
+    if (cycle + 1 == 10) loop.Stop();
+  });
+  EXPECT_EQ(loop.stats().cycles, 10u);
+  EXPECT_EQ(loop.stats().trigger_timeouts, 10u);
+  EXPECT_EQ(loop.stats().triggered_cycles, 0u);
+  EXPECT_FALSE(any_triggered);
+}
+
+TEST(PeriodicLoopTriggered, SpinPollsTheTriggerWithoutSleepingBeforeTheExpectedArrival) {
+  PeriodicLoop loop({.rate_hz = 1000.0, .sync = CycleSync::kTriggered, .trigger_spin_ns = 200'000});
+  std::int64_t last_deadline = 0;
+  int polls = 0;
+  int sleeps = 0;
+  loop.SetTrigger([&](std::int64_t deadline_ns) {
+    if (deadline_ns == 0) {  // a poll without sleeping: the peer's sample is there (the first poll, whatever the
+      ++polls;               // time: a deadline missed on a loaded machine cannot turn it into a timeout)
+      return true;
+    }
+    ++sleeps;
+    last_deadline = deadline_ns;
+    timespec until{static_cast<time_t>(deadline_ns / 1'000'000'000), static_cast<long>(deadline_ns % 1'000'000'000)};
+    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr);
+    return false;
+  });
+  loop.Run([&](std::uint64_t cycle, double) {
+    if (cycle + 1 == 5) loop.Stop();
+  });
+  EXPECT_EQ(loop.stats().triggered_cycles, 5u) << "each cycle started by a spin poll that saw the sample";
+  EXPECT_EQ(sleeps, 5) << "one sleep per cycle, up to the spin window";
+  EXPECT_EQ(polls, 5);
+  EXPECT_GT(last_deadline, 0);
+}
+
+TEST(PeriodicLoopTriggered, WithoutATriggerOrInFreeModeTheLoopRunsOnItsClock) {
+  PeriodicLoop free_loop({.rate_hz = 1000.0, .duration_s = 0.005});
+  bool called = false;
+  free_loop.SetTrigger([&](std::int64_t) { return called = true; });
+  EXPECT_FALSE(free_loop.triggered_mode()) << "sync free ignores a trigger";
+  free_loop.Run([](std::uint64_t, double) {});
+  EXPECT_FALSE(called);
+  EXPECT_EQ(free_loop.stats().triggered_cycles + free_loop.stats().trigger_timeouts, 0u);
+  PeriodicLoop no_trigger({.rate_hz = 1000.0, .duration_s = 0.005, .sync = CycleSync::kTriggered});
+  EXPECT_FALSE(no_trigger.triggered_mode()) << "no trigger set: free-running";
 }
 
 TEST(PeriodicLoop, DurationStopsAfterItsSlots) {
@@ -161,8 +244,10 @@ TEST(PeriodicLoopDmaLatency, HoldsTheRequestOpenWithTheValueForTheRunOnly) {
   EXPECT_FALSE(loop.stats().realtime_settings_applied) << "no SCHED_FIFO, no mlockall";
   EXPECT_EQ(std::filesystem::file_size(path), sizeof(std::int32_t)) << "exactly one 32-bit value written";
   std::ifstream in(path, std::ios::binary);
+  std::array<char, sizeof(std::int32_t)> bytes{};
+  in.read(bytes.data(), bytes.size());
   std::int32_t value = 0;
-  in.read(reinterpret_cast<char*>(&value), sizeof value);
+  std::memcpy(&value, bytes.data(), sizeof value);
   EXPECT_TRUE(in.good());
   EXPECT_EQ(value, 7);
   std::filesystem::remove(path);

@@ -58,6 +58,7 @@ struct SystemOptions {
   double velocity_filter_hz = 0.0;
   int peer_delay_samples = 0;
   double peer_delay_fraction = 0.0;
+  double slave_peer_delay_fraction = -1.0;  // < 0: as the master's
   int threads = 0;
   bool json = false;
 };
@@ -108,6 +109,10 @@ void AddSystemOptions(CLI::App& app, SystemOptions& o, bool with_side) {
                    "Peer data age as a fraction of the period (0..1, ZOH with a fractional input delay; with "
                    "--peer-delay-samples 0): a phase-locked pair")
         ->check(CLI::Range(0.0, 1.0));
+    app.add_option("--slave-peer-delay-fraction", o.slave_peer_delay_fraction,
+                   "A triggered pair (sync.mode triggered): the slave sees the master's sample this fraction of a "
+                   "period late (0..1), the master sees the slave's per --peer-delay-samples/--peer-delay-fraction")
+        ->check(CLI::Range(0.0, 1.0));
   }
   app.add_option("--threads", o.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 64));
   app.add_flag("--json", o.json, "Print a JSON object instead of the plain number");
@@ -125,6 +130,7 @@ SampledTeleoperator BuildSystem(const SystemOptions& o, FixtureSide side) {
   s.velocity_filter_hz = o.velocity_filter_hz;
   s.peer_delay_samples = o.peer_delay_samples;
   s.peer_delay_fraction = o.peer_delay_fraction;
+  if (o.slave_peer_delay_fraction >= 0.0) s.slave_peer_delay_fraction = o.slave_peer_delay_fraction;
   s.unilateral = o.unilateral;
   LawGains& g = s.gains;
   g.kpm_N_per_m = Or(o.kpm, o.kp);
@@ -159,7 +165,8 @@ std::string LimitJson(const StabilityLimit& l, const SampledTeleoperator& s, Fix
   out << "{\n  \"side\": \"" << ToString(side) << "\",\n  \"rate_hz\": " << s.rate_hz
       << ",\n  \"unilateral\": " << (s.unilateral ? "true" : "false")
       << ",\n  \"peer_delay_samples\": " << s.peer_delay_samples
-      << ",\n  \"peer_delay_fraction\": " << s.peer_delay_fraction
+      << ",\n  \"peer_delay_fraction\": " << s.peer_delay_fraction << ",\n  \"slave_peer_delay_fraction\": "
+      << (s.slave_peer_delay_fraction ? std::to_string(*s.slave_peer_delay_fraction) : std::string("null"))
       << ",\n  \"velocity_filter_hz\": " << s.velocity_filter_hz
       << ",\n  \"max_stable_stiffness_N_per_m\": " << l.max_stable_stiffness_N_per_m
       << ",\n  \"min_unstable_stiffness_N_per_m\": " << l.min_unstable_stiffness_N_per_m

@@ -17,9 +17,19 @@ constexpr int kXsPrev = 5;
 constexpr int kYmPrev = 6;
 constexpr int kYsPrev = 7;
 
-// The fractional peer delay in seconds (0 with a whole-sample delay, which the rows model instead).
-double PeerDelay(const SampledTeleoperator& system) {
-  return system.peer_delay_samples > 0 ? 0.0 : system.peer_delay_fraction * system.period_s();
+// Whether the master's law sees the slave's previous sample (a whole-sample delay, modelled by the rows).
+bool MasterDelayed(const SampledTeleoperator& system) { return system.peer_delay_samples > 0; }
+// The same for the slave's law: its own fraction when set (a triggered pair), else as the master.
+bool SlaveDelayed(const SampledTeleoperator& system) {
+  return system.slave_peer_delay_fraction ? false : MasterDelayed(system);
+}
+// The fractional peer delay of each side in seconds (0 with a whole-sample delay, which the rows model instead).
+double MasterPeerDelay(const SampledTeleoperator& system) {
+  return MasterDelayed(system) ? 0.0 : system.peer_delay_fraction * system.period_s();
+}
+double SlavePeerDelay(const SampledTeleoperator& system) {
+  if (system.slave_peer_delay_fraction) return *system.slave_peer_delay_fraction * system.period_s();
+  return MasterPeerDelay(system);
 }
 
 Row Unit(int i) {
@@ -38,19 +48,20 @@ double VelocityFilterCoefficient(double cutoff_hz, double period_s) noexcept {
 ZohBlock DiscretizeMasterWithHuman(const SampledTeleoperator& system, const HumanModel& human) noexcept {
   return DiscretizeMassSpringDamper(system.master.mass_kg + human.mass_kg,
                                     system.master.damping_Ns_per_m + human.damping_Ns_per_m, human.stiffness_N_per_m,
-                                    system.period_s(), PeerDelay(system));
+                                    system.period_s(), MasterPeerDelay(system));
 }
 
 ZohBlock DiscretizeSlave(const SampledTeleoperator& system) noexcept {
   return DiscretizeMassSpringDamper(system.slave.mass_kg, system.slave.damping_Ns_per_m, 0.0, system.period_s(),
-                                    PeerDelay(system));
+                                    SlavePeerDelay(system));
 }
 
 StateMatrix AssembleStateMatrix(const SampledTeleoperator& system, const ZohBlock& master_with_human,
                                 const ZohBlock& slave) noexcept {
   const double t = system.period_s();
   const double a = VelocityFilterCoefficient(system.velocity_filter_hz, t);
-  const bool delayed = system.peer_delay_samples > 0;
+  const bool master_delayed = MasterDelayed(system);
+  const bool slave_delayed = SlaveDelayed(system);
   LawGains g = system.gains;
   if (system.unilateral) {
     g.kpm_N_per_m = 0.0;
@@ -64,10 +75,10 @@ StateMatrix AssembleStateMatrix(const SampledTeleoperator& system, const ZohBloc
   const Row ym = (1.0 - a) * Unit(kYmPrev) + a * (Unit(kXm) - Unit(kXmPrev)) / t;
   const Row ys = (1.0 - a) * Unit(kYsPrev) + a * (Unit(kXs) - Unit(kXsPrev)) / t;
   // What each side's law sees of its peer: this sample, or the previous one over a link.
-  const Row xs_seen_by_master = delayed ? Unit(kXsPrev) : xs;
-  const Row ys_seen_by_master = delayed ? Unit(kYsPrev) : ys;
-  const Row xm_seen_by_slave = delayed ? Unit(kXmPrev) : xm;
-  const Row ym_seen_by_slave = delayed ? Unit(kYmPrev) : ym;
+  const Row xs_seen_by_master = master_delayed ? Unit(kXsPrev) : xs;
+  const Row ys_seen_by_master = master_delayed ? Unit(kYsPrev) : ys;
+  const Row xm_seen_by_slave = slave_delayed ? Unit(kXmPrev) : xm;
+  const Row ym_seen_by_slave = slave_delayed ? Unit(kYmPrev) : ym;
 
   // Eqs. 18-19 with the fixtures lumped into the local position gains (K_pmm = K_pm + K_mVF, K_pss = K_ps + K_sVF),
   // split into the part from local data and the part from peer data (which a fractional delay holds back).
@@ -86,11 +97,11 @@ StateMatrix AssembleStateMatrix(const SampledTeleoperator& system, const ZohBloc
   // Slave (eq. 17), free space.
   a_matrix.block<2, 2>(kXs, kXs) = slave.phi;
   a_matrix.block<2, kModelStates>(kXs, 0) += slave.gamma * (f_as_local + f_as_peer);
-  if (!delayed) {
-    // Fractional delay: during the first τ of the period the previous peer terms still act (Γ1), not the new ones.
+  // Fractional delay: during the first τ of the period the previous peer terms still act (Γ1), not the new ones.
+  if (!master_delayed) {
     a_matrix.block<2, kModelStates>(kXm, 0) -= master_with_human.gamma_stale * (f_am_peer_prev - f_am_peer);
-    a_matrix.block<2, kModelStates>(kXs, 0) += slave.gamma_stale * (f_as_peer_prev - f_as_peer);
   }
+  if (!slave_delayed) a_matrix.block<2, kModelStates>(kXs, 0) += slave.gamma_stale * (f_as_peer_prev - f_as_peer);
   // Shift registers.
   a_matrix.row(kXmPrev) = xm;
   a_matrix.row(kXsPrev) = xs;

@@ -54,6 +54,12 @@ void Validate(const SampledTeleoperator& system) {
     throw Error(Describe("peer_delay_fraction", system.peer_delay_fraction,
                          "must be in 0..1 (peer data age as a fraction of the period)"));
   }
+  if (system.slave_peer_delay_fraction &&
+      (!std::isfinite(*system.slave_peer_delay_fraction) || *system.slave_peer_delay_fraction < 0.0 ||
+       *system.slave_peer_delay_fraction > 1.0)) {
+    throw Error(Describe("slave_peer_delay_fraction", *system.slave_peer_delay_fraction,
+                         "must be in 0..1 (the slave's peer data age / period)"));
+  }
   if (system.peer_delay_samples != 0 && system.peer_delay_fraction != 0.0) {
     throw Error(Describe("peer_delay_fraction", system.peer_delay_fraction,
                          "must be 0 with peer_delay_samples = 1 (the model covers a delay of at most one period; "

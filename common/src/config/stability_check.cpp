@@ -1,5 +1,6 @@
 #include "teleop/config/stability_check.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -38,7 +39,7 @@ bool SameModel(const SampledTeleoperator& a, const SampledTeleoperator& b) noexc
          g.kfm == h.kfm && g.master_fixture_N_per_m == h.master_fixture_N_per_m &&
          g.slave_fixture_N_per_m == h.slave_fixture_N_per_m && a.rate_hz == b.rate_hz &&
          a.velocity_filter_hz == b.velocity_filter_hz && a.peer_delay_samples == b.peer_delay_samples &&
-         a.unilateral == b.unilateral;
+         a.slave_peer_delay_fraction == b.slave_peer_delay_fraction && a.unilateral == b.unilateral;
 }
 
 /// N/m values are printed whole: "4120 N/m".
@@ -64,10 +65,14 @@ std::string Assumptions(const ProcessConfig& config, const SampledTeleoperator& 
   const DeviceModel& peer = config.role == Role::kMaster ? system.slave : system.master;
   std::ostringstream out;
   out << Plain(system.rate_hz) << " Hz, " << (system.unilateral ? "unilateral" : "bilateral") << ", peer delay "
-      << system.peer_delay_samples << " sample" << (system.peer_delay_samples == 1 ? "" : "s") << ", peer "
-      << ToString(Other(config.role)) << " " << Short(peer.mass_kg) << " kg " << Short(peer.damping_Ns_per_m)
-      << " N·s/m with fixture " << Whole(system.gains.fixture(FixtureSideOf(Other(config.role)))) << " N/m, "
-      << operators << " operators";
+      << system.peer_delay_samples << " sample" << (system.peer_delay_samples == 1 ? "" : "s");
+  if (system.slave_peer_delay_fraction) {
+    out << " (triggered: the slave sees the master's sample " << Short(*system.slave_peer_delay_fraction)
+        << " of a period late)";
+  }
+  out << ", peer " << ToString(Other(config.role)) << " " << Short(peer.mass_kg) << " kg "
+      << Short(peer.damping_Ns_per_m) << " N·s/m with fixture "
+      << Whole(system.gains.fixture(FixtureSideOf(Other(config.role)))) << " N/m, " << operators << " operators";
   return out.str();
 }
 
@@ -126,6 +131,13 @@ SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis) {
   s.rate_hz = config.loop.rate_hz;
   s.velocity_filter_hz = law.velocity_filter_hz;
   s.peer_delay_samples = st.peer_delay_samples;
+  // A triggered pair: the slave computes right after the master's sample arrives, so its law sees that sample a
+  // fraction of a period old (the measured or assumed data age); the master uses the reply at its next cycle (one
+  // sample). Only with the whole-sample model (peer_delay_samples 1) that it refines.
+  if (config.loop.sync == runtime::CycleSync::kTriggered && st.peer_delay_samples == 1) {
+    s.slave_peer_delay_fraction =
+        st.peer_delay_fraction.value_or(std::min(1.0, kTriggeredDataAge_s * config.loop.rate_hz));
+  }
   s.unilateral = st.unilateral;
   analysis::LawGains& g = s.gains;
   // One side's gains into the model; eq. 9 (slave) has no K_f.

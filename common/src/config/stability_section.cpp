@@ -5,9 +5,13 @@
 namespace teleop::config::sections {
 
 void ParseStability(const Field& f, int dof, StabilityConfig& stability) {
-  const Map map(f, {"check", "peer_delay_samples", "unilateral", "human_bounds", "human_grid_steps", "peer", "device"});
+  const Map map(f, {"check", "peer_delay_samples", "peer_delay_fraction", "unilateral", "human_bounds",
+                    "human_grid_steps", "peer", "device"});
   if (auto v = map.Optional("check")) stability.check = v->AsBool();
   if (auto v = map.Optional("peer_delay_samples")) stability.peer_delay_samples = IntInRange(*v, 0, 1);
+  if (auto v = map.Optional("peer_delay_fraction")) {
+    stability.peer_delay_fraction = InRange(*v, 0.0, 1.0, "(data age / period)");
+  }
   if (auto v = map.Optional("unilateral")) stability.unilateral = v->AsBool();
   if (auto v = map.Optional("human_bounds")) stability.human_bounds = v->AsString();
   // 8 steps = 8^3 operators per force level: about 8x the default's start-up time.

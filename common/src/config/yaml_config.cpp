@@ -35,7 +35,8 @@ using sections::ParseStability;
 using sections::ParseTelemetry;
 
 constexpr double kMinRateHz = 250.0;
-constexpr double kMaxRateHz = 4000.0;
+// UDP runs at 8 kHz; a CAN link is further bounded by its bus-load budget (link.can.max_bus_load).
+constexpr double kMaxRateHz = 8000.0;
 
 // ---- sections --------------------------------------------------------------------------------------------------
 
@@ -47,10 +48,40 @@ Role ParseRole(const Field& f) {
 }
 
 void ParseRealtime(const Field& f, runtime::PeriodicLoopConfig& loop) {
-  const Map map(f, {"fifo_priority", "cpu", "lock_memory"});
+  const Map map(f, {"fifo_priority", "cpu", "lock_memory", "cpu_dma_latency_us"});
   if (auto v = map.Optional("fifo_priority")) loop.fifo_priority = IntInRange(*v, 0, 99);
   if (auto v = map.Optional("cpu")) loop.cpu = IntInRange(*v, -1, 1023);
   if (auto v = map.Optional("lock_memory")) loop.lock_memory = v->AsBool();
+  if (auto v = map.Optional("cpu_dma_latency_us")) loop.cpu_dma_latency_us = IntInRange(*v, -1, 1000000);
+}
+
+// Phase-locked cycles (docs/configuration.md, `sync`).
+void ParseSync(const Field& f, const transport::LinkConfig& link, runtime::PeriodicLoopConfig& loop) {
+  const Map map(f, {"mode", "timeout_margin_us", "spin_us"});
+  if (auto v = map.Optional("mode")) {
+    const std::string mode = v->AsString();
+    if (mode == "free") {
+      loop.sync = runtime::CycleSync::kFree;
+    } else if (mode == "triggered") {
+      if (link.transport != "udp") {
+        v->Fail(
+            "'triggered' needs link.transport udp (a CAN link cannot wait for the master's cycle yet); use "
+            "'free'");
+      }
+      loop.sync = runtime::CycleSync::kTriggered;
+    } else {
+      v->Fail("must be 'free' or 'triggered', got '" + mode + "'");
+    }
+  }
+  if (auto v = map.Optional("timeout_margin_us")) {
+    const double period_us = 1e6 / loop.rate_hz;
+    const double margin_us = InRange(*v, 1.0, period_us, "µs (at most one period)");
+    loop.trigger_timeout_margin_ns = std::llround(margin_us * 1e3);
+  }
+  if (auto v = map.Optional("spin_us")) {
+    const double period_us = 1e6 / loop.rate_hz;
+    loop.trigger_spin_ns = std::llround(InRange(*v, 0.0, period_us, "µs (0 = off, at most one period)") * 1e3);
+  }
 }
 
 ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
@@ -59,7 +90,7 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
     throw Error(name + ": the config is empty; it needs at least role, dof, rate_hz, link, law and device");
   }
   const Map map(root, {"role", "dof", "rate_hz", "duration_s", "realtime", "link", "law", "fixture", "device",
-                       "telemetry", "stability", "dds", "passivity", "engagement", "safety"});
+                       "telemetry", "stability", "dds", "passivity", "engagement", "safety", "sync"});
   ProcessConfig config;
   config.source_path = name;
   config.role = ParseRole(map.Required("role"));
@@ -69,6 +100,7 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
   if (auto v = map.Optional("realtime")) ParseRealtime(*v, config.loop);
 
   ParseLink(map.Required("link"), config.role, config.loop.rate_hz, config.dof, config.link);
+  if (auto v = map.Optional("sync")) ParseSync(*v, config.link, config.loop);
 
   config.law.role = config.role;
   config.law.dof = config.dof;

@@ -104,6 +104,23 @@ std::string FormatSummaryText(const RunSummary& s) {
   } else {
     out += "  round trip        not measured (no echo from the peer; CAN frames carry no timestamps)\n";
   }
+  if (s.data_age_us.count > 0) {
+    const auto& c = s.data_age_cycles;
+    out += fmt::format(
+        "  data age          p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us since receive; p50 {:.1f} us since the peer "
+        "sent; in cycles 0/1/2/3+: {}/{}/{}/{}\n",
+        s.data_age_us.p50, s.data_age_us.p99, s.data_age_us.max, s.data_age_sender_us.p50, c[0], c[1], c[2], c[3]);
+  }
+  out += fmt::format("  sync              {}", s.sync);
+  if (s.triggered_cycles + s.trigger_timeouts > 0) {
+    out += fmt::format(", {} cycles triggered by the peer's sample, {} timeouts ({} while coupled)", s.triggered_cycles,
+                       s.trigger_timeouts, s.trigger_timeouts_coupled);
+  }
+  out += "\n";
+  out += s.realtime_settings_applied
+             ? fmt::format("  real-time         SCHED_FIFO, memory locked{}\n",
+                           s.cpu_dma_latency_held ? ", cpu_dma_latency held" : "")
+             : std::string("  real-time         NOT APPLIED: running without real-time settings (realtime.*)\n");
   out +=
       fmt::format("  peer              fresh in {} cycles, watchdog trips {}\n", s.cycles_with_peer, s.watchdog_trips);
   out += fmt::format("  tracking error    rms {:.3f} mm, max {:.3f} mm\n", s.tracking_error_rms_m * 1e3,
@@ -180,6 +197,16 @@ std::string FormatSummaryJson(const RunSummary& s) {
   out += fmt::format(R"(  "rtt_ms": {},)"
                      "\n",
                      DistJson(s.rtt_ms));
+  out += fmt::format(R"(  "sync": {}, "triggered_cycles": {}, "trigger_timeouts": {}, "trigger_timeouts_coupled": {},)"
+                     "\n",
+                     JsonString(s.sync), s.triggered_cycles, s.trigger_timeouts, s.trigger_timeouts_coupled);
+  out += fmt::format(R"(  "data_age_us": {}, "data_age_sender_us": {}, "data_age_cycles": [{}, {}, {}, {}],)"
+                     "\n",
+                     DistJson(s.data_age_us), DistJson(s.data_age_sender_us), s.data_age_cycles[0],
+                     s.data_age_cycles[1], s.data_age_cycles[2], s.data_age_cycles[3]);
+  out += fmt::format(R"(  "realtime_settings_applied": {}, "cpu_dma_latency_held": {},)"
+                     "\n",
+                     s.realtime_settings_applied, s.cpu_dma_latency_held);
   out += fmt::format(R"(  "cycles_with_peer": {}, "watchdog_trips": {}, "device_fault_cycles": {}, )"
                      R"("nonfinite_inputs": {}, "saturated_cycles": {}, "dof_mismatches": {},)"
                      "\n",

@@ -19,6 +19,7 @@
 #include "teleop/node/fault_recorder.hpp"
 #include "teleop/node/reading_check.hpp"
 #include "teleop/node/safe_reaction.hpp"
+#include "teleop/runtime/data_age.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
 #include "teleop/runtime/telemetry.hpp"
 #include "teleop/runtime/watchdog.hpp"
@@ -199,7 +200,7 @@ struct TeleopNode::Impl {
   control::PassivityController::Input passivity_input;
   DofVector passivity_damping;
   std::uint64_t passivity_peer_without_energy = 0;  ///< energy_exchange: samples from the peer without the block.
-  control::ThreeChannelLaw::Output applied;  ///< What was commanded (law, aligning limit or reaction).
+  control::ThreeChannelLaw::Output applied;         ///< What was commanded (law, aligning limit or reaction).
   DofVector zero_command;
   DofVector command_N;
   DofVector peer_local_m;      ///< The peer's position in the local frame.
@@ -225,12 +226,18 @@ struct TeleopNode::Impl {
   bool just_engaged = false;
   std::uint64_t session_epoch = 0;
   std::int64_t start_ns = 0;
-  std::int64_t peer_rx_ns = 0;
+  std::int64_t peer_rx_ns = 0;            ///< When the medium received `peer` (kernel timestamp on UDP), loop clock.
+  std::int64_t peer_clock_offset_ns = 0;  ///< Peer clock − ours, from the newest round trip (valid: have_offset).
+  bool have_offset = false;
+  std::int64_t law_start_ns = 0;  ///< When this cycle's law ran (for the data age).
   std::uint32_t sequence = 0;
   std::uint8_t last_flags = 0;
 
   // Run statistics.
   runtime::LatencyHistogram rtt_ns;
+  runtime::DataAgeTracker
+      data_age;  ///< Age of the peer sample the law uses (docs/performance.md, "Round trip and data age").
+  std::uint64_t coupled_trigger_timeouts = 0;  ///< Triggered cycles that timed out while the peer was fresh.
   std::uint64_t stepped_cycles = 0;
   std::uint64_t cycles_with_peer = 0;
   std::uint64_t engaged_cycles = 0;
@@ -285,14 +292,20 @@ TeleopNode::Impl::PeerState TeleopNode::Impl::Receive(std::uint64_t cycle, std::
       ++dof_mismatches;
     } else {
       peer = incoming;
-      peer_rx_ns = now_ns;
+      // The medium's receive time (the kernel's timestamp on UDP) makes the round trip and the data age the
+      // network's and the sample's, not the phase between two cycles; the cycle start where the link has none (and
+      // on a stepped clock, whose time is not the kernel's).
+      const std::int64_t received_ns = stepped_clock ? 0 : link->newest_receive_time_ns();
+      peer_rx_ns = received_ns > 0 ? received_ns : now_ns;
       if (!have_peer) events.Push({Event::Kind::kPeerConnected, cycle, 0.0});
       have_peer = true;
       watchdog.Feed(t_s);
-      const proto::RoundTripEstimate rtt = proto::EstimateRoundTrip(peer, static_cast<std::uint64_t>(now_ns));
+      const proto::RoundTripEstimate rtt = proto::EstimateRoundTrip(peer, static_cast<std::uint64_t>(peer_rx_ns));
       if (rtt.valid) {
         rtt_ns.Add(rtt.rtt_ns);
         last_rtt_s = static_cast<double>(rtt.rtt_ns) * 1e-9;
+        peer_clock_offset_ns = rtt.offset_ns;
+        have_offset = true;
         // Latency gate with 20 % hysteresis (engagement.max_rtt_ms; 0 = off).
         const double limit_s = config.engagement.max_rtt_ms * 1e-3;
         if (limit_s > 0.0 && !latency_gate_closed && last_rtt_s > limit_s) {
@@ -303,6 +316,9 @@ TeleopNode::Impl::PeerState TeleopNode::Impl::Receive(std::uint64_t cycle, std::
           latency_gate_closed = false;
         }
       }
+      const std::int64_t sent_local_ns =
+          have_offset ? static_cast<std::int64_t>(peer.sender_time_ns) - peer_clock_offset_ns : 0;
+      data_age.OnNewSample(peer_rx_ns, sent_local_ns, loop.cycle_triggered());
       const bool shutdown = (peer.flags & proto::kFlagShutdown) != 0;
       if (shutdown && !peer_shutdown) {
         events.Push({Event::Kind::kPeerShutdown, cycle, 0.0});
@@ -380,6 +396,7 @@ control::ThreeChannelLaw::Output TeleopNode::Impl::Control(const EngagementMachi
     }
     reaction.PrepareInput(input, period_s);
   }
+  law_start_ns = Now();
   control::ThreeChannelLaw::Output out = law.Step(input, period_s);
   Passivate(out, period_s);  // time-domain passivity: the command passes through the controller before FillCommand
   return out;
@@ -468,10 +485,7 @@ bool TeleopNode::Impl::Actuate(const control::ThreeChannelLaw::Output& out, std:
 std::uint8_t TeleopNode::Impl::Transmit(const control::ThreeChannelLaw::Output& out, const PeerState& peer_state,
                                         std::int64_t now_ns) noexcept {
   outgoing.sequence = sequence++;
-  outgoing.sender_time_ns = static_cast<std::uint64_t>(now_ns);
   outgoing.echo_time_ns = have_peer ? peer.sender_time_ns : 0;
-  outgoing.echo_age_ns =
-      have_peer ? static_cast<std::uint32_t>(std::clamp<std::int64_t>(Now() - peer_rx_ns, 0, 0xFFFFFFFF)) : 0;
   std::uint8_t flags = proto::kFlagEnabled;
   if (local_faults != device::kFaultNone || nonfinite) flags |= proto::kFlagFault;
   if ((have_peer && !peer_state.fresh) || peer_state.link_faulted) flags |= proto::kFlagPeerLost;
@@ -496,6 +510,12 @@ std::uint8_t TeleopNode::Impl::Transmit(const control::ThreeChannelLaw::Output& 
     outgoing.input_energy_J = passivity.state().input_energy_J;
     outgoing.output_energy_J = passivity.state().output_energy_J;
   }
+  // Send time and echo age taken right before the send call (docs/protocol.md, "Round-trip time").
+  const std::int64_t send_ns = Now();
+  outgoing.sender_time_ns = static_cast<std::uint64_t>(send_ns);
+  outgoing.echo_age_ns =
+      have_peer ? static_cast<std::uint32_t>(std::clamp<std::int64_t>(send_ns - peer_rx_ns, 0, 0xFFFFFFFF)) : 0;
+  (void)now_ns;
   (void)link->Send(outgoing);  // a refused send is counted by the link
   return flags;
 }
@@ -515,6 +535,9 @@ void TeleopNode::Impl::Record(const control::ThreeChannelLaw::Output& out, const
     tracking_max = std::max(tracking_max, e);
   }
   max_penetration = std::max(max_penetration, out.fixture_penetration_m);
+  const std::int64_t age_ns = peer_state.usable ? data_age.ReceiveAgeNs(law_start_ns) : -1;
+  data_age.OnCycle(law_start_ns, peer_state.usable);
+  if (peer_state.usable && loop.triggered_mode() && !loop.cycle_triggered()) ++coupled_trigger_timeouts;
   // Overruns are reported at most once a second so that a loaded machine does not flood the log.
   if (loop.stats().overruns > reported_overruns && (overrun_event_cycle == 0 || cycle >= overrun_event_cycle + rate)) {
     reported_overruns = loop.stats().overruns;
@@ -547,6 +570,7 @@ void TeleopNode::Impl::Record(const control::ThreeChannelLaw::Output& out, const
   r.flags = flags;
   r.rtt_s = last_rtt_s;
   r.compute_s = static_cast<double>(MonotonicNowNs() - cycle_start_mono_ns) * 1e-9;
+  r.data_age_s = age_ns >= 0 ? static_cast<double>(age_ns) * 1e-9 : std::numeric_limits<double>::quiet_NaN();
   r.engagement = static_cast<int>(engagement.state());
   for (int i = 0; i < config.dof; ++i) {  // time-domain passivity
     r.passivity_observed_J[i] = passivity.state().observed_J[static_cast<std::size_t>(i)];
@@ -665,6 +689,17 @@ RunSummary TeleopNode::Run() {
   spdlog::info("teleop-{}: {} DOF at {:.0f} Hz, device '{}', link {}, reaction when not coupled: {}",
                ToString(s.config.role), s.config.dof, s.config.loop.rate_hz, s.device->name(), s.link->Describe(),
                ToString(s.config.safety.reaction));
+  const bool realtime = s.config.loop.fifo_priority > 0 && s.config.loop.lock_memory;
+  if (!realtime) {
+    spdlog::warn(
+        "teleop-{}: running without real-time settings (realtime.fifo_priority {}, realtime.lock_memory {}): "
+        "expect wake-up jitter several times that of a real-time loop (docs/performance.md)",
+        ToString(s.config.role), s.config.loop.fifo_priority, s.config.loop.lock_memory);
+  }
+  // Phase-locked cycles: the slave's cycle starts when the master's sample arrives (the master is the clock).
+  if (s.config.loop.sync == runtime::CycleSync::kTriggered && s.config.role == Role::kSlave) {
+    s.loop.SetTrigger([&s](std::int64_t deadline_ns) { return s.link->WaitReadable(deadline_ns); });
+  }
   const auto wall_start = std::chrono::steady_clock::now();
   s.loop.Run([&s](std::uint64_t cycle, double period_s) { s.Cycle(cycle, period_s, MonotonicNowNs()); });
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
@@ -697,6 +732,15 @@ RunSummary TeleopNode::Impl::Summarize(double wall_s) {
   summary.compute_us = FromHistogram(st.compute_ns, 1e3);
   summary.link = s.link->counters();
   summary.rtt_ms = FromHistogram(s.rtt_ns, 1e6);
+  summary.sync = runtime::ToString(s.config.loop.sync);
+  summary.triggered_cycles = st.triggered_cycles;
+  summary.trigger_timeouts = st.trigger_timeouts;
+  summary.trigger_timeouts_coupled = s.coupled_trigger_timeouts;
+  summary.data_age_us = FromHistogram(s.data_age.receive_age_ns(), 1e3);
+  summary.data_age_sender_us = FromHistogram(s.data_age.sender_age_ns(), 1e3);
+  summary.data_age_cycles = s.data_age.age_cycles();
+  summary.realtime_settings_applied = st.realtime_settings_applied;
+  summary.cpu_dma_latency_held = st.cpu_dma_latency_held;
   summary.cycles_with_peer = s.cycles_with_peer;
   summary.watchdog_trips = s.watchdog.trips();
   summary.device_fault_cycles = s.device_fault_cycles;

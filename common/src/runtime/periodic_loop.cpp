@@ -6,6 +6,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -180,10 +181,22 @@ void PeriodicLoop::Run(const Body& body) {
   stats_.jitter_ns.Reset();
   stats_.compute_ns.Reset();
 
-  const std::int64_t period = period_ns_;
+  stats_.triggered_cycles = 0;
+  stats_.trigger_timeouts = 0;
+  cycle_triggered_ = false;
+
   const std::int64_t start = MonotonicNowNs();
   const std::int64_t end = config_.duration_s > 0.0 ? start + std::llround(config_.duration_s * 1e9)
                                                     : std::numeric_limits<std::int64_t>::max();
+  if (triggered_mode()) {
+    RunTriggered(body, start, end);
+  } else {
+    RunFree(body, start, end);
+  }
+}
+
+void PeriodicLoop::RunFree(const Body& body, std::int64_t start, std::int64_t end) {
+  const std::int64_t period = period_ns_;
   std::int64_t scheduled = start;
   std::int64_t previous_wake = start;
   std::uint64_t cycle = 0;
@@ -212,6 +225,50 @@ void PeriodicLoop::Run(const Body& body) {
       stats_.overruns += static_cast<std::uint64_t>(missed);
       stats_.skipped_slots += static_cast<std::uint64_t>(missed);
     }
+  }
+}
+
+bool PeriodicLoop::WaitForTheTrigger(std::int64_t expected_ns, std::int64_t deadline_ns) {
+  if (config_.trigger_spin_ns <= 0) return trigger_(deadline_ns);
+  // Sleep in the trigger until the spin window opens, then poll it without sleeping (a deadline already past).
+  if (trigger_(std::min(expected_ns - config_.trigger_spin_ns, deadline_ns))) return true;
+  while (!stop_.load(std::memory_order_relaxed)) {
+    if (trigger_(0)) return true;
+    if (MonotonicNowNs() >= deadline_ns) return false;
+  }
+  return false;
+}
+
+void PeriodicLoop::RunTriggered(const Body& body, std::int64_t start, std::int64_t end) {
+  const std::int64_t period = period_ns_;
+  TriggerSchedule::Config schedule_config;
+  schedule_config.period_ns = period;
+  schedule_config.timeout_margin_ns =
+      config_.trigger_timeout_margin_ns > 0 ? config_.trigger_timeout_margin_ns : period / 4;
+  schedule_config.min_spacing_ns = period / 2;
+  TriggerSchedule schedule(schedule_config);
+  schedule.Start(start);
+  std::int64_t previous_wake = start;
+  std::uint64_t cycle = 0;
+  while (!stop_.load(std::memory_order_relaxed) && MonotonicNowNs() < end) {
+    if (!SleepUntil(schedule.earliest_start_ns(), stop_)) break;
+    const bool fired = WaitForTheTrigger(schedule.expected_ns(), std::min(schedule.deadline_ns(), end));
+    if (stop_.load(std::memory_order_relaxed)) break;
+    const std::int64_t wake = MonotonicNowNs();
+    stats_.jitter_ns.Add(schedule.CycleStarted(wake, fired));
+    if (cycle > 0) stats_.period_ns.Add(wake - previous_wake);
+    previous_wake = wake;
+    cycle_triggered_ = fired;
+
+    body(cycle, period_s_);
+
+    const std::int64_t compute = MonotonicNowNs() - wake;
+    stats_.compute_ns.Add(compute);
+    ++stats_.cycles;
+    ++cycle;
+    if (compute > period) ++stats_.overruns;
+    stats_.triggered_cycles = schedule.triggered();
+    stats_.trigger_timeouts = schedule.timeouts();
   }
 }
 

@@ -58,7 +58,8 @@ std::string TelemetryCsvHeader(int dof) {
   for (int v = 0; v < kVectorCount; ++v) {
     for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}_{}", kVectorNames[v], i);
   }
-  fmt::format_to(std::back_inserter(out), ",fixture_penetration_m,law_status,flags,rtt_s,compute_s,engagement");
+  fmt::format_to(std::back_inserter(out),
+                 ",fixture_penetration_m,law_status,flags,rtt_s,compute_s,engagement,data_age_s");
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",passivity_observed_J_{}", i);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",passivity_damping_Ns_per_m_{}", i);
   return fmt::to_string(out);
@@ -73,7 +74,7 @@ std::string TelemetryCsvRow(const TelemetryRecord& r, int dof) {
     for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", values[i]);
   }
   fmt::format_to(std::back_inserter(out), ",{},{},{},{},{},{}", r.fixture_penetration_m, r.law_status, r.flags, r.rtt_s,
-                 r.compute_s, r.engagement);
+                 r.compute_s, r.engagement, r.data_age_s);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.passivity_observed_J[i]);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.passivity_damping_Ns_per_m[i]);
   return fmt::to_string(out);

@@ -1,6 +1,7 @@
 #include "teleop/transport/udp_link.hpp"
 
 #include <netinet/in.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <sys/uio.h>
 
@@ -331,6 +332,13 @@ bool UdpLink::PollOnce(proto::SampleMessage& newest, std::int64_t poll_monotonic
   newest_receive_time_ns_ = pending_time;
   newest_from_kernel_ = pending_from_kernel;
   return true;
+}
+
+bool UdpLink::WaitReadable(std::int64_t deadline_ns) noexcept {
+  pollfd descriptor{impl_->socket.native_handle(), POLLIN, 0};
+  const std::int64_t remaining = std::max<std::int64_t>(deadline_ns - NowNs(CLOCK_MONOTONIC), 0);
+  const timespec timeout{static_cast<time_t>(remaining / kNsPerS), static_cast<long>(remaining % kNsPerS)};
+  return ppoll(&descriptor, 1, &timeout, nullptr) > 0 && (descriptor.revents & POLLIN) != 0;
 }
 
 std::string UdpLink::Describe() const {

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 
 namespace teleop::analysis {
 
@@ -69,6 +70,11 @@ struct LawGains {
 /// peer data acts τ late: ZOH with a fractional input delay (Franklin, Powell & Workman §4.3.4). 0 is the paper's
 /// model, 1 the same as peer_delay_samples = 1; values between interpolate (see docs/stability.md).
 ///
+/// `slave_peer_delay_fraction` (a triggered pair, sync.mode triggered): when set, the slave's law sees the master's
+/// sample this fraction of a period late (the slave's cycle starts when that sample arrives), while the master's law
+/// sees the slave's as `peer_delay_samples` / `peer_delay_fraction` say (the reply, used at the master's next cycle:
+/// one sample). Absent: both sides alike.
+///
 /// `unilateral`: the master actuator renders nothing of the slave (K_pm = K_dm = K_fm = 0; the master keeps K_vm and
 /// its own fixture): §4.5, a haptic device against a virtual wall. The stiffness search for the slave side (§4.4,
 /// master actuator saturated) also drops K_vm and K_mVF, since a saturated actuator is entirely out of the loop
@@ -81,6 +87,7 @@ struct SampledTeleoperator {
   double velocity_filter_hz = 0.0;   ///< First-order low-pass on the backward-difference velocity; 0 = none.
   int peer_delay_samples = 0;        ///< 0 (paper) or 1 (the processes over a link).
   double peer_delay_fraction = 0.0;  ///< 0..1, only with peer_delay_samples = 0: peer data age / period.
+  std::optional<double> slave_peer_delay_fraction;  ///< 0..1: the slave's own (see above); absent: as the master's.
   bool unilateral = false;
 
   double period_s() const noexcept { return 1.0 / rate_hz; }

@@ -21,12 +21,19 @@ analysis::FixtureSide FixtureSideOf(Role role) noexcept;
 /// device, a cobot) and stability.device does not give both mass_kg and damping_Ns_per_m. Empty when it applies.
 std::string StabilityNotApplicable(const ProcessConfig& config);
 
+/// The data age a triggered slave is assumed to see when `stability.peer_delay_fraction` is absent (s): the
+/// master's sample is used this long after the master's cycle started (send, network, wake-up). The bench
+/// (docs/performance.md, "Round trip and data age") measures it; set stability.peer_delay_fraction from a measured p99
+/// instead.
+inline constexpr double kTriggeredDataAge_s = 100e-6;
+
 /// The sampled teleoperator seen along DOF `axis` of this process: its law gains for that DOF, its fixture
 /// stiffness (0 when no plane's normal has a component on `axis`), rate, velocity filter, its device (stability.device,
 /// else the backend's registered model, device::DeviceModel), and the peer of `config.stability.peer` (defaults:
 /// the paper's device of the other role, the same gains, no fixture), with `stability.peer_delay_samples` and
-/// `stability.unilateral`. Throws teleop::Error when `axis` is outside 0..dof-1, the model is invalid, or the check
-/// does not apply (StabilityNotApplicable).
+/// `stability.unilateral`; with sync.mode triggered, the slave's peer delay is `stability.peer_delay_fraction` (absent:
+/// kTriggeredDataAge_s · rate_hz, at most 1). Throws teleop::Error when `axis` is outside 0..dof-1, the model is
+/// invalid, or the check does not apply (StabilityNotApplicable).
 analysis::SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis);
 
 /// The operator set of `config.stability`: the `human_bounds` CSV (a relative path is relative to the config file's

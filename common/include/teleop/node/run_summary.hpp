@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -52,11 +53,23 @@ struct RunSummary {
   Distribution compute_us{};  ///< Cycle body time.
   transport::LinkCounters link{};
   std::string link_security = "insecure";  ///< link.security.mode: "psk" or "insecure" (counters in `link`).
-  std::string link_detail;              ///< Medium-specific counters (CAN frames by status, bus load); may be empty.
-  std::uint64_t link_fault_cycles = 0;  ///< Cycles in which the medium itself was down (CAN bus-off).
+  std::string link_detail;                 ///< Medium-specific counters (CAN frames by status, bus load); may be empty.
+  std::uint64_t link_fault_cycles = 0;     ///< Cycles in which the medium itself was down (CAN bus-off).
   /// With `link.emulate`: what the emulated network did to the samples this process received (JSON null without).
   std::optional<transport::ImpairmentCounters> link_emulation;
-  Distribution rtt_ms{};               ///< Round trip to the peer and back (NTP-style, peer hold time removed).
+  Distribution rtt_ms{};  ///< Network round trip: send call to the peer's kernel receive and back, hold time removed.
+  // Phase-locking and data age (docs/performance.md).
+  std::string sync = "free";           ///< Config sync.mode: "free" or "triggered".
+  std::uint64_t triggered_cycles = 0;  ///< Cycles started by the peer's sample (a triggered slave).
+  std::uint64_t trigger_timeouts = 0;  ///< Cycles started by the timeout instead (free-running fallback).
+  /// Of those, the cycles in which the peer was fresh (the rest ran before the peer came or after it went).
+  std::uint64_t trigger_timeouts_coupled = 0;
+  Distribution data_age_us{};         ///< Age of the peer sample the law used: law start − its receive time.
+  Distribution data_age_sender_us{};  ///< The same from the peer's send call (clock offset from the round trip).
+  /// Cycles that used the peer's sample by its age in cycles: 0 (this cycle was triggered by it), 1, 2, 3 or more.
+  std::array<std::uint64_t, 4> data_age_cycles{};
+  bool realtime_settings_applied = false;  ///< SCHED_FIFO, locked memory (and cpu_dma_latency when asked) held.
+  bool cpu_dma_latency_held = false;
   std::uint64_t cycles_with_peer = 0;  ///< Cycles in which the peer's sample was fresh (watchdog ok).
   std::uint64_t watchdog_trips = 0;
   std::uint64_t dof_mismatches = 0;  ///< Valid samples whose DOF count differs from ours: never applied.

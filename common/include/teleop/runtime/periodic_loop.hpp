@@ -4,13 +4,15 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 
+#include "teleop/runtime/cycle_trigger.hpp"
 #include "teleop/runtime/latency_histogram.hpp"
 
 namespace teleop::runtime {
 
 struct PeriodicLoopConfig {
-  double rate_hz = 1000.0;   ///< Accepted 250..4000 Hz (config validation); the loop itself takes 1..100000 Hz.
+  double rate_hz = 1000.0;   ///< Accepted 250..8000 Hz (config validation); the loop itself takes 1..100000 Hz.
   int fifo_priority = 0;     ///< 0: normal scheduling; 1..99: SCHED_FIFO at this priority (needs root/CAP_SYS_NICE).
   int cpu = -1;              ///< -1: any CPU; else pin the loop thread to this CPU.
   bool lock_memory = false;  ///< mlockall(MCL_CURRENT | MCL_FUTURE) before the first cycle.
@@ -20,6 +22,15 @@ struct PeriodicLoopConfig {
   /// or write it is a warning counted in CycleStats, not an error. -1: leave it alone.
   int cpu_dma_latency_us = -1;
   std::string cpu_dma_latency_path = "/dev/cpu_dma_latency";  ///< Injectable for tests.
+  /// How cycles start: on the loop's own clock (kFree), or when the body's trigger fires (kTriggered, see
+  /// PeriodicLoop::SetTrigger; without a trigger the loop runs free).
+  CycleSync sync = CycleSync::kFree;
+  /// Triggered mode: how long past the expected arrival the loop waits for the trigger before it runs the cycle
+  /// anyway (a counted timeout). ≤ 0: a quarter of the period.
+  std::int64_t trigger_timeout_margin_ns = 0;
+  /// Triggered mode: > 0: from this long before the expected arrival, poll the trigger in a busy loop instead of
+  /// sleeping in it, so the cycle starts without a wake-up latency (costs that much CPU per cycle). 0: off.
+  std::int64_t trigger_spin_ns = 0;
 };
 
 /// Per-cycle timing statistics, collected without allocation.
@@ -37,6 +48,8 @@ struct CycleStats {
   bool cpu_dma_latency_held = false;   ///< The cpu_dma_latency_us request is held open for this run.
   int cpu_dma_latency_errno = 0;       ///< Why it is not (errno of the failed open/write), 0 when held or not asked.
   std::uint64_t setting_warnings = 0;  ///< Settings asked for but not applied (today: cpu_dma_latency).
+  std::uint64_t triggered_cycles = 0;  ///< Triggered mode: cycles started by the trigger.
+  std::uint64_t trigger_timeouts = 0;  ///< Triggered mode: cycles started by the timeout (free-running fallback).
 };
 
 /// Monotonic clock (CLOCK_MONOTONIC) in ns: the loop's time base. Real-time safe.
@@ -53,6 +66,9 @@ class PeriodicLoop {
   /// The cycle body: gets the index of this cycle (0, 1, 2, ... consecutive; skipped slots do not consume an
   /// index) and the nominal period. Must be noexcept and real-time safe. May call Stop().
   using Body = std::function<void(std::uint64_t cycle, double period_s)>;
+  /// Waits until the trigger fires (true) or CLOCK_MONOTONIC reaches `deadline_ns` (false); returns early (false)
+  /// when a signal interrupts it. Real-time safe: called from the loop thread between cycles.
+  using WaitForTrigger = std::function<bool(std::int64_t deadline_ns)>;
 
   /// Validates the config (rate finite in 1..100000 Hz, fifo_priority 0..99, cpu ≥ -1, duration finite ≥ 0);
   /// throws teleop::Error otherwise. Touches no OS setting.
@@ -63,6 +79,17 @@ class PeriodicLoop {
   /// holds the cpu_dma_latency request until Run returns (a failure is counted, see CycleStats). Then resets the
   /// timing statistics and runs until Stop() or the duration elapses. A loop stopped before Run() does not run.
   void Run(const Body& body);
+  /// Phase-locked cycles (config sync = kTriggered; before Run()): instead of sleeping to its own schedule, the
+  /// loop waits on `wait` (e.g. the link socket's readiness) with the deadline of a TriggerSchedule (expected
+  /// arrival + timeout margin; never less than half a period between cycle starts), then runs the cycle. A timeout
+  /// runs the cycle anyway and is counted. Jitter is then the distance from the expected start (see
+  /// TriggerSchedule::CycleStarted); no slots are skipped. Ignored when config sync is kFree.
+  void SetTrigger(WaitForTrigger wait) { trigger_ = std::move(wait); }
+  /// True while the current cycle (read from the body) was started by the trigger rather than the clock.
+  bool cycle_triggered() const noexcept { return cycle_triggered_; }
+  /// Whether Run() waits on a trigger.
+  bool triggered_mode() const noexcept { return config_.sync == CycleSync::kTriggered && trigger_ != nullptr; }
+
   /// Thread- and async-signal-safe. Takes effect before the next cycle (a pending sleep is cut short by a signal).
   void Stop() noexcept { stop_.store(true, std::memory_order_relaxed); }
   bool stopping() const noexcept { return stop_.load(std::memory_order_relaxed); }
@@ -74,11 +101,16 @@ class PeriodicLoop {
 
  private:
   void ApplySchedulingSettings() const;
+  void RunFree(const Body& body, std::int64_t start, std::int64_t end);
+  void RunTriggered(const Body& body, std::int64_t start, std::int64_t end);
+  bool WaitForTheTrigger(std::int64_t expected_ns, std::int64_t deadline_ns);
 
   PeriodicLoopConfig config_;
   double period_s_;
   std::int64_t period_ns_;
   CycleStats stats_{};
+  WaitForTrigger trigger_;
+  bool cycle_triggered_ = false;
   std::atomic<bool> stop_{false};
   static_assert(std::atomic<bool>::is_always_lock_free, "Stop() must be async-signal-safe");
 };

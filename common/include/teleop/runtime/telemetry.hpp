@@ -37,6 +37,8 @@ struct TelemetryRecord {
   double passivity_observed_J[kMaxDof] = {};        ///< Time-domain passivity: the observer's W (docs/stability.md).
   double passivity_damping_Ns_per_m[kMaxDof] = {};  ///< The controller's damping α this cycle (0: did not act).
   int engagement = 0;  ///< node::EngagementState as an integer (0 disengaged .. 3 engaged; teleop/node/engagement.hpp).
+  /// Age of the peer sample the law used this cycle: cycle start - its (kernel) receive time; NaN when none.
+  double data_age_s = std::numeric_limits<double>::quiet_NaN();
 };
 static_assert(std::is_trivially_copyable_v<TelemetryRecord>);
 

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cstdint>
+#include <ctime>
 #include <string>
 
 #include "teleop/proto/codec.hpp"
@@ -50,6 +51,19 @@ class Link {
   /// Drains everything pending. When at least one sample newer than any before arrived, writes the newest to
   /// `newest` and returns true; otherwise leaves `newest` alone and returns false.
   [[nodiscard]] virtual bool Poll(proto::SampleMessage& newest) noexcept = 0;
+
+  /// Waits until the medium has something to read (true) or CLOCK_MONOTONIC reaches `deadline_ns` (false); false
+  /// also when a signal interrupts the wait. What is readable is not consumed (Poll() reads it) and may still be
+  /// rejected. Used by a triggered slave to start its cycle when the master's sample arrives. The default (a link
+  /// that cannot wait on its medium) sleeps until the deadline and returns false. Real-time safe.
+  [[nodiscard]] virtual bool WaitReadable(std::int64_t deadline_ns) noexcept {
+    constexpr std::int64_t kNsPerS = 1'000'000'000;
+    timespec until{};
+    until.tv_sec = static_cast<time_t>(deadline_ns / kNsPerS);
+    until.tv_nsec = static_cast<long>(deadline_ns % kNsPerS);
+    (void)clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr);
+    return false;
+  }
 
   virtual const LinkCounters& counters() const noexcept = 0;
   /// Short description for logs ("udp 127.0.0.1:47001 -> 127.0.0.1:47002").

@@ -63,6 +63,8 @@ class UdpLink final : public Link {
   /// Polls until a new sample arrives or CLOCK_MONOTONIC reaches `deadline_ns` (a busy spin, for a sample known to
   /// be due; no sleep). Returns what the last Poll() returned. Real-time safe.
   [[nodiscard]] bool PollUntil(proto::SampleMessage& newest, std::int64_t deadline_ns) noexcept;
+  /// poll() on the socket until a datagram is pending or the deadline passes.
+  [[nodiscard]] bool WaitReadable(std::int64_t deadline_ns) noexcept override;
   std::int64_t newest_receive_time_ns() const noexcept override { return newest_receive_time_ns_; }
   std::uint64_t session_epoch() const noexcept override { return counters_.sessions; }
   /// True when the newest sample's receive time came from the kernel (false: the datagram had no timestamp and

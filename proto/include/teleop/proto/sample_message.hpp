@@ -55,7 +55,7 @@ struct SampleMessage {
   std::uint8_t flags = kFlagNone;
   std::uint8_t dof = 1;              ///< 1..kMaxWireDof; entries past dof are not sent.
   std::uint32_t sequence = 0;        ///< +1 per cycle, wraps at 2^32.
-  std::uint64_t sender_time_ns = 0;  ///< Sender's monotonic clock when the sample was taken.
+  std::uint64_t sender_time_ns = 0;  ///< Sender's monotonic clock right before the send call.
   std::uint64_t echo_time_ns = 0;    ///< The newest peer sender_time_ns the sender had received (0: none yet).
   std::uint32_t echo_age_ns = 0;     ///< How long the sender held that echo before sending (for RTT).
   std::array<double, kMaxWireDof> position_m{};
