@@ -159,9 +159,10 @@ int main(int argc, char** argv) {
   const Bytes mapping = {0x84, 0x01, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00};  // TPDO 1, 2 entries of 16 bits
   const std::uint8_t node = 5;
   const std::vector<std::pair<std::string, std::vector<can::CanFrame>>> streams = {
-      {"sdo", {co::EncodeSdoUploadRequest(node, 0x6041, 0), co::EncodeSdoUploadResponse(node, 0x6041, 0, 0x0237, 2),
-               co::EncodeSdoDownloadRequest(node, 0x6060, 0, 10, 1), co::EncodeSdoDownloadResponse(node, 0x6060, 0),
-               co::EncodeSdoAbort(co::cob::kSdoTx + node, 0x6071, 0, 0x06020000u)}},
+      {"sdo",
+       {co::EncodeSdoUploadRequest(node, 0x6041, 0), co::EncodeSdoUploadResponse(node, 0x6041, 0, 0x0237, 2),
+        co::EncodeSdoDownloadRequest(node, 0x6060, 0, 10, 1), co::EncodeSdoDownloadResponse(node, 0x6060, 0),
+        co::EncodeSdoAbort(co::cob::kSdoTx + node, 0x6071, 0, 0x06020000u)}},
       {"nmt_heartbeat_sync_emcy",
        {co::EncodeNmt(co::NmtCommand::kStart, node), co::EncodeHeartbeat(node, co::NmtState::kOperational),
         co::EncodeSync(), co::EncodeSync(co::cob::kSync, 7),

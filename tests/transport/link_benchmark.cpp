@@ -6,10 +6,9 @@
 
 #include <chrono>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <thread>
-
-#include <memory>
 
 #include "teleop/transport/emulated_link.hpp"
 #include "teleop/transport/impaired_link.hpp"
