@@ -20,7 +20,7 @@ std::string Config(const std::string& emulate, const std::string& transport = "u
   const std::string link = transport == "udp"
                                ? "  transport: udp\n  bind: \"127.0.0.1:47999\"\n  peer: \"127.0.0.1:9\"\n"
                                : "  transport: " + transport + "\n";
-  return "role: slave\ndof: 1\nrate_hz: 1000\nlink:\n" + link + "  emulate:\n" + emulate +
+  return "role: slave\ndof: 1\nrate_hz: 1000\nlink:\n" + link + "  security: {mode: insecure}\n  emulate:\n" + emulate +
          "law: {kp_N_per_m: 600, kd_Ns_per_m: 2}\n"
          "device: {backend: loopback, loopback: {mass_kg: 0.036, damping_Ns_per_m: 0.49}}\n";
 }
@@ -54,7 +54,8 @@ TEST(LinkEmulateConfig, EveryKeyFillsTheImpairmentsInSIUnits) {
 
 TEST(LinkEmulateConfig, AbsentOrDisabledMeansThePlainLink) {
   const std::string plain =
-      "role: slave\ndof: 1\nrate_hz: 1000\nlink: {transport: udp, bind: \"127.0.0.1:47999\", peer: \"127.0.0.1:9\"}\n"
+      "role: slave\ndof: 1\nrate_hz: 1000\nlink: {security: {mode: insecure}, transport: udp, bind: "
+      "\"127.0.0.1:47999\", peer: \"127.0.0.1:9\"}\n"
       "law: {kp_N_per_m: 600, kd_Ns_per_m: 2}\n"
       "device: {backend: loopback, loopback: {mass_kg: 0.036, damping_Ns_per_m: 0.49}}\n";
   EXPECT_FALSE(ParseProcessConfig(plain, "test.yaml").link.emulate.enabled);

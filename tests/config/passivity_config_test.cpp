@@ -16,7 +16,7 @@ using test::ExpectError;
 std::string Config(const std::string& passivity, const std::string& link =
                                                      "  bind: \"127.0.0.1:47001\"\n"
                                                      "  peer: \"127.0.0.1:47002\"\n") {
-  return "role: slave\ndof: 2\nrate_hz: 1000\nlink:\n" + link +
+  return "role: slave\ndof: 2\nrate_hz: 1000\nlink:\n" + link + "  security: {mode: insecure}\n" +
          "law: {kp_N_per_m: 600, kd_Ns_per_m: 2, max_force_N: 4}\n"
          "device: {backend: loopback, loopback: {mass_kg: 0.036, damping_Ns_per_m: 0.49}}\n" +
          passivity;
@@ -47,7 +47,7 @@ TEST(PassivityConfig, BadValuesNameTheKey) {
   const std::string bad_mode = Config("passivity: {mode: passive, max_damping_Ns_per_m: 20}\n");
   ExpectError(bad_mode, "passive", "passivity.mode", "must be 'off', 'observer' or 'energy_exchange'");
   const std::string missing = Config("passivity: {mode: observer}\n");
-  ExpectError(missing, "{mode", "passivity", "max_damping_Ns_per_m is required with mode observer");
+  ExpectError(missing, "{mode: observer}", "passivity", "max_damping_Ns_per_m is required with mode observer");
   const std::string negative = Config("passivity: {mode: observer, max_damping_Ns_per_m: -1}\n");
   ExpectError(negative, "-1", "passivity.max_damping_Ns_per_m", "N·s/m");
   const std::string wrong_count = Config("passivity: {mode: observer, max_damping_Ns_per_m: [1, 2, 3]}\n");

@@ -21,7 +21,7 @@ std::string Base(const char* role) {
   return std::string("role: ") + role + R"(
 dof: 1
 rate_hz: 1000
-link: {bind: "127.0.0.1:47001", peer: "127.0.0.1:47002"}
+link: {security: {mode: insecure}, bind: "127.0.0.1:47001", peer: "127.0.0.1:47002"}
 law: {kp_N_per_m: 600, kd_Ns_per_m: 0}
 device: {backend: loopback, loopback: {mass_kg: 0.04, damping_Ns_per_m: 0.4}}
 )";

@@ -91,12 +91,14 @@ TEST(SecurityConfig, RangesAreChecked) {
 
 TEST(SecurityConfig, TheShippedConfigsSayHowTheyAreProtected) {
   // UDP: authenticated; CAN: explicitly insecure (docs/security.md, "CAN").
-  for (const char* name : {"master.yaml", "slave.yaml", "cobot-master.yaml", "hybrid-master.yaml"}) {
+  for (const std::string name : {"master.yaml", "slave.yaml", "cobot/master-udp.yaml", "hybrid/slave-udp.yaml"}) {
     const ProcessConfig c = LoadProcessConfig(std::string(TELEOP_CONFIG_DIR) + "/" + name);
     EXPECT_EQ(c.link.security.mode, transport::LinkSecurityMode::kPsk) << name;
-    EXPECT_EQ(c.link.security.key_file, std::string(TELEOP_CONFIG_DIR) + "/teleop.key") << name;
+    // The key is beside the config file.
+    const std::string dir = name.find('/') == std::string::npos ? "" : "/" + name.substr(0, name.find('/'));
+    EXPECT_EQ(c.link.security.key_file, std::string(TELEOP_CONFIG_DIR) + dir + "/teleop.key") << name;
   }
-  for (const char* name : {"master-can.yaml", "slave-can.yaml"}) {
+  for (const char* name : {"master-can.yaml", "slave-can.yaml", "cobot/master-can.yaml", "hybrid/slave-can.yaml"}) {
     const ProcessConfig c = LoadProcessConfig(std::string(TELEOP_CONFIG_DIR) + "/" + name);
     EXPECT_EQ(c.link.security.mode, transport::LinkSecurityMode::kInsecure) << name;
   }

@@ -15,12 +15,14 @@ import tempfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 from teleop_process import check, free_udp_port, run, run_test, write_text  # noqa: E402
+import teleop_keys  # noqa: E402
 
 
 def one_machine_slave(configs, tmp):
     """deploy/configs/slave.yaml on free ports (no master: the slave runs alone)."""
     text = open(os.path.join(configs, "slave.yaml")).read()
     text = text.replace("127.0.0.1:47002", f"127.0.0.1:{free_udp_port()}").replace("127.0.0.1:47001", "127.0.0.1:9")
+    teleop_keys.ensure_key(tmp)  # link.security key_file: teleop.key, beside the config
     return write_text(os.path.join(tmp, "slave.yaml"), text)
 
 

@@ -42,7 +42,7 @@ std::string MasterConfig(const std::string& tail = "", const std::string& safety
   return R"(role: master
 dof: 1
 rate_hz: 1000
-link: {bind: "127.0.0.1:47001", peer: "127.0.0.1:47002", timeout_ms: 50}
+link: {security: {mode: insecure}, bind: "127.0.0.1:47001", peer: "127.0.0.1:47002", timeout_ms: 50}
 law: {kp_N_per_m: 600, kd_Ns_per_m: 2, max_force_N: 10, velocity_filter_hz: 200}
 device:
   backend: loopback
@@ -64,7 +64,7 @@ std::string SlaveConfig(const std::string& tail = "", const std::string& safety 
   return R"(role: slave
 dof: 1
 rate_hz: 1000
-link: {bind: "127.0.0.1:47002", peer: "127.0.0.1:47001", timeout_ms: 50}
+link: {security: {mode: insecure}, bind: "127.0.0.1:47002", peer: "127.0.0.1:47001", timeout_ms: 50}
 law: {kp_N_per_m: 600, kd_Ns_per_m: 2, max_force_N: 10, velocity_filter_hz: 200}
 fixture: {stiffness_N_per_m: 2000, half_space: {axis: 0, offset_m: 0.01, direction: +1}}
 device: {backend: loopback, loopback: {mass_kg: 0.036, damping_Ns_per_m: 0.49}}

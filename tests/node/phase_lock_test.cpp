@@ -24,7 +24,7 @@ std::string Config(const char* role, const char* sync) {
 dof: 1
 rate_hz: 250
 duration_s: 1.5
-link: {bind: "127.0.0.1:47001", peer: "127.0.0.1:47002", timeout_ms: 5000}
+link: {security: {mode: insecure}, bind: "127.0.0.1:47001", peer: "127.0.0.1:47002", timeout_ms: 5000}
 law: {kp_N_per_m: 600, kd_Ns_per_m: 0, max_force_N: 0}
 device: {backend: loopback, loopback: {mass_kg: 0.04, damping_Ns_per_m: 0.41}}
 stability: {check: false}

@@ -262,7 +262,9 @@ TEST(TeleopNode, TheCycleAllocatesNothing) {
 // device, and in energy_exchange the energies cross the link in the energy block.
 
 std::string PassiveConfig(const char* role, const char* mode) {
-  return Config(role, false) + "passivity: {mode: " + mode + ", max_damping_Ns_per_m: 1000}\n";
+  // These tests are about the passivity controller: coupling engages at once (aligning ends in its first cycle).
+  return Config(role, false) + "passivity: {mode: " + mode + ", max_damping_Ns_per_m: 1000}\n" +
+         "engagement: {align_speed_m_per_s: 10, align_min_time_ms: 0, max_force_rate_N_per_s: 1000000}\n";
 }
 
 /// The slave starts 10 mm from a still master and moves toward it at 10 mm/s: its law pulls with 6 N in the
