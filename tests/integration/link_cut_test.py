@@ -24,6 +24,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from two_process_test import Output, free_udp_port, read_telemetry  # noqa: E402
 from udp_relay import UdpRelay  # noqa: E402
+import teleop_keys  # noqa: E402
 
 ENGAGED, ALIGNING = 3, 2
 
@@ -39,6 +40,7 @@ def write_config(src, dst, bind_port, peer_port, csv):
     text = re.sub(r"(?m)^(\s*csv:).*$", lambda m: f'{m.group(1)} "{csv}"', text)
     with open(dst, "w") as f:
         f.write(text)
+    teleop_keys.ensure_key(os.path.dirname(dst))  # link.security key_file: teleop.key, beside the config
 
 
 def timeout_ms(path):

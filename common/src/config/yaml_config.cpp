@@ -68,6 +68,12 @@ void ParseSync(const Field& f, const transport::LinkConfig& link, runtime::Perio
             "'triggered' needs link.transport udp (a CAN link cannot wait for the master's cycle yet); use "
             "'free'");
       }
+      if (link.emulate.enabled) {
+        // The emulated network delivers from its own delay line, not from the socket the trigger waits on.
+        v->Fail(
+            "'triggered' cannot run with link.emulate (the emulated delay line is not the socket the cycle waits "
+            "on); use 'free' with link.emulate");
+      }
       loop.sync = runtime::CycleSync::kTriggered;
     } else {
       v->Fail("must be 'free' or 'triggered', got '" + mode + "'");

@@ -98,6 +98,12 @@ void ImpairedLink::Merge() noexcept {
   for (std::size_t i = 0; i < c.rejected_by_reason.size(); ++i) {
     c.rejected_by_reason[i] = in.rejected_by_reason[i] + em.rejected_by_reason[i];
   }
+  // The authenticated session is the wrapped link's (the emulated stage sees only its accepted samples).
+  c.secure_rejected_by_reason = in.secure_rejected_by_reason;
+  c.handshake_messages = in.handshake_messages;
+  c.sessions = in.sessions;
+  c.handshakes_started = in.handshakes_started;
+  c.send_no_session = in.send_no_session;
 }
 
 std::string ImpairedLink::Describe() const {
