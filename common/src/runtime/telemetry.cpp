@@ -73,8 +73,8 @@ std::string TelemetryCsvRow(const TelemetryRecord& r, int dof) {
     const double* values = VectorField(r, v);
     for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", values[i]);
   }
-  fmt::format_to(std::back_inserter(out), ",{},{},{},{},{},{},{}", r.fixture_penetration_m, r.law_status, r.flags, r.rtt_s,
-                 r.compute_s, r.engagement, r.data_age_s);
+  fmt::format_to(std::back_inserter(out), ",{},{},{},{},{},{},{}", r.fixture_penetration_m, r.law_status, r.flags,
+                 r.rtt_s, r.compute_s, r.engagement, r.data_age_s);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.passivity_observed_J[i]);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.passivity_damping_Ns_per_m[i]);
   return fmt::to_string(out);
