@@ -27,6 +27,7 @@ print("\n".join(sorted(f for f in files if lib.search(f))))
 PY
   echo "clang-tidy: full check, $(wc -l < "${list}") sources"
 fi
+sed -i '/^[[:space:]]*$/d' "${list}"  # an empty scope is an empty file, not one blank line
 if [[ ! -s "${list}" ]]; then
   echo "clang-tidy: clean (no library source reads a file changed since $(head -c 12 "${baseline_file}"), the last full check)"
   exit 0
