@@ -24,24 +24,14 @@ import shutil
 import signal
 import subprocess
 import sys
-import threading
 import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 import teleop_keys  # noqa: E402  (tests/test_utilities)
+from teleop_process import Failure, Output, check  # noqa: E402
 
 SKIP = 77
 MASTER_ADDR = "10.77.0.1"
 SLAVE_ADDR = "10.77.0.2"
-
-
-class Failure(Exception):
-    pass
-
-
-def check(cond, what):
-    if not cond:
-        raise Failure(what)
-    print(f"  ok: {what}")
 
 
 def run(cmd, check_rc=True):
@@ -87,36 +77,6 @@ class Namespaces:
             # Deleting a namespace kills nothing by itself: the processes were waited for or killed before.
             subprocess.run(["ip", "netns", "del", ns], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         self.created = []
-
-
-class Output:
-    """A process's output collected on a thread, so the test can wait for a line."""
-
-    def __init__(self, proc):
-        self.lines = []
-        self.cond = threading.Condition()
-        self.thread = threading.Thread(target=self._read, args=(proc,), daemon=True)
-        self.thread.start()
-
-    def _read(self, proc):
-        for line in proc.stdout:
-            with self.cond:
-                self.lines.append(line)
-                self.cond.notify_all()
-
-    def wait_for(self, text, timeout_s):
-        deadline = time.monotonic() + timeout_s
-        with self.cond:
-            while not any(text in line for line in self.lines):
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    return False
-                self.cond.wait(left)
-        return True
-
-    def text(self):
-        self.thread.join(timeout=5)
-        return "".join(self.lines)
 
 
 def relax_realtime(text):

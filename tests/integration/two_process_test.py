@@ -24,16 +24,10 @@ import signal
 import socket
 import subprocess
 import sys
-import threading
 import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 import teleop_keys  # noqa: E402  (tests/test_utilities)
-
-
-def free_udp_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from teleop_process import Failure, Output, check, free_udp_port  # noqa: E402,F401  (other tests import them here)
 
 
 def write_config(src, dst, ports, telemetry_csv=""):
@@ -97,48 +91,6 @@ def median(xs):
 
 
 ENGAGED = 3  # node::EngagementState::kEngaged, the telemetry column `engagement`
-
-
-class Failure(Exception):
-    pass
-
-
-class Output:
-    """Collects a process's output on a thread, so the test can wait for a line without blocking on the pipe."""
-
-    def __init__(self, proc):
-        self.lines = []
-        self.cond = threading.Condition()
-        self.thread = threading.Thread(target=self._read, args=(proc,), daemon=True)
-        self.thread.start()
-
-    def _read(self, proc):
-        for line in proc.stdout:
-            with self.cond:
-                self.lines.append(line)
-                self.cond.notify_all()
-
-    def wait_for(self, text, timeout_s):
-        """True once a line containing `text` was printed. The timeout is generous: a sanitizer build spends
-        seconds in the start-up stability check before the loop starts."""
-        deadline = time.monotonic() + timeout_s
-        with self.cond:
-            while not any(text in line for line in self.lines):
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    return False
-                self.cond.wait(left)
-        return True
-
-    def text(self):
-        self.thread.join(timeout=5)
-        return "".join(self.lines)
-
-
-def check(cond, what):
-    if not cond:
-        raise Failure(what)
-    print(f"  ok: {what}")
 
 
 def rejected_on_clean_link(summary):
