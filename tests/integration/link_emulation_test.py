@@ -112,6 +112,10 @@ def torn_samples(sender_rows, receiver_rows, dof, can=False):
         return tuple(values)
 
     def sent(r):
+        # A sender in its safe state after a fault (flag bit 1, kFlagFault) sends zeros with the flag, not its
+        # readings (teleop_node.cpp, Transmit).
+        if int(r.get("flags", 0)) & 0x2:
+            return tuple(0 if can else 0.0 for _ in range(3 * dof))
         return fields(r, ("position_m", "velocity_m_per_s", "force_sensor_N"))
 
     def used(r):
