@@ -47,6 +47,13 @@ TEST(Engagement, PrecedenceOfTheInputs) {
   EXPECT_EQ(EngagementOf(in), Engagement::kPeerLost);
   in.peer_fresh = true;
   EXPECT_EQ(EngagementOf(in), Engagement::kCoupled);
+  in.engaged = false;  // handshaking or aligning: a fresh peer is not yet coupling
+  EXPECT_EQ(EngagementOf(in), Engagement::kAligning);
+  EXPECT_STREQ(ToString(Engagement::kAligning), "aligning");
+  in.peer_fresh = false;
+  EXPECT_EQ(EngagementOf(in), Engagement::kPeerLost);
+  in.peer_fresh = true;
+  in.engaged = true;
   in.peer_fault = true;
   EXPECT_EQ(EngagementOf(in), Engagement::kFault);
   in.peer_fault = false;

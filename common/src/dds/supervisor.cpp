@@ -138,7 +138,7 @@ void Supervisor::Impl::TakeStates(ProcessView& v, dds_entity_t reader) {
     v.state_rate_hz = s.state_rate_hz;
     v.loss_fraction = s.loss_fraction;
     v.rtt_ms = s.rtt_ms;
-    v.engagement = s.engagement <= static_cast<uint8_t>(Engagement::kStopping) ? static_cast<Engagement>(s.engagement)
+    v.engagement = s.engagement <= static_cast<uint8_t>(Engagement::kAligning) ? static_cast<Engagement>(s.engagement)
                                                                                : Engagement::kFault;
     v.flags = s.flags;
     v.device_faults = s.device_faults;

@@ -623,6 +623,7 @@ void TeleopNode::Impl::PushBridgeState(const runtime::TelemetryRecord& record,
   in.have_peer = have_peer;
   in.peer_shutdown = peer_shutdown;
   in.peer_fresh = peer_state.fresh && !peer_state.link_faulted;
+  in.engaged = engagement.state() == EngagementState::kEngaged;
   sample.engagement = dds::EngagementOf(in);
   sample.device_faults = reading.faults;
   sample.overruns = loop.stats().overruns;

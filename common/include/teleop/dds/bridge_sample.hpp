@@ -16,6 +16,8 @@ enum class Engagement : std::uint8_t {
   kPeerShutdown = 3,  ///< The peer announced a clean stop.
   kFault = 4,         ///< This device or the peer reports a fault (or a non-finite input): safe state.
   kStopping = 5,      ///< This process is stopping.
+  kAligning = 6,      ///< Fresh peer, no fault, but not yet engaged: the node is handshaking or aligning
+                      ///< (docs/engagement.md); the law does not run eqs. 8/9 yet.
 };
 
 inline const char* ToString(Engagement e) noexcept {
@@ -32,12 +34,14 @@ inline const char* ToString(Engagement e) noexcept {
       return "fault";
     case Engagement::kStopping:
       return "stopping";
+    case Engagement::kAligning:
+      return "aligning";
   }
   return "unknown";
 }
 
 /// What the loop knows about its coupling in one cycle, reduced to one Engagement. Precedence: stopping, fault,
-/// no peer yet, peer shutdown, peer lost, coupled.
+/// no peer yet, peer shutdown, peer lost, aligning (fresh peer, the engagement machine not yet engaged), coupled.
 struct EngagementInputs {
   bool stopping = false;
   bool local_fault = false;  ///< Device fault or non-finite law input this cycle.
@@ -45,6 +49,7 @@ struct EngagementInputs {
   bool have_peer = false;    ///< At least one valid sample from the peer so far.
   bool peer_shutdown = false;
   bool peer_fresh = false;  ///< Watchdog ok and the medium up.
+  bool engaged = true;      ///< The node's engagement machine is in kEngaged (false while handshaking/aligning).
 };
 
 constexpr Engagement EngagementOf(const EngagementInputs& in) noexcept {
@@ -53,6 +58,7 @@ constexpr Engagement EngagementOf(const EngagementInputs& in) noexcept {
   if (!in.have_peer) return Engagement::kWaiting;
   if (in.peer_shutdown) return Engagement::kPeerShutdown;
   if (!in.peer_fresh) return Engagement::kPeerLost;
+  if (!in.engaged) return Engagement::kAligning;
   return Engagement::kCoupled;
 }
 
