@@ -53,6 +53,8 @@ def synthetic(header, path):
         v["flags"] = 1 | (4 if 600 <= c < 700 else 0) | (16 if pen > 0 else 0)
         v["law_status"] = 2 if 600 <= c < 700 else 0
         v["compute_s"] = 2e-5
+        if "engagement" in v:  # engaged except cycles 600..699 (aligning) and the first 50 (handshaking)
+            v["engagement"] = 1 if c < 50 else 2 if 600 <= c < 700 else 3
         rows.append(",".join(repr(v[k]) if isinstance(v[k], float) else str(v[k]) for k in cols))
     with open(path, "w") as f:
         f.write(header + "\n" + "\n".join(rows) + "\n")
@@ -95,6 +97,8 @@ def main():
         check("max 3.000 mm" in out, "the peak penetration is 3 mm")
         check("rtt_s (495 measurements, p50 2.7" in out, "495 round-trip measurements around 2.7 ms")
         check("time_s differences (989)" in out, "989 periods")
+        # 990 records: 50 handshaking, 100 aligning, 840 engaged, entered twice (at 50 and at 700).
+        check("engagement (2 engagements, engaged in 84.8 % of records)" in out, "two engagements, 840 of 990 engaged")
 
         # 3. Not telemetry.
         bad = os.path.join(tmp, "bad.csv")
