@@ -35,21 +35,6 @@ YAML::Mark MarkOf(const YAML::Node& node) noexcept {
   }
 }
 
-std::size_t EditDistance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
-
 }  // namespace
 
 std::string Located(const std::string& file, const YAML::Mark& mark, const std::string& path,
@@ -59,20 +44,6 @@ std::string Located(const std::string& file, const YAML::Mark& mark, const std::
   out += ": ";
   if (!path.empty()) out += "key '" + path + "': ";
   return out + reason;
-}
-
-std::string ClosestMatch(std::string_view word, const std::vector<std::string>& candidates) {
-  std::string best;
-  std::size_t best_distance = word.size();
-  for (const std::string& c : candidates) {
-    const std::size_t d = EditDistance(word, c);
-    if (d < best_distance) {
-      best_distance = d;
-      best = c;
-    }
-  }
-  if (best.empty() || best_distance > std::max<std::size_t>(2, word.size() / 3)) return {};
-  return best;
 }
 
 void Field::Fail(const std::string& reason) const { throw Error(Located(*file_, MarkOf(node_), path_, reason)); }

@@ -5,6 +5,7 @@
 #include <mutex>
 #include <utility>
 
+#include "teleop/closest_match.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device {
@@ -18,21 +19,6 @@ struct Registry {
 Registry& TheRegistry() {
   static Registry registry;  // function-local: built on first use, no static-initialisation-order issues
   return registry;
-}
-
-std::size_t EditDistance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
 }
 
 const DeviceBackend& Require(std::string_view name) {
@@ -102,20 +88,10 @@ std::vector<std::string> RegisteredDevices() {
 std::string UnknownBackendMessage(std::string_view name) {
   const std::vector<std::string> names = RegisteredDevices();
   std::string message = "unknown backend '" + std::string(name) + "'";
-  std::string best;
-  std::size_t best_distance = name.size();
   std::string known;
-  for (const std::string& n : names) {
-    known += (known.empty() ? "" : ", ") + n;
-    const std::size_t d = EditDistance(name, n);
-    if (d < best_distance) {
-      best_distance = d;
-      best = n;
-    }
-  }
-  if (!best.empty() && best_distance <= std::max<std::size_t>(2, name.size() / 3)) {
-    message += " (did you mean '" + best + "'?)";
-  }
+  for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
+  const std::string best = ClosestMatch(name, names);
+  if (!best.empty()) message += " (did you mean '" + best + "'?)";
   message += "; registered backends: " + (known.empty() ? std::string("none") : known);
   return message;
 }

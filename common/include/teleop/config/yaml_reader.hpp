@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "teleop/closest_match.hpp"
 #include "teleop/types.hpp"
 
 namespace teleop::config {
@@ -77,8 +78,8 @@ class Map {
 std::string Located(const std::string& file, const YAML::Mark& mark, const std::string& path,
                     const std::string& reason);
 
-/// The closest of `candidates` to `word` when it is a plausible typo (edit distance ≤ max(2, |word|/3)), else empty.
-std::string ClosestMatch(std::string_view word, const std::vector<std::string>& candidates);
+/// The closest of `candidates` to `word` when it is a plausible typo (teleop/closest_match.hpp).
+using teleop::ClosestMatch;
 
 // ---- value checks shared by every section reader: each throws at the value with its unit in the message ----------
 
