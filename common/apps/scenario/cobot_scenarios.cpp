@@ -228,31 +228,47 @@ struct StrikeResult {
   double first_contact_s = -1.0;
 };
 
+/// A strike's per-step bookkeeping: peak penetration, first contact, and the mean and rms of p over the last quarter
+/// of `steps` steps.
+class StrikeStats {
+ public:
+  explicit StrikeStats(int steps) : tail_(steps - steps / 4) {}
+  void Add(int k, double penetration_m, WallMode mode, StrikeResult& r) {
+    r.max_penetration_m = std::max(r.max_penetration_m, penetration_m);
+    if (r.first_contact_s < 0.0 && mode != WallMode::kCaster) r.first_contact_s = (k + 1) * kPeriod_s;
+    if (k >= tail_) {
+      sum_ += penetration_m;
+      sum_sq_ += penetration_m * penetration_m;
+      ++n_;
+    }
+  }
+  void Finish(StrikeResult& r) const {
+    r.steady_error_m = sum_ / n_;
+    r.steady_rms_m = std::sqrt(sum_sq_ / n_);
+  }
+
+ private:
+  int tail_;
+  double sum_ = 0.0;
+  double sum_sq_ = 0.0;
+  int n_ = 0;
+};
+
 StrikeResult RunStrike(const StrikeSetup& setup, const std::string& csv_path) {
   UnicycleCobot cobot(setup.config, setup.wall, setup.initial);
   device::cobot::PushingOperator op(setup.op, setup.wall);
   Trajectory traj(csv_path, 5);
   StrikeResult r;
   const int steps = static_cast<int>(setup.duration_s / kPeriod_s);
-  const int tail = steps - steps / 4;
-  double sum = 0.0;
-  double sum_sq = 0.0;
-  int n = 0;
+  StrikeStats stats(steps);
   for (int k = 0; k < steps; ++k) {
     const Vec2 force = op.Step(cobot.state(), kPeriod_s);
     const auto s = cobot.Step(force, kPeriod_s);
     traj.Add((k + 1) * kPeriod_s, s);
     const double p = setup.wall.Evaluate(s.position_m).penetration_m;
-    r.max_penetration_m = std::max(r.max_penetration_m, p);
-    if (r.first_contact_s < 0.0 && s.control.mode != WallMode::kCaster) r.first_contact_s = (k + 1) * kPeriod_s;
-    if (k >= tail) {
-      sum += p;
-      sum_sq += p * p;
-      ++n;
-    }
+    stats.Add(k, p, s.control.mode, r);
   }
-  r.steady_error_m = sum / n;
-  r.steady_rms_m = std::sqrt(sum_sq / n);
+  stats.Finish(r);
   r.engages = cobot.controller().engage_count();
   r.releases = cobot.controller().release_count();
   return r;
@@ -370,10 +386,7 @@ StrikeResult RunBicycleStrike(const WallOptions& o, bool overlay, const std::str
   Trajectory traj(csv_path, 5);
   StrikeResult r;
   const int steps = static_cast<int>(2.0 / kPeriod_s);
-  const int tail = steps - steps / 4;
-  double sum = 0.0;
-  double sum_sq = 0.0;
-  int n = 0;
+  StrikeStats stats(steps);
   device::Reading reading;
   for (int k = 0; k < steps; ++k) {
     bicycle.Read(reading);
@@ -388,16 +401,9 @@ StrikeResult RunBicycleStrike(const WallOptions& o, bool overlay, const std::str
     s.control = bicycle.last_control();
     traj.Add((k + 1) * kPeriod_s, s);
     const double p = s.position_m.y();
-    r.max_penetration_m = std::max(r.max_penetration_m, p);
-    if (r.first_contact_s < 0.0 && s.control.mode != WallMode::kCaster) r.first_contact_s = (k + 1) * kPeriod_s;
-    if (k >= tail) {
-      sum += p;
-      sum_sq += p * p;
-      ++n;
-    }
+    stats.Add(k, p, s.control.mode, r);
   }
-  r.steady_error_m = sum / n;
-  r.steady_rms_m = std::sqrt(sum_sq / n);
+  stats.Finish(r);
   r.engages = bicycle.controller().engage_count();
   r.releases = bicycle.controller().release_count();
   return r;
