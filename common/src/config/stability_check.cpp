@@ -10,6 +10,9 @@
 #include "teleop/analysis/human_bounds.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
+#include "teleop/proto/can/bus_load.hpp"
+#include "teleop/proto/can/frame_layout.hpp"
+#include "teleop/transport/can_bus_budget.hpp"
 
 namespace teleop::config {
 
@@ -87,6 +90,26 @@ analysis::FixtureSide FixtureSideOf(Role role) noexcept {
   return role == Role::kMaster ? FixtureSide::kMaster : FixtureSide::kSlave;
 }
 
+double TriggeredDataAge_s(const ProcessConfig& config) {
+  if (config.link.transport != "can" && config.link.transport != "emulated-can") return kTriggeredDataAge_s;
+  transport::CanLinkConfig can = config.link.can;
+  can.dof = config.dof;
+  const proto::can::CanWireFormat format = transport::WireFormatOf(can);
+  const proto::can::CanBitrates rates = transport::BitratesOf(can);
+  const proto::can::BusLoad load = proto::can::ComputeBusLoad(format, rates, config.loop.rate_hz);
+  // Blocking: the longest of the slave's frames (the same layout), already on the wire when the master's first
+  // frame is queued.
+  double blocking_s = load.wire_time_per_cycle_s;  // FD: the one frame of a cycle
+  if (!format.fd) {
+    blocking_s = 0.0;
+    for (int slot = 0; slot < proto::can::SlotCount(config.dof); ++slot) {
+      const auto bytes = static_cast<std::size_t>(proto::can::SlotLength(slot, config.dof));
+      blocking_s = std::max(blocking_s, proto::can::FrameTime_s(false, false, format.extended_id, bytes, rates));
+    }
+  }
+  return kTriggeredDataAge_s + load.wire_time_per_cycle_s + blocking_s;
+}
+
 SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis) {
   if (axis < 0 || axis >= config.law.dof) {
     throw Error("stability model: axis " + std::to_string(axis) + " is outside 0.." +
@@ -136,7 +159,7 @@ SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis) {
   // sample). Only with the whole-sample model (peer_delay_samples 1) that it refines.
   if (config.loop.sync == runtime::CycleSync::kTriggered && st.peer_delay_samples == 1) {
     s.slave_peer_delay_fraction =
-        st.peer_delay_fraction.value_or(std::min(1.0, kTriggeredDataAge_s * config.loop.rate_hz));
+        st.peer_delay_fraction.value_or(std::min(1.0, TriggeredDataAge_s(config) * config.loop.rate_hz));
   }
   s.unilateral = st.unilateral;
   analysis::LawGains& g = s.gains;
