@@ -11,7 +11,6 @@
 #include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
 #include "teleop/proto/can/bus_load.hpp"
-#include "teleop/proto/can/frame_layout.hpp"
 #include "teleop/transport/can_bus_budget.hpp"
 
 namespace teleop::config {
@@ -94,20 +93,9 @@ double TriggeredDataAge_s(const ProcessConfig& config) {
   if (config.link.transport != "can" && config.link.transport != "emulated-can") return kTriggeredDataAge_s;
   transport::CanLinkConfig can = config.link.can;
   can.dof = config.dof;
-  const proto::can::CanWireFormat format = transport::WireFormatOf(can);
-  const proto::can::CanBitrates rates = transport::BitratesOf(can);
-  const proto::can::BusLoad load = proto::can::ComputeBusLoad(format, rates, config.loop.rate_hz);
-  // Blocking: the longest of the slave's frames (the same layout), already on the wire when the master's first
-  // frame is queued.
-  double blocking_s = load.wire_time_per_cycle_s;  // FD: the one frame of a cycle
-  if (!format.fd) {
-    blocking_s = 0.0;
-    for (int slot = 0; slot < proto::can::SlotCount(config.dof); ++slot) {
-      const auto bytes = static_cast<std::size_t>(proto::can::SlotLength(slot, config.dof));
-      blocking_s = std::max(blocking_s, proto::can::FrameTime_s(false, false, format.extended_id, bytes, rates));
-    }
-  }
-  return kTriggeredDataAge_s + load.wire_time_per_cycle_s + blocking_s;
+  const proto::can::BusLoad load =
+      proto::can::ComputeBusLoad(transport::WireFormatOf(can), transport::BitratesOf(can), config.loop.rate_hz);
+  return kTriggeredDataAge_s + load.cycle_complete_s;
 }
 
 SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis) {
