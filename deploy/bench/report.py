@@ -299,7 +299,9 @@ def main():
     if "can_budget_text" in data:
         w("## CAN bits per cycle and bus load")
         w("")
-        w("From `can_link_benchmark` (computed, not timed):")
+        w("From `can_link_benchmark` (computed, not timed); the second table is a triggered slave over CAN (sync.mode "
+          "triggered; docs/can.md, \"Phase-locked cycles over CAN\"): the trigger is the master's last frame, so the bits "
+          "are unchanged, beside a dedicated SYNC frame that was not built:")
         w("")
         w("```")
         w(data["can_budget_text"].strip())
@@ -401,8 +403,6 @@ def main():
     w("")
     w("- A software PLL on the kernel receive timestamps (the alternative to the triggered cycle): not built; the "
       "triggered cycle already starts within the wake-up latency of the master's sample.")
-    w("- Phase-locked cycles over CAN (a SYNC-like role for the master's frames): not built; `sync.mode: triggered` "
-      "is refused with a CAN link.")
     w("- Busy-poll and spin receive are not config keys yet (`UdpLinkConfig::busy_poll_us`, `spin_poll_us`).")
     w("")
     with open(out_md, "w") as f:

@@ -83,7 +83,9 @@ BusLoad ComputeBusLoad(const CanWireFormat& format, const CanBitrates& rates, do
     ++r.frames_per_cycle;
     r.data_bytes_per_cycle += static_cast<int>(bytes);
     r.wire_bits_per_cycle += Bits(fd, format.extended_id, bytes);
-    r.wire_time_per_cycle_s += FrameTime_s(fd, brs, format.extended_id, bytes, rates);
+    const double time_s = FrameTime_s(fd, brs, format.extended_id, bytes, rates);
+    r.wire_time_per_cycle_s += time_s;
+    r.longest_frame_s = std::max(r.longest_frame_s, time_s);
   };
   if (!fd) {
     for (int k = 0; k < slots; ++k) add_frame(static_cast<std::size_t>(SlotLength(k, dof)));
@@ -102,6 +104,7 @@ BusLoad ComputeBusLoad(const CanWireFormat& format, const CanBitrates& rates, do
   r.minimum_time_per_cycle_s = min.time_s;
   r.overhead = min.time_s > 0 ? r.wire_time_per_cycle_s / min.time_s : 0.0;
   r.load = 2.0 * r.wire_time_per_cycle_s * rate_hz;
+  r.cycle_complete_s = r.longest_frame_s + r.wire_time_per_cycle_s;
   return r;
 }
 

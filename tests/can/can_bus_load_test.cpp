@@ -64,6 +64,10 @@ TEST(CanBusLoad, FourDofClassicExceedsSeventyPercent) {
   EXPECT_EQ(b.minimum_bits_per_cycle, 365);
   EXPECT_NEAR(b.overhead, 385.0 / 365.0, kTol);
   EXPECT_EQ(MaxDofWithinLoad(Format(1), CanBitrates{1e6, 5e6}, 1000.0, 0.70, 64), 3);
+  // A triggered slave's wait on the bus: one 8-byte frame of the other direction already on the wire, then the
+  // cycle's three frames.
+  EXPECT_NEAR(b.longest_frame_s, 135e-6, kTol);
+  EXPECT_NEAR(b.cycle_complete_s, (135 + 385) * 1e-6, kTol);
 }
 
 TEST(CanBusLoad, TwoDofOverheadAgainstMinimum) {
@@ -80,6 +84,7 @@ TEST(CanBusLoad, FdThreeDofAtOneFiveMegabit) {
   EXPECT_NEAR(b.wire_time_per_cycle_s, 34e-6 + 193.0 / 5e6, kTol);
   EXPECT_NEAR(b.load, 2 * (34e-6 + 193.0 / 5e6) * 1000.0, kTol);  // 0.1452
   EXPECT_NEAR(b.overhead, 1.0, kTol);
+  EXPECT_NEAR(b.cycle_complete_s, 2 * (34e-6 + 193.0 / 5e6), kTol) << "FD: the one frame, blocked by the peer's";
 }
 
 TEST(CanBusLoad, ExtendedIdsCostTwentyFiveBitsMorePerFrame) {

@@ -3,6 +3,7 @@
 // encode/decode time per cycle. Prints the budget table first, then runs Google Benchmark.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 
@@ -36,6 +37,37 @@ proto::SampleMessage Sample(int dof) {
   return m;
 }
 
+// A triggered slave (sync.mode triggered, docs/can.md "Phase-locked cycles over CAN") fires on the master's last
+// frame of a cycle: no frame is added, so the bits and the load are the table's above. Beside them, what the
+// alternative of a dedicated SYNC frame after the sample (classic, 0 data bytes, 11-bit: 55 bits at the nominal
+// rate, master only) would cost, and the wait on the bus until the sample is whole (one blocking frame of the
+// slave's + the master's frames; + the SYNC frame in the alternative) with the start-up check's default
+// peer_delay_fraction at 1 kHz ((100 us + that wait) x 1 kHz).
+void PrintTriggered(const proto::can::CanBitrates& rates) {
+  constexpr double kAssumedAge_s = 100e-6;  // kTriggeredDataAge_s (teleop/config/stability_check.hpp)
+  const double sync_s = proto::can::FrameTime_s(false, false, false, 0, rates);
+  const int sync_bits = proto::can::ClassicFrameBits(false, 0);
+  std::printf(
+      "\ntriggered slave over CAN at 1000 Hz (trigger = the master's last frame of the cycle; no extra frame)\n");
+  std::printf("%-8s %4s %10s %8s %12s %9s | %s\n", "bus", "dof", "bits/cycle", "load_%", "complete_us", "fraction",
+              "with a SYNC frame: bits/cycle load_% complete_us fraction");
+  for (const bool fd : {false, true}) {
+    for (int dof = 1; dof <= proto::kMaxWireDof; ++dof) {
+      const proto::can::BusLoad b = proto::can::ComputeBusLoad(Format(dof, fd), rates, 1000.0);
+      const int bits = 2 * b.wire_bits_per_cycle;
+      const double sync_load = b.load + sync_s * 1000.0;
+      const double sync_complete = b.cycle_complete_s + sync_s;
+      std::printf("%-8s %4d %10d %8.1f %12.1f %9.3f | %10d %6.1f %11.1f %8.3f\n", fd ? "FD 1/5M" : "classic", dof, bits,
+                  100.0 * b.load, b.cycle_complete_s * 1e6, std::min(1.0, (kAssumedAge_s + b.cycle_complete_s) * 1e3),
+                  bits + sync_bits, 100.0 * sync_load, sync_complete * 1e6,
+                  std::min(1.0, (kAssumedAge_s + sync_complete) * 1e3));
+    }
+  }
+  std::printf(
+      "(bits/cycle: both directions, worst-case stuffing; complete_us: from the master queueing its cycle to "
+      "the slave holding all of it)\n");
+}
+
 void PrintBudget() {
   const proto::can::CanBitrates rates{1e6, 5e6};
   std::printf("CAN budget at 1000 Hz, bilateral (both directions), worst-case bit stuffing, 11-bit IDs\n");
@@ -61,6 +93,7 @@ void PrintBudget() {
       "target 3-DOF bilateral at 1 kHz on classic 1 Mbit/s within 70 %%: %.1f %% -> %s; overhead %.3fx (target "
       "<= 1.1x)\n\n",
       100.0 * three.load, three.load <= 0.70 ? "met" : "NOT met", three.overhead);
+  PrintTriggered(rates);
   std::fflush(stdout);
 }
 

@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdint>
+#include <ctime>
 #include <fstream>
 #include <string>
 #include <thread>
@@ -135,6 +137,35 @@ TEST_F(UdpBusTest, TwoLinksExchangeSamples) {
   EXPECT_EQ(master.counters().rejected, 0u);
   EXPECT_EQ(slave.counters().lost, 0u);
   EXPECT_EQ(master.counters().accepted, 50u);
+}
+
+// The trigger of a triggered slave on the daemon's port (ppoll on the node's socket, docs/can.md "Phase-locked
+// cycles over CAN"): it fires once the master's whole cycle (4 frames at 6 DOF) has come, and the sample carries the
+// kernel's receive time of its last frame, which the daemon sends no earlier than the end of its transmission.
+TEST_F(UdpBusTest, TriggerWaitsOnTheSocketForTheWholeCycle) {
+  proto::can::CanWireFormat format{};
+  format.dof = 6;
+  CanLink master(format, proto::SenderRole::kMaster, Attach());
+  CanLink slave(format, proto::SenderRole::kSlave, Attach());
+  const auto monotonic_ns = [] {
+    timespec now{};
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    return static_cast<std::int64_t>(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
+  };
+  const std::int64_t sent_ns = monotonic_ns();
+  ASSERT_TRUE(master.Send(test::MakeSample(proto::SenderRole::kMaster, 6, 9)));
+  ASSERT_TRUE(slave.WaitReadable(sent_ns + 5'000'000'000)) << "the whole cycle arrived within 5 s";
+  proto::SampleMessage out{};
+  ASSERT_TRUE(slave.Poll(out));
+  EXPECT_EQ(out.sequence, 9u);
+  EXPECT_TRUE(test::ConsistentSample(out));
+  EXPECT_EQ(slave.can_counters().frames_received, 4u) << "all four frames were read before it fired";
+  // 4 frames of 8 bytes: 540 µs on a 1 Mbit/s bus before the last one ends (a lower bound: the daemon paces them).
+  EXPECT_GE(slave.newest_receive_time_ns() - sent_ns, 500'000);
+  EXPECT_LE(slave.newest_receive_time_ns(), monotonic_ns());
+  // Nothing more comes: the wait ends at its deadline with false.
+  EXPECT_FALSE(slave.WaitReadable(monotonic_ns() + 20'000'000));
+  EXPECT_FALSE(slave.Poll(out));
 }
 
 TEST_F(UdpBusTest, PortFiltersAsSocketCanDoes) {

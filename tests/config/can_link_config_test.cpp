@@ -56,10 +56,15 @@ TEST(CanLinkConfig, EmulatedBusNeedsNoInterfaceAndTakesTheDaemonAddress) {
   EXPECT_EQ(d.link.can.emulated_bus_port, 47300);  // the documented default
 }
 
-TEST(CanLinkConfig, TriggeredCyclesNeedUdp) {
-  const std::string text = Config("  transport: emulated-can\n") + "sync: {mode: triggered}\n";
-  EXPECT_NE(ErrorOf(text).find("key 'sync.mode': 'triggered' needs link.transport udp"), std::string::npos)
-      << ErrorOf(text);
+// A triggered slave waits for the master's whole cycle of frames (docs/can.md, "Phase-locked cycles over CAN").
+TEST(CanLinkConfig, TriggeredCyclesRunOverCan) {
+  EXPECT_EQ(
+      ParseProcessConfig(Config("  transport: emulated-can\n") + "sync: {mode: triggered}\n", "can.yaml").loop.sync,
+      runtime::CycleSync::kTriggered);
+  EXPECT_EQ(ParseProcessConfig(Config("  transport: can\n  can: {interface: vcan0}\n") + "sync: {mode: triggered}\n",
+                               "can.yaml")
+                .loop.sync,
+            runtime::CycleSync::kTriggered);
   EXPECT_EQ(ParseProcessConfig(Config("  transport: emulated-can\n") + "sync: {mode: free}\n", "can.yaml").loop.sync,
             runtime::CycleSync::kFree);
 }

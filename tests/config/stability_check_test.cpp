@@ -129,6 +129,35 @@ TEST(StabilityCheck, ShippedSlaveLimitAgreesWithTheFineStepSimulation) {
 // data age of kTriggeredDataAge_s, or stability.peer_delay_fraction), the master the slave's reply one sample late. The
 // pair is allowed a stiffer slave fixture than free-running, less than the paper's undelayed model, and the limit of
 // that model is where the fine-step simulation of the same asymmetric delays turns unstable.
+// Over CAN the master's sample is whole only once its last frame is on the wire: the triggered data age adds the
+// cycle's frames at the configured bit rate (worst-case stuffing) and one frame of the slave's blocking the bus
+// (docs/can.md, "Phase-locked cycles over CAN"). Expected values from the frame formulas, not from the code's path.
+TEST(StabilityCheck, TriggeredOverCanCountsTheFramesOnTheBus) {
+  const std::string shipped = SlaveWithoutStability();
+  ProcessConfig c = ParseProcessConfig(shipped + "sync: {mode: triggered}\n", "slave.yaml");
+  ASSERT_DOUBLE_EQ(c.loop.rate_hz, 1000.0);
+  EXPECT_DOUBLE_EQ(TriggeredDataAge_s(c), kTriggeredDataAge_s) << "udp";
+  const double udp_limit = CheckProcessStability(c).axes[0].limit.max_stable_stiffness_N_per_m;
+  c.link.transport = "emulated-can";
+  c.dof = 1;
+  c.link.can.dof = 1;
+  // 1 DOF, classic 1 Mbit/s, 11-bit: one 6-byte frame, 55 + 10·6 = 115 bits = 115 µs; the slave's is the same.
+  EXPECT_NEAR(TriggeredDataAge_s(c), kTriggeredDataAge_s + 2 * 115e-6, 1e-9);
+  EXPECT_NEAR(*StabilityModel(c, 0).slave_peer_delay_fraction, (kTriggeredDataAge_s + 230e-6) * 1000.0, 1e-6);
+  const double can_limit = CheckProcessStability(c).axes[0].limit.max_stable_stiffness_N_per_m;
+  EXPECT_LT(can_limit, udp_limit) << "the frames' time makes the slave's data older than over UDP";
+  // 250 kbit/s: 460 µs per frame, so the data age 100 + 920 µs is a whole period at 1 kHz: the fraction saturates.
+  c.link.can.nominal_bitrate_bit_per_s = 250'000.0;
+  EXPECT_NEAR(TriggeredDataAge_s(c), kTriggeredDataAge_s + 2 * 460e-6, 1e-9);
+  EXPECT_DOUBLE_EQ(*StabilityModel(c, 0).slave_peer_delay_fraction, 1.0);
+  // 6 DOF on CAN FD 1/5 Mbit/s: one 32-byte frame of 34 nominal + 358 data bits (docs/can.md): 105.6 µs each way.
+  c.link.can.nominal_bitrate_bit_per_s = 1'000'000.0;
+  c.link.can.fd = true;
+  c.dof = 6;
+  c.link.can.dof = 6;
+  EXPECT_NEAR(TriggeredDataAge_s(c), kTriggeredDataAge_s + 2 * (34e-6 + 358 / 5e6), 1e-9);
+}
+
 TEST(StabilityCheck, TriggeredPairAllowsAStifferSlaveFixtureThatTheSimulationConfirms) {
   const std::string shipped = SlaveWithoutStability();  // the defaults of the stability section
   const ProcessConfig free = ParseProcessConfig(shipped, "slave.yaml");

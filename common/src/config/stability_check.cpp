@@ -10,6 +10,8 @@
 #include "teleop/analysis/human_bounds.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
+#include "teleop/proto/can/bus_load.hpp"
+#include "teleop/transport/can_bus_budget.hpp"
 
 namespace teleop::config {
 
@@ -87,6 +89,15 @@ analysis::FixtureSide FixtureSideOf(Role role) noexcept {
   return role == Role::kMaster ? FixtureSide::kMaster : FixtureSide::kSlave;
 }
 
+double TriggeredDataAge_s(const ProcessConfig& config) {
+  if (config.link.transport != "can" && config.link.transport != "emulated-can") return kTriggeredDataAge_s;
+  transport::CanLinkConfig can = config.link.can;
+  can.dof = config.dof;
+  const proto::can::BusLoad load =
+      proto::can::ComputeBusLoad(transport::WireFormatOf(can), transport::BitratesOf(can), config.loop.rate_hz);
+  return kTriggeredDataAge_s + load.cycle_complete_s;
+}
+
 SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis) {
   if (axis < 0 || axis >= config.law.dof) {
     throw Error("stability model: axis " + std::to_string(axis) + " is outside 0.." +
@@ -136,7 +147,7 @@ SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis) {
   // sample). Only with the whole-sample model (peer_delay_samples 1) that it refines.
   if (config.loop.sync == runtime::CycleSync::kTriggered && st.peer_delay_samples == 1) {
     s.slave_peer_delay_fraction =
-        st.peer_delay_fraction.value_or(std::min(1.0, kTriggeredDataAge_s * config.loop.rate_hz));
+        st.peer_delay_fraction.value_or(std::min(1.0, TriggeredDataAge_s(config) * config.loop.rate_hz));
   }
   s.unilateral = st.unilateral;
   analysis::LawGains& g = s.gains;

@@ -63,11 +63,7 @@ void ParseSync(const Field& f, const transport::LinkConfig& link, runtime::Perio
     if (mode == "free") {
       loop.sync = runtime::CycleSync::kFree;
     } else if (mode == "triggered") {
-      if (link.transport != "udp") {
-        v->Fail(
-            "'triggered' needs link.transport udp (a CAN link cannot wait for the master's cycle yet); use "
-            "'free'");
-      }
+      // udp: the master's datagram; can / emulated-can: the master's complete cycle of frames (docs/can.md).
       if (link.emulate.enabled) {
         // The emulated network delivers from its own delay line, not from the socket the trigger waits on.
         v->Fail(

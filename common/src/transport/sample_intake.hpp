@@ -17,6 +17,8 @@ class SampleIntake {
   explicit SampleIntake(proto::SenderRole expected_peer) noexcept : expected_peer_(expected_peer) {}
 
   void Begin() noexcept { has_pending_ = false; }
+  /// A sample newer than any before is waiting for Finish() in this drain.
+  bool has_pending() const noexcept { return has_pending_; }
 
   /// A datagram from the expected source: decode, check the role, classify its sequence. Returns true when it is
   /// now the newest sample of this drain (what Finish() will hand back unless a newer one follows).

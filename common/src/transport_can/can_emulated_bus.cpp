@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <limits>
 #include <string>
 #include <utility>
@@ -41,11 +42,26 @@ class EmulatedCanPort final : public CanPort {
     return bus_.Submit(node_, frame);
   }
   bool Read(CanFrame& frame) noexcept override {
-    while (bus_.Receive(node_, frame)) {
-      if (!filtered_ || Accepts(options_, frame)) return true;
+    std::uint64_t receive_ns = 0;
+    while (bus_.Receive(node_, frame, receive_ns)) {
+      if (!filtered_ || Accepts(options_, frame)) {
+        receive_ns_ = static_cast<std::int64_t>(receive_ns);
+        return true;
+      }
     }
     return false;
   }
+  // On the bus clock: the bus advances to each transmission's end (or the deadline) and sleeps in between.
+  bool WaitReadable(std::int64_t deadline_ns) noexcept override {
+    const auto deadline = static_cast<std::uint64_t>(std::max<std::int64_t>(deadline_ns, 0));
+    for (;;) {
+      if (bus_.Pending(node_)) return true;
+      if (bus_.now_ns() >= deadline) return false;
+      bus_.SleepUntil(std::min(bus_.NextEvent_ns(), deadline));
+    }
+  }
+  std::int64_t now_ns() const noexcept override { return static_cast<std::int64_t>(bus_.now_ns()); }
+  std::int64_t receive_time_ns() const noexcept override { return receive_ns_; }
   std::string Describe() const override {
     std::string text = "emulated-can in-process node " + std::to_string(node_);
     if (filtered_) text += ", " + std::to_string(options_.filters.size()) + " filters";
@@ -57,7 +73,15 @@ class EmulatedCanPort final : public CanPort {
   int node_;
   bool filtered_ = false;
   CanReceiveOptions options_{};
+  std::int64_t receive_ns_ = 0;
 };
+
+void SleepOnMonotonic(std::uint64_t until_ns) {
+  timespec until{};
+  until.tv_sec = static_cast<time_t>(until_ns / 1'000'000'000);
+  until.tv_nsec = static_cast<long>(until_ns % 1'000'000'000);
+  (void)clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr);
+}
 
 }  // namespace
 
@@ -67,8 +91,9 @@ struct EmulatedCanBus::Node {
     std::uint64_t submit_ns = 0;
     std::uint64_t entry = 0;
   };
-  std::vector<TxEntry> tx;   // capacity reserved at AddNode
-  std::vector<CanFrame> rx;  // ring
+  std::vector<TxEntry> tx;             // capacity reserved at AddNode
+  std::vector<CanFrame> rx;            // ring
+  std::vector<std::uint64_t> rx_time;  // bus time each rx entry arrived, same ring
   std::size_t rx_head = 0;
   std::size_t rx_count = 0;
   int tec = 0;
@@ -85,7 +110,8 @@ std::uint64_t EmulatedCanBus::SteadyNow_ns() noexcept {
 EmulatedCanBus::EmulatedCanBus(const EmulatedCanBusConfig& config, Clock clock)
     : config_(config),
       rates_{config.nominal_bitrate_bit_per_s, config.data_bitrate_bit_per_s},
-      clock_(std::move(clock)) {
+      clock_(std::move(clock)),
+      sleeper_(&SleepOnMonotonic) {
   if (!(config.nominal_bitrate_bit_per_s > 0) || !(config.data_bitrate_bit_per_s > 0)) {
     throw Error("emulated CAN bus: bit rates must be > 0 bit/s");
   }
@@ -106,6 +132,7 @@ int EmulatedCanBus::AddNode() {
   Node& n = nodes_.emplace_back();
   n.tx.reserve(static_cast<std::size_t>(config_.tx_queue_frames));
   n.rx.resize(static_cast<std::size_t>(config_.rx_queue_frames));
+  n.rx_time.resize(static_cast<std::size_t>(config_.rx_queue_frames));
   return static_cast<int>(nodes_.size()) - 1;
 }
 
@@ -157,11 +184,32 @@ CanWriteStatus EmulatedCanBus::Submit(int node, const CanFrame& frame) noexcept 
 }
 
 bool EmulatedCanBus::Receive(int node, CanFrame& frame) noexcept {
+  std::uint64_t receive_ns = 0;
+  return Receive(node, frame, receive_ns);
+}
+
+bool EmulatedCanBus::Pending(int node) noexcept {
+  if (node < 0 || node >= node_count()) return false;
+  Run();
+  return nodes_[static_cast<std::size_t>(node)].rx_count > 0;
+}
+
+void EmulatedCanBus::SetSleeper(Sleeper sleeper) {
+  if (!sleeper) throw Error("emulated CAN bus: no sleeper");
+  sleeper_ = std::move(sleeper);
+}
+
+void EmulatedCanBus::SleepUntil(std::uint64_t until_ns) noexcept {
+  if (clock_() < until_ns) sleeper_(until_ns);
+}
+
+bool EmulatedCanBus::Receive(int node, CanFrame& frame, std::uint64_t& receive_ns) noexcept {
   if (node < 0 || node >= node_count()) return false;
   Run();
   Node& n = nodes_[static_cast<std::size_t>(node)];
   if (n.rx_count == 0) return false;
   frame = n.rx[n.rx_head];
+  receive_ns = n.rx_time[n.rx_head];
   n.rx_head = (n.rx_head + 1) % n.rx.size();
   --n.rx_count;
   return true;
@@ -225,30 +273,30 @@ void EmulatedCanBus::Finish() noexcept {
     for (std::size_t i = 0; i < nodes_.size(); ++i) {
       Node& n = nodes_[i];
       if (n.bus_off) continue;
-      DeliverError(static_cast<int>(i), proto::can::kErrProtocol | proto::can::kErrBusError, 0);
+      DeliverError(static_cast<int>(i), proto::can::kErrProtocol | proto::can::kErrBusError, 0, in_flight_.end_ns);
       if (i == sender) continue;
       const int before = n.rec;
       n.rec = std::min(n.rec + 1, kPassiveLevel);
       if (before < kWarningLevel && n.rec >= kWarningLevel) {
-        DeliverError(static_cast<int>(i), proto::can::kErrController, proto::can::kCtrlRxWarning);
+        DeliverError(static_cast<int>(i), proto::can::kErrController, proto::can::kCtrlRxWarning, in_flight_.end_ns);
       }
       if (before < kPassiveLevel && n.rec >= kPassiveLevel) {
-        DeliverError(static_cast<int>(i), proto::can::kErrController, proto::can::kCtrlRxPassive);
+        DeliverError(static_cast<int>(i), proto::can::kErrController, proto::can::kCtrlRxPassive, in_flight_.end_ns);
       }
     }
     if (tx.bus_off) return;  // forced bus-off while the frame was on the wire
     const int before = tx.tec;
     tx.tec += 8;
     if (before < kWarningLevel && tx.tec >= kWarningLevel) {
-      DeliverError(in_flight_.node, proto::can::kErrController, proto::can::kCtrlTxWarning);
+      DeliverError(in_flight_.node, proto::can::kErrController, proto::can::kCtrlTxWarning, in_flight_.end_ns);
     }
     if (before < kPassiveLevel && tx.tec >= kPassiveLevel) {
-      DeliverError(in_flight_.node, proto::can::kErrController, proto::can::kCtrlTxPassive);
+      DeliverError(in_flight_.node, proto::can::kErrController, proto::can::kCtrlTxPassive, in_flight_.end_ns);
     }
     if (tx.tec >= kBusOffLevel) {
       tx.bus_off = true;
       tx.tx.clear();
-      DeliverError(in_flight_.node, proto::can::kErrBusOff, 0);
+      DeliverError(in_flight_.node, proto::can::kErrBusOff, 0, in_flight_.end_ns);
     }
     return;  // the frame stays queued: retransmitted at the next arbitration
   }
@@ -263,27 +311,29 @@ void EmulatedCanBus::Finish() noexcept {
   for (std::size_t i = 0; i < nodes_.size(); ++i) {
     if (i == sender || nodes_[i].bus_off) continue;
     nodes_[i].rec = std::max(0, nodes_[i].rec - 1);
-    Deliver(static_cast<int>(i), in_flight_.frame);
+    Deliver(static_cast<int>(i), in_flight_.frame, in_flight_.end_ns);
   }
 }
 
-void EmulatedCanBus::Deliver(int node, const CanFrame& frame) noexcept {
+void EmulatedCanBus::Deliver(int node, const CanFrame& frame, std::uint64_t time_ns) noexcept {
   Node& n = nodes_[static_cast<std::size_t>(node)];
   if (n.rx_count == n.rx.size()) {
     ++stats_.rx_overflows;
     return;
   }
   n.rx[(n.rx_head + n.rx_count) % n.rx.size()] = frame;
+  n.rx_time[(n.rx_head + n.rx_count) % n.rx.size()] = time_ns;
   ++n.rx_count;
 }
 
-void EmulatedCanBus::DeliverError(int node, std::uint32_t error_class, std::uint8_t controller) noexcept {
+void EmulatedCanBus::DeliverError(int node, std::uint32_t error_class, std::uint8_t controller,
+                                  std::uint64_t time_ns) noexcept {
   CanFrame f{};
   f.error = true;
   f.error_class = error_class;
   f.len = 8;
   f.data[1] = controller;
-  Deliver(node, f);
+  Deliver(node, f, time_ns);
 }
 
 std::uint64_t EmulatedCanBus::NextEvent_ns() const noexcept {
@@ -305,7 +355,7 @@ void EmulatedCanBus::ForceBusOff(int node) noexcept {
   if (n.bus_off) return;
   n.bus_off = true;
   n.tx.clear();
-  DeliverError(node, proto::can::kErrBusOff, 0);
+  DeliverError(node, proto::can::kErrBusOff, 0, clock_());
 }
 
 void EmulatedCanBus::Restart(int node) noexcept {
@@ -315,7 +365,7 @@ void EmulatedCanBus::Restart(int node) noexcept {
   n.bus_off = false;
   n.tec = 0;
   n.rec = 0;
-  DeliverError(node, proto::can::kErrRestarted, 0);
+  DeliverError(node, proto::can::kErrRestarted, 0, clock_());
 }
 
 }  // namespace teleop::transport

@@ -110,13 +110,13 @@ void CanLink::CountAbandoned() noexcept {
   }
 }
 
-void CanLink::OfferCycle(proto::SampleMessage& sample) noexcept {
+bool CanLink::OfferCycle(proto::SampleMessage& sample) noexcept {
   const SequenceTracker& tracker = intake_->tracker();
   const auto counter = static_cast<std::uint8_t>(sample.sequence);
   sample.sequence = tracker.has_any() ? proto::can::ExtendCounter(tracker.newest(), counter) : counter;
   if (intake_->OfferDecoded(sample, counters_) == SequenceTracker::Verdict::kNewer) {
     consecutive_old_ = 0;
-    return;
+    return true;
   }
   // A 4-bit counter cannot tell "8 or more cycles lost" or "the peer restarted" from "stale": after a few stale or
   // repeated cycles in a row, start tracking afresh (the next cycle is accepted).
@@ -125,10 +125,16 @@ void CanLink::OfferCycle(proto::SampleMessage& sample) noexcept {
     consecutive_old_ = 0;
     ++can_.resyncs;
   }
+  return false;
 }
 
-bool CanLink::Poll(proto::SampleMessage& newest) noexcept {
+void CanLink::OpenDrain() noexcept {
+  if (drain_open_) return;
   intake_->Begin();
+  drain_open_ = true;
+}
+
+void CanLink::Drain() noexcept {
   for (int i = 0; i < kMaxFramesPerPoll; ++i) {
     if (!port_->Read(rx_frame_)) break;
     if (rx_frame_.error) {
@@ -140,14 +146,35 @@ bool CanLink::Poll(proto::SampleMessage& newest) noexcept {
     ++can_.frames_by_status[static_cast<std::size_t>(status)];
     CountAbandoned();
     if (status == FrameStatus::kComplete) {
-      OfferCycle(scratch_);
+      if (OfferCycle(scratch_)) {
+        const std::int64_t stamped = port_->receive_time_ns();
+        pending_receive_time_ns_ = stamped > 0 ? stamped : port_->now_ns();
+      }
     } else if (status != FrameStatus::kPending) {
       Reject(ReasonOf(status));
     }
   }
+}
+
+bool CanLink::Poll(proto::SampleMessage& newest) noexcept {
+  OpenDrain();
+  Drain();
   assembler_.Tick();
   CountAbandoned();
-  return intake_->Finish(newest, counters_);
+  drain_open_ = false;
+  if (!intake_->Finish(newest, counters_)) return false;
+  newest_receive_time_ns_ = pending_receive_time_ns_;
+  return true;
+}
+
+bool CanLink::WaitReadable(std::int64_t deadline_ns) noexcept {
+  OpenDrain();
+  for (;;) {
+    Drain();
+    if (intake_->has_pending()) return true;
+    if (port_->now_ns() >= deadline_ns) return false;
+    if (!port_->WaitReadable(deadline_ns)) return false;
+  }
 }
 
 void CanLink::HandleErrorFrame(const proto::can::CanFrame& frame) noexcept {

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <string>
 
+#include "receive_timestamp.hpp"
 #include "teleop/error.hpp"
 #include "teleop/proto/can/frame_layout.hpp"
 
@@ -104,6 +105,9 @@ SocketCanPort::SocketCanPort(const std::string& interface_name, const CanReceive
     if (::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof(err_mask)) < 0) {
       throw Error(Errno("SocketCAN: CAN_RAW_ERR_FILTER"));
     }
+    // The receive time of the frame that completes a cycle is the data age's reference (docs/can.md); without
+    // the stamp the read time stands in for it.
+    (void)detail::EnableReceiveTimestamps(fd_);
     sockaddr_can addr{};
     addr.can_family = AF_CAN;
     addr.can_ifindex = static_cast<int>(index);
@@ -138,8 +142,16 @@ CanWriteStatus SocketCanPort::Write(const CanFrame& frame) noexcept {
 
 bool SocketCanPort::Read(CanFrame& frame) noexcept {
   canfd_frame in{};
-  const ssize_t n = ::read(fd_, &in, sizeof(in));
+  iovec iov{&in, sizeof(in)};
+  detail::ReceiveControl control{};
+  msghdr message{};
+  message.msg_iov = &iov;
+  message.msg_iovlen = 1;
+  message.msg_control = control.data();
+  message.msg_controllen = control.size();
+  const ssize_t n = ::recvmsg(fd_, &message, MSG_DONTWAIT);
   if (n != static_cast<ssize_t>(CAN_MTU) && n != static_cast<ssize_t>(CANFD_MTU)) return false;
+  receive_time_ns_ = detail::MonotonicReceiveTime(message);
   frame = CanFrame{};
   frame.fd = n == static_cast<ssize_t>(CANFD_MTU);
   frame.brs = frame.fd && (in.flags & CANFD_BRS) != 0;
@@ -157,6 +169,8 @@ bool SocketCanPort::Read(CanFrame& frame) noexcept {
   frame.id = in.can_id & (frame.extended ? CAN_EFF_MASK : CAN_SFF_MASK);
   return true;
 }
+
+bool SocketCanPort::WaitReadable(std::int64_t deadline_ns) noexcept { return detail::WaitFdReadable(fd_, deadline_ns); }
 
 std::string SocketCanPort::Describe() const {
   return "socketcan " + interface_name_ + (fd_frames_ ? " (FD frames)" : "") + ", " + std::to_string(filter_count_) +

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <utility>
 
+#include "receive_timestamp.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::transport {
@@ -47,6 +48,7 @@ UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double
     ::close(socket_);
     throw Error("emulated-can: connect to " + endpoint_ + ": " + reason);
   }
+  (void)detail::EnableReceiveTimestamps(socket_);  // else the read time stands in for the receive time
   // Attach: hello until welcome, for up to timeout_ms.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double, std::milli>(timeout_ms);
   bus_datagram::Message hello{};
@@ -102,12 +104,20 @@ CanWriteStatus UdpCanBusPort::Write(const proto::can::CanFrame& frame) noexcept 
 bool UdpCanBusPort::Read(proto::can::CanFrame& frame) noexcept {
   std::array<std::uint8_t, bus_datagram::kMaxSize + 1> in{};
   for (;;) {
-    const ssize_t n = ::recv(socket_, in.data(), in.size(), 0);
+    iovec iov{in.data(), in.size()};
+    detail::ReceiveControl control{};
+    msghdr message{};
+    message.msg_iov = &iov;
+    message.msg_iovlen = 1;
+    message.msg_control = control.data();
+    message.msg_controllen = control.size();
+    const ssize_t n = ::recvmsg(socket_, &message, MSG_DONTWAIT);
     if (n < 0) return false;  // EAGAIN, or ECONNREFUSED for an earlier send (the daemon is gone)
     bus_datagram::Message m{};
     if (bus_datagram::Decode(std::span<const std::uint8_t>(in.data(), static_cast<std::size_t>(n)), m) &&
         m.type == bus_datagram::Type::kFrame && Accepts(options_, m.frame)) {
       frame = m.frame;
+      receive_time_ns_ = detail::MonotonicReceiveTime(message);
       return true;
     }
     // Late welcomes, malformed datagrams and frames the filters do not pass: skip.
@@ -120,6 +130,10 @@ bool UdpCanBusPort::SendControl(bus_datagram::Action action, std::uint32_t argum
   m.action = action;
   m.argument = argument;
   return SendMessage(socket_, m);
+}
+
+bool UdpCanBusPort::WaitReadable(std::int64_t deadline_ns) noexcept {
+  return detail::WaitFdReadable(socket_, deadline_ns);
 }
 
 std::string UdpCanBusPort::Describe() const { return fmt::format("emulated-can {} node {}", endpoint_, node_); }

@@ -46,7 +46,8 @@ struct StabilityConfig {
   int peer_delay_samples = 1;  ///< 1: peer data one sample old, as over a link; 0: the paper's model.
   /// With peer_delay_samples 1 and sync.mode triggered: the slave's law sees the master's sample this fraction of
   /// a period late (the master still sees the slave's one sample late). Absent: derived from the mode
-  /// (StabilityModel: min(1, kTriggeredDataAge_s · rate_hz) when triggered; unused when free).
+  /// (StabilityModel: min(1, TriggeredDataAge_s(config) · rate_hz) when triggered, the CAN frames included; unused
+  /// when free).
   std::optional<double> peer_delay_fraction;
   bool unilateral = false;   ///< Analyse with the master actuator rendering nothing of the slave.
   std::string human_bounds;  ///< Operator bounds CSV; empty: the built-in finger table. Relative: to the config.

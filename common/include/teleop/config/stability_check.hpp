@@ -27,12 +27,19 @@ std::string StabilityNotApplicable(const ProcessConfig& config);
 /// instead.
 inline constexpr double kTriggeredDataAge_s = 100e-6;
 
+/// The data age a triggered slave of this config is assumed to see when `stability.peer_delay_fraction` is absent
+/// (s): kTriggeredDataAge_s over UDP; over CAN (`can`, `emulated-can`) the master's sample is whole only when its
+/// last frame has been sent, so it adds the master's frames of one cycle on the wire at the configured bit rates
+/// (worst-case stuffing, proto::can::ComputeBusLoad) and one frame of the slave's that may hold the bus when the
+/// master's first frame is queued (arbitration is non-preemptive): docs/can.md, "Phase-locked cycles over CAN".
+double TriggeredDataAge_s(const ProcessConfig& config);
+
 /// The sampled teleoperator seen along DOF `axis` of this process: its law gains for that DOF, its fixture
 /// stiffness (0 when no plane's normal has a component on `axis`), rate, velocity filter, its device (stability.device,
 /// else the backend's registered model, device::DeviceModel), and the peer of `config.stability.peer` (defaults:
 /// the paper's device of the other role, the same gains, no fixture), with `stability.peer_delay_samples` and
 /// `stability.unilateral`; with sync.mode triggered, the slave's peer delay is `stability.peer_delay_fraction` (absent:
-/// kTriggeredDataAge_s · rate_hz, at most 1). Throws teleop::Error when `axis` is outside 0..dof-1, the model is
+/// TriggeredDataAge_s(config) · rate_hz, at most 1). Throws teleop::Error when `axis` is outside 0..dof-1, the model is
 /// invalid, or the check does not apply (StabilityNotApplicable).
 analysis::SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis);
 

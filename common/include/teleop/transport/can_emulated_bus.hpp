@@ -35,6 +35,9 @@ struct EmulatedCanBusConfig {
 class EmulatedCanBus {
  public:
   using Clock = std::function<std::uint64_t()>;
+  /// Blocks until the bus clock reads at least `until_ns` (a port's WaitReadable sleeps in it). The default
+  /// sleeps on CLOCK_MONOTONIC, the steady clock's; a test on its own clock sets one that advances that clock.
+  using Sleeper = std::function<void(std::uint64_t until_ns)>;
   /// steady_clock in ns.
   static std::uint64_t SteadyNow_ns() noexcept;
 
@@ -53,6 +56,14 @@ class EmulatedCanBus {
 
   [[nodiscard]] CanWriteStatus Submit(int node, const proto::can::CanFrame& frame) noexcept;
   [[nodiscard]] bool Receive(int node, proto::can::CanFrame& frame) noexcept;
+  /// The same, with the bus time at which the frame reached the node (the end of its transmission).
+  [[nodiscard]] bool Receive(int node, proto::can::CanFrame& frame, std::uint64_t& receive_ns) noexcept;
+  /// Advances the bus; true when `node` has a frame to read.
+  [[nodiscard]] bool Pending(int node) noexcept;
+  /// Replaces the sleeper (set-up only; see Sleeper).
+  void SetSleeper(Sleeper sleeper);
+  /// Sleeps with the sleeper until the bus clock reads `until_ns` (no-op when it already does).
+  void SleepUntil(std::uint64_t until_ns) noexcept;
   /// Advances the bus to clock(): finishes every transmission that ended by then.
   void Run() noexcept;
   /// When the next transmission in progress or due ends (ns on the bus clock); UINT64_MAX when idle.
@@ -90,14 +101,15 @@ class EmulatedCanBus {
     std::uint64_t end_ns = 0;
     proto::can::CanFrame frame{};
   };
-  void Deliver(int node, const proto::can::CanFrame& frame) noexcept;
-  void DeliverError(int node, std::uint32_t error_class, std::uint8_t controller) noexcept;
+  void Deliver(int node, const proto::can::CanFrame& frame, std::uint64_t time_ns) noexcept;
+  void DeliverError(int node, std::uint32_t error_class, std::uint8_t controller, std::uint64_t time_ns) noexcept;
   void Finish() noexcept;
   bool StartNext(std::uint64_t now) noexcept;
 
   EmulatedCanBusConfig config_;
   proto::can::CanBitrates rates_;
   Clock clock_;
+  Sleeper sleeper_;
   std::vector<Node> nodes_;
   InFlight in_flight_{};
   std::uint64_t bus_free_ns_ = 0;

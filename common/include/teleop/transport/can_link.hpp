@@ -68,6 +68,18 @@ class CanLink final : public Link {
 
   [[nodiscard]] bool Send(const proto::SampleMessage& message) noexcept override;
   [[nodiscard]] bool Poll(proto::SampleMessage& newest) noexcept override;
+  /// The SYNC-like trigger of a triggered slave (docs/can.md, "Phase-locked cycles over CAN"): true as soon as
+  /// the peer's *complete* sample of a cycle newer than any before has arrived — every frame of the cycle, which
+  /// reassembly already requires, so the cycle's last frame plays CiA 301's SYNC role and no extra frame is sent.
+  /// Reads and reassembles frames as they come (the port's WaitReadable between them) and keeps the completed
+  /// sample for the next Poll(); a partial cycle, a rejected frame, a stale or repeated cycle and error frames do
+  /// not fire it. False when the port's clock reaches `deadline_ns` first (a deadline already past: one look
+  /// without waiting). Bounded: a flood of frames is read at most kMaxFramesPerPoll at a time and the deadline is
+  /// checked after every batch. Real-time safe.
+  [[nodiscard]] bool WaitReadable(std::int64_t deadline_ns) noexcept override;
+  /// When the frame that completed the sample the last successful Poll() returned was received (the port's
+  /// receive_time_ns(), e.g. the kernel's timestamp; the read time where the port has none).
+  std::int64_t newest_receive_time_ns() const noexcept override { return newest_receive_time_ns_; }
   const LinkCounters& counters() const noexcept override { return counters_; }
   std::string Describe() const override;
 
@@ -82,7 +94,11 @@ class CanLink final : public Link {
  private:
   void HandleErrorFrame(const proto::can::CanFrame& frame) noexcept;
   void Reject(proto::DecodeStatus reason) noexcept;
-  void OfferCycle(proto::SampleMessage& sample) noexcept;
+  /// True when the cycle became the newest sample of the drain.
+  bool OfferCycle(proto::SampleMessage& sample) noexcept;
+  /// Reads up to kMaxFramesPerPoll frames into the assembler and the open drain.
+  void Drain() noexcept;
+  void OpenDrain() noexcept;
   void CountAbandoned() noexcept;
 
   proto::can::CanWireFormat format_;
@@ -97,6 +113,10 @@ class CanLink final : public Link {
   proto::can::CanFrame rx_frame_{};
   proto::SampleMessage scratch_{};
   bool bus_off_ = false;
+  /// A drain (intake Begin .. Finish) is open: WaitReadable has read frames that the next Poll hands back.
+  bool drain_open_ = false;
+  std::int64_t pending_receive_time_ns_ = 0;
+  std::int64_t newest_receive_time_ns_ = 0;
   int consecutive_old_ = 0;
   std::uint64_t abandoned_seen_ = 0;
 };

@@ -31,6 +31,12 @@ class CandumpLogPort final : public CanPort {
 
   [[nodiscard]] CanWriteStatus Write(const proto::can::CanFrame& frame) noexcept override;
   [[nodiscard]] bool Read(proto::can::CanFrame& frame) noexcept override;
+  /// The wrapped port's (the log does not delay or stamp what the link sees).
+  [[nodiscard]] bool WaitReadable(std::int64_t deadline_ns) noexcept override {
+    return inner_->WaitReadable(deadline_ns);
+  }
+  std::int64_t now_ns() const noexcept override { return inner_->now_ns(); }
+  std::int64_t receive_time_ns() const noexcept override { return inner_->receive_time_ns(); }
   std::string Describe() const override;
   /// "candump log PATH: N frames logged, M dropped (ring full), K write errors". Logged: handed to the writer (all
   /// of them are in the file once the port is destroyed, less any write errors); the writer may still be behind.

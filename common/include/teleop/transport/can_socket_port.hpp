@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 #include "teleop/proto/can/wire_format.hpp"
@@ -27,10 +28,15 @@ class SocketCanPort final : public CanPort {
 
   [[nodiscard]] CanWriteStatus Write(const proto::can::CanFrame& frame) noexcept override;
   [[nodiscard]] bool Read(proto::can::CanFrame& frame) noexcept override;
+  /// ppoll on the socket (POLLIN) until the deadline (CLOCK_MONOTONIC).
+  [[nodiscard]] bool WaitReadable(std::int64_t deadline_ns) noexcept override;
+  /// The kernel's receive timestamp of the last frame read (SO_TIMESTAMPNS), on CLOCK_MONOTONIC.
+  std::int64_t receive_time_ns() const noexcept override { return receive_time_ns_; }
   std::string Describe() const override;
 
  private:
   int fd_ = -1;
+  std::int64_t receive_time_ns_ = 0;
   bool fd_frames_ = false;
   std::size_t filter_count_ = 0;
   std::string interface_name_;

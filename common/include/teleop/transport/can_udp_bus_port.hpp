@@ -21,6 +21,11 @@ class UdpCanBusPort final : public CanPort {
 
   [[nodiscard]] CanWriteStatus Write(const proto::can::CanFrame& frame) noexcept override;
   [[nodiscard]] bool Read(proto::can::CanFrame& frame) noexcept override;
+  /// ppoll on the node's UDP socket until the deadline (CLOCK_MONOTONIC).
+  [[nodiscard]] bool WaitReadable(std::int64_t deadline_ns) noexcept override;
+  /// The kernel's receive timestamp (SO_TIMESTAMPNS) of the daemon's datagram that carried the last frame read:
+  /// the end of the frame's transmission on the emulated bus plus the loopback hop, on CLOCK_MONOTONIC.
+  std::int64_t receive_time_ns() const noexcept override { return receive_time_ns_; }
   std::string Describe() const override;
 
   int node() const noexcept { return node_; }
@@ -30,6 +35,7 @@ class UdpCanBusPort final : public CanPort {
  private:
   int socket_ = -1;
   int node_ = -1;
+  std::int64_t receive_time_ns_ = 0;
   CanReceiveOptions options_;
   std::string endpoint_;
 };

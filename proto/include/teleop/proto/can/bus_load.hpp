@@ -38,8 +38,13 @@ struct BusLoad {
   int payload_bits = 0;              ///< PayloadBits(dof), per direction.
   int minimum_bits_per_cycle = 0;    ///< Cheapest frames holding the payload (same ID format, rates, stuffing).
   double minimum_time_per_cycle_s = 0;
-  double overhead = 0;  ///< wire_time / minimum_time (≥ 1).
-  double load = 0;      ///< Fraction of bus time, both directions: 2·wire_time·rate.
+  double overhead = 0;         ///< wire_time / minimum_time (≥ 1).
+  double load = 0;             ///< Fraction of bus time, both directions: 2·wire_time·rate.
+  double longest_frame_s = 0;  ///< Per direction: the longest frame of a cycle.
+  /// Worst case from queueing a cycle until the peer holds all of it: one frame of the other direction already on
+  /// the bus (the longest of the same layout; arbitration does not preempt it) plus this cycle's frames. What a
+  /// triggered slave waits on the bus for the master's sample (docs/can.md, "Phase-locked cycles over CAN").
+  double cycle_complete_s = 0;
 };
 
 /// Computes the budget for `format` at `rate_hz`. Valid for any dof ≥ 1 (beyond kMaxWireDof it extrapolates the
