@@ -62,6 +62,19 @@ TEST(TriggerSchedule, ATimeoutRunsTheCycleAndKeepsTheNominalCadence) {
   EXPECT_EQ(s.expected_ns(), 9 * kPeriod + 10'000);
 }
 
+TEST(TriggerSchedule, LateWakeUpsOnTimeoutsDoNotSlowASilentPeersCadence) {
+  TriggerSchedule s(Config());
+  s.Start(0);
+  // No peer; every timed-out wait returns 80 µs past its deadline (a VM's timer latency). The deadlines stay on the
+  // grid one period apart: 100 cycles take 100 periods, not 100 × (period + 80 µs).
+  for (int k = 0; k < 100; ++k) {
+    const std::int64_t d = s.deadline_ns();
+    EXPECT_EQ(d, (1 + k) * kPeriod + kMargin) << "cycle " << k;
+    EXPECT_EQ(s.CycleStarted(d + 80'000, false), 80'000);
+  }
+  EXPECT_EQ(s.timeouts(), 100u);
+}
+
 TEST(TriggerSchedule, AfterAStallTheNextDeadlineIsNotInThePast) {
   TriggerSchedule s(Config());
   s.Start(0);

@@ -30,9 +30,15 @@ std::int64_t TriggerSchedule::CycleStarted(std::int64_t now_ns, bool triggered) 
   } else {
     ++timeouts_;
     off_schedule = std::max<std::int64_t>(now_ns - deadline_ns(), 0);
-    // Keep the peer's cadence, but never expect the next sample so early that its deadline is already past (after
-    // a long stall): free-running at the nominal period, offset by the margin.
-    expected_ns_ = std::max(expected_ns_ + config_.period_ns, now_ns + config_.period_ns - config_.timeout_margin_ns);
+    // Keep the peer's cadence on its grid: a wake-up that overshoots the deadline (the timer's latency, tens of µs
+    // on a VM) must not push every later deadline by as much, or a silent peer's process runs at 1 / (T + overshoot).
+    // Only when the next deadline would come sooner than the minimum spacing (a stall of about half a period or
+    // more) does the grid restart from now: free-running at the nominal period, offset by the margin, no burst of
+    // cycles to catch up.
+    expected_ns_ += config_.period_ns;
+    if (deadline_ns() < now_ns + config_.min_spacing_ns) {
+      expected_ns_ = now_ns + config_.period_ns - config_.timeout_margin_ns;
+    }
   }
   last_start_ns_ = now_ns;
   return off_schedule;
