@@ -67,9 +67,20 @@ def main():
       "`/dev/cpu_dma_latency` held at 0 for the runs (`realtime.cpu_dma_latency_us: 0` in the processes' configs; "
       "the loop bench and cyclictest hold it themselves). `off` rows: normal scheduling, no pinning, no latency request (cyclictest "
       "`--laptop -p 0`).")
-    w("**This run was made on a shared VM while other builds were running** (see the load average above): the "
-      "timing figures are noisy and pessimistic; the computed figures (limits, CAN bits, allocations) are not "
-      "affected.")
+    # The machine's load when the run started (1-minute average beyond what the bench itself adds): above about one
+    # busy CPU, other work competed with the processes and the timing rows say more about it than about the code.
+    try:
+        load_1min = float(str(m.get("loadavg_start", "")).split()[0])
+    except (IndexError, ValueError):
+        load_1min = None
+    if load_1min is None:
+        w("The load of the machine at the start was not recorded.")
+    elif load_1min > 1.5:
+        w(f"**This run was made on a busy machine** (1-minute load average {load_1min:.2f} at the start): the timing "
+          "figures are noisy and pessimistic; the computed figures (limits, CAN bits, allocations) are not affected.")
+    else:
+        w(f"The machine was otherwise idle when the run started (1-minute load average {load_1min:.2f}); a VM's timing "
+          "still moves with its host's load from run to run: compare ratios within one run.")
     loads = [f"`{mode}` runs {data[f'mode-{mode}']['loadavg']}" for mode in ("off", "rt")
              if (data.get(f"mode-{mode}") or {}).get("loadavg")]
     if loads:
@@ -403,7 +414,8 @@ def main():
     w("")
     w("- A software PLL on the kernel receive timestamps (the alternative to the triggered cycle): not built; the "
       "triggered cycle already starts within the wake-up latency of the master's sample.")
-    w("- Busy-poll and spin receive are not config keys yet (`UdpLinkConfig::busy_poll_us`, `spin_poll_us`).")
+    w("- `link.busy_poll_us` (`SO_BUSY_POLL`) is not measured: it pays only on a NIC with a NAPI queue, and these runs "
+      "are on loopback. The spin receive that pays here is `sync.spin_us` (the `triggered-spin` rows).")
     w("")
     with open(out_md, "w") as f:
         f.write("\n".join(lines))

@@ -77,6 +77,9 @@ TEST(CanLinkConfig, ErrorsNameFileLineAndKey) {
   EXPECT_NE(ErrorOf(Config("  transport: can\n  bind: \"127.0.0.1:1\"\n  can: {interface: vcan0}\n"))
                 .find("only for transport udp"),
             std::string::npos);
+  EXPECT_NE(ErrorOf(Config("  transport: can\n  busy_poll_us: 50\n  can: {interface: vcan0}\n"))
+                .find("key 'link.busy_poll_us': only for transport udp"),
+            std::string::npos);
   EXPECT_NE(ErrorOf(Config("  transport: can\n  can: {interface: vcan0, master_to_slave_base_id: 0x7FF}\n"))
                 .find("master_to_slave_base_id"),
             std::string::npos);

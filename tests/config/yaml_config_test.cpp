@@ -265,6 +265,15 @@ TEST(YamlConfig, SyncModeAndItsTimeoutMargin) {
               "sync.timeout_margin_us", "1..1000");
 }
 
+TEST(YamlConfig, BusyPollIsAUdpLinkKey) {
+  EXPECT_EQ(ParseProcessConfig(kBase, "test.yaml").link.udp.busy_poll_us, 0) << "off by default";
+  EXPECT_EQ(ParseProcessConfig(Replace(kBase, "  timeout_ms: 50", "  timeout_ms: 50\n  busy_poll_us: 50"), "test.yaml")
+                .link.udp.busy_poll_us,
+            50);
+  ExpectError(Replace(kBase, "  timeout_ms: 50", "  timeout_ms: 50\n  busy_poll_us: -1"), "-1", "link.busy_poll_us",
+              "0..100000");
+}
+
 TEST(YamlConfig, RealtimeHoldsCpuDmaLatency) {
   EXPECT_EQ(ParseProcessConfig(kBase, "test.yaml").loop.cpu_dma_latency_us, -1) << "left alone by default";
   const ProcessConfig c = ParseProcessConfig(

@@ -433,6 +433,10 @@ TEST(UdpLinkReceiveOptions, SpinPollAndBusyPollAreSelectableInTheConfig) {
   slave.SetPeer("127.0.0.1", master.local_port());
   // SO_BUSY_POLL is applied where permitted (CAP_NET_ADMIN above net.core.busy_read); either way the link works.
   SCOPED_TRACE(slave.busy_poll_applied() ? "busy poll applied" : "busy poll refused");
+  EXPECT_THAT(
+      slave.Describe(),
+      ::testing::HasSubstr(slave.busy_poll_applied() ? "busy poll 50 us)" : "busy poll 50 us REFUSED by the kernel)"));
+  EXPECT_THAT(master.Describe(), ::testing::Not(::testing::HasSubstr("busy poll")));
   proto::SampleMessage got;
   const std::int64_t start = MonotonicNs();
   EXPECT_FALSE(slave.Poll(got));

@@ -97,7 +97,7 @@ void ParseCan(const Field& f, bool emulated, transport::CanLinkConfig& can) {
 
 void ParseLink(const Field& f, Role role, double rate_hz, int dof, transport::LinkConfig& link) {
   const Map map(f, {"transport", "bind", "peer", "timeout_ms", "accept_only_peer_address", "receive_buffer_bytes",
-                    "can", "emulate", "security"});
+                    "busy_poll_us", "can", "emulate", "security"});
   if (auto v = map.Optional("transport")) {
     link.transport = v->AsString();
     if (link.transport != "udp" && link.transport != "can" && link.transport != "emulated-can") {
@@ -123,7 +123,7 @@ void ParseLink(const Field& f, Role role, double rate_hz, int dof, transport::Li
     link.udp.peer_address = peer.address;
     link.udp.peer_port = peer.port;
   } else {
-    for (const char* udp_only : {"bind", "peer", "accept_only_peer_address", "receive_buffer_bytes"}) {
+    for (const char* udp_only : {"bind", "peer", "accept_only_peer_address", "receive_buffer_bytes", "busy_poll_us"}) {
       if (auto v = map.Optional(udp_only)) v->Fail("only for transport udp");
     }
     const bool emulated = link.transport == "emulated-can";
@@ -148,6 +148,7 @@ void ParseLink(const Field& f, Role role, double rate_hz, int dof, transport::Li
   if (auto v = map.Optional("receive_buffer_bytes")) {
     link.udp.receive_buffer_bytes = IntInRange(*v, 0, 1 << 30);
   }
+  if (auto v = map.Optional("busy_poll_us")) link.udp.busy_poll_us = IntInRange(*v, 0, 100'000);
   if (auto v = map.Optional("emulate")) ParseLinkEmulate(*v, rate_hz, link.emulate);
 }
 

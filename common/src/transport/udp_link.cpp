@@ -156,6 +156,7 @@ UdpLink::UdpLink(const UdpLinkConfig& config) : impl_(std::make_unique<Impl>(con
     busy_poll_applied_ = setsockopt(impl_->socket.native_handle(), SOL_SOCKET, SO_BUSY_POLL, &config.busy_poll_us,
                                     sizeof config.busy_poll_us) == 0;
   }
+  busy_poll_us_ = config.busy_poll_us;
   spin_poll_ns_ = static_cast<std::int64_t>(config.spin_poll_us) * 1000;
   impl_->local = impl_->socket.local_endpoint(ec);
   if (ec) throw Error("UDP link: cannot read the local address of " + where + ": " + ec.message());
@@ -345,7 +346,10 @@ std::string UdpLink::Describe() const {
   std::string text = "udp " + ToString(impl_->local) + " -> " + (impl_->has_peer ? ToString(impl_->peer) : "?");
   text += std::string(" (expects ") + proto::ToString(impl_->intake.expected_peer()) +
           (impl_->accept_only_peer ? ", peer address only" : ", any address") +
-          (impl_->session ? ", authenticated: psk)" : ", INSECURE: no authentication)");
+          (impl_->session ? ", authenticated: psk" : ", INSECURE: no authentication") +
+          (busy_poll_us_ == 0   ? ")"
+           : busy_poll_applied_ ? ", busy poll " + std::to_string(busy_poll_us_) + " us)"
+                                : ", busy poll " + std::to_string(busy_poll_us_) + " us REFUSED by the kernel)");
   return text;
 }
 

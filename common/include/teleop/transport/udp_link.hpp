@@ -94,6 +94,7 @@ class UdpLink final : public Link {
   std::int64_t newest_receive_time_ns_ = 0;
   bool newest_from_kernel_ = false;
   bool busy_poll_applied_ = false;
+  int busy_poll_us_ = 0;  ///< As configured (Describe() says whether the kernel took it).
   std::int64_t spin_poll_ns_ = 0;
 };
 
