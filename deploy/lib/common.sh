@@ -63,11 +63,15 @@ teleop::build() {
   cmake --build "${TELEOP_BUILD}" --parallel "$(nproc)" "$@"
 }
 
-# Configures (once) the `debug` preset (ASan + UBSan) into build-debug/ and builds only the GoogleTest executables.
+# Configures (once) the `debug` preset (clang, ASan + UBSan) into build-debug/ and builds only the GoogleTest
+# executables. A build-debug/ configured earlier with another compiler (the preset used GCC before) is configured
+# afresh.
 teleop::build_sanitized() {
   cd "${TELEOP_ROOT}"
   if [[ ! -f "${TELEOP_BUILD_SANITIZED}/build.ninja" ]]; then
     cmake --preset debug >/dev/null
+  elif ! grep -q '^CMAKE_CXX_COMPILER:[A-Z]*=.*clang++' "${TELEOP_BUILD_SANITIZED}/CMakeCache.txt"; then
+    cmake --preset debug --fresh >/dev/null
   fi
   cmake --build "${TELEOP_BUILD_SANITIZED}" --parallel "$(nproc)" --target teleop_unit_tests
 }

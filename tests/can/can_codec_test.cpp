@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -118,7 +119,7 @@ TEST(CanCodec, SaturatesInsteadOfWrapping) {
 TEST(CanCodec, NonFiniteFieldDropsTheWholeCycle) {
   SampleMessage m = GoldenSample();
   m.force_N[1] = std::nan("");
-  m.velocity_m_per_s[2] = INFINITY;
+  m.velocity_m_per_s[2] = std::numeric_limits<double>::infinity();
   EncodeResult r{};
   const auto frames = Encode(m, Format(3), &r);
   EXPECT_EQ(r.non_finite, 2);

@@ -98,7 +98,7 @@ TEST(CanForceSensorConfig, RefusesBadValues) {
   bad([](CanForceSensorConfig& c) { c.axes = 0; });
   bad([](CanForceSensorConfig& c) { c.axes = 5; });
   bad([](CanForceSensorConfig& c) { c.scale_N_per_count = 0.0; });
-  bad([](CanForceSensorConfig& c) { c.scale_N_per_count = NAN; });
+  bad([](CanForceSensorConfig& c) { c.scale_N_per_count = std::nan(""); });
   bad([](CanForceSensorConfig& c) { c.stale_after_ms = 0.0; });
   CanForceSensorConfig ok;
   EXPECT_NO_THROW(ok.Validate());

@@ -83,8 +83,8 @@ TEST(LinkWatchdog, ResetGoesBackToWaitingAndKeepsCounters) {
 TEST(LinkWatchdog, RejectsBadTimeout) {
   EXPECT_THROW(LinkWatchdog(0.0), Error);
   EXPECT_THROW(LinkWatchdog(-0.05), Error);
-  EXPECT_THROW(LinkWatchdog(std::numeric_limits<double>::quiet_NaN()), Error);
-  EXPECT_THROW(LinkWatchdog(std::numeric_limits<double>::infinity()), Error);
+  EXPECT_THROW(LinkWatchdog{std::numeric_limits<double>::quiet_NaN()}, Error);
+  EXPECT_THROW(LinkWatchdog{std::numeric_limits<double>::infinity()}, Error);
 }
 
 TEST(LinkWatchdog, DoesNotAllocate) {

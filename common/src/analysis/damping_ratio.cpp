@@ -1,9 +1,15 @@
 #include "teleop/analysis/damping_ratio.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <limits>
+
+#include "teleop/analysis/state_eigen_solver.hpp"
+
+// The one instantiation of the state matrix's eigen solver (state_eigen_solver.hpp): compute(), where the work is.
+template Eigen::EigenSolver<teleop::analysis::StateMatrix>&
+Eigen::EigenSolver<teleop::analysis::StateMatrix>::compute<teleop::analysis::StateMatrix>(
+    const Eigen::EigenBase<teleop::analysis::StateMatrix>& matrix, bool computeEigenvectors);
 
 namespace teleop::analysis {
 namespace {

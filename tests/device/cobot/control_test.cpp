@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "teleop/device/cobot/scripted_operator.hpp"
@@ -109,7 +110,7 @@ double LateOffset_m(double speed_m_per_s, double tau_s, double lookahead_m) {
   for (int k = 0; k < steps; ++k) {
     const CobotSample s = cobot.Step(op.Step(cobot.state(), kPeriod_s), kPeriod_s);
     const double p = std::abs(wall.Evaluate(s.position_m).penetration_m);
-    if (!std::isfinite(p) || p > 0.2) return INFINITY;
+    if (!std::isfinite(p) || p > 0.2) return std::numeric_limits<double>::infinity();
     if (k >= 3 * steps / 4) late = std::max(late, p);
   }
   return late;

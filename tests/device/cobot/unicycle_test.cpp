@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 
@@ -94,8 +95,8 @@ TEST(CobotUnicycle, NonFiniteInputsKeepTheStateFinite) {
   UnicyclePlantState s;
   UnicyclePlantInput in;
   in.handle_force_N = {NAN, 1.0};
-  in.steering_torque_Nm = INFINITY;
-  in.brake_command = NAN;
+  in.steering_torque_Nm = std::numeric_limits<double>::infinity();
+  in.brake_command = std::nan("");
   Step(c, in, kPeriod_s, s);
   EXPECT_TRUE(s.position_m.allFinite());
   EXPECT_TRUE(std::isfinite(s.heading_rad));
@@ -107,7 +108,7 @@ TEST(CobotUnicycle, BadConfigurationsAreRejected) {
   c.cart_mass_kg = 0.0;
   EXPECT_THROW(Validate(c), Error);
   c = {};
-  c.steering_inertia_kgm2 = NAN;
+  c.steering_inertia_kgm2 = std::nan("");
   EXPECT_THROW(Validate(c), Error);
   CobotSensorConfig sensors;
   sensors.wheel_radius_m = -1.0;

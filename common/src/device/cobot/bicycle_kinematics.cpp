@@ -1,7 +1,11 @@
 #include "teleop/device/cobot/bicycle_kinematics.hpp"
 
-#include <Eigen/SVD>
 #include <cmath>
+
+#include "rolling_svd.hpp"
+
+// The one instantiation of the rolling-constraint SVD (rolling_svd.hpp).
+template class Eigen::JacobiSVD<Eigen::Matrix<double, 2, 3>>;
 
 namespace teleop::device::cobot {
 

@@ -1,10 +1,10 @@
 #include "teleop/device/cobot/bicycle_plant.hpp"
 
-#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <string>
 
+#include "rolling_svd.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device::cobot {
