@@ -20,6 +20,7 @@ import subprocess
 import sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 import teleop_keys  # noqa: E402  (tests/test_utilities)
+from teleop_process import free_udp_port  # noqa: E402
 
 
 class Failure(Exception):
@@ -30,12 +31,6 @@ def check(cond, what):
     if not cond:
         raise Failure(what)
     print(f"  ok: {what}")
-
-
-def free_udp_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def write_config(src, dst, ports, replacements=()):

@@ -45,11 +45,21 @@ def run_test(main):
     sys.exit(rc)
 
 
-def free_udp_port(host="127.0.0.1"):
-    """A UDP port nobody uses on `host` right now (the kernel's choice)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind((host, 0))
-        return s.getsockname()[1]
+_HANDED_OUT = set()
+
+
+def free_udp_port(host="127.0.0.1", kind=socket.SOCK_DGRAM):
+    """A port nobody uses on `host` right now (the kernel's choice), never one this process was given before: the
+    kernel may offer a just-closed port again, and two processes told to bind and peer on the same port refuse to
+    start (seen when integration.link_emulation asked for 30 ports at once)."""
+    for _ in range(1000):
+        with socket.socket(socket.AF_INET, kind) as s:
+            s.bind((host, 0))
+            port = s.getsockname()[1]
+        if port not in _HANDED_OUT:
+            _HANDED_OUT.add(port)
+            return port
+    raise RuntimeError("no fresh port after 1000 tries")
 
 
 def run(cmd, timeout_s=60, **kwargs):

@@ -35,12 +35,11 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "test_utilities"))
 import teleop_keys  # noqa: E402  (link.security key_file: teleop.key, beside each config)
+import teleop_process  # noqa: E402  (free ports, never the same one twice)
 
 
 def free_port(kind=socket.SOCK_DGRAM):
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+    return teleop_process.free_udp_port(kind=kind)
 
 
 class Lines:
