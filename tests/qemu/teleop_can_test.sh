@@ -93,8 +93,11 @@ print(f"slave: sync {slave['sync']}, {slave['triggered_cycles']} cycles triggere
 bad = []
 if slave["sync"] != "triggered":
     bad.append("slave sync is not triggered")
-if slave["triggered_cycles"] <= slave["trigger_timeouts"]:
-    bad.append("fewer cycles triggered than timed out")
+# Against the timeouts while coupled: before the master starts, and whenever the emulated guest cannot keep the
+# master at its rate (it ran at about half of it in a fresh-clone run), the slave times out by design and keeps its
+# own nominal cadence; those timeouts say nothing about the trigger.
+if slave["triggered_cycles"] <= slave["trigger_timeouts_coupled"]:
+    bad.append("fewer cycles triggered than timed out while coupled")
 total = sum(ages)
 if total == 0 or 2 * ages[0] < total:
     bad.append("the median age of the master's sample is not 0 cycles")
