@@ -13,7 +13,8 @@ cmake --build "${TELEOP_BUILD}" --target check-format
 if [[ "${CI:-}" == "true" || "${TELEOP_CHECK_TIDY:-0}" == "1" ]]; then
   cmake --build "${TELEOP_BUILD}" --target check-tidy
 fi
-(cd "${TELEOP_BUILD}" && ctest --output-on-failure --parallel "$(nproc)" --timeout 600 "$@")
+# A failed test's output lands mid-log; teleop::ctest prints the lines that say why once more at the end.
+teleop::ctest "${TELEOP_BUILD}" --output-on-failure --parallel "$(nproc)" --timeout 600 "$@"
 
 # Sanitizer pass: the `debug` preset (clang, AddressSanitizer + UndefinedBehaviorSanitizer, -g1 -O1) builds every
 # GoogleTest executable (unit, closed-loop and node tests; target teleop_unit_tests) into build-debug/ and runs them
@@ -23,5 +24,5 @@ if [[ "${TELEOP_SANITIZE:-1}" != "0" ]]; then
   teleop::build_sanitized
   export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:strict_string_checks=1}"
   export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
-  (cd "${TELEOP_BUILD_SANITIZED}" && ctest --output-on-failure --parallel "$(nproc)" --timeout 900 -L unit "$@")
+  teleop::ctest "${TELEOP_BUILD_SANITIZED}" --output-on-failure --parallel "$(nproc)" --timeout 900 -L unit "$@"
 fi

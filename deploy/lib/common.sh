@@ -75,3 +75,16 @@ teleop::build_sanitized() {
   fi
   cmake --build "${TELEOP_BUILD_SANITIZED}" --parallel "$(nproc)" --target teleop_unit_tests
 }
+
+# Runs ctest in a build directory with the given arguments. When a test fails, ctest's output has it mid-log (where
+# the test ended); deploy/lib/failure_digest.py then prints, last, the lines that say why each failed test failed.
+teleop::ctest() {
+  local dir="$1"
+  shift
+  local rc=0
+  (cd "${dir}" && ctest "$@") || rc=$?
+  if [[ ${rc} -ne 0 ]]; then
+    python3 "${TELEOP_ROOT}/deploy/lib/failure_digest.py" "${dir}" || true
+  fi
+  return "${rc}"
+}

@@ -97,6 +97,10 @@ def wrapped_counters(link_detail):
 CAN_FIELDS = ((20e-6, 14), (2e-3, 11), (10e-3, 12))
 
 
+# node::EngagementState: waiting for a session's first sample (or the peer after an outage).
+HANDSHAKING = 1
+
+
 def can_code(value, lsb, bits):
     limit = 2 ** (bits - 1) - 1
     return max(-limit, min(limit, math.floor(value / lsb + 0.5)))
@@ -121,14 +125,12 @@ def torn_samples(sender_rows, receiver_rows, dof, can=False):
     def used(r):
         return fields(r, ("peer_position_m", "peer_velocity_m_per_s", "peer_force_N"))
     sent_set = {sent(r) for r in sender_rows}
-    zero = tuple([0.0] * (3 * dof))
-    seen_one = False
+    zero = tuple(0 if can else 0.0 for _ in range(3 * dof))
     bad = []
     for r in receiver_rows:
         u = used(r)
-        if u == zero and not seen_one:
-            continue  # before the first sample arrived
-        seen_one = True
+        if u == zero and int(r.get("engagement", HANDSHAKING)) == HANDSHAKING:
+            continue  # no peer sample held: before a session's first sample (the telemetry records zeros)
         if u not in sent_set:
             bad.append(r)
     return bad, sum(1 for r in receiver_rows if used(r) != zero)
@@ -146,6 +148,10 @@ def self_check():
         bad, used = torn_samples(sent, [rec(0, 0, 0, 0, 0, 0), whole, torn], 1, can)
         if bad != [torn] or used != 2:
             raise tp.Failure(f"test bug: the torn-sample check missed a torn sample (can={can})")
+    # A zero peer sample is "none held" only while handshaking; engaged, it is a sample nobody sent.
+    engaged_zero = dict(rec(0, 0, 0, 0, 0, 0), engagement=3)
+    if torn_samples(sent, [whole, engaged_zero], 1)[0] != [engaged_zero]:
+        raise tp.Failure("test bug: an engaged cycle's zero peer sample was not found")
     # Over CAN the codes compare: 0.002005 m rounds to the same 20 µm code as 0.002 m, 0.00203 m does not.
     if torn_samples(sent, [rec(0, 0, 0, 0.002005, 0.02, 2.0)], 1, True)[0] or \
             not torn_samples(sent, [rec(0, 0, 0, 0.00203, 0.02, 2.0)], 1, True)[0]:
@@ -356,6 +362,11 @@ def main():
               f"{s['fixture_max_penetration_m'] * 1e3:.3f} | {m['saturated_cycles']}/{s['saturated_cycles']} | "
               f"{m['watchdog_trips']}/{s['watchdog_trips']} | {row['slave_stop']} |")
     if failed:
+        # Last, so a log shown by its tail says why: each failed check of each failed scenario.
+        for row in rows:
+            for verdict, what in row["checks"]:
+                if verdict != "ok":
+                    print(f"FAILED check: {row['name']}: {what}")
         print(f"FAILED: {', '.join(failed)}")
         sys.exit(1)
     print("PASSED")

@@ -13,7 +13,9 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -121,10 +123,11 @@ class FaultyDevice final : public device::Device {
 
 struct Rig {
   explicit Rig(const std::string& tail = "", const std::string& master_safety = "",
-               const std::string& slave_safety = "") {
+               const std::string& slave_safety = "", const std::string& slave_tail = "") {
     medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
     const config::ProcessConfig mc = config::ParseProcessConfig(MasterConfig(tail, master_safety), "master.yaml");
-    const config::ProcessConfig sc = config::ParseProcessConfig(SlaveConfig(tail, slave_safety), "slave.yaml");
+    const config::ProcessConfig sc =
+        config::ParseProcessConfig(SlaveConfig(tail + slave_tail, slave_safety), "slave.yaml");
     auto md = device::MakeDevice(mc.device);
     auto sd = device::MakeDevice(sc.device);
     master_plant = dynamic_cast<device::LoopbackPlant*>(md.get());
@@ -328,6 +331,60 @@ TEST(NodeCut, ANewSessionReengagesThroughAligning) {
   EXPECT_EQ(s.engagement.new_sessions, 1u);
   EXPECT_EQ(s.engagement.times_engaged, 2u);
   EXPECT_EQ(s.engagement.couplings_lost, 1u);
+}
+
+/// The rows of a telemetry CSV as maps from column name to value.
+std::vector<std::map<std::string, double>> ReadCsv(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::vector<std::string> names;
+  std::vector<std::map<std::string, double>> rows;
+  for (bool header = true; std::getline(in, line); header = false) {
+    std::stringstream fields(line);
+    std::string field;
+    std::map<std::string, double> row;
+    for (std::size_t i = 0; std::getline(fields, field, ','); ++i) {
+      if (header) {
+        names.push_back(field);
+      } else if (i < names.size()) {
+        row[names[i]] = std::strtod(field.c_str(), nullptr);
+      }
+    }
+    if (!header) rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+TEST(NodeCut, ANewSessionForgetsThePeerInTheTelemetryToo) {
+  // Until the new session's first sample the node holds no peer sample: the telemetry's peer columns are 0, not the
+  // safe-state reaction's virtual peer (the hold target, zero velocity and force) nor the old session's sample.
+  const std::string csv = FaultDir() + "/new_session_slave.csv";
+  std::filesystem::remove(csv);
+  Rig rig("", "", "", "telemetry: {csv: \"" + csv + "\"}\n");
+  while (rig.cycle < 1000) rig.Step();
+  ASSERT_EQ(rig.slave->engagement(), EngagementState::kEngaged);
+  ASSERT_GT(std::abs(rig.slave_x()), 1e-3) << "the slave must be away from 0 for the check to mean something";
+  rig.slave_link->epoch = 1;  // a new session whose first sample comes 5 cycles later
+  rig.cut = true;
+  for (int i = 0; i < 5; ++i) rig.Step();
+  rig.cut = false;
+  for (int i = 0; i < 5; ++i) rig.Step();
+  (void)rig.slave->Finish();
+  (void)rig.master->Finish();
+  const auto rows = ReadCsv(csv);
+  ASSERT_EQ(rows.size(), 1010u);
+  for (const auto& r : rows) {
+    const double cycle = r.at("cycle");
+    if (cycle < 1000) continue;
+    if (cycle < 1005) {
+      EXPECT_EQ(static_cast<int>(r.at("engagement")), static_cast<int>(EngagementState::kHandshaking));
+      EXPECT_EQ(r.at("peer_position_m_0"), 0.0) << "cycle " << cycle;
+      EXPECT_EQ(r.at("peer_velocity_m_per_s_0"), 0.0) << "cycle " << cycle;
+      EXPECT_EQ(r.at("peer_force_N_0"), 0.0) << "cycle " << cycle;
+    } else if (cycle > 1005) {
+      EXPECT_NE(r.at("peer_position_m_0"), 0.0) << "the new session's samples, cycle " << cycle;
+    }
+  }
 }
 
 TEST(NodeFault, EachDeviceFaultReachesTheSafeStateAndWritesItsRecord) {

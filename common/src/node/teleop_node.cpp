@@ -558,7 +558,14 @@ void TeleopNode::Impl::Record(const control::ThreeChannelLaw::Output& out, const
   CopyToRecord(peer_local_m / config.law.peer_position_scale, r.peer_position_m);
   CopyToRecord(input.peer_velocity_m_per_s, r.peer_velocity_m_per_s);
   CopyToRecord(input.peer_force_N, r.peer_force_N);
-  if (engagement.state() != EngagementState::kEngaged && have_peer) {
+  if (!have_peer) {
+    // No peer sample held (before a session's first one): zeros, not the safe-state reaction's virtual peer.
+    for (int i = 0; i < config.dof; ++i) {
+      r.peer_position_m[i] = 0.0;
+      r.peer_velocity_m_per_s[i] = 0.0;
+      r.peer_force_N[i] = 0.0;
+    }
+  } else if (engagement.state() != EngagementState::kEngaged) {
     // Not coupled: record what the peer sent, not the virtual peer of the aligning or the reaction.
     for (int i = 0; i < config.dof; ++i) {
       r.peer_velocity_m_per_s[i] = peer.velocity_m_per_s[static_cast<std::size_t>(i)];

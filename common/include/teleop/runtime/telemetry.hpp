@@ -26,6 +26,9 @@ struct TelemetryRecord {
   double command_N[kMaxDof] = {};         ///< Actuator command sent to the device (0 in the safe state).
   double rendered_force_N[kMaxDof] = {};  ///< What the device reports it rendered (device::Reading::rendered_force_N).
   double fixture_force_N[kMaxDof] = {};   ///< The virtual fixture's share of the command.
+  /// The peer's sample the node holds, as received (engaged: what the law used; aligning or in the safe state: what
+  /// the peer sent, not the virtual peer the law saw). 0 while the node holds none: before the first sample of a
+  /// link session (at start, and after a new session made it forget the old peer).
   double peer_position_m[kMaxDof] = {};
   double peer_velocity_m_per_s[kMaxDof] = {};
   double peer_force_N[kMaxDof] = {};
