@@ -16,7 +16,7 @@ import sys
 
 VERDICT = re.compile(
     r"FAILED|Failure|\bfailed\b|error:|\bError\b|Expected|Which is|Value of|Actual:|Timeout|Exception|"
-    r"Sanitizer|runtime error|Traceback|Assertion")
+    r"Sanitizer|runtime error|Traceback|Assertion|\[critical\]|\[error\]")
 IGNORE = re.compile(r"^\s*ok:|^\[\s+OK\s+\]|^\[==========\]|^\[----------\]|^\[ RUN")
 
 

@@ -22,7 +22,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 import teleop_keys  # noqa: E402  (tests/test_utilities)
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
-from teleop_process import Failure, Processes, check, free_udp_port  # noqa: E402
+from teleop_process import Failure, Processes, check, free_udp_port, set_ports  # noqa: E402
 
 CYCLONE_XML = """<CycloneDDS><Domain id="any">
   <General><Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast></General>
@@ -39,7 +39,7 @@ MASTER_DURATION_S = 7.0
 
 def write_config(src, dst, ports, domain, pair):
     text = open(src).read()
-    text = text.replace("47001", str(ports[0])).replace("47002", str(ports[1]))
+    text = set_ports(text, ports)
     text = re.sub(r"(?m)^(\s*csv:).*$", r'\1 ""', text)
     text += f"\ndds:\n  enabled: true\n  domain_id: {domain}\n  pair: {pair}\n  state_rate_hz: 20\n"
     with open(dst, "w") as f:

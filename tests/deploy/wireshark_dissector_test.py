@@ -29,11 +29,11 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 import teleop_keys  # noqa: E402  (tests/test_utilities)
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
-from teleop_process import (Failure, SKIP, check, free_udp_port,  # noqa: E402
+from teleop_process import (Failure, SKIP, check, free_udp_port, set_ports,  # noqa: E402
                             run_test, start_capture, stop_capture)
 
 def write_config(src, dst, ports, csv_path):
-    text = open(src).read().replace("47001", str(ports[0])).replace("47002", str(ports[1]))
+    text = set_ports(open(src).read(), ports)
     text = re.sub(r"(?m)^(\s*csv:).*$", rf'\1 "{csv_path}"', text)
     # The dissector decodes version-1 samples: this run needs them on the wire (the shipped configs say psk).
     text = teleop_keys.make_insecure(text)
@@ -131,7 +131,7 @@ def secure_run(tshark, args, tmp):
     mcfg, scfg = os.path.join(work, "master.yaml"), os.path.join(work, "slave.yaml")
     for src, dst in ((os.path.join(args.configs, "master.yaml"), mcfg), (os.path.join(args.configs, "slave.yaml"),
                                                                          scfg)):
-        text = open(src).read().replace("47001", str(ports[0])).replace("47002", str(ports[1]))
+        text = set_ports(open(src).read(), ports)
         text = re.sub(r"(?m)^(\s*csv:).*$", r'\1 ""', text)
         check("mode: psk" in text, f"{os.path.basename(src)} authenticates its link (mode psk)")
         with open(dst, "w") as f:

@@ -152,6 +152,9 @@ def self_check():
     engaged_zero = dict(rec(0, 0, 0, 0, 0, 0), engagement=3)
     if torn_samples(sent, [whole, engaged_zero], 1)[0] != [engaged_zero]:
         raise tp.Failure("test bug: an engaged cycle's zero peer sample was not found")
+    # Ports: a kernel-chosen port equal to a template port must not be replaced again (bind == peer).
+    if tp.set_ports('bind: "h:47001"\npeer: "h:47002"', (47002, 50000)) != 'bind: "h:47002"\npeer: "h:50000"':
+        raise tp.Failure("test bug: set_ports replaced a replaced port")
     # Over CAN the codes compare: 0.002005 m rounds to the same 20 µm code as 0.002 m, 0.00203 m does not.
     if torn_samples(sent, [rec(0, 0, 0, 0.002005, 0.02, 2.0)], 1, True)[0] or \
             not torn_samples(sent, [rec(0, 0, 0, 0.00203, 0.02, 2.0)], 1, True)[0]:

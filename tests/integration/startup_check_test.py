@@ -20,7 +20,7 @@ import subprocess
 import sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 import teleop_keys  # noqa: E402  (tests/test_utilities)
-from teleop_process import free_udp_port  # noqa: E402
+from teleop_process import free_udp_port, set_ports  # noqa: E402
 
 
 class Failure(Exception):
@@ -35,7 +35,7 @@ def check(cond, what):
 
 def write_config(src, dst, ports, replacements=()):
     text = open(src).read()
-    text = text.replace("47001", str(ports[0])).replace("47002", str(ports[1]))
+    text = set_ports(text, ports)
     for old, new in replacements:
         if old not in text:
             raise Failure(f"test bug: '{old}' not in {src}")
@@ -134,7 +134,7 @@ def main():
         text = re.sub(r"(?ms)^fixture:.*?(?=^\S)", "", text)  # no fixture section at all
         text = text.replace("rate_hz: 1000", "rate_hz: 250", 1).replace("velocity_filter_hz: 200",
                                                                          "velocity_filter_hz: 100", 1)
-        text = text.replace("47001", str(ports[0])).replace("47002", str(ports[1]))
+        text = set_ports(text, ports)
         with open(cfg, "w") as f:
             f.write(text)
         teleop_keys.ensure_key(os.path.dirname(cfg))

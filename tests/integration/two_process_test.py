@@ -27,12 +27,13 @@ import sys
 import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 import teleop_keys  # noqa: E402  (tests/test_utilities)
-from teleop_process import Failure, Output, check, free_udp_port  # noqa: E402,F401  (other tests import them here)
+# Other tests import these from here.
+from teleop_process import Failure, Output, check, free_udp_port, set_ports  # noqa: E402,F401
 
 
 def write_config(src, dst, ports, telemetry_csv=""):
     text = open(src).read()
-    text = text.replace("47001", str(ports[0])).replace("47002", str(ports[1]))
+    text = set_ports(text, ports)
     # Telemetry only where the physics is checked from it; elsewhere keep the run light.
     text = re.sub(r"(?m)^(\s*csv:).*$", lambda m: f'{m.group(1)} "{telemetry_csv}"', text)
     # Fault records (the last cycles before a fault) next to the config, not in the working directory.
