@@ -142,16 +142,10 @@ CanWriteStatus SocketCanPort::Write(const CanFrame& frame) noexcept {
 
 bool SocketCanPort::Read(CanFrame& frame) noexcept {
   canfd_frame in{};
-  iovec iov{&in, sizeof(in)};
-  detail::ReceiveControl control{};
-  msghdr message{};
-  message.msg_iov = &iov;
-  message.msg_iovlen = 1;
-  message.msg_control = control.data();
-  message.msg_controllen = control.size();
-  const ssize_t n = ::recvmsg(fd_, &message, MSG_DONTWAIT);
+  std::int64_t received_ns = 0;
+  const ssize_t n = detail::ReceiveStamped(fd_, &in, sizeof(in), received_ns);
   if (n != static_cast<ssize_t>(CAN_MTU) && n != static_cast<ssize_t>(CANFD_MTU)) return false;
-  receive_time_ns_ = detail::MonotonicReceiveTime(message);
+  receive_time_ns_ = received_ns;
   frame = CanFrame{};
   frame.fd = n == static_cast<ssize_t>(CANFD_MTU);
   frame.brs = frame.fd && (in.flags & CANFD_BRS) != 0;

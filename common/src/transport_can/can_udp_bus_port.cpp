@@ -104,20 +104,14 @@ CanWriteStatus UdpCanBusPort::Write(const proto::can::CanFrame& frame) noexcept 
 bool UdpCanBusPort::Read(proto::can::CanFrame& frame) noexcept {
   std::array<std::uint8_t, bus_datagram::kMaxSize + 1> in{};
   for (;;) {
-    iovec iov{in.data(), in.size()};
-    detail::ReceiveControl control{};
-    msghdr message{};
-    message.msg_iov = &iov;
-    message.msg_iovlen = 1;
-    message.msg_control = control.data();
-    message.msg_controllen = control.size();
-    const ssize_t n = ::recvmsg(socket_, &message, MSG_DONTWAIT);
+    std::int64_t received_ns = 0;
+    const ssize_t n = detail::ReceiveStamped(socket_, in.data(), in.size(), received_ns);
     if (n < 0) return false;  // EAGAIN, or ECONNREFUSED for an earlier send (the daemon is gone)
     bus_datagram::Message m{};
     if (bus_datagram::Decode(std::span<const std::uint8_t>(in.data(), static_cast<std::size_t>(n)), m) &&
         m.type == bus_datagram::Type::kFrame && Accepts(options_, m.frame)) {
       frame = m.frame;
-      receive_time_ns_ = detail::MonotonicReceiveTime(message);
+      receive_time_ns_ = received_ns;
       return true;
     }
     // Late welcomes, malformed datagrams and frames the filters do not pass: skip.

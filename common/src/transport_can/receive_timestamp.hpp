@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <ctime>
@@ -45,6 +46,21 @@ inline std::int64_t MonotonicReceiveTime(msghdr& message) noexcept {
     }
   }
   return monotonic;
+}
+
+/// One non-blocking recvmsg into `buffer` with room for the receive timestamp: the bytes read (-1 with errno when
+/// nothing was read) and, when something was, its receive time on CLOCK_MONOTONIC in `receive_time_ns`.
+inline ssize_t ReceiveStamped(int fd, void* buffer, std::size_t size, std::int64_t& receive_time_ns) noexcept {
+  iovec iov{buffer, size};
+  ReceiveControl control{};
+  msghdr message{};
+  message.msg_iov = &iov;
+  message.msg_iovlen = 1;
+  message.msg_control = control.data();
+  message.msg_controllen = control.size();
+  const ssize_t n = ::recvmsg(fd, &message, MSG_DONTWAIT);
+  if (n >= 0) receive_time_ns = MonotonicReceiveTime(message);
+  return n;
 }
 
 /// ppoll on one descriptor until it is readable (true) or CLOCK_MONOTONIC reaches `deadline_ns` (false).
