@@ -108,27 +108,31 @@ TEST_F(UdpBusTest, TwoLinksExchangeSamples) {
   CanLink slave(format, proto::SenderRole::kSlave, Attach());
   proto::SampleMessage out{};
   int slave_got = 0, master_got = 0;
-  // Each cycle polls both ends until each has the other's cycle, or 2 s passed (a loaded machine), so every cycle
-  // must arrive, intact and in order. The polls are 1 ms apart, as in a 1 kHz loop: a CanLink drops a partial
-  // cycle untouched for CycleAssembler::kExpiryTicks polls, so polling much faster than the loop would drop a cycle
-  // whose second frame is merely a few hundred µs behind its first.
+  // Each cycle waits on both ends until each has the other's whole cycle, or 2 s passed (a loaded machine), so every
+  // cycle must arrive, intact and in order. Each end waits for a complete cycle (WaitReadable, at most 1 ms at a
+  // time, as in a 1 kHz loop) before it polls: a CanLink drops a partial cycle untouched for
+  // CycleAssembler::kExpiryTicks polls, and a daemon starved for that many milliseconds between a cycle's two frames
+  // made blind 1 ms polls drop it (1 run in about 4 of the whole suite on 2 busy cores).
+  const auto wait_ms = [] {
+    const auto until = Clock::now() + std::chrono::milliseconds(1);
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(until.time_since_epoch()).count();
+  };
   for (std::uint32_t s = 0; s < 50; ++s) {
     ASSERT_TRUE(master.Send(test::MakeSample(proto::SenderRole::kMaster, 3, s)));
     ASSERT_TRUE(slave.Send(test::MakeSample(proto::SenderRole::kSlave, 3, s)));
     bool at_slave = false, at_master = false;
     const auto deadline = Clock::now() + std::chrono::seconds(2);
     while (!(at_slave && at_master) && Clock::now() < deadline) {
-      if (!at_slave && slave.Poll(out)) {
+      if (!at_slave && slave.WaitReadable(wait_ms()) && slave.Poll(out)) {
         EXPECT_TRUE(test::ConsistentSample(out));
         at_slave = out.sequence == s;
         slave_got += at_slave ? 1 : 0;
       }
-      if (!at_master && master.Poll(out)) {
+      if (!at_master && master.WaitReadable(wait_ms()) && master.Poll(out)) {
         EXPECT_TRUE(test::ConsistentSample(out));
         at_master = out.sequence == s;
         master_got += at_master ? 1 : 0;
       }
-      if (!(at_slave && at_master)) std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
   }
   EXPECT_EQ(slave_got, 50);

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "teleop/error.hpp"
+#include "test_utilities/kernel_arrival_stamps.hpp"
 #include "test_utilities/limit_malloc.hpp"
 #include "transport/link_test_helpers.hpp"
 
@@ -353,11 +354,15 @@ std::int64_t MonotonicNs() {
 constexpr std::int64_t kClockSlackNs = 50'000;
 
 TEST(UdpLinkReceiveTime, IsTheKernelArrivalTimeNotThePollTime) {
+  const teleop::test::KernelArrivalStamps stamps;
+  ASSERT_TRUE(stamps.active()) << "the kernel never stamped a datagram on arrival";
   Pair p;
   EXPECT_EQ(p.slave.newest_receive_time_ns(), 0) << "nothing received yet";
   const std::int64_t before_send = MonotonicNs();
   ASSERT_TRUE(p.master.Send(MakeSample(SenderRole::kMaster, 1)));
-  const std::int64_t after_send = MonotonicNs();  // on loopback the datagram is queued when send returns
+  // Wait until the datagram is in the socket (on loopback it normally is when send returns), then poll 2 ms later.
+  ASSERT_TRUE(p.slave.WaitReadable(MonotonicNs() + 1'000'000'000));
+  const std::int64_t readable = MonotonicNs();
   std::this_thread::sleep_for(std::chrono::milliseconds(2));
   const std::int64_t before_poll = MonotonicNs();
   proto::SampleMessage got;
@@ -366,11 +371,14 @@ TEST(UdpLinkReceiveTime, IsTheKernelArrivalTimeNotThePollTime) {
   const std::int64_t received = p.slave.newest_receive_time_ns();
   EXPECT_TRUE(p.slave.newest_receive_time_from_kernel());
   EXPECT_GE(received, before_send - kClockSlackNs);
-  EXPECT_LE(received, after_send + kClockSlackNs) << "a poll-time stamp would be >= " << before_poll;
+  EXPECT_LE(received, readable + kClockSlackNs) << "a poll-time stamp would be >= " << before_poll;
+  EXPECT_LT(received, before_poll) << "the datagram was in the socket 2 ms before the Poll";
   EXPECT_LE(received, after_poll) << "never later than the Poll";
 }
 
 TEST(UdpLinkReceiveTime, BelongsToTheNewestAcceptedSampleOfTheDrain) {
+  const teleop::test::KernelArrivalStamps stamps;
+  ASSERT_TRUE(stamps.active()) << "the kernel never stamped a datagram on arrival";
   Pair p;
   ASSERT_TRUE(p.master.Send(MakeSample(SenderRole::kMaster, 1)));
   std::this_thread::sleep_for(std::chrono::milliseconds(2));
@@ -392,6 +400,8 @@ TEST(UdpLinkReceiveTime, BelongsToTheNewestAcceptedSampleOfTheDrain) {
 }
 
 TEST(UdpLinkReceiveTime, IsMonotoneAcrossSamplesAndNotLaterThanEachPoll) {
+  const teleop::test::KernelArrivalStamps stamps;
+  ASSERT_TRUE(stamps.active()) << "the kernel never stamped a datagram on arrival";
   Pair p;
   proto::SampleMessage got;
   std::int64_t previous = 0;
