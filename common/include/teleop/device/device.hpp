@@ -55,6 +55,15 @@ enum FaultBits : std::uint32_t {
   kFaultImplausible = 1u << 6,  ///< Set by the node: an encoder jump beyond safety.max_speed_m_per_s (docs).
 };
 
+/// Warning bits a backend reports. Unlike a fault, a warning never changes what the node does: the node records it
+/// (telemetry, events on each change, DDS, summary) so an operator sees a condition the backend's own checks flag.
+enum WarningBits : std::uint32_t {
+  kWarningNone = 0,
+  /// The backend's own stability guard is past its margin (the cobot's eq 10 tracking guard, `stability: warn`).
+  kWarningStabilityGuard = 1u << 0,
+  kWarningSaturated = 1u << 1,  ///< An actuator held at its limit this cycle (the backend clamped the command).
+};
+
 /// Most constraints one Command carries: the forbidden-region fixture's plane capacity
 /// (control::ForbiddenRegionFixture::kMaxPlanes; the node checks they agree).
 inline constexpr int kMaxConstraints = 8;
@@ -97,6 +106,7 @@ struct Reading {
   /// before the first Write and in the safe state. Telemetry records it next to the command.
   DofVector rendered_force_N;
   std::uint32_t faults = kFaultNone;
+  std::uint32_t warnings = kWarningNone;  ///< WarningBits; informational, the node records them and acts on none.
 };
 
 /// The one interface every backend implements: loopback plant, hybrid motor–brake device, cobot, real drivers.
