@@ -1,11 +1,13 @@
 // The Colgate, Wannasuphoprasit & Peshkin cobot scenarios (docs/cobot.md): the simulated unicycle cobot with a
 // scripted operator, one subcommand per figure. Each writes <output>.csv (+ .png via gnuplot) and prints metrics.
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <sstream>
@@ -13,6 +15,8 @@
 #include <vector>
 
 #include "scenarios.hpp"
+#include "teleop/device/cobot/bicycle_caster.hpp"
+#include "teleop/device/cobot/bicycle_plant.hpp"
 #include "teleop/device/cobot/cobot_backend.hpp"
 #include "teleop/device/cobot/scripted_operator.hpp"
 #include "teleop/device/cobot/tracking_stability.hpp"
@@ -465,13 +469,61 @@ struct StabilityOptions {
   std::vector<double> ratios{0.25, 0.5, 0.75, 0.9, 1.1, 1.25, 1.5, 2.0};
   double rate_filter_hz = 300.0;  ///< Cut-off of the ω estimate's low-pass (it sits inside the steering loop).
   double step_s = kPeriod_s;      ///< Control and integration step.
+  std::string path = "line";      ///< line, or circle (radius_m, kept inside): eq 10 proper.
+  double radius_m = 0.2;
+  std::string gain_form = "small_angle";  ///< small_angle (eq 8) or circular (eq 7).
+  double integral_scale = 0.0;            ///< Integral gain k_i = integral_scale / L³ (0 = none, as eqs 9-10).
+  double initial_offset_m = 0.002;
 };
+
+device::cobot::ConstraintTrackerConfig::GainForm GainFormOf(const std::string& form) {
+  if (form == "small_angle") return device::cobot::ConstraintTrackerConfig::GainForm::kSmallAngle;
+  if (form == "circular") return device::cobot::ConstraintTrackerConfig::GainForm::kCircular;
+  throw Error("--gain-form must be small_angle (eq 8) or circular (eq 7), got '" + form + "'");
+}
+
+/// The largest real part of the roots of the linearized tracking loop with integral action, per unit arc length:
+/// p' = θ, θ' = −κ²p − κ̃, T·κ̃' = a·p + b·θ + c·∫p ds − κ̃ (T = uτ, κ = 1/ρ), i.e.
+/// T·s⁴ + s³ + (Tκ² + b)·s² + (κ² + a)·s + c = 0 (c = 0: the cubic of eq 9 times s).
+double GrowthWithIntegral(double speed_tau_m, double curvature_per_m, double a, double b, double c) {
+  const double k2 = curvature_per_m * curvature_per_m;
+  Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+  m(0, 0) = -1.0 / speed_tau_m;
+  m(0, 1) = -(speed_tau_m * k2 + b) / speed_tau_m;
+  m(0, 2) = -(k2 + a) / speed_tau_m;
+  m(0, 3) = -c / speed_tau_m;
+  m(1, 0) = 1.0;
+  m(2, 1) = 1.0;
+  m(3, 2) = 1.0;
+  const Eigen::EigenSolver<Eigen::Matrix4d> solver(m, false);
+  Eigen::Vector4d re = solver.eigenvalues().real();
+  if (c == 0.0) {  // drop the root s = 0 the multiplication by s added
+    int zero = 0;
+    re.cwiseAbs().minCoeff(&zero);
+    re(zero) = -std::numeric_limits<double>::infinity();
+  }
+  return re.maxCoeff();
+}
+
+/// The linear model's boundary: the speed where GrowthWithIntegral crosses 0 (bisection).
+double LinearBoundary_m_per_s(const StabilityOptions& o, double tau_s, double lookahead_m) {
+  const double curvature = o.path == "circle" ? 1.0 / o.radius_m : 0.0;
+  const device::cobot::TrackingGains g =
+      device::cobot::ComputeTrackingGains(GainFormOf(o.gain_form), lookahead_m, curvature);
+  const double c = o.integral_scale / std::pow(lookahead_m, 3);
+  double lo = 1e-6;
+  double hi = 10.0 * lookahead_m / tau_s;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (GrowthWithIntegral(mid * tau_s, curvature, g.p_per_m2, g.theta_per_m, c) < 0.0 ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
 
 /// Bilateral line tracking from a 2 mm offset at constant speed. Returns the late/early amplitude ratio of p
 /// (max |p| over the last quarter of the run over max |p| over the second quarter), or 0 when p has settled below
 /// 5 % of the offset (converged to the sensor noise); at least 1 when the late amplitude is still above the offset
 /// (a limit cycle is not convergence). Converging: the returned value is < 1.
-constexpr double kInitialOffset_m = 0.002;
 constexpr double kConvergedRatio = 1.0;
 
 double TrackingGrowth(const StabilityOptions& o, double speed_m_per_s, double tau_s, double lookahead_m) {
@@ -485,14 +537,24 @@ double TrackingGrowth(const StabilityOptions& o, double speed_m_per_s, double ta
   c.controller.tracker.k2_Nms_per_rad = k2;
   c.controller.tracker.lookahead_m = lookahead_m;
   c.controller.tracker.max_curvature_per_m = 1e4;
+  c.controller.tracker.gain_form = GainFormOf(o.gain_form);
+  c.controller.tracker.integral_gain_per_m3 = o.integral_scale / std::pow(lookahead_m, 3);
+  c.controller.tracker.integral_limit_m2 = 1e3;
   c.controller.overlay_enabled = false;
   c.controller.release_distance_m = 10.0;  // bilateral, as analysed
   c.controller.release_force_N = 1e6;
+  c.controller.guard.margin = 1.0;  // warn only (the default action): the run measures the boundary itself
   c.steering_rate_filter.cutoff_hz = o.rate_filter_hz;
-  const Constraint wall = Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true);
+  const double kInitialOffset_m = o.initial_offset_m;
+  const bool circle = o.path == "circle";
+  // The circle is kept inside (forbidden outside); the cart starts at its bottom, moving along +x (anticlockwise).
+  const Constraint wall = circle ? Constraint::Circle({0.0, 0.0}, o.radius_m, /*forbidden_outside=*/true)
+                                 : Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true);
   UnicyclePlantState initial;
-  initial.position_m = {0.0, kInitialOffset_m};
+  initial.position_m = circle ? Vec2(0.0, -(o.radius_m - kInitialOffset_m)) : Vec2(0.0, kInitialOffset_m);
   initial.speed_m_per_s = speed_m_per_s;
+  // On the circle the wheel already turns at the path's rate u/ρ (the equilibrium of eq 5 is κ̃ = 0, not κ = 0).
+  if (circle) initial.steering_rate_rad_per_s = speed_m_per_s / o.radius_m;
   UnicycleCobot cobot(c, wall, initial);
   device::cobot::PushingOperatorConfig op_config;
   op_config.speed_m_per_s = speed_m_per_s;
@@ -501,15 +563,34 @@ double TrackingGrowth(const StabilityOptions& o, double speed_m_per_s, double ta
   device::cobot::PushingOperator op(op_config, wall);
   const double arc_m = 60.0 * lookahead_m;
   const int steps = static_cast<int>(std::clamp(arc_m / speed_m_per_s, 1.0, 30.0) / o.step_s);
-  double early = 0.0;
-  double late = 0.0;
+  const double diverged_m = circle ? 0.25 * o.radius_m : 0.2;  // off by a quarter of the radius: not tracking
+  double early_min = std::numeric_limits<double>::infinity();
+  double early_max = -early_min;
+  double late_min = early_min;
+  double late_max = -early_min;
   for (int k = 0; k < steps; ++k) {
     const auto s = cobot.Step(op.Step(cobot.state(), o.step_s), o.step_s);
-    const double p = std::abs(wall.Evaluate(s.position_m).penetration_m);
-    if (!std::isfinite(p) || p > 0.2) return 1e3;  // diverged
-    if (k >= steps / 4 && k < steps / 2) early = std::max(early, p);
-    if (k >= 3 * steps / 4) late = std::max(late, p);
+    const double p = wall.Evaluate(s.position_m).penetration_m;
+    if (!std::isfinite(p) || std::abs(p) > diverged_m) return 1e3;  // diverged
+    if (k >= steps / 4 && k < steps / 2) {
+      early_min = std::min(early_min, p);
+      early_max = std::max(early_max, p);
+    }
+    if (k >= 3 * steps / 4) {
+      late_min = std::min(late_min, p);
+      late_max = std::max(late_max, p);
+    }
   }
+  if (circle) {
+    // On a circle at speed p settles to a small offset, and with L near ρ two poles are lightly damped (§4.1), so
+    // the transient first grows above the start offset and then decays slowly: the test is the amplitude about
+    // each window's mean, late over early, alone.
+    const double early = 0.5 * (early_max - early_min);
+    const double late = 0.5 * (late_max - late_min);
+    return late < 1e-9 ? 0.0 : late / std::max(early, 1e-12);
+  }
+  const double early = std::max(std::abs(early_min), std::abs(early_max));
+  const double late = std::max(std::abs(late_min), std::abs(late_max));
   if (late < 0.05 * kInitialOffset_m) return 0.0;
   const double ratio = late / std::max(early, 1e-12);
   return late >= kInitialOffset_m ? std::max(ratio, 1.0) : ratio;
@@ -519,6 +600,11 @@ int RunStability(const StabilityOptions& o) {
   if (!(o.rate_filter_hz > 0.0) || !(o.step_s > 0.0 && o.step_s <= 0.01)) {
     throw Error("cobot-stability: --rate-filter-hz must be > 0 and --step-s in (0, 0.01]");
   }
+  if (o.path != "line" && o.path != "circle") throw Error("cobot-stability: --path must be line or circle");
+  if (!(o.radius_m > 0.0) || !(o.integral_scale >= 0.0) || !(o.initial_offset_m > 0.0)) {
+    throw Error("cobot-stability: --radius-m and --initial-offset-m must be > 0, --integral-scale >= 0");
+  }
+  (void)GainFormOf(o.gain_form);
   const std::string csv_path = o.common.output + ".csv";
   const std::string boundary_path = o.common.output + "_boundary.csv";
   std::ofstream csv = OpenCsv(csv_path);
@@ -532,7 +618,13 @@ int RunStability(const StabilityOptions& o) {
     for (const double lookahead : o.lookahead_m) {
       device::cobot::ConstraintTrackerConfig tracker;
       tracker.lookahead_m = lookahead;
-      const double u_formula = device::cobot::MaxStableSpeed_m_per_s(tracker, tau, 0.0);
+      tracker.gain_form = GainFormOf(o.gain_form);
+      const double curvature = o.path == "circle" ? 1.0 / o.radius_m : 0.0;
+      // Eq 10 (eq 7's gains: uτ/ρ < tan φ) or eq 11 (eq 8's: uτ < L), without integral action.
+      const double u_eq10 = device::cobot::MaxStableSpeed_m_per_s(tracker, tau, curvature);
+      const double u_eq11 = lookahead / tau;
+      const double u_linear = LinearBoundary_m_per_s(o, tau, lookahead);
+      const double u_formula = u_linear;  // the sweep's speeds are multiples of the linear model's boundary
       for (const double ratio : o.ratios) {
         const double u = ratio * u_formula;
         const double growth = TrackingGrowth(o, u, tau, lookahead);
@@ -551,13 +643,15 @@ int RunStability(const StabilityOptions& o) {
         }
       }
       const double u_sim = 0.5 * (lo + hi);
-      boundary << tau << ',' << lookahead << ',' << u_formula << ',' << u_sim << ',' << u_sim * tau << '\n';
+      boundary << tau << ',' << lookahead << ',' << u_eq10 << ',' << u_sim << ',' << u_sim * tau << '\n';
       json << (first ? "" : ",") << "{\"tau_s\":" << tau << ",\"lookahead_m\":" << lookahead
-           << ",\"u_max_eq10_m_per_s\":" << u_formula << ",\"u_max_sim_m_per_s\":" << u_sim << "}";
+           << ",\"u_max_eq10_m_per_s\":" << u_eq10 << ",\"u_max_eq11_m_per_s\":" << u_eq11
+           << ",\"u_max_linear_m_per_s\":" << u_linear << ",\"u_max_sim_m_per_s\":" << u_sim << "}";
       first = false;
       if (!o.common.json) {
-        std::cout << "tau " << tau << " s, L " << lookahead << " m: eq 10 (u tau < L) u_max = " << u_formula
-                  << " m/s, simulation u_max = " << u_sim << " m/s (ratio " << u_sim / u_formula << ")\n";
+        std::cout << "tau " << tau << " s, L " << lookahead << " m: eq 10 u_max = " << u_eq10
+                  << " m/s, eq 11 (u tau < L) " << u_eq11 << " m/s, linear model (with the integral) " << u_linear
+                  << " m/s, simulation u_max = " << u_sim << " m/s (sim/linear " << u_sim / u_linear << ")\n";
       }
     }
   }
@@ -581,6 +675,304 @@ int RunStability(const StabilityOptions& o) {
     std::cout << json.str() << "\n";
   } else {
     std::cout << "  " << csv_path << ", " << boundary_path << "\n";
+  }
+  return 0;
+}
+
+// ---------------------------------------------------------------- cobot-turns (Fig. 4's force in sharp turns)
+
+struct TurnsOptions {
+  CommonOptions common;
+  std::vector<double> speeds_m_per_s{0.005, 0.01, 0.02, 0.05, 0.1, 0.2};
+  double turn_rate_rad_per_s = 1.0;
+  double duration_s = 6.0;
+};
+
+/// Steady turning at `speed` and turn rate ω in caster mode: the mean lateral force over the second half (N), and the
+/// mean speed and u·ω reached.
+struct TurnResult {
+  double speed_m_per_s = 0.0;
+  double lateral_force_N = 0.0;
+  double lateral_acceleration_m_per_s2 = 0.0;
+};
+
+TurnResult SteadyTurn(double speed_m_per_s, double lateral_acceleration_m_per_s2, double duration_s,
+                      device::cobot::CobotSample* last = nullptr) {
+  UnicycleCobotConfig config = UnicycleCobotConfig::Prototype();
+  UnicyclePlantState initial;
+  initial.speed_m_per_s = speed_m_per_s;
+  UnicycleCobot cobot(config, Constraint::Line({0.0, 1e3}, {1.0, 0.0}, true), initial);
+  cobot.controller().SetWallActive(false);
+  device::cobot::TurningOperatorConfig op_config;
+  op_config.speed_m_per_s = speed_m_per_s;
+  op_config.lateral_acceleration_m_per_s2 = lateral_acceleration_m_per_s2;
+  device::cobot::TurningOperator op(op_config);
+  const int steps = static_cast<int>(duration_s / kPeriod_s);
+  TurnResult r;
+  int n = 0;
+  for (int k = 0; k < steps; ++k) {
+    const auto sample = cobot.Step(op.Step(cobot.state(), kPeriod_s), kPeriod_s);
+    if (k >= steps / 2) {
+      r.lateral_force_N += sample.lateral_force_N;
+      r.lateral_acceleration_m_per_s2 += sample.lateral_acceleration_m_per_s2;
+      r.speed_m_per_s += sample.speed_m_per_s;
+      ++n;
+    }
+    if (last != nullptr) *last = sample;
+  }
+  r.lateral_force_N /= n;
+  r.lateral_acceleration_m_per_s2 /= n;
+  r.speed_m_per_s /= n;
+  return r;
+}
+
+int RunTurns(const TurnsOptions& o) {
+  if (o.speeds_m_per_s.empty() || !(o.turn_rate_rad_per_s > 0.0) || !(o.duration_s > 2.0)) {
+    throw Error("cobot-turns: --speeds-m-s must not be empty, --turn-rate-rad-s > 0, --duration-s > 2");
+  }
+  for (const double u : o.speeds_m_per_s) {
+    if (!(u > 0.0)) throw Error("cobot-turns: --speeds-m-s must be > 0");
+  }
+  const UnicycleCobotConfig config = UnicycleCobotConfig::Prototype();
+  const double mass = 1.0 / config.controller.caster.k1_per_kg;
+  const double floor = config.controller.caster.speed_floor_m_per_s;
+  const std::string csv_path = o.common.output + ".csv";
+  std::ofstream csv = OpenCsv(csv_path);
+  csv << "speed_m_per_s,lateral_force_N,point_mass_force_N,eq2_force_N,rolling_force_N\n";
+  std::ostringstream json;
+  json << std::setprecision(6) << "{\"scenario\":\"cobot-turns\",\"turn_rate_rad_per_s\":" << o.turn_rate_rad_per_s
+       << ",\"virtual_mass_kg\":" << mass << ",\"speed_floor_m_per_s\":" << floor << ",\"turns\":[";
+  for (std::size_t i = 0; i < o.speeds_m_per_s.size(); ++i) {
+    const double u = o.speeds_m_per_s[i];
+    const TurnResult r = SteadyTurn(u, u * o.turn_rate_rad_per_s, o.duration_s);
+    // At the turn rate actually reached: ω = (u·ω)/u.
+    const double omega = r.lateral_acceleration_m_per_s2 / r.speed_m_per_s;
+    const double point_mass = mass * r.speed_m_per_s * omega;
+    const double eq2 = mass * std::max(r.speed_m_per_s, floor) * omega;
+    const double rolling = config.plant.rolling_damping_Ns_per_m * r.speed_m_per_s;
+    csv << r.speed_m_per_s << ',' << r.lateral_force_N << ',' << point_mass << ',' << eq2 << ',' << rolling << '\n';
+    json << (i == 0 ? "" : ",") << "{\"speed_m_per_s\":" << r.speed_m_per_s << ",\"turn_rate_rad_per_s\":" << omega
+         << ",\"lateral_force_N\":" << r.lateral_force_N << ",\"point_mass_force_N\":" << point_mass
+         << ",\"eq2_force_N\":" << eq2 << ",\"rolling_force_N\":" << rolling << "}";
+    if (!o.common.json) {
+      std::cout << "u " << r.speed_m_per_s << " m/s, turn rate " << omega << " rad/s: lateral force "
+                << r.lateral_force_N << " N (point mass M u w = " << point_mass << " N, eq 2 M max(u, eps) w = " << eq2
+                << " N; rolling " << rolling << " N)\n";
+    }
+  }
+  csv.close();
+  json << "]}";
+  if (!o.common.no_plot) {
+    std::ostringstream gp;
+    gp << "set terminal png size 900,650\nset output '" << o.common.output << ".png'\nset datafile separator ','\n"
+       << "set title 'cobot-turns: lateral force of a turn at " << o.turn_rate_rad_per_s
+       << " rad/s against speed (virtual caster, eq 2)' noenhanced\n"
+       << "set xlabel 'speed u (m/s)'\nset ylabel 'force (N)'\nset grid\nset logscale xy\n"
+       << "set key top left box opaque\nset format x '%g'\nset format y '%g'\n"
+       << "plot '" << csv_path << "' skip 1 using 1:2 with points pt 7 ps 1.8 lc rgb 'red' title "
+       << "'simulated cobot: lateral force', '" << csv_path
+       << "' skip 1 using 1:3 with lines lw 2 lc rgb 'blue' title 'point mass: M u w', '" << csv_path
+       << "' skip 1 using 1:4 with lines lw 2 dt 2 lc rgb 'black' title 'eq 2: M max(u, eps) w', '" << csv_path
+       << "' skip 1 using 1:5 with lines lw 2 lc rgb 'forest-green' title 'rolling resistance c u (the push along)'\n";
+    RunGnuplot(o.common.output + ".gp", gp.str());
+  }
+  std::cout << (o.common.json ? json.str() + "\n" : "  " + csv_path + "\n");
+  return 0;
+}
+
+// ---------------------------------------------------------------- cobot-slip (friction-limited traction)
+
+struct SlipOptions {
+  CommonOptions common;
+  double mu = 0.5;
+  double speed_m_per_s = 0.2;
+  double ramp_N_per_s = 20.0;  ///< The push into the wall grows at this rate.
+  double duration_s = 4.0;
+};
+
+int RunSlip(const SlipOptions& o) {
+  if (!(o.mu > 0.0) || !(o.speed_m_per_s > 0.0) || !(o.ramp_N_per_s > 0.0) || !(o.duration_s > 0.5)) {
+    throw Error("cobot-slip: --mu, --speed-m-s and --ramp-n-s must be > 0, --duration-s > 0.5");
+  }
+  UnicycleCobotConfig config = UnicycleCobotConfig::Prototype();
+  config.plant.friction_coefficient = o.mu;
+  config.plant.max_steering_torque_Nm = 5.0;
+  const double limit_N = device::cobot::TractionLimit_N(config.plant);
+  const Constraint wall = Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true);  // forbidden y > 0
+  UnicyclePlantState initial;
+  initial.position_m = {0.0, -0.001};
+  initial.speed_m_per_s = o.speed_m_per_s;
+  UnicycleCobot cobot(config, wall, initial);
+  const std::string csv_path = o.common.output + ".csv";
+  std::ofstream csv = OpenCsv(csv_path);
+  csv << "t_s,push_into_wall_N,lateral_load_N,floor_lateral_N,penetration_m,sliding,mode\n";
+  double speed_integral = 0.0;
+  double breakaway_s = -1.0;
+  double breakaway_push_N = 0.0;
+  double breakaway_lateral_N = 0.0;
+  double max_p_before = 0.0;
+  double p_end = 0.0;
+  const int steps = static_cast<int>(o.duration_s / kPeriod_s);
+  for (int k = 0; k < steps; ++k) {
+    const double t = k * kPeriod_s;
+    const UnicyclePlantState& st = cobot.state();
+    // Along the wall: a PI on the speed; into it: a push that keeps growing (a "hard push").
+    const double error = o.speed_m_per_s - st.speed_m_per_s;
+    speed_integral = std::clamp(speed_integral + 500.0 * error * kPeriod_s, 0.0, 100.0);
+    const double along = std::clamp(200.0 * error + speed_integral, 0.0, 100.0);
+    const double into = o.ramp_N_per_s * t;
+    const Vec2 force(along, into);
+    const auto sample = cobot.Step(force, kPeriod_s);
+    const UnicyclePlantState& after = cobot.state();
+    const double p = wall.Evaluate(after.position_m).penetration_m;
+    const double lateral = force.dot(device::cobot::LeftNormal(device::cobot::UnitAt(after.heading_rad))) -
+                           config.plant.cart_mass_kg * after.speed_m_per_s * after.steering_rate_rad_per_s;
+    if (breakaway_s < 0.0 && after.sliding) {
+      breakaway_s = t;
+      breakaway_push_N = into;
+      breakaway_lateral_N = lateral;
+    }
+    if (breakaway_s < 0.0) max_p_before = std::max(max_p_before, p);
+    p_end = p;
+    if (k % 5 == 0) {
+      csv << t << ',' << into << ',' << lateral << ',' << device::cobot::FloorLateralForce_N(config.plant, after, force)
+          << ',' << p << ',' << (after.sliding ? 1 : 0) << ',' << static_cast<int>(sample.control.mode) << '\n';
+    }
+  }
+  csv.close();
+  if (!o.common.no_plot) {
+    std::ostringstream gp;
+    gp << "set terminal png size 900,800\nset output '" << o.common.output << ".png'\nset datafile separator ','\n"
+       << "set multiplot layout 2,1 title 'cobot-slip: a hard push into a virtual wall, mu = " << o.mu
+       << ", mu N = " << std::setprecision(3) << limit_N << " N' noenhanced\n"
+       << "set grid\nset xlabel 't (s)'\nset key top left box opaque\n"
+       << "set ylabel 'force (N)'\nplot '" << csv_path
+       << "' skip 1 using 1:2 with lines lw 2 lc rgb 'blue' title 'push into the wall', '" << csv_path
+       << "' skip 1 using 1:3 with lines lw 2 lc rgb 'red' title 'lateral load on the wheel', " << limit_N
+       << " with lines lw 2 dt 2 lc rgb 'black' title 'traction limit mu N'\n"
+       << "set ylabel 'penetration p (mm)'\nplot '" << csv_path
+       << "' skip 1 using 1:($5*1000) with lines lw 2 lc rgb 'red' title 'penetration into the wall', '" << csv_path
+       << "' skip 1 using 1:($6*5) with steps lw 1 lc rgb 'gray' title 'sliding (5 = yes)'\n"
+       << "unset multiplot\n";
+    RunGnuplot(o.common.output + ".gp", gp.str());
+  }
+  if (o.common.json) {
+    std::cout << std::setprecision(6) << "{\"scenario\":\"cobot-slip\",\"mu\":" << o.mu
+              << ",\"traction_limit_N\":" << limit_N << ",\"breakaway_s\":" << breakaway_s
+              << ",\"breakaway_push_N\":" << breakaway_push_N << ",\"breakaway_lateral_load_N\":" << breakaway_lateral_N
+              << ",\"max_penetration_before_mm\":" << max_p_before * 1e3 << ",\"penetration_end_mm\":" << p_end * 1e3
+              << "}\n";
+  } else {
+    std::cout << "cobot-slip: traction limit mu N = " << limit_N << " N; the wheel broke traction at " << breakaway_s
+              << " s, push " << breakaway_push_N << " N (lateral load " << breakaway_lateral_N
+              << " N); penetration before " << max_p_before * 1e3 << " mm, at the end " << p_end * 1e3 << " mm\n  "
+              << csv_path << "\n";
+  }
+  return 0;
+}
+
+// ---------------------------------------------------------------- cobot-heading (the bicycle's angular constraint)
+
+struct HeadingOptions {
+  CommonOptions common;
+  double initial_error_deg = 20.0;
+  double bandwidth_per_s = 2.0;
+  double speed_m_per_s = 0.2;
+  double push_direction_deg = 30.0;
+  double duration_s = 4.0;
+};
+
+struct HeadingRun {
+  double max_model_error_rad = 0.0;  ///< max |θ(t) − e₀(1 + ω_h t)e^(−ω_h t)|
+  double final_theta_rad = 0.0;
+  double travel_direction_deg = 0.0;  ///< Direction of the final velocity (deg).
+  double push_direction_deg = 0.0;
+};
+
+HeadingRun RunHeadingOnce(const HeadingOptions& o, bool constrained, const std::string& csv_path) {
+  device::cobot::BicyclePlantConfig plant;
+  plant.geometry.handle_m = {0.1, 0.15};  // off centre: the push has a moment about the plate origin
+  device::cobot::BicycleCasterConfig caster;
+  caster.virtual_mass_kg = plant.plate_mass_kg;
+  caster.virtual_inertia_kgm2 = plant.plate_inertia_kgm2;
+  caster.k2_Nms_per_rad = plant.steering_inertia_kgm2 / 0.02;  // τ = 20 ms (no steering friction in this plant)
+  caster.rolling_damping_Ns_per_m = plant.rolling_damping_Ns_per_m;
+  caster.heading_constraint = constrained;
+  caster.heading_target_rad = 0.0;
+  caster.heading_bandwidth_per_s = o.bandwidth_per_s;
+  device::cobot::BicyclePlantState s;
+  const double e0 = o.initial_error_deg * kDegToRad;
+  s.pose.angle_rad = e0;
+  s.steer_rad = {-e0, -e0};  // both wheels along world +x
+  s.twist << o.speed_m_per_s, 0.0, 0.0;
+  const Vec2 direction = device::cobot::UnitAt(o.push_direction_deg * kDegToRad);
+  std::ofstream csv = OpenCsv(csv_path);
+  csv << "t_s,x_m,y_m,theta_rad,model_theta_rad,force_x_N,force_y_N\n";
+  double integral = 0.0;
+  HeadingRun r;
+  r.push_direction_deg = o.push_direction_deg;
+  const int steps = static_cast<int>(o.duration_s / kPeriod_s);
+  const double w = o.bandwidth_per_s;
+  for (int k = 0; k < steps; ++k) {
+    const double speed = Vec2(s.twist(0), s.twist(1)).norm();
+    const double error = o.speed_m_per_s - speed;
+    integral = std::clamp(integral + 300.0 * error * kPeriod_s, 0.0, 60.0);
+    const Vec2 force = std::clamp(100.0 * error + integral, 0.5, 60.0) * direction;
+    const auto out = device::cobot::BicycleCasterStep(caster, plant.geometry, s, force, 0.0);
+    device::cobot::BicyclePlantInput in;
+    in.handle_force_N = force;
+    in.steering_torque_Nm = out.steering_torque_Nm;
+    device::cobot::Step(plant, in, kPeriod_s, s);
+    const double t = (k + 1) * kPeriod_s;
+    const double model = e0 * (1.0 + w * t) * std::exp(-w * t);
+    if (constrained) r.max_model_error_rad = std::max(r.max_model_error_rad, std::abs(s.pose.angle_rad - model));
+    if (k % 10 == 0) {
+      csv << t << ',' << s.pose.position_m.x() << ',' << s.pose.position_m.y() << ',' << s.pose.angle_rad << ','
+          << model << ',' << force.x() << ',' << force.y() << '\n';
+    }
+  }
+  r.final_theta_rad = s.pose.angle_rad;
+  r.travel_direction_deg = std::atan2(s.twist(1), s.twist(0)) / kDegToRad;
+  return r;
+}
+
+int RunHeading(const HeadingOptions& o) {
+  if (!(o.bandwidth_per_s > 0.0 && o.bandwidth_per_s <= 20.0) || !(o.speed_m_per_s > 0.0) || !(o.duration_s > 0.5)) {
+    throw Error("cobot-heading: --bandwidth-per-s in (0, 20], --speed-m-s > 0, --duration-s > 0.5");
+  }
+  const std::string csv = o.common.output + ".csv";
+  const std::string free_csv = o.common.output + "_free.csv";
+  const HeadingRun held = RunHeadingOnce(o, true, csv);
+  const HeadingRun free = RunHeadingOnce(o, false, free_csv);
+  if (!o.common.no_plot) {
+    std::ostringstream gp;
+    gp << "set terminal png size 900,800\nset output '" << o.common.output << ".png'\nset datafile separator ','\n"
+       << "set multiplot layout 2,1 title 'cobot-heading: bicycle, off-centre push at " << o.push_direction_deg
+       << " deg, heading held at 0 by steering both wheels' noenhanced\n"
+       << "set grid\nset key top right box opaque\nset xlabel 't (s)'\nset ylabel 'plate heading theta (deg)'\n"
+       << "plot '" << csv
+       << "' skip 1 using 1:($4*180/pi) with lines lw 3 lc rgb 'red' title 'angular constraint on', '" << csv
+       << "' skip 1 using 1:($5*180/pi) with lines lw 2 dt 2 lc rgb 'black' title 'e0 (1 + w t) exp(-w t)', '"
+       << free_csv << "' skip 1 using 1:($4*180/pi) with lines lw 2 lc rgb 'blue' title 'no angular constraint'\n"
+       << "set xlabel 'x (mm)'\nset ylabel 'y (mm)'\nset size ratio -1\nset key top left box opaque\n"
+       << "plot '" << csv << "' skip 1 using ($2*1000):($3*1000) with lines lw 3 lc rgb 'red' title "
+       << "'plate origin, constraint on', '" << free_csv
+       << "' skip 1 using ($2*1000):($3*1000) with lines lw 2 lc rgb 'blue' title 'plate origin, no constraint'\n"
+       << "unset multiplot\n";
+    RunGnuplot(o.common.output + ".gp", gp.str());
+  }
+  if (o.common.json) {
+    std::cout << std::setprecision(6) << "{\"scenario\":\"cobot-heading\",\"initial_error_deg\":" << o.initial_error_deg
+              << ",\"bandwidth_per_s\":" << o.bandwidth_per_s
+              << ",\"max_model_error_deg\":" << held.max_model_error_rad / kDegToRad
+              << ",\"final_theta_deg\":" << held.final_theta_rad / kDegToRad
+              << ",\"free_final_theta_deg\":" << free.final_theta_rad / kDegToRad
+              << ",\"travel_direction_deg\":" << held.travel_direction_deg
+              << ",\"push_direction_deg\":" << o.push_direction_deg << "}\n";
+  } else {
+    std::cout << "cobot-heading: with the angular constraint theta ends at " << held.final_theta_rad / kDegToRad
+              << " deg (largest departure from e0(1 + w t)exp(-w t): " << held.max_model_error_rad / kDegToRad
+              << " deg); without it at " << free.final_theta_rad / kDegToRad << " deg\n  " << csv << "\n";
   }
   return 0;
 }
@@ -637,7 +1029,48 @@ void AddCobotScenarios(CLI::App& app) {
     sub->add_option("--rate-filter-hz", o->rate_filter_hz, "Cut-off of the steering-rate estimate's low-pass (Hz)")
         ->capture_default_str();
     sub->add_option("--step-s", o->step_s, "Control and integration step (s)")->capture_default_str();
+    sub->add_option("--path", o->path, "line, or circle (kept inside; eq 10 with rho = --radius-m)")
+        ->capture_default_str();
+    sub->add_option("--radius-m", o->radius_m, "Circle radius rho (m)")->capture_default_str();
+    sub->add_option("--gain-form", o->gain_form, "small_angle (eq 8) or circular (eq 7)")->capture_default_str();
+    sub->add_option("--integral-scale", o->integral_scale, "Integral gain k_i = scale / L^3 (0 = none)")
+        ->capture_default_str();
+    sub->add_option("--initial-offset-m", o->initial_offset_m, "Start offset from the constraint (m)")
+        ->capture_default_str();
     sub->callback([o] { RunStability(*o); });
+  }
+  {
+    auto o = std::make_shared<TurnsOptions>();
+    CLI::App* sub =
+        app.add_subcommand("cobot-turns", "Fig. 4: lateral force of a turn against speed (eq 2's speed floor)");
+    AddCommon(sub, o->common, "cobot_turns");
+    sub->add_option("--speeds-m-s", o->speeds_m_per_s, "Speeds (m/s)")->delimiter(',');
+    sub->add_option("--turn-rate-rad-s", o->turn_rate_rad_per_s, "Turn rate (rad/s)")->capture_default_str();
+    sub->add_option("--duration-s", o->duration_s, "Run length per speed (s)")->capture_default_str();
+    sub->callback([o] { RunTurns(*o); });
+  }
+  {
+    auto o = std::make_shared<SlipOptions>();
+    CLI::App* sub = app.add_subcommand("cobot-slip", "A hard push breaks the wheel's traction (mu N) at a wall");
+    AddCommon(sub, o->common, "cobot_slip");
+    sub->add_option("--mu", o->mu, "Friction coefficient of the wheel")->capture_default_str();
+    sub->add_option("--speed-m-s", o->speed_m_per_s, "Speed along the wall (m/s)")->capture_default_str();
+    sub->add_option("--ramp-n-s", o->ramp_N_per_s, "Growth of the push into the wall (N/s)")->capture_default_str();
+    sub->add_option("--duration-s", o->duration_s, "Run length (s)")->capture_default_str();
+    sub->callback([o] { RunSlip(*o); });
+  }
+  {
+    auto o = std::make_shared<HeadingOptions>();
+    CLI::App* sub = app.add_subcommand("cobot-heading", "The bicycle's angular constraint (theta held by the wheels)");
+    AddCommon(sub, o->common, "cobot_heading");
+    sub->add_option("--initial-error-deg", o->initial_error_deg, "Heading error at the start (deg)")
+        ->capture_default_str();
+    sub->add_option("--bandwidth-per-s", o->bandwidth_per_s, "omega_h of the return (rad/s)")->capture_default_str();
+    sub->add_option("--speed-m-s", o->speed_m_per_s, "Speed the operator holds (m/s)")->capture_default_str();
+    sub->add_option("--push-direction-deg", o->push_direction_deg, "Push direction (deg, world)")
+        ->capture_default_str();
+    sub->add_option("--duration-s", o->duration_s, "Run length (s)")->capture_default_str();
+    sub->callback([o] { RunHeading(*o); });
   }
 }
 

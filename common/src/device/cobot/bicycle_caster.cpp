@@ -19,6 +19,14 @@ void Validate(const BicycleCasterConfig& c) {
   positive(c.virtual_inertia_kgm2, "virtual_inertia_kgm2");
   positive(c.speed_floor_m_per_s, "speed_floor_m_per_s");
   positive(c.k2_Nms_per_rad, "k2_Nms_per_rad");
+  positive(c.heading_bandwidth_per_s, "heading_bandwidth_per_s");
+  if (!std::isfinite(c.rolling_damping_Ns_per_m) || c.rolling_damping_Ns_per_m < 0.0) {
+    throw Error("cobot bicycle caster: rolling_damping_Ns_per_m must be >= 0");
+  }
+  if (!std::isfinite(c.friction_compensation_Nms_per_rad) || c.friction_compensation_Nms_per_rad < 0.0) {
+    throw Error("cobot bicycle caster: friction_compensation_Nms_per_rad must be >= 0");
+  }
+  if (!std::isfinite(c.heading_target_rad)) throw Error("cobot bicycle caster: heading_target_rad must be finite");
   if (!std::isfinite(c.singularity_threshold) || c.singularity_threshold < 0.0 || c.singularity_threshold >= 1.0) {
     throw Error("cobot bicycle caster: singularity_threshold must be in [0, 1)");
   }
@@ -33,11 +41,23 @@ BicycleCasterOutput BicycleCasterStep(const BicycleCasterConfig& c, const Bicycl
   const double ca = std::cos(m.pose.angle_rad);
   const double sa = std::sin(m.pose.angle_rad);
   const Vec2 handle(ca * g.handle_m.x() - sa * g.handle_m.y(), sa * g.handle_m.x() + ca * g.handle_m.y());
-  // The free rigid plate the operator should feel.
-  const Vec2 accel = force / c.virtual_mass_kg;
-  const double angular_accel = (moment + Cross(handle, force)) / c.virtual_inertia_kgm2;
   const Vec2 v(m.twist(0), m.twist(1));
   const double omega = m.twist(2);
+  // The free rigid plate the operator should feel, with its wheels' rolling drag.
+  Vec2 drag = Vec2::Zero();
+  double drag_moment = 0.0;
+  for (int i = 0; i < 2; ++i) {
+    const Vec2 lever = WheelPosition(g, m.pose, i) - m.pose.position_m;
+    const Vec2 heading = UnitAt(m.pose.angle_rad + m.steer_rad[static_cast<std::size_t>(i)]);
+    const Vec2 rolling = -c.rolling_damping_Ns_per_m * heading.dot(v + omega * LeftNormal(lever)) * heading;
+    drag += rolling;
+    drag_moment += Cross(lever, rolling);
+  }
+  const Vec2 accel = (force + drag) / c.virtual_mass_kg;
+  const double w = c.heading_bandwidth_per_s;
+  const double angular_accel = c.heading_constraint
+                                   ? -w * w * WrapAngle(m.pose.angle_rad - c.heading_target_rad) - 2.0 * w * omega
+                                   : (moment + Cross(handle, force) + drag_moment) / c.virtual_inertia_kgm2;
   std::array<double, 2> command{};
   for (std::size_t i = 0; i < 2; ++i) {
     const Vec2 lever = WheelPosition(g, m.pose, static_cast<int>(i)) - m.pose.position_m;
@@ -68,7 +88,8 @@ BicycleCasterOutput BicycleCasterStep(const BicycleCasterConfig& c, const Bicycl
   }
   for (std::size_t i = 0; i < 2; ++i) {
     out.commanded_steer_rate_rad_per_s[i] = command[i];
-    out.steering_torque_Nm[i] = c.k2_Nms_per_rad * (command[i] - m.steer_rate_rad_per_s[i]);
+    out.steering_torque_Nm[i] =
+        c.k2_Nms_per_rad * (command[i] - m.steer_rate_rad_per_s[i]) + c.friction_compensation_Nms_per_rad * command[i];
   }
   return out;
 }

@@ -40,16 +40,22 @@ void ReadOperator(const Field& f, CobotOperatorScript& op) {
 }
 
 void ReadBicycle(const Field& f, CobotBackendConfig& c) {
-  const Map map(f, {"half_wheelbase_m", "plate_mass_kg", "plate_inertia_kgm2", "virtual_inertia_kgm2",
-                    "singularity_threshold", "singularity_guard"});
+  const Map map(f, {"half_wheelbase_m", "plate_mass_kg", "plate_inertia_kgm2", "singularity_threshold",
+                    "singularity_guard", "hold_heading_deg", "heading_bandwidth_per_s"});
   if (auto v = map.Optional("half_wheelbase_m")) c.bicycle.geometry.half_wheelbase_m = Positive(*v, "m");
   if (auto v = map.Optional("plate_mass_kg")) c.bicycle.plate_mass_kg = Positive(*v, "kg");
   if (auto v = map.Optional("plate_inertia_kgm2")) c.bicycle.plate_inertia_kgm2 = Positive(*v, "kg·m²");
-  if (auto v = map.Optional("virtual_inertia_kgm2")) c.bicycle_caster.virtual_inertia_kgm2 = Positive(*v, "kg·m²");
   if (auto v = map.Optional("singularity_threshold")) {
     c.bicycle_caster.singularity_threshold = config::InRange(*v, 0.0, 0.99, "");
   }
   if (auto v = map.Optional("singularity_guard")) c.bicycle_caster.singularity_guard = v->AsBool();
+  if (auto v = map.Optional("hold_heading_deg")) {
+    c.bicycle_caster.heading_constraint = true;
+    c.bicycle_caster.heading_target_rad = Finite(*v) * kDeg;
+  }
+  if (auto v = map.Optional("heading_bandwidth_per_s")) {
+    c.bicycle_caster.heading_bandwidth_per_s = config::InRange(*v, 0.1, 20.0, "rad/s");
+  }
 }
 
 void ReadCanPort(const Field& f, fieldbus::CanPortConfig& can) {
@@ -184,7 +190,16 @@ void ReadFieldbus(const Field& f, CobotBackendConfig& c) {
   if (auto v = map.Optional("first_frames_timeout_ms")) b.first_frames_timeout_ms = Positive(*v, "ms");
 }
 
-CobotBackendConfig ReadCobot(const Field* section, int dof) {
+CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
+  if (role == Role::kSlave) {
+    const std::string why =
+        "a cobot cannot be the slave: it is passive (its motors only steer its wheels, they cannot push), so it can "
+        "neither follow the master's motion nor apply a force to the environment, and the coupling force would be "
+        "rendered as 'blocked slave' walls; use backend: cobot on the master (role: master) and a slave backend that "
+        "can move (loopback, hybrid, cia402, ...)";
+    if (section != nullptr) section->Fail(why);
+    throw Error("device.cobot: " + why);
+  }
   CobotBackendConfig c;
   double tau_s = 0.02;
   if (section != nullptr) {
@@ -196,6 +211,8 @@ CobotBackendConfig ReadCobot(const Field* section, int dof) {
                              "max_steering_torque_Nm",
                              "cornering_stiffness_N_per_rad",
                              "brake_max_force_N",
+                             "friction_coefficient",
+                             "normal_load_N",
                              "wheel_radius_m",
                              "wheel_encoder_counts_per_rev",
                              "steering_encoder_counts_per_rev",
@@ -245,6 +262,10 @@ CobotBackendConfig ReadCobot(const Field* section, int dof) {
       p.cornering_stiffness_N_per_rad = NonNegative(*v, "N/rad (0 = no slip)");
     }
     if (auto v = map.Optional("brake_max_force_N")) p.brake_max_force_N = NonNegative(*v, "N (0 = no brake)");
+    if (auto v = map.Optional("friction_coefficient")) {
+      p.friction_coefficient = NonNegative(*v, "(0 = no traction limit)");
+    }
+    if (auto v = map.Optional("normal_load_N")) p.normal_load_N = NonNegative(*v, "N (0 = cart_mass_kg·g)");
     if (auto v = map.Optional("wheel_radius_m")) s.wheel_radius_m = Positive(*v, "m");
     if (auto v = map.Optional("wheel_encoder_counts_per_rev")) s.wheel_encoder_counts_per_rev = ReadCount(*v);
     if (auto v = map.Optional("steering_encoder_counts_per_rev")) s.steering_encoder_counts_per_rev = ReadCount(*v);
@@ -291,6 +312,16 @@ CobotBackendConfig ReadCobot(const Field* section, int dof) {
     if (auto v = map.Optional("initial_heading_deg")) c.initial.heading_rad = Finite(*v) * kDeg;
     if (auto v = map.Optional("operator")) ReadOperator(*v, c.op);
     if (auto v = map.Optional("bicycle")) ReadBicycle(*v, c);
+    if (c.kind == CobotBackendConfig::Kind::kBicycle) {
+      if (auto v = map.Optional("virtual_mass_kg")) {
+        v->Fail(
+            "not for kind: bicycle; its virtual mass is bicycle.plate_mass_kg: along its wheels the operator feels the "
+            "plate's own mass, so the caster must ask for the same mass across them or force and acceleration are not "
+            "collinear (Colgate et al. §3.1: a point mass)");
+      }
+    } else if (auto v = map.Optional("bicycle")) {
+      v->Fail("only for kind: bicycle");
+    }
     if (auto v = map.Optional("rig")) {
       const std::string rig = v->AsString();
       if (rig == "simulated") {
@@ -337,7 +368,10 @@ CobotBackendConfig ReadCobot(const Field* section, int dof) {
     c.bicycle.steering_damping_Nms_per_rad = c.unicycle.plant.steering_damping_Nms_per_rad;
     c.bicycle.max_steering_torque_Nm = c.unicycle.plant.max_steering_torque_Nm;
     c.bicycle_caster.k2_Nms_per_rad = k2;
-    c.bicycle_caster.virtual_mass_kg = 1.0 / c.unicycle.controller.caster.k1_per_kg;
+    c.bicycle_caster.friction_compensation_Nms_per_rad = c.bicycle.steering_damping_Nms_per_rad;
+    c.bicycle_caster.rolling_damping_Ns_per_m = c.bicycle.rolling_damping_Ns_per_m;
+    c.bicycle_caster.virtual_mass_kg = c.bicycle.plate_mass_kg;  // isotropic: the plate's mass in every direction
+    c.bicycle_caster.virtual_inertia_kgm2 = c.bicycle.plate_inertia_kgm2;
     c.bicycle_caster.speed_floor_m_per_s = c.unicycle.controller.caster.speed_floor_m_per_s;
   } catch (const Error& e) {
     if (section != nullptr) section->Fail(e.what());
@@ -420,6 +454,7 @@ void UnicycleCobotDevice::Read(Reading& out) noexcept {
   out.rendered_force_N << floor.x(), floor.y();
   out.faults = pending_faults_;
   pending_faults_ = kFaultNone;
+  out.warnings = last_.control.stability.warning ? kWarningStabilityGuard : kWarningNone;
   if (!out.position_m.allFinite() || !out.velocity_m_per_s.allFinite() || !out.force_N.allFinite()) {
     out.faults |= kFaultNonFiniteSensor;
   }
@@ -428,9 +463,10 @@ void UnicycleCobotDevice::Read(Reading& out) noexcept {
 void UnicycleCobotDevice::Write(const Command& command) noexcept {
   if (!CobotCommandUsable(command, 2)) {
     pending_faults_ |= kFaultDriver;
-    rig_.SetLocked(true);
+    SetSafe();
     return;
   }
+  safe_ = false;
   rig_.SetLocked(false);
   const UnicyclePlantState& s = rig_.state();
   walls_.Apply(command, s.position_m, s.speed_m_per_s * UnitAt(s.heading_rad), rig_.controller());
@@ -448,7 +484,13 @@ void UnicycleCobotDevice::Update(double period_s) noexcept {
   time_s_ += period_s;
 }
 
-void UnicycleCobotDevice::SetSafe() noexcept { rig_.SetLocked(true); }
+void UnicycleCobotDevice::SetSafe() noexcept {
+  safe_ = true;
+  // Near a fixture (a wall is set) the safe state keeps steering against the last wall: the wheel turns to its
+  // tangent (overlay, tracking) and a push into it is refused, as in normal operation; locking the steering there
+  // would let a wheel aimed at the wall roll through it. With no wall the steering is locked (and braked).
+  rig_.SetLocked(walls_.source() < 0);
+}
 
 // ---------------------------------------------------------------- bicycle
 
@@ -479,6 +521,10 @@ BicycleCobotDevice::BicycleCobotDevice(const CobotBackendConfig& config)
       capabilities_(CobotCapabilities(3, 0.0)),
       controller_(BicycleWallConfig(config), Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true)),
       walls_(config.contact_force_threshold_N) {
+  // One isotropic virtual mass (Colgate et al. §3.1, a rigid body): along its wheels the operator feels the plate's
+  // own mass and inertia, so the caster asks for the same across them.
+  config_.bicycle_caster.virtual_mass_kg = config_.bicycle.plate_mass_kg;
+  config_.bicycle_caster.virtual_inertia_kgm2 = config_.bicycle.plate_inertia_kgm2;
   controller_.SetWallActive(false);
   Validate(config_.bicycle);
   Validate(config_.bicycle_caster);
@@ -493,20 +539,33 @@ void BicycleCobotDevice::Read(Reading& out) noexcept {
   out.velocity_m_per_s = DofVector::Zero(3);
   out.force_N = DofVector::Zero(3);
   out.rendered_force_N = DofVector::Zero(3);
-  out.position_m << state_.pose.position_m.x(), state_.pose.position_m.y(), state_.pose.angle_rad;
+  const CobotSensorConfig& sensors = config_.unicycle.sensors;
+  out.position_m << Quantize(state_.pose.position_m.x(), sensors.position_resolution_m),
+      Quantize(state_.pose.position_m.y(), sensors.position_resolution_m), state_.pose.angle_rad;
   out.velocity_m_per_s << state_.twist(0), state_.twist(1), state_.twist(2);
+  const Vec2 force = MeasuredForce();
+  out.force_N << force.x(), force.y(), 0.0;
   out.faults = pending_faults_;
   pending_faults_ = kFaultNone;
-  if (!out.position_m.allFinite() || !out.velocity_m_per_s.allFinite()) out.faults |= kFaultNonFiniteSensor;
+  out.warnings = last_control_.stability.warning ? kWarningStabilityGuard : kWarningNone;
+  if (!out.position_m.allFinite() || !out.velocity_m_per_s.allFinite() || !out.force_N.allFinite()) {
+    out.faults |= kFaultNonFiniteSensor;
+  }
+}
+
+Vec2 BicycleCobotDevice::MeasuredForce() const noexcept {
+  const double step = config_.unicycle.sensors.force_resolution_N;
+  return {Quantize(operator_force_N_.x(), step), Quantize(operator_force_N_.y(), step)};
 }
 
 void BicycleCobotDevice::Write(const Command& command) noexcept {
   if (!CobotCommandUsable(command, 3)) {
     pending_faults_ |= kFaultDriver;
-    safe_ = true;
+    SetSafe();
     return;
   }
   safe_ = false;
+  locked_ = false;
   walls_.Apply(command, state_.pose.position_m, Vec2(state_.twist(0), state_.twist(1)), controller_);
 }
 
@@ -518,33 +577,44 @@ void BicycleCobotDevice::Update(double period_s) noexcept {
   const Vec2 force =
       OperatorPush(config_.op, time_s_, Vec2(state_.twist(0), state_.twist(1)), period_s, operator_integral_N_);
   operator_force_N_ = force;
+  const Vec2 measured = MeasuredForce();  // the handle force sensor, as the controllers see it
+  // What the controllers see: the position quantized by the position sensing, the steering angles by their
+  // encoders. The plate's twist and the steering rates are taken as estimated without error (no estimator model).
+  const CobotSensorConfig& sensors = config_.unicycle.sensors;
+  BicyclePlantState seen = state_;
+  seen.pose.position_m = {Quantize(state_.pose.position_m.x(), sensors.position_resolution_m),
+                          Quantize(state_.pose.position_m.y(), sensors.position_resolution_m)};
+  const double steer_step = sensors.steering_encoder_counts_per_rev > 0
+                                ? 2.0 * std::numbers::pi / sensors.steering_encoder_counts_per_rev
+                                : 0.0;
+  for (std::size_t i = 0; i < 2; ++i) seen.steer_rad[i] = Quantize(state_.steer_rad[i], steer_step);
   BicyclePlantInput in;
   in.handle_force_N = force;
-  if (safe_) {
+  if (locked_) {
     for (std::size_t i = 0; i < 2; ++i) {
       in.steering_torque_Nm[i] = -config_.bicycle_caster.k2_Nms_per_rad * state_.steer_rate_rad_per_s[i];
     }
   } else {
     // The reference point as a virtual unicycle: heading ψ_v (the wheels' mean), speed along it, its turn rate.
     const double omega = state_.twist(2);
-    const double psi = virtual_heading_rad();
+    const double psi = seen.pose.angle_rad + MeanSteer(seen);
     WallControllerInput wall_in;
-    wall_in.position_m = state_.pose.position_m;
+    wall_in.position_m = seen.pose.position_m;
     wall_in.steering_angle_rad = psi;
     wall_in.speed_m_per_s = Vec2(state_.twist(0), state_.twist(1)).dot(UnitAt(psi));
     wall_in.steering_rate_rad_per_s = omega + 0.5 * (state_.steer_rate_rad_per_s[0] + state_.steer_rate_rad_per_s[1]);
-    wall_in.handle_force_N = force;
+    wall_in.handle_force_N = measured;
     last_control_ = controller_.Step(wall_in, period_s);
     if (last_control_.mode == WallMode::kCaster) {
       const BicycleCasterOutput out =
-          BicycleCasterStep(config_.bicycle_caster, config_.bicycle.geometry, state_, force, 0.0);
+          BicycleCasterStep(config_.bicycle_caster, config_.bicycle.geometry, seen, measured, 0.0);
       in.steering_torque_Nm = out.steering_torque_Nm;
     } else {
       // Both wheels turn at the tracker's ω_c and are pulled onto ψ_v (modulo π: a wheel may roll backwards).
       const double k2 = config_.bicycle_caster.k2_Nms_per_rad;
       const double alignment_per_s = kAlignmentFraction / controller_.config().steering_time_constant_s;
       for (std::size_t i = 0; i < 2; ++i) {
-        const double error = 0.5 * WrapAngle(2.0 * (psi - state_.pose.angle_rad - state_.steer_rad[i]));
+        const double error = 0.5 * WrapAngle(2.0 * (psi - seen.pose.angle_rad - seen.steer_rad[i]));
         const double rate = last_control_.commanded_rate_rad_per_s - omega + alignment_per_s * error;
         in.steering_torque_Nm[i] = k2 * (rate - state_.steer_rate_rad_per_s[i]);
       }
@@ -554,7 +624,10 @@ void BicycleCobotDevice::Update(double period_s) noexcept {
   time_s_ += period_s;
 }
 
-void BicycleCobotDevice::SetSafe() noexcept { safe_ = true; }
+void BicycleCobotDevice::SetSafe() noexcept {
+  safe_ = true;
+  locked_ = walls_.source() < 0;  // near a fixture: keep steering against the last wall (as the unicycle)
+}
 
 // ---------------------------------------------------------------- registration
 
@@ -574,13 +647,19 @@ DeviceBackend CobotBackend() {
       {"max_steering_torque_Nm", "steering motor limit (N·m), > 0; default 2"},
       {"cornering_stiffness_N_per_rad", "wheel slip model C (N/rad), >= 0, 0 = no slip; default 500"},
       {"brake_max_force_N", "wheel brake (N), >= 0, 0 = none; default 0"},
+      {"friction_coefficient",
+       "tire μ: the floor carries at most μ·N across the wheel, then it slides; >= 0, "
+       "0 = no limit; default 0 (unicycle)"},
+      {"normal_load_N", "N of the friction limit (N), >= 0, 0 = cart_mass_kg·g; default 0"},
       {"wheel_radius_m", "wheel radius (m), > 0; default 0.05"},
       {"wheel_encoder_counts_per_rev", "wheel encoder counts, >= 0 (0 = ideal); default 16384"},
       {"steering_encoder_counts_per_rev", "steering encoder counts, >= 0 (0 = ideal); default 16384"},
       {"position_resolution_m", "absolute position sensing step (m), >= 0; default 1e-5"},
       {"force_resolution_N", "handle force sensor step (N), >= 0; default 0.01"},
       {"steering_time_constant_s", "tau of the steering-velocity loop (eq 3c), sets K2 = J/tau - b; default 0.02"},
-      {"virtual_mass_kg", "1/K1 of the virtual caster (eq 2) (kg), > 0; default 10"},
+      {"virtual_mass_kg",
+       "1/K1 of the virtual caster (eq 2) (kg), > 0; default 10 (unicycle only: the bicycle's is "
+       "its plate mass)"},
       {"speed_floor_m_per_s", "epsilon of eq 2 (m/s), > 0; default 0.02"},
       {"lookahead_m", "L of eqs 7-8 (m), > 0; default 0.05"},
       {"gain_form", "small_angle (eq 8, default) or circular (eq 7)"},
@@ -603,11 +682,12 @@ DeviceBackend CobotBackend() {
       {"operator.max_force_N", "largest push (N), > 0; default 60"},
       {"bicycle", "bicycle cobot plate (kind: bicycle)"},
       {"bicycle.half_wheelbase_m", "wheels at ±this on the plate's x axis (m), > 0; default 0.2"},
-      {"bicycle.plate_mass_kg", "plate mass (kg), > 0; default 12"},
-      {"bicycle.plate_inertia_kgm2", "plate inertia (kg·m²), > 0; default 0.4"},
-      {"bicycle.virtual_inertia_kgm2", "caster's virtual inertia (kg·m²), > 0; default 0.4"},
+      {"bicycle.plate_mass_kg", "plate mass (kg), > 0; also the caster's virtual mass (isotropic); default 12"},
+      {"bicycle.plate_inertia_kgm2", "plate inertia (kg·m²), > 0; also the caster's virtual inertia; default 0.4"},
       {"bicycle.singularity_threshold", "singularity measure below which the guard acts, 0..0.99; default 0.05"},
       {"bicycle.singularity_guard", "keep the wheels off the singular configuration; default true"},
+      {"bicycle.hold_heading_deg", "angular constraint: the wheels hold the plate's θ at this (deg); default none"},
+      {"bicycle.heading_bandwidth_per_s", "ω_h of the angular constraint's return (rad/s), 0.1..20; default 5"},
       {"rig", "simulated (default: the models above) or fieldbus (the real unicycle cobot on CAN, needs fieldbus)"},
       {"fieldbus", "the real rig's CAN bus, steering drive and sensor node (rig: fieldbus only)"},
       {"fieldbus.can", "the bus: medium, interface or bus"},
@@ -661,11 +741,11 @@ DeviceBackend CobotBackend() {
   };
   b.section_required = false;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
-    return ReadCobot(section, context.dof);
+    return ReadCobot(section, context.dof, context.role);
   };
   b.make = [](const DeviceConfig& config) -> std::unique_ptr<Device> {
-    const CobotBackendConfig c =
-        config.section.has_value() ? config.Section<CobotBackendConfig>() : ReadCobot(nullptr, config.dof);
+    const CobotBackendConfig c = config.section.has_value() ? config.Section<CobotBackendConfig>()
+                                                            : ReadCobot(nullptr, config.dof, Role::kMaster);
     const int expected = c.kind == CobotBackendConfig::Kind::kUnicycle ? 2 : 3;
     if (config.dof != expected) {
       throw Error("device.cobot: this cobot has dof " + std::to_string(expected) + ", the process " +

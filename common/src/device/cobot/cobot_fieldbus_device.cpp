@@ -159,6 +159,7 @@ void UnicycleCobotFieldbusDevice::Activate() {
   force_fault_ = SensorFault::kNone;
   force_N_ = Vec2::Zero();
   pending_faults_ = kFaultNone;
+  stability_warning_ = false;
   safe_ = false;
   active_ = true;
 }
@@ -236,6 +237,7 @@ void UnicycleCobotFieldbusDevice::Read(Reading& out) noexcept {
   out.rendered_force_N << rendered.x(), rendered.y();
   out.faults = FaultBits(steering) | FaultBits(sensor) | pending_faults_;
   pending_faults_ = kFaultNone;
+  out.warnings = stability_warning_ ? kWarningStabilityGuard : kWarningNone;
   if (!out.position_m.allFinite() || !out.velocity_m_per_s.allFinite() || !out.force_N.allFinite()) {
     out.faults |= kFaultNonFiniteSensor;
   }
@@ -258,10 +260,12 @@ void UnicycleCobotFieldbusDevice::Write(const Command& command) noexcept {
   }
   const double hold_Nm = -config_.unicycle.controller.tracker.k2_Nms_per_rad * input_.steering_rate_rad_per_s;
   if (locked()) {
+    stability_warning_ = false;
     SendCycle(hold_Nm, true);
     return;
   }
   const WallControllerOutput out = controller_.Step(input_, period_s_);
+  stability_warning_ = out.stability.warning;
   SendCycle(out.steering_torque_Nm, out.brake_command > 0.5);
 }
 

@@ -75,6 +75,9 @@ class UnicycleCobotDevice final : public Device {
   const UnicycleCobot& rig() const noexcept { return rig_; }
   /// Which wall is rendered: -1 none, 0..kMaxConstraints-1 a fixture plane, kContactWall the contact wall.
   int rendered_wall() const noexcept { return walls_.source(); }
+  /// SetSafe() or a bad Command, until a good Command.
+  bool safe() const noexcept { return safe_; }
+  WallMode controller_mode() const noexcept { return rig_.controller().mode(); }
   static constexpr int kContactWall = MasterWalls::kContactWall;
   const MasterWalls& walls() const noexcept { return walls_; }
   const CobotSample& last_sample() const noexcept { return last_; }
@@ -89,6 +92,7 @@ class UnicycleCobotDevice final : public Device {
   double time_s_ = 0.0;
   MasterWalls walls_;
   std::uint32_t pending_faults_ = kFaultNone;
+  bool safe_ = false;
 };
 
 /// The simulated bicycle cobot (x, y, θ) behind the Device interface. In free space the bicycle caster (eq 1 per
@@ -112,6 +116,8 @@ class BicycleCobotDevice final : public Device {
   const VirtualWallController& controller() const noexcept { return controller_; }
   const MasterWalls& walls() const noexcept { return walls_; }
   int rendered_wall() const noexcept { return walls_.source(); }
+  bool safe() const noexcept { return safe_; }
+  WallMode controller_mode() const noexcept { return controller_.mode(); }
   /// The virtual heading the wheels are steered to while a wall is engaged (world, rad).
   double virtual_heading_rad() const noexcept;
   /// The scripted operator's push in the last Update (N, world).
@@ -125,8 +131,11 @@ class BicycleCobotDevice final : public Device {
   VirtualWallController controller_;
   MasterWalls walls_;
   WallControllerOutput last_control_{};
+  Vec2 MeasuredForce() const noexcept;
+
   Vec2 operator_force_N_ = Vec2::Zero();
   bool safe_ = false;
+  bool locked_ = false;  ///< Safe with no wall set: both wheels hold their steering.
   std::uint32_t pending_faults_ = kFaultNone;
   double time_s_ = 0.0;
   double operator_integral_N_ = 0.0;

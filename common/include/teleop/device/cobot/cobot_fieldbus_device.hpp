@@ -95,6 +95,7 @@ class UnicycleCobotFieldbusDevice final : public Device {
   bool safe_ = false;
   std::uint32_t pending_faults_ = kFaultNone;  ///< A bad Command, reported by the next Read.
   bool brake_engaged_ = false;
+  bool stability_warning_ = false;  ///< StabilityStatus::warning of the last controller step.
 };
 
 }  // namespace teleop::device::cobot

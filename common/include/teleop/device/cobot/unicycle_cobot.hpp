@@ -57,6 +57,7 @@ class UnicycleCobot {
 
   /// Force applied by the operator is also what the sensor reads; for a backend that renders something else.
   VirtualWallController& controller() noexcept { return controller_; }
+  const VirtualWallController& controller() const noexcept { return controller_; }
   const UnicyclePlantState& state() const noexcept { return state_; }
   const UnicycleCobotConfig& config() const noexcept { return config_; }
   /// Freezes the steering (Γ = −K₂ω, no new steering command): the fault reaction of a cobot whose steering can no

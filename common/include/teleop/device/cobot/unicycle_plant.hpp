@@ -15,6 +15,10 @@ namespace teleop::device::cobot {
 /// τ = J/(K₂ + b); the paper's τ is that closed-loop time constant.
 /// Slip (cornering stiffness C > 0): the wheel slips sideways at v_slip = u_abs·F_net⊥/C, where F_net⊥ = F⊥ − m·u·ω
 /// is the lateral load the floor would have to carry without slip (a quasi-static slip-angle model, α = F_net⊥/C).
+/// Friction limit (μ > 0): the floor carries at most μ·N across the wheel (N the normal load, m·g by default). When
+/// |F_net⊥| exceeds it the wheel breaks traction and slides: m·v̇_slip = F_net⊥ − sign(v_slip)·μ·N (Coulomb, one μ
+/// for sticking and sliding), until the slip velocity returns to zero with |F_net⊥| ≤ μ·N. This is the "unless the
+/// wheel slips" of §2: a push hard enough goes through a virtual wall.
 struct UnicyclePlantConfig {
   double cart_mass_kg = 10.0;                  ///< m: moving mass (cart, wheel assembly, handle).
   double rolling_damping_Ns_per_m = 20.0;      ///< c: rolling resistance, viscous.
@@ -23,7 +27,13 @@ struct UnicyclePlantConfig {
   double max_steering_torque_Nm = 2.0;         ///< The steering motor's torque limit.
   double cornering_stiffness_N_per_rad = 0.0;  ///< C: 0 = ideal rolling without lateral slip.
   double brake_max_force_N = 0.0;              ///< Wheel brake (a particle brake, as on the prototype); 0 = none.
+  double friction_coefficient = 0.0;           ///< μ of the wheel on the floor; 0 = no traction limit.
+  double normal_load_N = 0.0;                  ///< N, the wheel's load on the floor; 0 = cart_mass_kg·g.
 };
+
+inline constexpr double kGravity_m_per_s2 = 9.80665;
+/// μ·N, the largest lateral force the floor carries (infinity when μ = 0).
+[[nodiscard]] double TractionLimit_N(const UnicyclePlantConfig& config) noexcept;
 
 struct UnicyclePlantState {
   Vec2 position_m = Vec2::Zero();        ///< Wheel contact point (m, world).
@@ -32,6 +42,7 @@ struct UnicyclePlantState {
   double steering_rate_rad_per_s = 0.0;  ///< ω.
   double wheel_travel_m = 0.0;  ///< Integrated rolled distance (the wheel encoder sees it divided by the radius).
   double slip_velocity_m_per_s = 0.0;  ///< Lateral slip, along the left normal of the heading.
+  bool sliding = false;                ///< Traction broken (friction limit): the floor carries μ·N only.
 };
 
 struct UnicyclePlantInput {
