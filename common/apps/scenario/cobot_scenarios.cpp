@@ -107,11 +107,11 @@ void WriteConstraintCsv(const std::string& path, const Constraint& c, double x_m
 /// Trajectory plot in mm with operator force arrows (like Figs 4, 7, 9).
 std::string TrajectoryPlot(const std::string& png, const std::string& title,
                            const std::vector<std::pair<std::string, std::string>>& runs, const std::string& wall_csv,
-                           double arrow_mm_per_N, int arrow_every, bool equal_axes) {
+                           double arrow_mm_per_N, int arrow_every, bool equal_axes, const std::string& key = "below") {
   std::ostringstream gp;
   gp << "set terminal png size 900,700\nset output '" << png << "'\nset datafile separator ','\n"
-     << "set title '" << title
-     << "' noenhanced\nset xlabel 'x (mm)'\nset ylabel 'y (mm)'\nset grid\nset key outside bottom\nset clip two\n";
+     << "set title '" << title << "' noenhanced\nset xlabel 'x (mm)'\nset ylabel 'y (mm)'\nset grid\nset key " << key
+     << " box opaque\nset clip two\n";
   if (equal_axes) gp << "set size ratio -1\n";
   gp << "plot ";
   bool first = true;
@@ -125,9 +125,13 @@ std::string TrajectoryPlot(const std::string& png, const std::string& title,
     first = false;
     gp << "'" << csv << "' skip 1 using ($2*1000):($3*1000) with lines lw 2 lc " << colour << " title '" << label
        << "', '" << csv << "' skip 1 every " << arrow_every << " using ($2*1000):($3*1000):($7*" << arrow_mm_per_N
-       << "):($8*" << arrow_mm_per_N << ") with vectors head filled lc " << colour << " title 'operator force ("
-       << std::setprecision(3) << arrow_mm_per_N << " mm/N" << (equal_axes ? "" : " per axis; axes not to scale")
-       << ")'";
+       << "):($8*" << arrow_mm_per_N << ") with vectors head filled lc " << colour;
+    if (colour == 1) {  // one legend entry for the arrows of every run
+      gp << " title 'operator force (" << std::setprecision(3) << arrow_mm_per_N << " mm/N"
+         << (equal_axes ? "" : " per axis; axes not to scale") << ")'";
+    } else {
+      gp << " notitle";
+    }
     ++colour;
   }
   gp << "\n";
@@ -443,8 +447,8 @@ int RunWall(const WallOptions& o) {
     std::string script = TrajectoryPlot(
         o.common.output + ".png", title.str(),
         {{csv, std::string("overlay ") + o.overlay}, {other_csv, std::string("overlay ") + (overlay ? "off" : "on")}},
-        wall_csv, 2.0, 30, false);
-    script = "set xrange [0:250]\nset yrange [-160:30]\n" + script;
+        wall_csv, 2.0, 30, false, "inside bottom right");
+    script = "set xrange [0:250]\nset yrange [-160:30]\nset xtics 25\nset ytics 20\n" + script;
     RunGnuplot(o.common.output + ".gp", script);
   }
   if (o.common.json) {
@@ -474,6 +478,7 @@ struct StabilityOptions {
   std::string gain_form = "small_angle";  ///< small_angle (eq 8) or circular (eq 7).
   double integral_scale = 0.0;            ///< Integral gain k_i = integral_scale / L³ (0 = none, as eqs 9-10).
   double initial_offset_m = 0.002;
+  double arc_lookaheads = 60.0;  ///< Run length in lookahead distances.
 };
 
 device::cobot::ConstraintTrackerConfig::GainForm GainFormOf(const std::string& form) {
@@ -503,6 +508,41 @@ double GrowthWithIntegral(double speed_tau_m, double curvature_per_m, double a, 
     re(zero) = -std::numeric_limits<double>::infinity();
   }
   return re.maxCoeff();
+}
+
+/// The simulation's own loop on a line, linearized but not made continuous: one 1 kHz cycle of UnicycleCobot::Step
+/// (ideal sensors, constant u, no slip, b = 0) maps x_k = (p, ψ, ω, ω̂_{k−1}) to x_{k+1}:
+///   ω̂_k = ω̂_{k−1} + α·(ω_k − ω̂_{k−1})        the backward difference (ψ_k − ψ_{k−1})/h = ω_k, low-passed
+///   ω_c = −u·(a·p_k + b·ψ_k)                   eq 8, p and θ = ψ measured at the start of the cycle
+///   ω_{k+1} = ω_k + (h/τ)·(ω_c − ω̂_k)          J·ω̇ = K₂(ω_c − ω̂), explicit in the torque
+///   ψ_{k+1} = ψ_k + h·ω_{k+1},  p_{k+1} = p_k + h·u·ψ_k    (semi-implicit heading, position on the old heading)
+/// Its largest |eigenvalue| is 1 on the boundary.
+double DiscreteGrowth(double u, double tau_s, double h, double alpha, double a, double b) {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+  // Rows: p, ψ, ω, ω̂ (next), in terms of (p, ψ, ω, ω̂_prev).
+  const double g = h / tau_s;
+  // ω̂_k = (1 − α)·ω̂_prev + α·ω
+  const Eigen::RowVector4d rate(0.0, 0.0, alpha, 1.0 - alpha);
+  const Eigen::RowVector4d command(-u * a, -u * b, 0.0, 0.0);
+  const Eigen::RowVector4d omega_next = Eigen::RowVector4d(0.0, 0.0, 1.0, 0.0) + g * (command - rate);
+  m.row(0) << 1.0, h * u, 0.0, 0.0;
+  m.row(2) = omega_next;
+  m.row(1) = Eigen::RowVector4d(0.0, 1.0, 0.0, 0.0) + h * omega_next;
+  m.row(3) = rate;
+  const Eigen::EigenSolver<Eigen::Matrix4d> solver(m, false);
+  return solver.eigenvalues().cwiseAbs().maxCoeff();
+}
+
+double DiscreteBoundary_m_per_s(const StabilityOptions& o, double tau_s, double lookahead_m) {
+  const device::cobot::TrackingGains g = device::cobot::ComputeTrackingGains(GainFormOf(o.gain_form), lookahead_m, 0.0);
+  const double alpha = 1.0 - std::exp(-2.0 * std::numbers::pi * o.rate_filter_hz * o.step_s);
+  double lo = 1e-6;
+  double hi = 10.0 * lookahead_m / tau_s;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (DiscreteGrowth(mid, tau_s, o.step_s, alpha, g.p_per_m2, g.theta_per_m) < 1.0 ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
 }
 
 /// The linear model's boundary: the speed where GrowthWithIntegral crosses 0 (bisection).
@@ -561,8 +601,8 @@ double TrackingGrowth(const StabilityOptions& o, double speed_m_per_s, double ta
   op_config.push_angle_rad = 0.0;
   op_config.max_force_N = 500.0;
   device::cobot::PushingOperator op(op_config, wall);
-  const double arc_m = 60.0 * lookahead_m;
-  const int steps = static_cast<int>(std::clamp(arc_m / speed_m_per_s, 1.0, 30.0) / o.step_s);
+  const double arc_m = o.arc_lookaheads * lookahead_m;
+  const int steps = static_cast<int>(std::clamp(arc_m / speed_m_per_s, 1.0, 200.0) / o.step_s);
   const double diverged_m = circle ? 0.25 * o.radius_m : 0.2;  // off by a quarter of the radius: not tracking
   double early_min = std::numeric_limits<double>::infinity();
   double early_max = -early_min;
@@ -601,8 +641,11 @@ int RunStability(const StabilityOptions& o) {
     throw Error("cobot-stability: --rate-filter-hz must be > 0 and --step-s in (0, 0.01]");
   }
   if (o.path != "line" && o.path != "circle") throw Error("cobot-stability: --path must be line or circle");
-  if (!(o.radius_m > 0.0) || !(o.integral_scale >= 0.0) || !(o.initial_offset_m > 0.0)) {
-    throw Error("cobot-stability: --radius-m and --initial-offset-m must be > 0, --integral-scale >= 0");
+  if (!(o.radius_m > 0.0) || !(o.integral_scale >= 0.0) || !(o.initial_offset_m > 0.0) ||
+      !(o.arc_lookaheads >= 8.0 && o.arc_lookaheads <= 10000.0)) {
+    throw Error(
+        "cobot-stability: --radius-m and --initial-offset-m must be > 0, --integral-scale >= 0, --arc-lookaheads "
+        "8..10000");
   }
   (void)GainFormOf(o.gain_form);
   const std::string csv_path = o.common.output + ".csv";
@@ -624,6 +667,8 @@ int RunStability(const StabilityOptions& o) {
       const double u_eq10 = device::cobot::MaxStableSpeed_m_per_s(tracker, tau, curvature);
       const double u_eq11 = lookahead / tau;
       const double u_linear = LinearBoundary_m_per_s(o, tau, lookahead);
+      const bool discrete_applies = o.path == "line" && o.integral_scale == 0.0;
+      const double u_discrete = discrete_applies ? DiscreteBoundary_m_per_s(o, tau, lookahead) : 0.0;
       const double u_formula = u_linear;  // the sweep's speeds are multiples of the linear model's boundary
       for (const double ratio : o.ratios) {
         const double u = ratio * u_formula;
@@ -646,7 +691,9 @@ int RunStability(const StabilityOptions& o) {
       boundary << tau << ',' << lookahead << ',' << u_eq10 << ',' << u_sim << ',' << u_sim * tau << '\n';
       json << (first ? "" : ",") << "{\"tau_s\":" << tau << ",\"lookahead_m\":" << lookahead
            << ",\"u_max_eq10_m_per_s\":" << u_eq10 << ",\"u_max_eq11_m_per_s\":" << u_eq11
-           << ",\"u_max_linear_m_per_s\":" << u_linear << ",\"u_max_sim_m_per_s\":" << u_sim << "}";
+           << ",\"u_max_linear_m_per_s\":" << u_linear;
+      if (discrete_applies) json << ",\"u_max_discrete_m_per_s\":" << u_discrete;
+      json << ",\"u_max_sim_m_per_s\":" << u_sim << "}";
       first = false;
       if (!o.common.json) {
         std::cout << "tau " << tau << " s, L " << lookahead << " m: eq 10 u_max = " << u_eq10
@@ -850,9 +897,10 @@ int RunSlip(const SlipOptions& o) {
        << "' skip 1 using 1:2 with lines lw 2 lc rgb 'blue' title 'push into the wall', '" << csv_path
        << "' skip 1 using 1:3 with lines lw 2 lc rgb 'red' title 'lateral load on the wheel', " << limit_N
        << " with lines lw 2 dt 2 lc rgb 'black' title 'traction limit mu N'\n"
-       << "set ylabel 'penetration p (mm)'\nplot '" << csv_path
-       << "' skip 1 using 1:($5*1000) with lines lw 2 lc rgb 'red' title 'penetration into the wall', '" << csv_path
-       << "' skip 1 using 1:($6*5) with steps lw 1 lc rgb 'gray' title 'sliding (5 = yes)'\n"
+       << "set ylabel 'penetration p (mm)'\nset yrange [-5:60]\nplot '" << csv_path
+       << "' skip 1 using 1:($5*1000) with lines lw 2 lc rgb 'red' title 'penetration into the wall (clipped at 60 "
+          "mm)', '"
+       << csv_path << "' skip 1 using 1:($6*50) with steps lw 2 lc rgb 'gray' title 'sliding (50 = yes)'\n"
        << "unset multiplot\n";
     RunGnuplot(o.common.output + ".gp", gp.str());
   }
@@ -1036,6 +1084,8 @@ void AddCobotScenarios(CLI::App& app) {
     sub->add_option("--integral-scale", o->integral_scale, "Integral gain k_i = scale / L^3 (0 = none)")
         ->capture_default_str();
     sub->add_option("--initial-offset-m", o->initial_offset_m, "Start offset from the constraint (m)")
+        ->capture_default_str();
+    sub->add_option("--arc-lookaheads", o->arc_lookaheads, "Run length per speed, in lookahead distances")
         ->capture_default_str();
     sub->callback([o] { RunStability(*o); });
   }

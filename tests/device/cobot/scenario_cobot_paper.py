@@ -46,6 +46,15 @@ with tempfile.TemporaryDirectory() as out:
     check(abs(sim / eq10 - 1.0) < 0.02, f"circle: simulated boundary {sim} m/s is not within 2 % of eq 10 ({eq10})")
     check(sim / eq11 - 1.0 > 0.05, f"circle: simulated boundary {sim} m/s does not separate from eq 11 ({eq11})")
 
+    # The eq 11 residual (docs/cobot.md): the simulated boundary lies above eq 11 by what the sampled loop itself
+    # predicts (explicit steering update, filtered rate feedback), not below it as a continuous delay model says.
+    line = run(out, "cobot-stability", "--tau-s", "0.1", "--lookahead-m", "0.05", "--ratios", "1")
+    pair = line["pairs"][0]
+    discrete, eq11, sim = pair["u_max_discrete_m_per_s"], pair["u_max_eq11_m_per_s"], pair["u_max_sim_m_per_s"]
+    check(discrete > eq11, f"line: the sampled loop's boundary {discrete} m/s is not above eq 11's {eq11}")
+    # 0.15 %: two steps of the bisection (0.07 % of L/tau each).
+    check(abs(sim / discrete - 1.0) < 0.0015, f"line: simulated boundary {sim} m/s vs the sampled loop's {discrete}")
+
     # Integral action on the line: u tau < L (1 - scale/4).
     integral = run(out, "cobot-stability", "--integral-scale", "1", "--tau-s", "0.05", "--lookahead-m", "0.02",
                    "--ratios", "0.9,1.1")
