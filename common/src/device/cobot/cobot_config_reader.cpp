@@ -1,0 +1,382 @@
+// The `device.cobot` section reader (docs/cobot.md, docs/configuration.md): every key, its range and the checks
+// that span keys (dof, role, rig, fieldbus node ids).
+
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "cobot_backend_private.hpp"
+#include "teleop/config/yaml_reader.hpp"
+#include "teleop/error.hpp"
+
+namespace teleop::device::cobot {
+namespace {
+
+using config::Field;
+using config::Finite;
+using config::Map;
+using config::NonNegative;
+using config::Positive;
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+int ReadCount(const Field& f) {
+  const double v = NonNegative(f, "counts per revolution (0 = ideal)");
+  if (v != std::floor(v) || v > 1e9) f.Fail("must be a whole number of counts, got " + config::Num(v));
+  return static_cast<int>(v);
+}
+
+void ReadOperator(const Field& f, CobotOperatorScript& op) {
+  const Map map(f, {"speed_m_per_s", "direction_deg", "then_at_s", "then_direction_deg", "max_force_N"});
+  op.enabled = true;
+  if (auto v = map.Optional("speed_m_per_s")) op.speed_m_per_s = Positive(*v, "m/s");
+  if (auto v = map.Optional("direction_deg")) op.direction_deg = Finite(*v);
+  if (auto v = map.Optional("then_at_s")) op.then_at_s = NonNegative(*v, "s (0 = never)");
+  if (auto v = map.Optional("then_direction_deg")) op.then_direction_deg = Finite(*v);
+  if (auto v = map.Optional("max_force_N")) op.max_force_N = Positive(*v, "N");
+}
+
+void ReadBicycle(const Field& f, CobotBackendConfig& c) {
+  const Map map(f, {"half_wheelbase_m", "plate_mass_kg", "plate_inertia_kgm2", "singularity_threshold",
+                    "singularity_guard", "hold_heading_deg", "heading_bandwidth_per_s"});
+  if (auto v = map.Optional("half_wheelbase_m")) c.bicycle.geometry.half_wheelbase_m = Positive(*v, "m");
+  if (auto v = map.Optional("plate_mass_kg")) c.bicycle.plate_mass_kg = Positive(*v, "kg");
+  if (auto v = map.Optional("plate_inertia_kgm2")) c.bicycle.plate_inertia_kgm2 = Positive(*v, "kg·m²");
+  if (auto v = map.Optional("singularity_threshold")) {
+    c.bicycle_caster.singularity_threshold = config::InRange(*v, 0.0, 0.99, "");
+  }
+  if (auto v = map.Optional("singularity_guard")) c.bicycle_caster.singularity_guard = v->AsBool();
+  if (auto v = map.Optional("hold_heading_deg")) {
+    c.bicycle_caster.heading_constraint = true;
+    c.bicycle_caster.heading_target_rad = Finite(*v) * kDeg;
+  }
+  if (auto v = map.Optional("heading_bandwidth_per_s")) {
+    c.bicycle_caster.heading_bandwidth_per_s = config::InRange(*v, 0.1, 20.0, "rad/s");
+  }
+}
+
+void ReadCanPort(const Field& f, fieldbus::CanPortConfig& can) {
+  const Map map(f, {"medium", "interface", "bus", "connect_timeout_ms"});
+  if (auto v = map.Optional("medium")) {
+    const std::string medium = v->AsString();
+    if (medium == "socketcan") {
+      can.medium = transport::CanMedium::kSocketCan;
+    } else if (medium == "emulated") {
+      can.medium = transport::CanMedium::kEmulatedBus;
+    } else {
+      v->Fail("must be socketcan (a SocketCAN interface) or emulated (the teleop-canbus daemon), got '" + medium + "'");
+    }
+  }
+  const bool emulated = can.medium == transport::CanMedium::kEmulatedBus;
+  if (auto v = map.Optional("interface")) {
+    if (emulated) v->Fail("only for medium socketcan");
+    can.interface_name = v->AsString();
+    if (can.interface_name.empty() || can.interface_name.size() > 15) {
+      v->Fail("must be a network interface name of 1..15 characters (e.g. can0), got '" + can.interface_name + "'");
+    }
+  } else if (!emulated) {
+    map.Required("interface");
+  }
+  if (auto v = map.Optional("bus")) {
+    if (!emulated) v->Fail("only for medium emulated (the teleop-canbus daemon's address)");
+    const std::string text = v->AsString();
+    const std::size_t colon = text.rfind(':');
+    const std::string port = colon == std::string::npos ? "" : text.substr(colon + 1);
+    if (colon == std::string::npos || colon == 0 || port.empty() || port.size() > 5 ||
+        port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) < 1 || std::stoi(port) > 65535) {
+      v->Fail("must be \"IPv4:PORT\" like \"127.0.0.1:47300\", got '" + text + "'");
+    }
+    can.emulated_bus_host = text.substr(0, colon);
+    can.emulated_bus_port = static_cast<std::uint16_t>(std::stoi(port));
+  }
+  if (auto v = map.Optional("connect_timeout_ms")) can.connect_timeout_ms = Positive(*v, "ms");
+}
+
+std::uint8_t ReadNodeId(const Field& f) { return static_cast<std::uint8_t>(config::IntInRange(f, 1, 127)); }
+
+void ReadSteering(const Field& f, CobotFieldbusConfig& c) {
+  const Map map(f,
+                {"node_id", "mode", "gear_ratio", "position_rad_per_count", "velocity_rad_per_s_per_unit", "direction",
+                 "rated_torque_Nm", "max_torque_Nm", "offset_deg", "max_angle_jump_rad", "hold_stiffness_Nm_per_rad",
+                 "hold_damping_Nms_per_rad", "heartbeat_period_ms", "heartbeat_timeout_ms", "stale_after_ms"});
+  fieldbus::Cia402DriveConfig& d = c.steering.drive;
+  d.node_id = ReadNodeId(map.Required("node_id"));
+  if (auto v = map.Optional("mode")) {
+    const std::string mode = v->AsString();
+    if (mode == "velocity") {
+      v->Fail(
+          "velocity mode (cyclic synchronous velocity, 0x6060 = 9) is not supported by the CiA 402 client, which runs "
+          "cyclic synchronous torque only; use mode: torque (the steering-velocity loop of eq 3c then runs on the "
+          "host, Γ = K2·(ω_c − ω))");
+    }
+    if (mode != "torque") v->Fail("must be torque, got '" + mode + "'");
+  }
+  if (auto v = map.Optional("gear_ratio")) c.steering.gear_ratio = Positive(*v, "motor rad per steering rad");
+  if (auto v = map.Optional("position_rad_per_count")) d.scaling.position_rad_per_count = Positive(*v, "rad");
+  if (auto v = map.Optional("velocity_rad_per_s_per_unit")) {
+    d.scaling.velocity_rad_per_s_per_unit = Positive(*v, "rad/s");
+  }
+  if (auto v = map.Optional("direction")) {
+    const double sign = Finite(*v);
+    if (sign != 1.0 && sign != -1.0) v->Fail("must be 1 or -1, got " + config::Num(sign));
+    d.scaling.sign = sign;
+  }
+  if (auto v = map.Optional("rated_torque_Nm")) d.scaling.rated_torque_Nm = Positive(*v, "N·m");
+  if (auto v = map.Optional("max_torque_Nm")) d.max_torque_Nm = Positive(*v, "N·m");
+  if (auto v = map.Optional("offset_deg")) c.steering_offset_rad = Finite(*v) * kDeg;
+  if (auto v = map.Optional("max_angle_jump_rad")) c.steering.max_angle_jump_rad = Positive(*v, "rad");
+  if (auto v = map.Optional("hold_stiffness_Nm_per_rad"))
+    c.steering.hold_stiffness_Nm_per_rad = Positive(*v, "N·m/rad");
+  if (auto v = map.Optional("hold_damping_Nms_per_rad")) {
+    c.steering.hold_damping_Nms_per_rad = NonNegative(*v, "N·m·s/rad");
+  }
+  if (auto v = map.Optional("heartbeat_period_ms"))
+    d.drive_heartbeat_period_ms = config::InRange(*v, 1.0, 10000.0, "ms");
+  if (auto v = map.Optional("heartbeat_timeout_ms")) d.heartbeat_timeout_ms = config::InRange(*v, 1.0, 60000.0, "ms");
+  if (d.heartbeat_timeout_ms <= d.drive_heartbeat_period_ms) {
+    f.Fail("heartbeat_timeout_ms (" + config::Num(d.heartbeat_timeout_ms) + ") must exceed heartbeat_period_ms (" +
+           config::Num(d.drive_heartbeat_period_ms) + ")");
+  }
+  if (auto v = map.Optional("stale_after_ms")) d.stale_after_ms = Positive(*v, "ms");
+}
+
+void ReadSensors(const Field& f, CobotFieldbusConfig& c) {
+  const Map map(f, {"source", "node_id", "wheel_cob_id", "force_cob_id", "brake_cob_id", "wheel_direction",
+                    "force_N_per_unit", "stale_after_ms", "max_wheel_step_m"});
+  CobotSensorNodeConfig& s = c.sensors;
+  if (auto v = map.Optional("source")) {
+    const std::string source = v->AsString();
+    if (source == "drive") {
+      v->Fail(
+          "the wheel encoder and the handle force from the steering drive's PDOs are not supported (the CiA 402 "
+          "client maps position, velocity and torque only); use source: node (a separate CAN node)");
+    }
+    if (source != "node") v->Fail("must be node, got '" + source + "'");
+  }
+  s.node_id = ReadNodeId(map.Required("node_id"));
+  const auto cob = [](const Field& e) { return static_cast<std::uint32_t>(config::IntInRange(e, 0x081, 0x7FF)); };
+  if (auto v = map.Optional("wheel_cob_id")) s.wheel_cob_id = cob(*v);
+  if (auto v = map.Optional("force_cob_id")) s.force_cob_id = cob(*v);
+  if (auto v = map.Optional("brake_cob_id")) s.brake_cob_id = cob(*v);
+  if (auto v = map.Optional("wheel_direction")) {
+    const double sign = Finite(*v);
+    if (sign != 1.0 && sign != -1.0) v->Fail("must be 1 or -1, got " + config::Num(sign));
+    s.wheel_sign = sign;
+  }
+  if (auto v = map.Optional("force_N_per_unit")) s.force_N_per_unit = Positive(*v, "N");
+  if (auto v = map.Optional("stale_after_ms")) s.stale_after_ms = Positive(*v, "ms");
+  if (auto v = map.Optional("max_wheel_step_m")) s.max_wheel_step_m = Positive(*v, "m");
+  if (s.WheelCobId() == s.ForceCobId()) f.Fail("the wheel and force TPDOs need different COB-IDs");
+}
+
+void ReadFieldbus(const Field& f, CobotBackendConfig& c) {
+  const Map map(f, {"can", "cycle_period_ms", "steering", "sensors", "first_frames_timeout_ms"});
+  CobotFieldbusConfig& b = c.fieldbus;
+  ReadCanPort(map.Required("can"), b.can);
+  if (auto v = map.Optional("cycle_period_ms")) {
+    b.steering.drive.cycle_period_s = config::InRange(*v, 0.125, 100.0, "ms") * 1e-3;
+  }
+  ReadSteering(map.Required("steering"), b);
+  const Field sensors = map.Required("sensors");
+  ReadSensors(sensors, b);
+  if (b.sensors.node_id == b.steering.drive.node_id || b.sensors.node_id == b.steering.drive.host_node_id) {
+    sensors.Fail("node_id " + std::to_string(b.sensors.node_id) +
+                 " is taken (the steering drive's node id, or the host's heartbeat id " +
+                 std::to_string(b.steering.drive.host_node_id) + ")");
+  }
+  if (auto v = map.Optional("first_frames_timeout_ms")) b.first_frames_timeout_ms = Positive(*v, "ms");
+}
+
+}  // namespace
+
+CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
+  if (role == Role::kSlave) {
+    const std::string why =
+        "a cobot cannot be the slave: it is passive (its motors only steer its wheels, they cannot push), so it can "
+        "neither follow the master's motion nor apply a force to the environment, and the coupling force would be "
+        "rendered as 'blocked slave' walls; use backend: cobot on the master (role: master) and a slave backend that "
+        "can move (loopback, hybrid, cia402, ...)";
+    if (section != nullptr) section->Fail(why);
+    throw Error("device.cobot: " + why);
+  }
+  CobotBackendConfig c;
+  double tau_s = 0.02;
+  if (section != nullptr) {
+    const Map map(*section, {"kind",
+                             "cart_mass_kg",
+                             "rolling_damping_Ns_per_m",
+                             "steering_inertia_kgm2",
+                             "steering_damping_Nms_per_rad",
+                             "max_steering_torque_Nm",
+                             "cornering_stiffness_N_per_rad",
+                             "brake_max_force_N",
+                             "friction_coefficient",
+                             "normal_load_N",
+                             "wheel_radius_m",
+                             "wheel_encoder_counts_per_rev",
+                             "steering_encoder_counts_per_rev",
+                             "position_resolution_m",
+                             "force_resolution_N",
+                             "steering_time_constant_s",
+                             "virtual_mass_kg",
+                             "speed_floor_m_per_s",
+                             "lookahead_m",
+                             "gain_form",
+                             "p_gain_scale",
+                             "theta_gain_scale",
+                             "integral_gain_per_m3",
+                             "overlay",
+                             "overlay_min_radius_m",
+                             "release_force_N",
+                             "stability_action",
+                             "stability_margin",
+                             "contact_force_threshold_N",
+                             "initial_position_m",
+                             "initial_heading_deg",
+                             "operator",
+                             "bicycle",
+                             "rig",
+                             "fieldbus"});
+    UnicyclePlantConfig& p = c.unicycle.plant;
+    CobotSensorConfig& s = c.unicycle.sensors;
+    VirtualWallConfig& w = c.unicycle.controller;
+    if (auto v = map.Optional("kind")) {
+      const std::string kind = v->AsString();
+      if (kind == "unicycle") {
+        c.kind = CobotBackendConfig::Kind::kUnicycle;
+      } else if (kind == "bicycle") {
+        c.kind = CobotBackendConfig::Kind::kBicycle;
+      } else {
+        v->Fail("must be unicycle or bicycle, got '" + kind + "'");
+      }
+    }
+    if (auto v = map.Optional("cart_mass_kg")) p.cart_mass_kg = Positive(*v, "kg");
+    if (auto v = map.Optional("rolling_damping_Ns_per_m")) p.rolling_damping_Ns_per_m = NonNegative(*v, "N·s/m");
+    if (auto v = map.Optional("steering_inertia_kgm2")) p.steering_inertia_kgm2 = Positive(*v, "kg·m²");
+    if (auto v = map.Optional("steering_damping_Nms_per_rad")) {
+      p.steering_damping_Nms_per_rad = NonNegative(*v, "N·m·s/rad");
+    }
+    if (auto v = map.Optional("max_steering_torque_Nm")) p.max_steering_torque_Nm = Positive(*v, "N·m");
+    if (auto v = map.Optional("cornering_stiffness_N_per_rad")) {
+      p.cornering_stiffness_N_per_rad = NonNegative(*v, "N/rad (0 = no slip)");
+    }
+    if (auto v = map.Optional("brake_max_force_N")) p.brake_max_force_N = NonNegative(*v, "N (0 = no brake)");
+    if (auto v = map.Optional("friction_coefficient")) {
+      p.friction_coefficient = NonNegative(*v, "(0 = no traction limit)");
+    }
+    if (auto v = map.Optional("normal_load_N")) p.normal_load_N = NonNegative(*v, "N (0 = cart_mass_kg·g)");
+    if (auto v = map.Optional("wheel_radius_m")) s.wheel_radius_m = Positive(*v, "m");
+    if (auto v = map.Optional("wheel_encoder_counts_per_rev")) s.wheel_encoder_counts_per_rev = ReadCount(*v);
+    if (auto v = map.Optional("steering_encoder_counts_per_rev")) s.steering_encoder_counts_per_rev = ReadCount(*v);
+    if (auto v = map.Optional("position_resolution_m")) s.position_resolution_m = NonNegative(*v, "m (0 = ideal)");
+    if (auto v = map.Optional("force_resolution_N")) s.force_resolution_N = NonNegative(*v, "N (0 = ideal)");
+    if (auto v = map.Optional("steering_time_constant_s")) tau_s = Positive(*v, "s");
+    if (auto v = map.Optional("virtual_mass_kg")) w.caster.k1_per_kg = 1.0 / Positive(*v, "kg");
+    if (auto v = map.Optional("speed_floor_m_per_s")) w.caster.speed_floor_m_per_s = Positive(*v, "m/s");
+    if (auto v = map.Optional("lookahead_m")) w.tracker.lookahead_m = Positive(*v, "m");
+    if (auto v = map.Optional("gain_form")) {
+      const std::string form = v->AsString();
+      if (form == "small_angle") {
+        w.tracker.gain_form = ConstraintTrackerConfig::GainForm::kSmallAngle;
+      } else if (form == "circular") {
+        w.tracker.gain_form = ConstraintTrackerConfig::GainForm::kCircular;
+      } else {
+        v->Fail("must be small_angle (eq 8) or circular (eq 7), got '" + form + "'");
+      }
+    }
+    if (auto v = map.Optional("p_gain_scale")) w.tracker.p_gain_scale = Positive(*v, "");
+    if (auto v = map.Optional("theta_gain_scale")) w.tracker.theta_gain_scale = Positive(*v, "");
+    if (auto v = map.Optional("integral_gain_per_m3")) w.tracker.integral_gain_per_m3 = NonNegative(*v, "1/m³");
+    if (auto v = map.Optional("overlay")) w.overlay_enabled = v->AsBool();
+    if (auto v = map.Optional("overlay_min_radius_m")) w.overlay_min_radius_m = NonNegative(*v, "m");
+    if (auto v = map.Optional("release_force_N")) w.release_force_N = NonNegative(*v, "N");
+    if (auto v = map.Optional("stability_action")) {
+      const std::string action = v->AsString();
+      if (action == "warn") {
+        w.guard.action = StabilityGuardConfig::Action::kWarn;
+      } else if (action == "lengthen_lookahead") {
+        w.guard.action = StabilityGuardConfig::Action::kLengthenLookahead;
+      } else if (action == "brake") {
+        w.guard.action = StabilityGuardConfig::Action::kBrake;
+      } else {
+        v->Fail("must be warn, lengthen_lookahead or brake, got '" + action + "'");
+      }
+    }
+    if (auto v = map.Optional("stability_margin")) w.guard.margin = config::InRange(*v, 0.05, 1.0, "");
+    if (auto v = map.Optional("contact_force_threshold_N")) c.contact_force_threshold_N = Positive(*v, "N");
+    if (auto v = map.Optional("initial_position_m")) {
+      const DofVector xy = config::ReadDofVector(*v, 2, Finite);
+      c.initial.position_m = {xy[0], xy[1]};
+    }
+    if (auto v = map.Optional("initial_heading_deg")) c.initial.heading_rad = Finite(*v) * kDeg;
+    if (auto v = map.Optional("operator")) ReadOperator(*v, c.op);
+    if (auto v = map.Optional("bicycle")) ReadBicycle(*v, c);
+    if (c.kind == CobotBackendConfig::Kind::kBicycle) {
+      if (auto v = map.Optional("virtual_mass_kg")) {
+        v->Fail(
+            "not for kind: bicycle; its virtual mass is bicycle.plate_mass_kg: along its wheels the operator feels the "
+            "plate's own mass, so the caster must ask for the same mass across them or force and acceleration are not "
+            "collinear (Colgate et al. §3.1: a point mass)");
+      }
+    } else if (auto v = map.Optional("bicycle")) {
+      v->Fail("only for kind: bicycle");
+    }
+    if (auto v = map.Optional("rig")) {
+      const std::string rig = v->AsString();
+      if (rig == "simulated") {
+        c.rig = CobotBackendConfig::Rig::kSimulated;
+      } else if (rig == "fieldbus") {
+        c.rig = CobotBackendConfig::Rig::kFieldbus;
+      } else {
+        v->Fail("must be simulated or fieldbus, got '" + rig + "'");
+      }
+    }
+    if (c.rig == CobotBackendConfig::Rig::kFieldbus) {
+      const Field rig = map.Required("rig");
+      if (c.kind != CobotBackendConfig::Kind::kUnicycle) {
+        rig.Fail("the fieldbus rig is a unicycle cobot (one steering drive); kind bicycle is simulated only");
+      }
+      if (auto v = map.Optional("operator")) v->Fail("only for rig: simulated (a real rig has a human operator)");
+      if (s.wheel_encoder_counts_per_rev < 1) {
+        map.Required("wheel_encoder_counts_per_rev").Fail("the fieldbus rig needs the wheel encoder's counts (>= 1)");
+      }
+      ReadFieldbus(map.Required("fieldbus"), c);
+      c.fieldbus.sensors.wheel_radius_m = s.wheel_radius_m;
+      c.fieldbus.sensors.wheel_counts_per_rev = s.wheel_encoder_counts_per_rev;
+      c.fieldbus.sensors.has_brake = p.brake_max_force_N > 0.0;
+    } else if (auto v = map.Optional("fieldbus")) {
+      v->Fail("only for rig: fieldbus");
+    }
+    if (w.guard.action == StabilityGuardConfig::Action::kBrake && p.brake_max_force_N <= 0.0) {
+      map.Required("stability_action").Fail("brake needs a wheel brake: set brake_max_force_N > 0");
+    }
+  }
+  const int expected = c.kind == CobotBackendConfig::Kind::kUnicycle ? 2 : 3;
+  if (dof != expected) {
+    const std::string what = c.kind == CobotBackendConfig::Kind::kUnicycle ? "a unicycle cobot is planar: dof 2 (x, y)"
+                                                                           : "a bicycle cobot has dof 3 (x, y, θ)";
+    if (section != nullptr) section->Fail(what + "; the process has dof " + std::to_string(dof));
+    throw Error("device.cobot: " + what + "; the process has dof " + std::to_string(dof));
+  }
+  try {
+    const double k2 = SteeringGainFor(c.unicycle.plant, tau_s);
+    c.unicycle.controller.caster.k2_Nms_per_rad = k2;
+    c.unicycle.controller.tracker.k2_Nms_per_rad = k2;
+    c.unicycle.controller.caster.friction_compensation_Nms_per_rad = c.unicycle.plant.steering_damping_Nms_per_rad;
+    c.bicycle.steering_inertia_kgm2 = c.unicycle.plant.steering_inertia_kgm2;
+    c.bicycle.steering_damping_Nms_per_rad = c.unicycle.plant.steering_damping_Nms_per_rad;
+    c.bicycle.max_steering_torque_Nm = c.unicycle.plant.max_steering_torque_Nm;
+    c.bicycle_caster.k2_Nms_per_rad = k2;
+    c.bicycle_caster.friction_compensation_Nms_per_rad = c.bicycle.steering_damping_Nms_per_rad;
+    c.bicycle_caster.rolling_damping_Ns_per_m = c.bicycle.rolling_damping_Ns_per_m;
+    c.bicycle_caster.virtual_mass_kg = c.bicycle.plate_mass_kg;  // isotropic: the plate's mass in every direction
+    c.bicycle_caster.virtual_inertia_kgm2 = c.bicycle.plate_inertia_kgm2;
+    c.bicycle_caster.speed_floor_m_per_s = c.unicycle.controller.caster.speed_floor_m_per_s;
+  } catch (const Error& e) {
+    if (section != nullptr) section->Fail(e.what());
+    throw;
+  }
+  return c;
+}
+
+}  // namespace teleop::device::cobot
