@@ -5,7 +5,8 @@
 
 namespace teleop::device::cobot {
 
-/// Scripted operators for the Colgate et al. scenarios and tests (a human's intent reduced to two loops).
+/// Scripted operators for the Colgate et al. scenarios and tests (a human's intent reduced to two loops). Library
+/// teleop::device_cobot_sim, not part of the backend.
 
 /// Turning at a fixed lateral acceleration: a PI on the force along the wheel holds the speed, a PI on the force
 /// across it holds the lateral acceleration u·ω at the target. The lateral force it ends up applying, over the
