@@ -8,10 +8,11 @@ namespace teleop::device::hybrid {
 /// The rig's sensors as the controller sees them (§2.1: optical encoders on the active joints; §2.3: the F/T sensor
 /// at the end-effector). Seeded and deterministic: the same seed gives the same readings on every run.
 ///
-/// Encoders: the joint angle, counted from where Reset put it, quantized to 2π/counts_per_joint_rev (default 40 000: a 2000-line quadrature encoder on
-/// the pulley-1 axis, ×5 pulleys; the paper gives no resolution), the velocity estimated from the quantized angle by
-/// a backward difference through a first-order low-pass of velocity_filter_hz (default 200 Hz). The cubic damper and
-/// the brake direction use this estimate. counts 0 = exact angle, filter 0 = unfiltered difference.
+/// Encoders: the joint angle, counted from where Reset put it, quantized to 2π/counts_per_joint_rev (default 40 000: a
+/// 2000-line quadrature encoder on the pulley-1 axis, ×5 pulleys; the paper gives no resolution), the velocity
+/// estimated from the quantized angle by a backward difference through a first-order low-pass of velocity_filter_hz
+/// (default 200 Hz). The cubic damper and the brake direction use this estimate. counts 0 = exact angle, filter 0 =
+/// unfiltered difference.
 struct EncoderConfig {
   double counts_per_joint_rev = 40000.0;
   double velocity_filter_hz = 200.0;
