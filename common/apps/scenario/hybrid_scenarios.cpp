@@ -7,9 +7,9 @@
 #include <sstream>
 #include <string>
 
+#include "device/hybrid/force_manipulability.hpp"
+#include "hybrid/contact_scenarios.hpp"
 #include "scenarios.hpp"
-#include "teleop/device/hybrid/contact_scenarios.hpp"
-#include "teleop/device/hybrid/force_manipulability.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::scenario {

@@ -2,9 +2,9 @@
 
 #include <cmath>
 
-#include "teleop/device/hybrid/handle_force_sensor.hpp"
-#include "teleop/device/hybrid/motor_model.hpp"
-#include "teleop/device/hybrid/particle_brake.hpp"
+#include "device/hybrid/handle_force_sensor.hpp"
+#include "device/hybrid/motor_model.hpp"
+#include "device/hybrid/particle_brake.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device::hybrid {

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <random>
 
-#include "teleop/device/hybrid/five_bar.hpp"
-#include "teleop/device/hybrid/motor_brake_allocation.hpp"
+#include "device/hybrid/five_bar.hpp"
+#include "device/hybrid/motor_brake_allocation.hpp"
 
 namespace teleop::device::hybrid {
 namespace {

@@ -6,8 +6,8 @@
 #include <cstdlib>
 #include <random>
 
-#include "teleop/device/hybrid/brake_friction_solver.hpp"
-#include "teleop/device/hybrid/hybrid_rig.hpp"
+#include "device/hybrid/brake_friction_solver.hpp"
+#include "device/hybrid/hybrid_rig.hpp"
 
 namespace teleop::device::hybrid {
 namespace {

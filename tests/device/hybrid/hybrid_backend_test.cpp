@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/hybrid_backend.hpp"
+#include "device/hybrid/hybrid_backend.hpp"
 
 #include <gtest/gtest.h>
 

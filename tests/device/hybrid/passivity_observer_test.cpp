@@ -1,7 +1,7 @@
 // The hybrid wall's passivity observer/controller on its own (Hannaford & Ryu 2002, impedance form; the baseline
 // Kwon & Song compare with in §4). Kwon & Song: "These methods measured and controlled the amount of energy that
 // flowed in and out of the system to satisfy the passivity condition."
-#include "teleop/device/hybrid/passivity_observer.hpp"
+#include "device/hybrid/passivity_observer.hpp"
 
 #include <gtest/gtest.h>
 

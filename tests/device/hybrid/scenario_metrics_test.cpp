@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "teleop/device/hybrid/contact_scenarios.hpp"
+#include "hybrid/contact_scenarios.hpp"
 
 namespace teleop::device::hybrid {
 namespace {

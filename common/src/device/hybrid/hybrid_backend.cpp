@@ -1,12 +1,12 @@
 // The `hybrid` backend: the Kwon & Song motor–brake five-bar, simulated (docs/hybrid.md, `device.hybrid`).
-#include "teleop/device/hybrid/hybrid_backend.hpp"
+#include "device/hybrid/hybrid_backend.hpp"
 
 #include <Eigen/LU>
 #include <memory>
 #include <numbers>
 
+#include "device/hybrid/hybrid_fieldbus_section.hpp"
 #include "teleop/config/yaml_reader.hpp"
-#include "teleop/device/hybrid/hybrid_fieldbus_section.hpp"
 
 namespace teleop::device::hybrid {
 namespace {

@@ -1,9 +1,9 @@
-#include "teleop/device/hybrid/hybrid_device.hpp"
+#include "device/hybrid/hybrid_device.hpp"
 
 #include <Eigen/LU>
 #include <cmath>
 
-#include "teleop/device/hybrid/force_manipulability.hpp"
+#include "device/hybrid/force_manipulability.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device::hybrid {

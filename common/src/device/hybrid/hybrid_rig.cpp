@@ -1,9 +1,9 @@
-#include "teleop/device/hybrid/hybrid_rig.hpp"
+#include "device/hybrid/hybrid_rig.hpp"
 
 #include <Eigen/LU>
 #include <cmath>
 
-#include "teleop/device/hybrid/brake_friction_solver.hpp"
+#include "device/hybrid/brake_friction_solver.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device::hybrid {

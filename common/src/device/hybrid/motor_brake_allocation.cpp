@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/motor_brake_allocation.hpp"
+#include "device/hybrid/motor_brake_allocation.hpp"
 
 #include <algorithm>
 #include <cmath>

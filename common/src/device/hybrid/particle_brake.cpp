@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/particle_brake.hpp"
+#include "device/hybrid/particle_brake.hpp"
 
 #include <algorithm>
 #include <cmath>

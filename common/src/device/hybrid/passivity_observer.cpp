@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/passivity_observer.hpp"
+#include "device/hybrid/passivity_observer.hpp"
 
 #include <algorithm>
 #include <cmath>

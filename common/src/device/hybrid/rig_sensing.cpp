@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/rig_sensing.hpp"
+#include "device/hybrid/rig_sensing.hpp"
 
 #include <cmath>
 

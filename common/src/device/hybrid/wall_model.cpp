@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/wall_model.hpp"
+#include "device/hybrid/wall_model.hpp"
 
 #include <cmath>
 #include <cstring>

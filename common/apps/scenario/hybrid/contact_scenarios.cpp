@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/contact_scenarios.hpp"
+#include "hybrid/contact_scenarios.hpp"
 
 #include <Eigen/LU>
 #include <algorithm>

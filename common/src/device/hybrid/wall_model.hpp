@@ -3,7 +3,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 
-#include "teleop/device/hybrid/passivity_observer.hpp"
+#include "device/hybrid/passivity_observer.hpp"
 
 namespace teleop::device::hybrid {
 

@@ -3,11 +3,11 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "teleop/device/hybrid/friction_display.hpp"
-#include "teleop/device/hybrid/hybrid_rig.hpp"
-#include "teleop/device/hybrid/motor_brake_allocation.hpp"
-#include "teleop/device/hybrid/operator_hand.hpp"
-#include "teleop/device/hybrid/wall_model.hpp"
+#include "device/hybrid/friction_display.hpp"
+#include "device/hybrid/hybrid_rig.hpp"
+#include "device/hybrid/motor_brake_allocation.hpp"
+#include "device/hybrid/operator_hand.hpp"
+#include "device/hybrid/wall_model.hpp"
 
 namespace teleop::device::hybrid {
 

@@ -3,11 +3,11 @@
 #include <Eigen/Core>
 #include <array>
 
-#include "teleop/device/hybrid/five_bar.hpp"
-#include "teleop/device/hybrid/handle_force_sensor.hpp"
-#include "teleop/device/hybrid/motor_model.hpp"
-#include "teleop/device/hybrid/particle_brake.hpp"
-#include "teleop/device/hybrid/rig_sensing.hpp"
+#include "device/hybrid/five_bar.hpp"
+#include "device/hybrid/handle_force_sensor.hpp"
+#include "device/hybrid/motor_model.hpp"
+#include "device/hybrid/particle_brake.hpp"
+#include "device/hybrid/rig_sensing.hpp"
 
 namespace teleop::device::hybrid {
 

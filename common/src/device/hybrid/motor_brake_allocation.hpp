@@ -2,8 +2,8 @@
 
 #include <Eigen/Core>
 
-#include "teleop/device/hybrid/motor_model.hpp"
-#include "teleop/device/hybrid/particle_brake.hpp"
+#include "device/hybrid/motor_model.hpp"
+#include "device/hybrid/particle_brake.hpp"
 
 namespace teleop::device::hybrid {
 
