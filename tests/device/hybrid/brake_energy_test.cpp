@@ -85,3 +85,23 @@ TEST(HybridRig, BrakesNeverAddEnergyOverRandomRuns) {
 
 }  // namespace
 }  // namespace teleop::device::hybrid
+
+namespace teleop::device::hybrid {
+namespace {
+
+// Static vs sliding: a stuck joint holds up to static_ratio × (brake + joint friction capacity) before it slips; once
+// sliding it feels the sliding capacity. Brake shaft 2 N·m: capacity (2 + 0.08) × 5 + 0.1 = 10.5 N·m, static 11.55.
+TEST(HybridRig, StaticTorqueAboveSlidingTorque) {
+  HybridRig rig{HybridRigConfig{}};
+  const Eigen::Vector2d brake{2.0, 2.0};
+  for (int k = 0; k < 500; ++k) rig.Step(Eigen::Vector2d::Zero(), brake, Eigen::Vector2d::Zero(), 1e-3);
+  ASSERT_NEAR(rig.state().brake_capacity_joint_Nm(0), 1.1 * ((2.0 + 0.08) * 5.0 + 0.1), 0.01);
+  for (int k = 0; k < 100; ++k) rig.Step({11.0, 0.0}, brake, Eigen::Vector2d::Zero(), 1e-3);  // below static
+  EXPECT_EQ(rig.state().joint_velocity_rad_per_s(0), 0.0);
+  for (int k = 0; k < 5; ++k) rig.Step({12.0, 0.0}, brake, Eigen::Vector2d::Zero(), 1e-3);  // above: it slips
+  EXPECT_GT(std::abs(rig.state().joint_velocity_rad_per_s(0)), 0.0);
+  EXPECT_NEAR(rig.state().brake_capacity_joint_Nm(0), (2.0 + 0.08) * 5.0 + 0.1, 0.01);  // sliding capacity
+}
+
+}  // namespace
+}  // namespace teleop::device::hybrid
