@@ -167,22 +167,13 @@ void ContactMetricsFrom(ScenarioResult& r, const Eigen::Vector2d& point, const E
 
 }  // namespace
 
-BrakeConfig AllocationBrakeModel(const BrakeConfig& brake, double mismatch) {
-  BrakeConfig model = brake;
-  model.time_constant_s = brake.time_constant_s * (1.0 - mismatch);
-  model.max_torque_Nm = brake.max_torque_Nm * (1.0 + 0.5 * mismatch);
-  model.residual_fraction = 0.0;
-  model.static_ratio = 1.0;
-  return model;
-}
-
 WallScenarioConfig PaperWallScenario(WallKind kind, double speed_m_per_s) {
   WallScenarioConfig c;
   c.wall.kind = kind;
   c.wall.point_m = {0.0, 0.250};
   c.wall.normal = {0.0, 1.0};
   c.allocation.motor = c.rig.motor;
-  c.allocation.brake = AllocationBrakeModel(c.rig.brake);
+  c.allocation.brake = AllocationBrakeModel(c.rig.brake, c.allocation.brake_model_mismatch);
   c.allocation.use_brakes = kind == WallKind::kHybrid || kind == WallKind::kLinearDamper;
   c.wall.popc.actuator_time_constant_s = c.rig.motor.time_constant_s;  // the observer's actuator model: the motor's
   c.commanded_speed_m_per_s = speed_m_per_s;                           // the nominal speed the scenario stands for
@@ -263,7 +254,7 @@ FrictionScenarioConfig PaperFrictionScenario(FrictionDisplay display, double nor
   c.friction.point_m = {0.0, 0.250};
   c.friction.normal = {0.0, 1.0};
   c.allocation.motor = c.rig.motor;
-  c.allocation.brake = AllocationBrakeModel(c.rig.brake);
+  c.allocation.brake = AllocationBrakeModel(c.rig.brake, c.allocation.brake_model_mismatch);
   c.allocation.use_brakes = display == FrictionDisplay::kBrake;
   c.hand.start_m = {-0.080, 0.240};
   c.hand.direction = {0.0, 1.0};

@@ -59,11 +59,6 @@ struct ScenarioResult {
   ContactMetrics metrics;
 };
 
-/// The brake model the scenarios' allocation computes with: not the simulated brake (a controller never has the
-/// exact plant). By default (mismatch 0.2) it believes the brake 20 % faster and 10 % stronger than it is and knows
-/// neither its remanence nor its static torque; mismatch 0 gives the simulated brake's own lag and torque.
-[[nodiscard]] BrakeConfig AllocationBrakeModel(const BrakeConfig& brake, double mismatch = 0.2);
-
 struct WallScenarioConfig {
   HybridRigConfig rig{};
   AllocationConfig allocation{};

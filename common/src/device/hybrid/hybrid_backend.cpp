@@ -158,7 +158,8 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
     }
   }
   if (auto v = m.Optional("allocation")) {
-    const Map mm(*v, {"use_brakes", "rest_velocity_rad_per_s"});
+    const Map mm(*v, {"use_brakes", "rest_velocity_rad_per_s", "brake_model_mismatch"});
+    if (auto x = mm.Optional("brake_model_mismatch")) c.allocation.brake_model_mismatch = NonNegative(*x, "");
     if (auto x = mm.Optional("use_brakes")) c.allocation.use_brakes = x->AsBool();
     if (auto x = mm.Optional("rest_velocity_rad_per_s"))
       c.allocation.rest_velocity_rad_per_s = NonNegative(*x, "rad/s");
@@ -235,7 +236,9 @@ DeviceBackend HybridBackend() {
       {"handle_mass_kg", "point mass at the handle (kg), >= 0; default 0.3"},
       {"joint_damping_Nms_per_rad", "viscous friction per joint (N·m·s/rad), >= 0; default 0.01"},
       {"substeps", "integration sub-steps per period, 1..1000; default 10"},
-      {"allocation", "use_brakes (true; false = motors only), rest_velocity_rad_per_s (0.02)"},
+      {"allocation",
+       "use_brakes (true; false = motors only), rest_velocity_rad_per_s (0.02), brake_model_mismatch (0.2: the "
+       "simulated rig's allocation believes its brake 20 % faster and 10 % stronger; 0..0.9)"},
       {"effect",
        "local haptic effect: type none | wall (model spring|popc|hybrid|linear-damper, point_m, normal, "
        "stiffness_N_per_m, damper_coefficient, max_force_N) | friction (display motor|brake, point_m, "

@@ -31,7 +31,7 @@ HybridRigConfig WithHand(HybridRigConfig rig, double hand_mass_kg) {
 
 AllocationConfig Synced(AllocationConfig a, const HybridRigConfig& rig) {
   a.motor = rig.motor;
-  a.brake = rig.brake;
+  a.brake = AllocationBrakeModel(rig.brake, a.brake_model_mismatch);  // the simulated brake is not its model
   return a;
 }
 

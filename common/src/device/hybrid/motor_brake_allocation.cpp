@@ -13,6 +13,18 @@ void AllocationConfig::Validate() const {
   if (!(std::isfinite(rest_velocity_rad_per_s) && rest_velocity_rad_per_s >= 0.0)) {
     throw Error("hybrid allocation: rest_velocity_rad_per_s must be finite and >= 0");
   }
+  if (!(std::isfinite(brake_model_mismatch) && brake_model_mismatch >= 0.0 && brake_model_mismatch <= 0.9)) {
+    throw Error("hybrid allocation: brake_model_mismatch must be 0..0.9");
+  }
+}
+
+BrakeConfig AllocationBrakeModel(const BrakeConfig& brake, double mismatch) {
+  BrakeConfig model = brake;
+  model.time_constant_s = brake.time_constant_s * (1.0 - mismatch);
+  model.max_torque_Nm = brake.max_torque_Nm * (1.0 + 0.5 * mismatch);
+  model.residual_fraction = 0.0;
+  model.static_ratio = 1.0;
+  return model;
 }
 
 MotorBrakeAllocator::MotorBrakeAllocator(const AllocationConfig& config)

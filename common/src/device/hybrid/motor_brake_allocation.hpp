@@ -34,8 +34,17 @@ struct AllocationConfig {
   BrakeConfig brake{};
   double rest_velocity_rad_per_s = 0.02;
   bool use_brakes = true;  ///< False: motors only (the active system the paper compares with).
+  /// The simulated rig's allocation uses AllocationBrakeModel(rig brake, this); the real rig uses the brake keys as
+  /// given (they are the model). 0..0.9.
+  double brake_model_mismatch = 0.2;
   void Validate() const;
 };
+
+/// The brake model an allocation computes with when the brake it drives is simulated: not the simulated brake (a
+/// controller never has the exact plant). With mismatch m (default 0.2) it believes the brake m faster (lag × (1 − m))
+/// and m/2 stronger (torque × (1 + m/2)) than it is and knows neither its remanence nor its static torque; m = 0
+/// gives the simulated brake's own lag and torque.
+[[nodiscard]] BrakeConfig AllocationBrakeModel(const BrakeConfig& brake, double mismatch = 0.2);
 
 struct AllocationInput {
   Eigen::Matrix2d jacobian_m_per_rad = Eigen::Matrix2d::Identity();
