@@ -7,9 +7,9 @@
 #include <sstream>
 #include <string>
 
+#include "device/hybrid/force_manipulability.hpp"
+#include "hybrid/contact_scenarios.hpp"
 #include "scenarios.hpp"
-#include "teleop/device/hybrid/contact_scenarios.hpp"
-#include "teleop/device/hybrid/force_manipulability.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::scenario {
@@ -128,28 +128,37 @@ void WriteSamples(const std::string& csv, const hy::ScenarioResult& r) {
   }
 }
 
-void PrintMetrics(const hy::ContactMetrics& m, bool json, bool friction, const std::string& label) {
+void PrintMetrics(const hy::ContactMetrics& m, bool json, bool friction, const std::string& label,
+                  const std::string& extra_json = "") {
   std::cout << std::setprecision(5);
   if (json) {
     std::cout << "{\"scenario\": \"" << label << "\", \"bounces\": " << m.bounces
+              << ", \"big_bounces\": " << m.big_bounces << ", \"largest_bounce_mm\": " << m.largest_bounce_mm
               << ", \"transient_s\": " << m.transient_s << ", \"steady_state_error_mm\": " << m.steady_state_error_mm
               << ", \"peak_force_N\": " << m.peak_force_N << ", \"peak_hand_force_N\": " << m.peak_hand_force_N
               << ", \"max_depth_mm\": " << m.max_depth_mm << ", \"contact_speed_mm_s\": " << m.contact_speed_mm_s
               << ", \"contact_time_s\": " << m.contact_time_s << ", \"brake_energy_J\": " << m.brake_energy_J
               << ", \"motor_energy_J\": " << m.motor_energy_J;
+    if (!friction) {
+      std::cout << ", \"nominal_speed_mm_s\": " << m.nominal_speed_mm_s
+                << ", \"commanded_speed_mm_s\": " << m.commanded_speed_mm_s
+                << ", \"velocity_reversals\": " << m.velocity_reversals;
+    }
     if (friction) {
       std::cout << ", \"friction_rms_error_N\": " << m.friction_rms_error_N
                 << ", \"friction_positive_work_J\": " << m.friction_positive_work_J
                 << ", \"normal_force_std_N\": " << m.normal_force_std_N << ", \"slide_mm\": " << m.slide_mm;
     }
-    std::cout << "}\n";
+    std::cout << extra_json << "}\n";
     return;
   }
   std::cout << label << ":\n  contact at " << m.contact_time_s << " s, " << m.contact_speed_mm_s
-            << " mm/s inward\n  bounces " << m.bounces << "\n  transient " << m.transient_s
-            << " s\n  steady-state error " << m.steady_state_error_mm << " mm (max depth " << m.max_depth_mm
-            << " mm)\n  peak force " << m.peak_force_N << " N (hand " << m.peak_hand_force_N << " N)\n  brake work "
-            << m.brake_energy_J << " J, motor work " << m.motor_energy_J << " J\n";
+            << " mm/s inward (hand's intended speed " << m.commanded_speed_mm_s << " mm/s)\n  bounces " << m.bounces
+            << " (" << m.big_bounces << " over 1 mm, largest " << m.largest_bounce_mm << " mm)"
+            << "\n  transient " << m.transient_s << " s\n  steady-state error " << m.steady_state_error_mm
+            << " mm (max depth " << m.max_depth_mm << " mm)\n  peak force " << m.peak_force_N << " N (hand "
+            << m.peak_hand_force_N << " N)\n  brake work " << m.brake_energy_J << " J, motor work " << m.motor_energy_J
+            << " J\n";
   if (friction) {
     std::cout << "  friction: rms error " << m.friction_rms_error_N << " N, positive work "
               << m.friction_positive_work_J << " J, normal force std " << m.normal_force_std_N << " N, slide "
@@ -186,30 +195,161 @@ void PlotContact(const std::string& prefix, const std::string& title, bool frict
 
 struct WallOptions {
   std::string model = "hybrid";
-  double motor_time_constant_ms = 7.0;
+  double motor_time_constant_ms = 0.5;
+  double brake_time_constant_ms = 50.0;
+  double hand_mass_kg = 0.5;
   double speed_mm_s = 250.0;
+  bool at_contact_speed = false;
+  bool no_brakes = false;
   std::string output;
   bool json = false;
   bool no_plot = false;
 };
 
-int RunWall(const WallOptions& o) {
+/// The wall scenario with the command line's model values (every figure says which it uses).
+hy::WallScenarioConfig WallConfigFrom(const WallOptions& o) {
   hy::WallKind kind{};
-  if (!hy::ParseWallKind(o.model.c_str(), kind)) throw Error("--model must be spring, popc or hybrid");
+  if (!hy::ParseWallKind(o.model.c_str(), kind)) throw Error("--model must be spring, popc, hybrid or linear-damper");
   if (!(o.speed_mm_s > 0.0 && o.speed_mm_s <= 3000.0)) throw Error("--speed-mm-s must be in (0, 3000]");
   hy::WallScenarioConfig config = hy::PaperWallScenario(kind, o.speed_mm_s * 1e-3);
   config.rig.motor.time_constant_s = o.motor_time_constant_ms * 1e-3;
-  config.allocation.motor.time_constant_s = config.rig.motor.time_constant_s;
+  config.rig.brake.time_constant_s = o.brake_time_constant_ms * 1e-3;
+  config.allocation.motor = config.rig.motor;
+  config.allocation.brake = hy::AllocationBrakeModel(config.rig.brake);
   config.wall.popc.actuator_time_constant_s = config.rig.motor.time_constant_s;
+  config.hand_mass_kg = o.hand_mass_kg;
+  if (o.no_brakes) config.allocation.use_brakes = false;
+  if (o.at_contact_speed) hy::CalibrateContactSpeed(config, o.speed_mm_s * 1e-3);
+  return config;
+}
+
+std::string ModelNote(const WallOptions& o) {
+  std::ostringstream s;
+  s << "motor torque lag " << o.motor_time_constant_ms << " ms (current loop), brake lag " << o.brake_time_constant_ms
+    << " ms, hand mass " << o.hand_mass_kg << " kg" << (o.no_brakes ? ", no brakes" : "");
+  return s.str();
+}
+
+int RunWall(const WallOptions& o) {
+  const hy::WallScenarioConfig config = WallConfigFrom(o);
   const hy::ScenarioResult r = hy::RunWallScenario(config);
   std::ostringstream name;
   name << "hybrid_wall_" << o.model << "_" << o.speed_mm_s;
   const std::string prefix = o.output.empty() ? name.str() : o.output;
   WriteSamples(prefix + ".csv", r);
   std::ostringstream label;
-  label << "hybrid-wall " << o.model << " " << o.speed_mm_s << " mm/s";
-  if (!o.no_plot) PlotContact(prefix, label.str(), false);
-  PrintMetrics(r.metrics, o.json, false, label.str());
+  label << "hybrid-wall " << o.model << " " << o.speed_mm_s << " mm/s" << (o.at_contact_speed ? " at contact" : "");
+  if (!o.no_plot) PlotContact(prefix, label.str() + " (" + ModelNote(o) + ")", false);
+  if (o.json) {
+    std::ostringstream extra;
+    extra << ", \"model\": \"" << o.model << "\", \"motor_torque_lag_ms\": " << o.motor_time_constant_ms
+          << ", \"brake_lag_ms\": " << o.brake_time_constant_ms << ", \"hand_mass_kg\": " << o.hand_mass_kg
+          << ", \"brakes\": " << (config.allocation.use_brakes ? "true" : "false");
+    PrintMetrics(r.metrics, true, false, label.str(), extra.str());
+  } else {
+    PrintMetrics(r.metrics, false, false, label.str());
+    std::cout << "  model: " << ModelNote(o) << "\n";
+  }
+  return 0;
+}
+
+// The tables of docs/hybrid.md: Table 1 / Figs. 8–9 beside the paper, Fig. 7(a), and the sensitivity of the
+// steady-state error to the values the paper does not give.
+struct TableOptions {
+  bool quick = false;
+};
+
+const char* PaperSays(hy::WallKind kind, bool strong) {
+  switch (kind) {
+    case hy::WallKind::kSpring:
+      return strong ? "unstable oscillation, big bounces; small error" : "bounces for 0.11 s; very small error";
+    case hy::WallKind::kSpringPoPc:
+      return strong ? "one big bounce, then stable; small error" : "one bounce; small error";
+    case hy::WallKind::kHybrid:
+      return strong ? "no bounce; error about 20 mm" : "no bounce; 0.11 s; error 1.2 mm";
+    case hy::WallKind::kLinearDamper:
+      return "unstable at 20-40 mm/s";
+  }
+  return "";
+}
+
+void TableRow(const std::string& name, const hy::WallScenarioConfig& c, const char* paper) {
+  const hy::ContactMetrics m = hy::RunWallScenario(c).metrics;
+  std::cout << std::fixed << std::setprecision(1) << "| " << name << " | " << paper << " | "
+            << 1e3 * c.hand.speed_m_per_s << " | " << m.contact_speed_mm_s << " | " << m.bounces << " ("
+            << m.big_bounces << ") | " << m.largest_bounce_mm << " | " << std::setprecision(3) << m.transient_s << " | "
+            << std::setprecision(2) << m.steady_state_error_mm << " | " << std::setprecision(1) << m.max_depth_mm
+            << " | " << m.peak_force_N << " | " << std::setprecision(2) << m.motor_energy_J << " |\n";
+}
+
+int RunTable(const TableOptions& o) {
+  (void)o;
+  std::cout
+      << "Table 1 / Figs. 8-9 (motor torque lag 0.5 ms, brake lag 50 ms, hand mass 0.5 kg; every run 0.8 s)\n\n"
+      << "| model, nominal speed | paper | hand's intended speed (mm/s) | speed at contact (mm/s) | bounces (over 1 "
+         "mm) | largest bounce (mm) | transient (s) | steady-state error (mm) | max depth (mm) | peak force (N) | "
+         "motor work on the hand (J) |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (double speed : {0.25, 1.5}) {
+    for (hy::WallKind kind : {hy::WallKind::kSpring, hy::WallKind::kSpringPoPc, hy::WallKind::kHybrid}) {
+      std::ostringstream name;
+      name << hy::ToString(kind) << ", " << 1e3 * speed;
+      TableRow(name.str(), hy::PaperWallScenario(kind, speed), PaperSays(kind, speed > 1.0));
+      hy::WallScenarioConfig at = hy::PaperWallScenario(kind, speed);
+      hy::CalibrateContactSpeed(at, speed);
+      if (std::abs(1e3 * at.hand.speed_m_per_s - 1e3 * speed) > 5.0) {
+        TableRow(name.str() + " at contact", at, PaperSays(kind, speed > 1.0));
+      }
+    }
+  }
+  std::cout << "\nSteady-state error (mm) against the values the paper does not give (one changed at a time from "
+               "0.5 kg, 0.5 ms, 50 ms; nominal speeds)\n\n| varied | value | spring 250 | popc 250 | hybrid 250 | "
+               "spring 1500 | popc 1500 | hybrid 1500 | hybrid 1500 bounces |\n|---|---|---|---|---|---|---|---|---|\n";
+  struct Variant {
+    const char* what;
+    double value;
+    double hand_kg, motor_ms, brake_ms;
+  };
+  const Variant variants[] = {
+      {"hand mass (kg)", 0.2, 0.2, 0.5, 50},          {"hand mass (kg)", 0.5, 0.5, 0.5, 50},
+      {"hand mass (kg)", 1.0, 1.0, 0.5, 50},          {"motor lag (ms)", 0.1, 0.5, 0.1, 50},
+      {"motor lag (ms)", 2.0, 0.5, 2.0, 50},          {"motor lag (ms)", 7.0, 0.5, 7.0, 50},
+      {"brake lag (ms)", 30, 0.5, 0.5, 30},           {"brake lag (ms)", 80, 0.5, 0.5, 80},
+      {"joint inertia (kg m^2)", 0.01, 0.5, 0.5, 50}, {"joint inertia (kg m^2)", 0.05, 0.5, 0.5, 50}};
+  for (const Variant& v : variants) {
+    std::cout << "| " << v.what << " | " << std::setprecision(2) << v.value << " |";
+    int hybrid_bounces = 0;
+    for (double speed : {250.0, 1500.0}) {
+      for (const char* model : {"spring", "popc", "hybrid"}) {
+        WallOptions w;
+        w.model = model;
+        w.speed_mm_s = speed;
+        w.hand_mass_kg = v.hand_kg;
+        w.motor_time_constant_ms = v.motor_ms;
+        w.brake_time_constant_ms = v.brake_ms;
+        hy::WallScenarioConfig c = WallConfigFrom(w);
+        if (std::string(v.what).rfind("joint inertia", 0) == 0) c.rig.joint_inertia_kgm2 = v.value;
+        const hy::ContactMetrics m = hy::RunWallScenario(c).metrics;
+        std::cout << " " << std::setprecision(2) << m.steady_state_error_mm << " (" << m.bounces << ") |";
+        if (std::string(model) == "hybrid" && speed > 1000.0) hybrid_bounces = m.bounces;
+      }
+    }
+    std::cout << " " << hybrid_bounces << " |\n";
+  }
+  std::cout << "\n(bounces in brackets)\n\nFig. 7(a): damper walls met at a slow speed, 25 N push, 1 s\n\n| damper | "
+               "brakes | "
+               "speed (mm/s) | speed at contact (mm/s) | velocity reversals in contact | bounces | max depth (mm) "
+               "|\n|---|---|---|---|---|---|---|\n";
+  for (bool brakes : {false, true}) {
+    for (hy::WallKind kind : {hy::WallKind::kLinearDamper, hy::WallKind::kHybrid}) {
+      for (double speed : {0.010, 0.020, 0.030, 0.040, 0.060}) {
+        const hy::ContactMetrics m = hy::RunWallScenario(hy::PaperDamperScenario(kind, speed, brakes)).metrics;
+        std::cout << "| " << (kind == hy::WallKind::kHybrid ? "cubic 1.6e6 v^3" : "linear 2500 v") << " | "
+                  << (brakes ? "yes" : "no") << " | " << std::setprecision(0) << 1e3 * speed << " | "
+                  << m.contact_speed_mm_s << " | " << m.velocity_reversals << " | " << m.bounces << " | "
+                  << std::setprecision(2) << m.max_depth_mm << " |\n";
+      }
+    }
+  }
   return 0;
 }
 
@@ -251,14 +391,28 @@ void AddHybridScenarios(CLI::App& app) {
 
   static WallOptions wall;
   auto* w = app.add_subcommand("hybrid-wall", "Contact with a hard virtual wall (§4, Figs. 8-9, Table 1)");
-  w->add_option("--model", wall.model, "spring | popc | hybrid")->check(CLI::IsMember({"spring", "popc", "hybrid"}));
+  w->add_option("--model", wall.model, "spring | popc | hybrid | linear-damper (Fig. 7(a))")
+      ->check(CLI::IsMember({"spring", "popc", "hybrid", "linear-damper"}));
   w->add_option("--speed-mm-s", wall.speed_mm_s, "Operator's approach speed (mm/s): 250 weak, 1500 strong");
-  w->add_option("--motor-time-constant-ms", wall.motor_time_constant_ms, "Motor torque lag (ms; paper 7)")
+  w->add_flag("--at-contact-speed", wall.at_contact_speed,
+              "Choose the hand's intended speed so that the speed measured at contact is --speed-mm-s");
+  w->add_option("--motor-time-constant-ms", wall.motor_time_constant_ms,
+                "Motor torque (current-loop) lag (ms; 0.5; the paper's 7 ms is the mechanical time constant)")
       ->check(CLI::Range(0.0, 100.0));
+  w->add_option("--brake-time-constant-ms", wall.brake_time_constant_ms, "Brake lag (ms; paper 50)")
+      ->check(CLI::Range(0.0, 500.0));
+  w->add_option("--hand-mass-kg", wall.hand_mass_kg, "Operator's hand mass on the handle (kg; 0.5)")
+      ->check(CLI::Range(0.0, 5.0));
+  w->add_flag("--no-brakes", wall.no_brakes, "Motors only (for the damper walls)");
   w->add_option("--output", wall.output, "Output prefix (default hybrid_wall_<model>_<speed>)");
   w->add_flag("--json", wall.json, "One JSON object on stdout");
   w->add_flag("--no-plot", wall.no_plot, "CSV only");
   w->callback([] { RunWall(wall); });
+
+  static TableOptions table;
+  auto* t = app.add_subcommand(
+      "hybrid-table", "The tables of docs/hybrid.md: Table 1 / Figs. 8-9 beside the paper, sensitivity, Fig. 7(a)");
+  t->callback([] { RunTable(table); });
 
   static FrictionOptions friction;
   auto* r = app.add_subcommand("hybrid-friction", "Frictional surface displayed by motors or brakes (§5, Figs. 11-12)");

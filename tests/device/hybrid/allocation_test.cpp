@@ -4,8 +4,8 @@
 #include <cmath>
 #include <random>
 
-#include "teleop/device/hybrid/five_bar.hpp"
-#include "teleop/device/hybrid/motor_brake_allocation.hpp"
+#include "device/hybrid/five_bar.hpp"
+#include "device/hybrid/motor_brake_allocation.hpp"
 
 namespace teleop::device::hybrid {
 namespace {
@@ -78,16 +78,57 @@ TEST(MotorBrakeAllocation, Fig5ReleaseReleasesTheBrakesSoTheResultantStaysPerpen
   EXPECT_GT(std::abs(naive.x()), 5.0);
 }
 
-// At rest the brake direction comes from the force sensor: it resists the operator's push, not the wall's.
-TEST(MotorBrakeAllocation, AtRestTheBrakeOpposesTheAppliedTorque) {
+// At rest the brake direction comes from the force sensor: it resists the operator's push, not the wall's, and only
+// while the push is the larger. Kwon & Song §3: "But when the reaction force of the virtual wall is larger than the
+// force exerted by the human operator and the end-effector is released as shown in Fig. 5(b), ... the brake can exert
+// only a reaction force against its outward motion" (only the motors may act then; a brake would stall the handle).
+TEST(MotorBrakeAllocation, AtRestTheBrakeOpposesTheAppliedTorqueOnlyWhileTheHandIsTheStronger) {
   const Eigen::Matrix2d jac = JacobianAt({0.0, 0.25});
   MotorBrakeAllocator alloc{AllocationConfig{}};
   AllocationInput in = WallInput(jac, {0.0, 0.0});
+  in.hand_force_N = {0.0, 60.0};  // the operator pushes harder than the 50 N reaction: the brakes hold with it
   AllocationOutput out = alloc.Step(in, 1e-3);
   EXPECT_TRUE(out.brake_engaged[0] && out.brake_engaged[1]);
   in.hand_force_N = {0.0, -20.0};  // the operator pulls out: the wall force now helps him, no brake
   out = alloc.Step(in, 1e-3);
   EXPECT_FALSE(out.brake_engaged[0] || out.brake_engaged[1]);
+}
+
+// Fig. 5(b) at rest: the 50 N reaction is larger than the operator's 20 N push, so the end-effector is released
+// outward; the brakes are released and the motors render the whole reaction.
+TEST(MotorBrakeAllocation, Fig5bReleaseAtRestReleasesTheBrakes) {
+  const Eigen::Matrix2d jac = JacobianAt({0.0, 0.25});
+  MotorBrakeAllocator alloc{AllocationConfig{}};
+  const AllocationInput in = WallInput(jac, {0.0, 0.0});  // hand +20 N into the wall, reaction −50 N
+  AllocationOutput out;
+  for (int k = 0; k < 100; ++k) out = alloc.Step(in, 1e-3);
+  EXPECT_FALSE(out.brake_engaged[0]);
+  EXPECT_FALSE(out.brake_engaged[1]);
+  EXPECT_EQ(out.brake_shaft_Nm, Eigen::Vector2d::Zero());
+  const Eigen::Vector2d motor_force = jac.transpose().inverse() * out.motor_joint_Nm;
+  EXPECT_NEAR(motor_force.y(), -50.0, 1e-9);
+}
+
+// Fig. 6(a): "the brakes are activated and the motors generate the damping force" — in parallel, so the forces add.
+// The damper (motors only) and the hold (brakes only): the motors give the whole damper force and the brake its
+// estimate on top, once built up the total is damper + brake (not max(damper, brake)).
+TEST(MotorBrakeAllocation, DamperOnTheMotorsAndHoldOnTheBrakesAdd) {
+  const Eigen::Matrix2d jac = JacobianAt({0.0, 0.25});
+  MotorBrakeAllocator alloc{AllocationConfig{}};
+  AllocationInput in;
+  in.jacobian_m_per_rad = jac;
+  in.joint_velocity_rad_per_s = jac.inverse() * Eigen::Vector2d{0.0, 0.5};  // moving into the wall
+  in.hand_force_N = {0.0, 80.0};
+  in.motor_force_N = {0.0, -100.0};       // the damper, saturated
+  in.dissipative_force_N = {0.0, -40.0};  // the hold, within what the brakes can do
+  AllocationOutput out;
+  for (int k = 0; k < 400; ++k) out = alloc.Step(in, 1e-3);  // 8 brake time constants
+  const Eigen::Matrix2d jt_inv = jac.transpose().inverse();
+  EXPECT_NEAR((jt_inv * out.motor_joint_Nm).y(), -100.0, 1e-9);
+  // Tolerance: the brake model's lag after 8 time constants leaves e⁻⁸ of 40 N, 0.013 N.
+  EXPECT_NEAR((jt_inv * out.brake_estimate_joint_Nm).y(), -40.0, 0.02);
+  EXPECT_NEAR((jt_inv * (out.motor_joint_Nm + out.brake_estimate_joint_Nm)).y(), -140.0, 0.02);
+  EXPECT_TRUE(out.brake_engaged[0] && out.brake_engaged[1]);
 }
 
 TEST(MotorBrakeAllocation, MotorsOnlyModeAndBadInput) {
@@ -106,14 +147,19 @@ TEST(MotorBrakeAllocation, MotorsOnlyModeAndBadInput) {
   EXPECT_EQ(safe.brake_shaft_Nm, Eigen::Vector2d::Zero());
 }
 
-// Seeded property: over random poses, motions, sensor readings and requests, (1) a brake is engaged only where its
-// torque would be dissipative, (2) its command is within 0…max, (3) per joint the motor's positive power never
-// exceeds that of the motor alone rendering the desired torque (the brake's own power is ≤ 0).
-TEST(MotorBrakeAllocation, NeverInjectsMoreThanTheMotorAloneProperty) {
+// Seeded property: over random poses, motions, sensor readings and requests, (1) a brake is engaged only where the
+// total desired torque opposes the motion (at rest: the operator's torque, and not in the Fig. 5(b) release), so never
+// while the desired force assists the motion; (2) its command is within 0…max; (3) per joint motor + brake never
+// inject more power than the motors alone rendering the active request τ_a = τ_m + τ_d; (4) the
+// total is motor + brake: motor + brake estimate differs from τ_total by the brake's shortfall (ask − estimate) and
+// the part of τ_total no brake may take (a brakes-only request where the brake is released), nothing else.
+TEST(MotorBrakeAllocation, BrakeRulesAndForcesAddProperty) {
   std::mt19937_64 rng(42);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const FiveBar fb{FiveBarConfig{}};
   MotorBrakeAllocator alloc{AllocationConfig{}};
+  int engaged = 0;
+  int released_fig5b = 0;
   for (int k = 0; k < 20000; ++k) {
     const Eigen::Vector2d p{0.18 * u(rng), 0.205 + 0.11 * u(rng)};
     Eigen::Vector2d q;
@@ -121,26 +167,59 @@ TEST(MotorBrakeAllocation, NeverInjectsMoreThanTheMotorAloneProperty) {
     ASSERT_TRUE(fb.Inverse(p, q) && fb.Jacobian(q, jac));
     AllocationInput in;
     in.jacobian_m_per_rad = jac;
-    in.joint_velocity_rad_per_s = {u(rng) * (k % 5 == 0 ? 0.01 : 3.0), u(rng) * 3.0};
+    in.joint_velocity_rad_per_s = {u(rng) * (k % 5 == 0 ? 0.01 : 3.0), u(rng) * (k % 7 == 0 ? 0.01 : 3.0)};
     in.hand_force_N = {50.0 * u(rng), 50.0 * u(rng)};
     in.desired_force_N = {100.0 * u(rng), 100.0 * u(rng)};
+    in.motor_force_N = k % 4 == 0 ? Eigen::Vector2d{60.0 * u(rng), 60.0 * u(rng)} : Eigen::Vector2d::Zero();
     in.dissipative_force_N = k % 3 == 0 ? Eigen::Vector2d{80.0 * u(rng), 80.0 * u(rng)} : Eigen::Vector2d::Zero();
     const AllocationOutput out = alloc.Step(in, 1e-3 * (1.0 + u(rng)));
-    const Eigen::Vector2d tau_d = jac.transpose() * in.desired_force_N;
+    const Eigen::Vector2d tau_a = jac.transpose() * (in.motor_force_N + in.desired_force_N);
     const Eigen::Vector2d tau_r = jac.transpose() * in.dissipative_force_N;
+    const Eigen::Vector2d tau_total = tau_a + tau_r;
     const Eigen::Vector2d tau_h = jac.transpose() * in.hand_force_N;
     for (int i = 0; i < 2; ++i) {
       const double qd = in.joint_velocity_rad_per_s(i);
-      const double ref = std::abs(qd) >= alloc.config().rest_velocity_rad_per_s ? qd : tau_h(i);
+      const bool moving = std::abs(qd) >= alloc.config().rest_velocity_rad_per_s;
+      const double ref = moving ? qd : tau_h(i);
+      const bool fig5b = !moving && tau_a(i) * ref < 0.0 && std::abs(tau_a(i)) > std::abs(tau_h(i));
       if (out.brake_engaged[i]) {
-        ASSERT_TRUE(tau_d(i) * ref < 0.0 || tau_r(i) * ref < 0.0) << "case " << k << " joint " << i;
+        ++engaged;
+        ASSERT_LT(tau_total(i) * ref, 0.0) << "case " << k << " joint " << i;  // never assisting the motion
+        ASSERT_FALSE(fig5b) << "case " << k << " joint " << i;
+      } else {
+        ASSERT_EQ(out.brake_shaft_Nm(i), 0.0);
+        released_fig5b += fig5b ? 1 : 0;
       }
       ASSERT_GE(out.brake_shaft_Nm(i), 0.0);
       ASSERT_LE(out.brake_shaft_Nm(i), alloc.config().brake.max_torque_Nm);
-      ASSERT_LE(std::max(0.0, out.motor_joint_Nm(i) * qd), std::max(0.0, tau_d(i) * qd) + 1e-12)
+      // The motor's power exceeds that of the motors alone rendering τ_a only by what the brake takes out.
+      ASSERT_LE(std::max(0.0, out.motor_joint_Nm(i) * qd),
+                std::max(0.0, tau_a(i) * qd) + std::abs(out.brake_estimate_joint_Nm(i) * qd) + 1e-12)
           << "case " << k << " joint " << i;
+      if (moving) {  // motor + brake never inject more than the motors alone
+        ASSERT_LE((out.motor_joint_Nm(i) + (out.brake_engaged[i] ? out.brake_estimate_joint_Nm(i) : 0.0)) * qd,
+                  std::max(0.0, tau_a(i) * qd) + 1e-9)
+            << "case " << k << " joint " << i;
+      }
+      if (out.brake_engaged[i]) {
+        // τ_total − (motor + brake estimate) is what the brake has not yet built up (ask − estimate), what its ask
+        // was capped by (|τ_total|), and a brakes-only request that does not oppose the motion (no actuator takes it).
+        const double tau_d = (jac.transpose() * in.desired_force_N)(i);
+        const double asked =
+            (tau_d * ref < 0.0 ? std::abs(tau_d) : 0.0) + (tau_r(i) * ref < 0.0 ? std::abs(tau_r(i)) : 0.0);
+        const double shortfall = out.brake_ask_joint_Nm(i) - std::abs(out.brake_estimate_joint_Nm(i));
+        ASSERT_GE(shortfall, -1e-12);
+        const double capped = asked - out.brake_ask_joint_Nm(i);
+        const double dropped = tau_r(i) * ref < 0.0 ? 0.0 : std::abs(tau_r(i));
+        const double gap = std::abs(tau_total(i) - (out.motor_joint_Nm(i) + out.brake_estimate_joint_Nm(i)));
+        ASSERT_LE(gap, shortfall + capped + dropped + 1e-9) << "case " << k << " joint " << i;
+      } else {
+        ASSERT_NEAR(out.motor_joint_Nm(i), tau_a(i), 1e-9) << "case " << k << " joint " << i;  // motors render it
+      }
     }
   }
+  EXPECT_GT(engaged, 1000);
+  EXPECT_GT(released_fig5b, 100);
 }
 
 }  // namespace

@@ -6,8 +6,8 @@
 #include <cstdlib>
 #include <random>
 
-#include "teleop/device/hybrid/brake_friction_solver.hpp"
-#include "teleop/device/hybrid/hybrid_rig.hpp"
+#include "device/hybrid/brake_friction_solver.hpp"
+#include "device/hybrid/hybrid_rig.hpp"
 
 namespace teleop::device::hybrid {
 namespace {
@@ -81,6 +81,26 @@ TEST(HybridRig, BrakesNeverAddEnergyOverRandomRuns) {
     }
     EXPECT_LE(rig.state().brake_energy_J, brake_work_before + 1e-12) << "run " << r;
   }
+}
+
+}  // namespace
+}  // namespace teleop::device::hybrid
+
+namespace teleop::device::hybrid {
+namespace {
+
+// Static vs sliding: a stuck joint holds up to static_ratio × (brake + joint friction capacity) before it slips; once
+// sliding it feels the sliding capacity. Brake shaft 2 N·m: capacity (2 + 0.08) × 5 + 0.1 = 10.5 N·m, static 11.55.
+TEST(HybridRig, StaticTorqueAboveSlidingTorque) {
+  HybridRig rig{HybridRigConfig{}};
+  const Eigen::Vector2d brake{2.0, 2.0};
+  for (int k = 0; k < 500; ++k) rig.Step(Eigen::Vector2d::Zero(), brake, Eigen::Vector2d::Zero(), 1e-3);
+  ASSERT_NEAR(rig.state().brake_capacity_joint_Nm(0), 1.1 * ((2.0 + 0.08) * 5.0 + 0.1), 0.01);
+  for (int k = 0; k < 100; ++k) rig.Step({11.0, 0.0}, brake, Eigen::Vector2d::Zero(), 1e-3);  // below static
+  EXPECT_EQ(rig.state().joint_velocity_rad_per_s(0), 0.0);
+  for (int k = 0; k < 5; ++k) rig.Step({12.0, 0.0}, brake, Eigen::Vector2d::Zero(), 1e-3);  // above: it slips
+  EXPECT_GT(std::abs(rig.state().joint_velocity_rad_per_s(0)), 0.0);
+  EXPECT_NEAR(rig.state().brake_capacity_joint_Nm(0), (2.0 + 0.08) * 5.0 + 0.1, 0.01);  // sliding capacity
 }
 
 }  // namespace

@@ -1,11 +1,11 @@
-#include "teleop/device/hybrid/force_manipulability.hpp"
+#include "device/hybrid/force_manipulability.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
 
-#include "teleop/device/hybrid/hybrid_rig.hpp"
+#include "device/hybrid/hybrid_rig.hpp"
 
 namespace teleop::device::hybrid {
 namespace {

@@ -6,9 +6,9 @@
 #include <sstream>
 #include <string>
 
+#include "device/hybrid/hybrid_device.hpp"
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/device/device_registry.hpp"
-#include "teleop/device/hybrid/hybrid_device.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device::hybrid {

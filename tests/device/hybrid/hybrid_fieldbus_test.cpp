@@ -10,8 +10,8 @@
 #include <string>
 #include <thread>
 
+#include "device/hybrid/hybrid_fieldbus_device.hpp"
 #include "modbus_test_server.hpp"
-#include "teleop/device/hybrid/hybrid_fieldbus_device.hpp"
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/simulated_can_force_sensor.hpp"
 #include "teleop/fieldbus/simulated_cia402_drive.hpp"

@@ -29,7 +29,7 @@
 #include <thread>
 #include <vector>
 
-#include "teleop/device/hybrid/five_bar.hpp"
+#include "device/hybrid/five_bar.hpp"
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/simulated_can_force_sensor.hpp"
 #include "teleop/fieldbus/simulated_cia402_drive.hpp"

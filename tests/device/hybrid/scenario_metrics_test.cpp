@@ -1,8 +1,11 @@
-// The paper's experiments on the simulated rig (docs/hybrid.md): the qualitative results of Table 1 / Figs. 8–9 and
-// §5, with the numbers our model gives and tolerances around them.
+// The paper's experiments on the simulated rig (docs/hybrid.md): checked against what Kwon & Song state (bounce
+// counts, orders of magnitude), not against our model's own numbers. Models: motor torque lag 0.5 ms (current loop),
+// brake lag 50 ms (§2.2), encoders, force sensor noise, brake remanence and joint friction on (defaults).
 #include <gtest/gtest.h>
 
-#include "teleop/device/hybrid/contact_scenarios.hpp"
+#include <cmath>
+
+#include "hybrid/contact_scenarios.hpp"
 
 namespace teleop::device::hybrid {
 namespace {
@@ -11,34 +14,90 @@ ContactMetrics Wall(WallKind kind, double speed_m_per_s) {
   return RunWallScenario(PaperWallScenario(kind, speed_m_per_s)).metrics;
 }
 
-// Hybrid wall: no bounce; steady-state error ≈ 1.2 mm at 250 mm/s (paper 1.2 mm) and ≈ 26 mm at 1.5 m/s (paper
-// "about 20 mm"; ours deeper, see docs). Brakes dissipate.
+// Fig. 8(c)/9(c): "For the hybrid system, the transient period was about 0.11 s, but no bounce was observed. A large
+// steady-state error of 1.2 mm occurred"; at 1500 mm/s "the hybrid system did not exhibit any bounce ... the
+// steady-state error was very large up to about 20 mm". Tolerances: no bounce exactly; the errors to their order of
+// magnitude (1.2 mm within a factor 3, 20 mm within a factor 2: the paper gives no inertias, and docs/hybrid.md's
+// sensitivity table moves them by that much). Brakes dissipate.
 TEST(HybridScenarios, HybridWallNeverBouncesAndStopsWithPaperLikePenetration) {
   const ContactMetrics weak = Wall(WallKind::kHybrid, 0.25);
   EXPECT_EQ(weak.bounces, 0);
-  EXPECT_NEAR(weak.steady_state_error_mm, 1.2, 0.3);
-  EXPECT_NEAR(weak.contact_speed_mm_s, 250.0, 10.0);
+  EXPECT_GT(weak.steady_state_error_mm, 1.2 / 3.0);
+  EXPECT_LT(weak.steady_state_error_mm, 1.2 * 3.0);
   EXPECT_LT(weak.brake_energy_J, 0.0);
   const ContactMetrics strong = Wall(WallKind::kHybrid, 1.5);
   EXPECT_EQ(strong.bounces, 0);
-  EXPECT_GT(strong.steady_state_error_mm, 15.0);
-  EXPECT_LT(strong.steady_state_error_mm, 32.0);
-  EXPECT_GT(strong.peak_force_N, 90.0);  // "a contact force over 100 N" (saturated at 100 N + brakes)
+  EXPECT_GT(strong.steady_state_error_mm, 20.0 / 2.0);
+  EXPECT_LT(strong.steady_state_error_mm, 20.0 * 2.0);
+  // The deep error is the penetration before the brake holds: the steady state is the maximum depth (no rebound).
+  EXPECT_NEAR(strong.steady_state_error_mm, strong.max_depth_mm, 0.5);
 }
 
-// Active spring wall (150 N/mm) with the 7 ms motor lag: bounces at both speeds (the paper: bounces at 1.5 m/s).
-TEST(HybridScenarios, ActiveSpringWallBounces) {
-  EXPECT_GE(Wall(WallKind::kSpring, 1.5).bounces, 2);
-  EXPECT_GE(Wall(WallKind::kSpring, 0.25).bounces, 1);
+// §4: "The instant the contact with the virtual wall occurs, the brakes are activated and the motors generate the
+// damping force" — motors and brakes act in parallel and their forces add (Fig. 6(a)): during the strong contact there
+// are cycles where the motors give the saturated damper force (> 90 N of their 100 N) while the brakes add more than
+// 30 N, and the push-back exceeds what the motors alone can give ("a contact force over 100 N"). Before, the motor
+// gave the damper force minus the brake's estimate and the total was max(damper, brake): about 112 N at most.
+TEST(HybridScenarios, HybridWallMotorsAndBrakesAdd) {
+  const ScenarioResult r = RunWallScenario(PaperWallScenario(WallKind::kHybrid, 1.5));
+  int both = 0;
+  for (const ScenarioSample& s : r.samples) {
+    if (s.motor_normal_N > 90.0 && s.brake_normal_N > 30.0) {
+      ++both;
+      EXPECT_NEAR(s.rendered_normal_N, s.motor_normal_N + s.brake_normal_N, 3.0);  // + joint friction (≤ 1 N)
+    }
+  }
+  EXPECT_GT(both, 3);
+  EXPECT_GT(r.metrics.peak_force_N, 130.0);
 }
 
-// PO/PC: still bounces in our model, but ends closer to the surface than the hybrid wall at 1.5 m/s (paper:
-// "small steady-state error" vs "about 20 mm").
-TEST(HybridScenarios, PoPcEndsCloserToTheSurfaceThanTheHybridWallAtHighSpeed) {
-  const ContactMetrics popc = Wall(WallKind::kSpringPoPc, 1.5);
-  const ContactMetrics hybrid = Wall(WallKind::kHybrid, 1.5);
-  EXPECT_GE(popc.bounces, 1);
-  EXPECT_LT(std::abs(popc.steady_state_error_mm), hybrid.steady_state_error_mm);
+// Fig. 9(a): "The pure active system suffered unstable oscillation and big bounces" (150 N/mm, 1500 mm/s).
+TEST(HybridScenarios, ActiveSpringWallBouncesAtHighSpeed) {
+  const ContactMetrics m = Wall(WallKind::kSpring, 1.5);
+  EXPECT_GE(m.big_bounces, 2);
+  EXPECT_GT(m.motor_energy_J, 0.0);  // the sampled, lagging spring does net work on the hand
+}
+
+// Fig. 8(b)/9(b): "For the PO/PC based system, only one bounce occurred at the initial contact and a small steady-state
+// error existed"; at 1500 mm/s "the PO/PC based system showed one big bounce and then stable response. A small
+// steady-state error was observed". Tolerances: at most one separation over 1 mm ("big", docs/hybrid.md) at either
+// speed, one at 1500 mm/s; "small" against the hybrid's 20 mm: under 2 mm (the 150 N/mm spring against the 80 N push is
+// 0.53 mm). And it is passive: the motors do no net work on the hand (before the fix: +1.98 J at 1500 mm/s), within
+// 0.05 J (the energy of one step at 100 N and 0.5 m/s).
+TEST(HybridScenarios, PoPcOneBounceAndSmallErrorAtBothSpeeds) {
+  for (double speed : {0.25, 1.5}) {
+    const ContactMetrics m = Wall(WallKind::kSpringPoPc, speed);
+    EXPECT_LE(m.big_bounces, 1) << speed;
+    EXPECT_GE(m.bounces, 1) << speed;
+    EXPECT_LT(std::abs(m.steady_state_error_mm), 2.0) << speed;
+    EXPECT_LT(m.motor_energy_J, 0.05) << speed;
+  }
+  EXPECT_EQ(Wall(WallKind::kSpringPoPc, 1.5).big_bounces, 1);
+  EXPECT_LT(std::abs(Wall(WallKind::kSpringPoPc, 1.5).steady_state_error_mm),
+            Wall(WallKind::kHybrid, 1.5).steady_state_error_mm);
+}
+
+// Fig. 7(a), §4: "the unstable condition was observed in the velocity range of 20–40 mm/s when the damper model with
+// large coefficients was employed". The linear damper of 2500 N·s/m (100 N at 40 mm/s) on the motors, met at 20, 30 and
+// 40 mm/s with a 25 N push, bounces repeatedly (≥ 3 separations); the cubic damper (F = 1.6·10⁶ v³) at most once.
+TEST(HybridScenarios, Fig7aLinearDamperIsUnstableAtTwentyToFortyMillimetresPerSecond) {
+  for (double speed : {0.020, 0.030, 0.040}) {
+    const ContactMetrics linear = RunWallScenario(PaperDamperScenario(WallKind::kLinearDamper, speed, false)).metrics;
+    const ContactMetrics cubic = RunWallScenario(PaperDamperScenario(WallKind::kHybrid, speed, false)).metrics;
+    EXPECT_GE(linear.bounces, 3) << speed;
+    EXPECT_LE(cubic.bounces, 1) << speed;
+  }
+}
+
+// The nominal contact speed: the hand's arm overshoots (1500 mm/s intended reaches the wall faster); calibrated, the
+// measured contact speed is the nominal one within 0.1 %.
+TEST(HybridScenarios, ContactSpeedCalibration) {
+  const ContactMetrics nominal = Wall(WallKind::kHybrid, 1.5);
+  EXPECT_GT(nominal.contact_speed_mm_s, 1550.0);
+  const ContactMetrics at = RunWallScenario(PaperWallScenarioAtContactSpeed(WallKind::kHybrid, 1.5)).metrics;
+  EXPECT_NEAR(at.contact_speed_mm_s, 1500.0, 1.5);
+  EXPECT_LT(at.commanded_speed_mm_s, 1500.0);
+  EXPECT_EQ(at.bounces, 0);
 }
 
 // §5: the brakes show the friction without doing positive work on the handle; the motors' friction is clipped to

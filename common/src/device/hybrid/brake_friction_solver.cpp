@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/brake_friction_solver.hpp"
+#include "device/hybrid/brake_friction_solver.hpp"
 
 #include <Eigen/LU>
 #include <array>

@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/five_bar.hpp"
+#include "device/hybrid/five_bar.hpp"
 
 #include <Eigen/LU>
 #include <algorithm>

@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/force_manipulability.hpp"
+#include "device/hybrid/force_manipulability.hpp"
 
 #include <Eigen/LU>
 #include <Eigen/SVD>

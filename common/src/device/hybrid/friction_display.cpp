@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/friction_display.hpp"
+#include "device/hybrid/friction_display.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/handle_force_sensor.hpp"
+#include "device/hybrid/handle_force_sensor.hpp"
 
 #include <cmath>
 

@@ -1,12 +1,12 @@
 // The `hybrid` backend: the Kwon & Song motor–brake five-bar, simulated (docs/hybrid.md, `device.hybrid`).
-#include "teleop/device/hybrid/hybrid_backend.hpp"
+#include "device/hybrid/hybrid_backend.hpp"
 
 #include <Eigen/LU>
 #include <memory>
 #include <numbers>
 
+#include "device/hybrid/hybrid_fieldbus_section.hpp"
 #include "teleop/config/yaml_reader.hpp"
-#include "teleop/device/hybrid/hybrid_fieldbus_section.hpp"
 
 namespace teleop::device::hybrid {
 namespace {
@@ -101,8 +101,8 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
   HybridDeviceConfig c;
   if (section == nullptr) return c;
   const Map m(*section, {"initial_position_m", "geometry", "motor", "brake", "joint_inertia_kgm2", "handle_mass_kg",
-                         "joint_damping_Nms_per_rad", "substeps", "allocation", "effect", "operator", "environment",
-                         "rig", "fieldbus"});
+                         "joint_damping_Nms_per_rad", "joint_coulomb_Nm", "substeps", "allocation", "effect",
+                         "operator", "environment", "rig", "fieldbus", "encoders", "force_sensor"});
   if (auto v = m.Optional("rig")) {
     const std::string rig = v->AsString();
     if (rig == "fieldbus") {
@@ -113,7 +113,7 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
   }
   if (c.fieldbus_rig) {
     // The simulation's own inputs make no sense on the real rig: refuse them rather than ignore them.
-    for (const char* key : {"operator", "environment", "effect", "substeps"}) {
+    for (const char* key : {"operator", "environment", "effect", "substeps", "encoders", "force_sensor"}) {
       if (auto v = m.Optional(key)) v->Fail("is for the simulated rig; remove it with rig: fieldbus");
     }
     (void)m.Required("fieldbus");
@@ -129,7 +129,10 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
     if (auto x = mm.Optional("pulley_ratio")) c.rig.motor.pulley_ratio = Positive(*x, "");
   }
   if (auto v = m.Optional("brake")) {
-    const Map mm(*v, {"max_torque_Nm", "time_constant_s", "drag_Nm", "hysteresis_Nm", "pulley_ratio"});
+    const Map mm(*v, {"max_torque_Nm", "time_constant_s", "drag_Nm", "hysteresis_Nm", "pulley_ratio",
+                      "residual_fraction", "static_ratio"});
+    if (auto x = mm.Optional("residual_fraction")) c.rig.brake.residual_fraction = NonNegative(*x, "");
+    if (auto x = mm.Optional("static_ratio")) c.rig.brake.static_ratio = Positive(*x, "");
     if (auto x = mm.Optional("max_torque_Nm")) c.rig.brake.max_torque_Nm = Positive(*x, "N·m");
     if (auto x = mm.Optional("time_constant_s")) c.rig.brake.time_constant_s = NonNegative(*x, "s");
     if (auto x = mm.Optional("drag_Nm")) c.rig.brake.drag_Nm = NonNegative(*x, "N·m");
@@ -140,8 +143,23 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
   if (auto v = m.Optional("handle_mass_kg")) c.rig.handle_mass_kg = NonNegative(*v, "kg");
   if (auto v = m.Optional("joint_damping_Nms_per_rad")) c.rig.joint_damping_Nms_per_rad = NonNegative(*v, "N·m·s/rad");
   if (auto v = m.Optional("substeps")) c.rig.substeps = config::IntInRange(*v, 1, 1000);
+  if (auto v = m.Optional("joint_coulomb_Nm")) c.rig.joint_coulomb_Nm = NonNegative(*v, "N·m");
+  if (auto v = m.Optional("encoders")) {
+    const Map mm(*v, {"counts_per_joint_rev", "velocity_filter_hz"});
+    if (auto x = mm.Optional("counts_per_joint_rev")) c.rig.encoders.counts_per_joint_rev = NonNegative(*x, "");
+    if (auto x = mm.Optional("velocity_filter_hz")) c.rig.encoders.velocity_filter_hz = NonNegative(*x, "Hz");
+  }
+  if (auto v = m.Optional("force_sensor")) {
+    const Map mm(*v, {"noise_std_N", "bandwidth_hz", "seed"});
+    if (auto x = mm.Optional("noise_std_N")) c.rig.force_sensor_dynamics.noise_std_N = NonNegative(*x, "N");
+    if (auto x = mm.Optional("bandwidth_hz")) c.rig.force_sensor_dynamics.bandwidth_hz = NonNegative(*x, "Hz");
+    if (auto x = mm.Optional("seed")) {
+      c.rig.force_sensor_dynamics.seed = static_cast<std::uint64_t>(config::IntInRange(*x, 0, 2147483647));
+    }
+  }
   if (auto v = m.Optional("allocation")) {
-    const Map mm(*v, {"use_brakes", "rest_velocity_rad_per_s"});
+    const Map mm(*v, {"use_brakes", "rest_velocity_rad_per_s", "brake_model_mismatch"});
+    if (auto x = mm.Optional("brake_model_mismatch")) c.allocation.brake_model_mismatch = NonNegative(*x, "");
     if (auto x = mm.Optional("use_brakes")) c.allocation.use_brakes = x->AsBool();
     if (auto x = mm.Optional("rest_velocity_rad_per_s"))
       c.allocation.rest_velocity_rad_per_s = NonNegative(*x, "rad/s");
@@ -203,15 +221,26 @@ DeviceBackend HybridBackend() {
        "five-bar: proximal_1_m, proximal_2_m, distal_1_m, distal_2_m (0.2), base_separation_m (0), "
        "joint_1_min_deg/max (-40/110), joint_2_min_deg/max (70/220), workspace_x_m [-0.19, 0.19], "
        "workspace_y_m [0.09, 0.32]"},
-      {"motor", "max_torque_Nm (4.44, after the reducer), time_constant_s (0.007), pulley_ratio (5)"},
-      {"brake", "max_torque_Nm (4), time_constant_s (0.05), drag_Nm (0.08), hysteresis_Nm (0), pulley_ratio (5)"},
+      {"motor",
+       "max_torque_Nm (4.44, after the reducer), time_constant_s (0.0005: the current-loop torque lag; the paper's "
+       "7 ms is the mechanical time constant), pulley_ratio (5)"},
+      {"brake",
+       "max_torque_Nm (4), time_constant_s (0.05), drag_Nm (0.08), hysteresis_Nm (0), residual_fraction (0.02: "
+       "remanence after release), static_ratio (1.1: static / sliding torque), pulley_ratio (5)"},
+      {"joint_coulomb_Nm", "Coulomb friction per joint (N·m, joint side), >= 0; default 0.1"},
+      {"encoders",
+       "counts_per_joint_rev (40000; 0 = exact), velocity_filter_hz (200: low-pass of the differenced velocity; "
+       "0 = none): the simulated rig's readings"},
+      {"force_sensor", "noise_std_N (0.05), bandwidth_hz (500; 0 = none), seed (1): the simulated handle sensor"},
       {"joint_inertia_kgm2", "reflected actuator + pulley inertia per joint (kg·m²), > 0; default 0.02"},
       {"handle_mass_kg", "point mass at the handle (kg), >= 0; default 0.3"},
       {"joint_damping_Nms_per_rad", "viscous friction per joint (N·m·s/rad), >= 0; default 0.01"},
       {"substeps", "integration sub-steps per period, 1..1000; default 10"},
-      {"allocation", "use_brakes (true; false = motors only), rest_velocity_rad_per_s (0.02)"},
+      {"allocation",
+       "use_brakes (true; false = motors only), rest_velocity_rad_per_s (0.02), brake_model_mismatch (0.2: the "
+       "simulated rig's allocation believes its brake 20 % faster and 10 % stronger; 0..0.9)"},
       {"effect",
-       "local haptic effect: type none | wall (model spring|popc|hybrid, point_m, normal, "
+       "local haptic effect: type none | wall (model spring|popc|hybrid|linear-damper, point_m, normal, "
        "stiffness_N_per_m, damper_coefficient, max_force_N) | friction (display motor|brake, point_m, "
        "normal, stiffness_N_per_m, static_coefficient, kinetic_coefficient)"},
       {"operator",

@@ -1,9 +1,9 @@
-#include "teleop/device/hybrid/hybrid_device.hpp"
+#include "device/hybrid/hybrid_device.hpp"
 
 #include <Eigen/LU>
 #include <cmath>
 
-#include "teleop/device/hybrid/force_manipulability.hpp"
+#include "device/hybrid/force_manipulability.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device::hybrid {
@@ -31,7 +31,7 @@ HybridRigConfig WithHand(HybridRigConfig rig, double hand_mass_kg) {
 
 AllocationConfig Synced(AllocationConfig a, const HybridRigConfig& rig) {
   a.motor = rig.motor;
-  a.brake = rig.brake;
+  a.brake = AllocationBrakeModel(rig.brake, a.brake_model_mismatch);  // the simulated brake is not its model
   return a;
 }
 
@@ -47,8 +47,12 @@ HybridDevice::HybridDevice(const HybridDeviceConfig& config)
       rig_(WithHand(config.rig, config.hand_mass_kg)),
       allocator_(Synced(config.allocation, config.rig)),
       wall_(config.effect.wall),
-      hand_(HandAt(config.hand, config.rig.initial_position_m)) {
+      hand_(HandAt(config.hand, config.rig.initial_position_m)),
+      encoders_(config.rig.encoders),
+      force_sensor_(config.rig.force_sensor_dynamics) {
   config_.Validate();
+  encoders_.Reset(rig_.state().joint_rad);
+  Sense();
   // Capabilities: the FME minimum over the workspace, the force available in every direction everywhere.
   const FmeMap map = MapForceManipulability(rig_.kinematics(), config_.rig.motor.MaxJointTorqueNm(),
                                             config_.rig.brake.max_torque_Nm * config_.rig.brake.pulley_ratio, 0.01);
@@ -61,6 +65,19 @@ HybridDevice::HybridDevice(const HybridDeviceConfig& config)
   capabilities_.measures_force = true;
 }
 
+void HybridDevice::Sense() noexcept {
+  const RigState& s = rig_.state();
+  Eigen::Vector2d p;
+  Eigen::Matrix2d jac;
+  if (rig_.kinematics().Forward(encoders_.joint_rad(), p) && rig_.kinematics().Jacobian(encoders_.joint_rad(), jac)) {
+    sensed_position_m_ = p;
+    sensed_velocity_m_per_s_ = jac * encoders_.joint_velocity_rad_per_s();
+  } else {
+    sensed_position_m_ = s.position_m;
+    sensed_velocity_m_per_s_ = s.velocity_m_per_s;
+  }
+}
+
 void HybridDevice::Read(Reading& out) noexcept {
   const RigState& s = rig_.state();
   out.position_m = DofVector::Zero(2);
@@ -68,10 +85,10 @@ void HybridDevice::Read(Reading& out) noexcept {
   out.force_N = DofVector::Zero(2);
   out.rendered_force_N = DofVector::Zero(2);
   out.faults = kFaultNone;
-  const Eigen::Vector2d rel = s.position_m - config_.rig.initial_position_m;
+  const Eigen::Vector2d rel = sensed_position_m_ - config_.rig.initial_position_m;
   out.position_m << rel.x(), rel.y();
-  out.velocity_m_per_s << s.velocity_m_per_s.x(), s.velocity_m_per_s.y();
-  out.force_N << s.measured_hand_force_N.x(), s.measured_hand_force_N.y();
+  out.velocity_m_per_s << sensed_velocity_m_per_s_.x(), sensed_velocity_m_per_s_.y();
+  out.force_N << sensed_force_N_.x(), sensed_force_N_.y();
   if (!safe_) out.rendered_force_N << s.rendered_force_N.x(), s.rendered_force_N.y();
   if (!out.position_m.allFinite() || !out.velocity_m_per_s.allFinite() || !out.force_N.allFinite()) {
     out.faults |= kFaultNonFiniteSensor;
@@ -107,31 +124,34 @@ void HybridDevice::Update(double period_s) noexcept {
       if (f > 0.0) external -= f * n;
     }
   }
-  const Eigen::Vector2d measured = MeasureHandleForce(config_.rig.force_sensor, external);
+  // The handle sensor's reading of this cycle's external force (noise, bandwidth), which Read then reports.
+  sensed_force_N_ = force_sensor_.Filter(MeasureHandleForce(config_.rig.force_sensor, external), period_s);
+  const Eigen::Vector2d& measured = sensed_force_N_;
   Eigen::Vector2d motor = Eigen::Vector2d::Zero();
   Eigen::Vector2d brake = Eigen::Vector2d::Zero();
   Eigen::Matrix2d jac;
-  if (safe_ || !rig_.kinematics().Jacobian(s.joint_rad, jac)) {
+  if (safe_ || !rig_.kinematics().Jacobian(encoders_.joint_rad(), jac)) {
     brake.setConstant(config_.rig.brake.max_torque_Nm);  // safe state: motors off, brakes engaged
     allocator_.Reset();
   } else {
     AllocationInput in;
     in.jacobian_m_per_rad = jac;
-    in.joint_velocity_rad_per_s = s.joint_velocity_rad_per_s;
+    in.joint_velocity_rad_per_s = encoders_.joint_velocity_rad_per_s();
     in.hand_force_N = measured.allFinite() ? measured : Eigen::Vector2d::Zero();
     in.desired_force_N = desired_N_;
     switch (config_.effect.kind) {
       case HybridEffectConfig::Kind::kNone:
         break;
       case HybridEffectConfig::Kind::kWall: {
-        const WallOutput w = wall_.Step(s.position_m, s.velocity_m_per_s, period_s);
+        const WallOutput w = wall_.Step(sensed_position_m_, sensed_velocity_m_per_s_, period_s);
+        in.motor_force_N = w.motor_force_N;
         in.desired_force_N += w.desired_force_N;
         in.dissipative_force_N = w.dissipative_force_N;
         break;
       }
       case HybridEffectConfig::Kind::kFriction: {
         const FrictionOutput f =
-            FrictionStep(config_.effect.friction, s.position_m, s.velocity_m_per_s, in.hand_force_N);
+            FrictionStep(config_.effect.friction, sensed_position_m_, sensed_velocity_m_per_s_, in.hand_force_N);
         in.desired_force_N += f.desired_force_N;
         in.dissipative_force_N = f.dissipative_force_N;
         break;
@@ -142,6 +162,8 @@ void HybridDevice::Update(double period_s) noexcept {
     brake = allocation_out_.brake_shaft_Nm;
   }
   rig_.Step(motor, brake, external, period_s);
+  encoders_.Sample(rig_.state().joint_rad, rig_.state().joint_velocity_rad_per_s, period_s);
+  Sense();
   time_s_ += period_s;
 }
 

@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/hybrid_fieldbus_device.hpp"
+#include "device/hybrid/hybrid_fieldbus_device.hpp"
 
 #include <spdlog/spdlog.h>
 
@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <string>
 
-#include "teleop/device/hybrid/force_manipulability.hpp"
+#include "device/hybrid/force_manipulability.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device::hybrid {

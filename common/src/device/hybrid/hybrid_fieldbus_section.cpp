@@ -1,5 +1,5 @@
 // `device.hybrid.fieldbus`: the real rig from YAML (docs/configuration.md).
-#include "teleop/device/hybrid/hybrid_fieldbus_section.hpp"
+#include "device/hybrid/hybrid_fieldbus_section.hpp"
 
 #include <cmath>
 #include <numbers>

@@ -1,9 +1,9 @@
-#include "teleop/device/hybrid/hybrid_rig.hpp"
+#include "device/hybrid/hybrid_rig.hpp"
 
 #include <Eigen/LU>
 #include <cmath>
 
-#include "teleop/device/hybrid/brake_friction_solver.hpp"
+#include "device/hybrid/brake_friction_solver.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device::hybrid {
@@ -15,9 +15,14 @@ void HybridRigConfig::Validate() const {
   force_sensor.Validate();
   if (!(std::isfinite(joint_inertia_kgm2) && joint_inertia_kgm2 > 0.0) ||
       !(std::isfinite(handle_mass_kg) && handle_mass_kg >= 0.0) ||
-      !(std::isfinite(joint_damping_Nms_per_rad) && joint_damping_Nms_per_rad >= 0.0)) {
-    throw Error("hybrid rig: joint_inertia_kgm2 must be > 0, handle_mass_kg and joint_damping_Nms_per_rad >= 0");
+      !(std::isfinite(joint_damping_Nms_per_rad) && joint_damping_Nms_per_rad >= 0.0) ||
+      !(std::isfinite(joint_coulomb_Nm) && joint_coulomb_Nm >= 0.0)) {
+    throw Error(
+        "hybrid rig: joint_inertia_kgm2 must be > 0, handle_mass_kg, joint_damping_Nms_per_rad and joint_coulomb_Nm "
+        ">= 0");
   }
+  force_sensor_dynamics.Validate();
+  encoders.Validate();
   if (substeps < 1 || substeps > 1000) {
     throw Error("hybrid rig: substeps must be 1..1000");
   }
@@ -49,6 +54,7 @@ bool HybridRig::Reset(const Eigen::Vector2d& position_m) noexcept {
     b.Reset();
   }
   state_ = RigState{};
+  stuck_[0] = stuck_[1] = true;
   state_.joint_rad = q;
   UpdateCartesian();
   return true;
@@ -77,7 +83,7 @@ void HybridRig::UpdateCartesian() noexcept {
   if (kinematics_.Forward(state_.joint_rad, p) && kinematics_.Jacobian(state_.joint_rad, jac)) {
     state_.position_m = p;
     state_.velocity_m_per_s = jac * state_.joint_velocity_rad_per_s;
-    const Eigen::Vector2d tau = state_.motor_joint_Nm + state_.brake_joint_Nm;
+    const Eigen::Vector2d tau = state_.motor_joint_Nm + state_.brake_joint_Nm + state_.friction_joint_Nm;
     state_.rendered_force_N = jac.transpose().fullPivLu().solve(tau);
   } else {
     state_.singular = true;
@@ -92,6 +98,7 @@ void HybridRig::Step(const Eigen::Vector2d& motor_command_joint_Nm, const Eigen:
   const double h = period_s / config_.substeps;
   const Eigen::Vector2d hand = hand_force_N.allFinite() ? hand_force_N : Eigen::Vector2d::Zero();
   Eigen::Vector2d brake_sum_Nm = Eigen::Vector2d::Zero();
+  Eigen::Vector2d friction_sum_Nm = Eigen::Vector2d::Zero();
   for (int s = 0; s < config_.substeps; ++s) {
     Eigen::Matrix2d jac;
     Eigen::Matrix2d m;
@@ -101,9 +108,13 @@ void HybridRig::Step(const Eigen::Vector2d& motor_command_joint_Nm, const Eigen:
     }
     Eigen::Vector2d tau_motor;
     Eigen::Vector2d capacity;
+    Eigen::Vector2d brake_share;  // the brake's part of the friction capacity (the rest: joint Coulomb friction)
     for (int i = 0; i < 2; ++i) {
       tau_motor(i) = motors_[i].Step(motor_command_joint_Nm(i), h);
-      capacity(i) = brakes_[i].Step(brake_command_shaft_Nm(i), h);
+      const double brake_cap = brakes_[i].Step(brake_command_shaft_Nm(i), h);
+      const double total = brake_cap + config_.joint_coulomb_Nm;
+      brake_share(i) = total > 0.0 ? brake_cap / total : 0.0;
+      capacity(i) = total * (stuck_[i] ? config_.brake.static_ratio : 1.0);  // static above sliding
     }
     const Eigen::Vector2d& qd = state_.joint_velocity_rad_per_s;
     // Velocity-product term m·Jᵀ·(J̇q̇), J̇q̇ by a directional difference of J along q̇.
@@ -122,14 +133,20 @@ void HybridRig::Step(const Eigen::Vector2d& motor_command_joint_Nm, const Eigen:
     const BrakeImpulse brake = SolveBrakeImpulse(v_free, w, capacity, h);
     const Eigen::Vector2d tau_brake = brake.impulse_Nms / h;
     state_.motor_energy_J += tau_motor.dot(brake.velocity_rad_per_s) * h;
-    state_.brake_energy_J += brake.impulse_Nms.dot(brake.velocity_rad_per_s);
+    const Eigen::Vector2d brake_impulse = brake_share.cwiseProduct(brake.impulse_Nms);
+    const Eigen::Vector2d friction_impulse = brake.impulse_Nms - brake_impulse;
+    state_.brake_energy_J += brake_impulse.dot(brake.velocity_rad_per_s);
+    state_.friction_energy_J += friction_impulse.dot(brake.velocity_rad_per_s);
     state_.joint_velocity_rad_per_s = brake.velocity_rad_per_s;
     state_.joint_rad += h * state_.joint_velocity_rad_per_s;
     state_.motor_joint_Nm = tau_motor;
     state_.brake_capacity_joint_Nm = capacity;
-    brake_sum_Nm += tau_brake;
+    for (int i = 0; i < 2; ++i) stuck_[i] = brake.velocity_rad_per_s(i) == 0.0;
+    brake_sum_Nm += brake_share.cwiseProduct(tau_brake);
+    friction_sum_Nm += tau_brake - brake_share.cwiseProduct(tau_brake);
   }
   state_.brake_joint_Nm = brake_sum_Nm / config_.substeps;
+  state_.friction_joint_Nm = friction_sum_Nm / config_.substeps;
   state_.measured_hand_force_N = MeasureHandleForce(config_.force_sensor, hand_force_N);
   UpdateCartesian();
 }

@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/motor_model.hpp"
+#include "device/hybrid/motor_model.hpp"
 
 #include <algorithm>
 #include <cmath>

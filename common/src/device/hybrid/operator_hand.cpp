@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/operator_hand.hpp"
+#include "device/hybrid/operator_hand.hpp"
 
 #include <algorithm>
 

@@ -5,9 +5,9 @@
 
 #include <vector>
 
+#include "device/hybrid/hybrid_fieldbus_device.hpp"
 #include "teleop/config/yaml_reader.hpp"
 #include "teleop/device/device_registry.hpp"
-#include "teleop/device/hybrid/hybrid_fieldbus_device.hpp"
 
 namespace teleop::device::hybrid {
 

@@ -4,13 +4,13 @@
 #include <cstdint>
 #include <string>
 
+#include "device/hybrid/friction_display.hpp"
+#include "device/hybrid/hybrid_fieldbus_device.hpp"
+#include "device/hybrid/hybrid_rig.hpp"
+#include "device/hybrid/motor_brake_allocation.hpp"
+#include "device/hybrid/operator_hand.hpp"
+#include "device/hybrid/wall_model.hpp"
 #include "teleop/device/device.hpp"
-#include "teleop/device/hybrid/friction_display.hpp"
-#include "teleop/device/hybrid/hybrid_fieldbus_device.hpp"
-#include "teleop/device/hybrid/hybrid_rig.hpp"
-#include "teleop/device/hybrid/motor_brake_allocation.hpp"
-#include "teleop/device/hybrid/operator_hand.hpp"
-#include "teleop/device/hybrid/wall_model.hpp"
 
 namespace teleop::device::hybrid {
 
@@ -65,6 +65,7 @@ class HybridDevice final : public Device {
   void SetSafe() noexcept override;
 
   const HybridRig& rig() const noexcept { return rig_; }
+  const Eigen::Vector2d& sensed_force_N() const noexcept { return sensed_force_N_; }
   const AllocationOutput& last_allocation() const noexcept { return allocation_out_; }
   double time_s() const noexcept { return time_s_; }
 
@@ -72,10 +73,19 @@ class HybridDevice final : public Device {
   HybridDeviceConfig config_;
   Capabilities capabilities_;
   std::string name_ = "hybrid";
+  void Sense() noexcept;
+
   HybridRig rig_;
   MotorBrakeAllocator allocator_;
   WallModel wall_;
   OperatorHand hand_;
+  // What the device's sensors report (rig.encoders, rig.force_sensor_dynamics), sampled at the end of Update: Read
+  // reports them and the next Update's allocation and effects use them.
+  JointEncoders encoders_;
+  ForceSensorDynamics force_sensor_;
+  Eigen::Vector2d sensed_position_m_{0.0, 0.0};
+  Eigen::Vector2d sensed_velocity_m_per_s_{0.0, 0.0};
+  Eigen::Vector2d sensed_force_N_{0.0, 0.0};
   Eigen::Vector2d desired_N_{0.0, 0.0};
   Eigen::Vector2d hand_force_N_{0.0, 0.0};
   AllocationOutput allocation_out_{};

@@ -1,4 +1,4 @@
-#include "teleop/device/hybrid/contact_scenarios.hpp"
+#include "hybrid/contact_scenarios.hpp"
 
 #include <Eigen/LU>
 #include <algorithm>
@@ -10,10 +10,13 @@ namespace teleop::device::hybrid {
 namespace {
 
 constexpr double kBounceGap_m = 0.1e-3;
+constexpr double kBigBounce_m = 1e-3;  ///< A "big" bounce (Fig. 9(b)'s) leaves the surface by more than 1 mm.
 constexpr double kSettleBand_m = 0.5e-3;
 constexpr double kFinalWindow_s = 0.1;
+constexpr double kReversalStep_m_per_s = 2e-3;  ///< A reversal counts when the velocity jumps by more than 2 mm/s.
 
 struct Demand {
+  Eigen::Vector2d motor_N{0.0, 0.0};
   Eigen::Vector2d desired_N{0.0, 0.0};
   Eigen::Vector2d dissipative_N{0.0, 0.0};
   bool brakes_for_desired = true;
@@ -33,6 +36,10 @@ ScenarioResult Run(HybridRigConfig rig_config, const AllocationConfig& allocatio
   HybridRig rig(rig_config);
   MotorBrakeAllocator allocator(allocation);
   const OperatorHand hand(hand_config);
+  // What the controller sees: quantized encoders with a velocity estimate, the force sensor's noise and bandwidth.
+  JointEncoders encoders(rig_config.encoders);
+  encoders.Reset(rig.state().joint_rad);
+  ForceSensorDynamics sensor(rig_config.force_sensor_dynamics);
   const Eigen::Vector2d tangent{normal.y(), -normal.x()};
   ScenarioResult result;
   const int steps = static_cast<int>(std::lround(duration_s / period_s));
@@ -40,17 +47,22 @@ ScenarioResult Run(HybridRigConfig rig_config, const AllocationConfig& allocatio
   for (int k = 0; k < steps; ++k) {
     const double t = k * period_s;
     const RigState& s = rig.state();
+    encoders.Sample(s.joint_rad, s.joint_velocity_rad_per_s, period_s);
     Eigen::Matrix2d jac;
-    if (s.singular || !rig.kinematics().Jacobian(s.joint_rad, jac)) {
+    Eigen::Vector2d sensed_p;
+    if (s.singular || !rig.kinematics().Jacobian(encoders.joint_rad(), jac) ||
+        !rig.kinematics().Forward(encoders.joint_rad(), sensed_p)) {
       throw Error("hybrid scenario: the linkage reached a singular configuration");
     }
+    const Eigen::Vector2d sensed_v = jac * encoders.joint_velocity_rad_per_s();
     const Eigen::Vector2d hand_force = hand.Force(t, s.position_m, s.velocity_m_per_s);
-    const Eigen::Vector2d measured = MeasureHandleForce(rig_config.force_sensor, hand_force);
-    const Demand demand = environment(s.position_m, s.velocity_m_per_s, measured);
+    const Eigen::Vector2d measured = sensor.Filter(MeasureHandleForce(rig_config.force_sensor, hand_force), period_s);
+    const Demand demand = environment(sensed_p, sensed_v, measured);
     AllocationInput in;
     in.jacobian_m_per_rad = jac;
-    in.joint_velocity_rad_per_s = s.joint_velocity_rad_per_s;
+    in.joint_velocity_rad_per_s = encoders.joint_velocity_rad_per_s();
     in.hand_force_N = measured;
+    in.motor_force_N = demand.motor_N;
     in.desired_force_N = demand.desired_N;
     in.dissipative_force_N = demand.dissipative_N;
     in.brakes_for_desired = demand.brakes_for_desired;
@@ -67,7 +79,7 @@ ScenarioResult Run(HybridRigConfig rig_config, const AllocationConfig& allocatio
     x.position_m = after.position_m;
     x.velocity_m_per_s = after.velocity_m_per_s;
     x.rendered_normal_N = -after.rendered_force_N.dot(normal);
-    x.desired_normal_N = -demand.desired_N.dot(normal);
+    x.desired_normal_N = -(demand.motor_N + demand.desired_N).dot(normal);
     x.motor_normal_N = -(jt_inv * after.motor_joint_Nm).dot(normal);
     x.brake_normal_N = -(jt_inv * after.brake_joint_Nm).dot(normal);
     x.hand_normal_N = measured.dot(normal);
@@ -93,9 +105,19 @@ void ContactMetricsFrom(ScenarioResult& r, const Eigen::Vector2d& point, const E
     return;
   }
   bool in_contact = false;
+  bool bouncing = false;  // separated after a contact, height not yet booked
+  double height = 0.0;
+  const auto book = [&] {
+    if (!bouncing) return;
+    m.largest_bounce_mm = std::max(m.largest_bounce_mm, 1e3 * height);
+    if (height > kBigBounce_m) ++m.big_bounces;
+    bouncing = false;
+  };
   std::size_t first = samples.size();
   for (std::size_t i = 0; i < samples.size(); ++i) {
     const ScenarioSample& s = samples[i];
+    if (bouncing) height = std::max(height, -s.depth_m);
+    if (bouncing && s.depth_m > 0.0) book();
     m.peak_force_N = std::max(m.peak_force_N, s.rendered_normal_N);
     m.peak_hand_force_N = std::max(m.peak_hand_force_N, std::abs(s.hand_normal_N));
     m.max_depth_mm = std::max(m.max_depth_mm, 1e3 * s.depth_m);
@@ -109,7 +131,16 @@ void ContactMetricsFrom(ScenarioResult& r, const Eigen::Vector2d& point, const E
     } else if (in_contact && s.depth_m < -kBounceGap_m) {
       in_contact = false;
       ++m.bounces;
+      bouncing = true;
+      height = -s.depth_m;
     }
+  }
+  book();
+  // Velocity reversals while in contact after the first contact: a chattering damper flips the inward velocity.
+  for (std::size_t i = first + 1; i < samples.size(); ++i) {
+    const double a = samples[i - 1].velocity_m_per_s.dot(normal);
+    const double b = samples[i].velocity_m_per_s.dot(normal);
+    if (samples[i].depth_m > 0.0 && a * b < 0.0 && std::abs(a - b) > kReversalStep_m_per_s) ++m.velocity_reversals;
   }
   const double t_end = samples.back().time_s;
   double sum = 0.0;
@@ -142,8 +173,10 @@ WallScenarioConfig PaperWallScenario(WallKind kind, double speed_m_per_s) {
   c.wall.point_m = {0.0, 0.250};
   c.wall.normal = {0.0, 1.0};
   c.allocation.motor = c.rig.motor;
-  c.allocation.brake = c.rig.brake;
-  c.allocation.use_brakes = kind == WallKind::kHybrid;
+  c.allocation.brake = AllocationBrakeModel(c.rig.brake, c.allocation.brake_model_mismatch);
+  c.allocation.use_brakes = kind == WallKind::kHybrid || kind == WallKind::kLinearDamper;
+  c.wall.popc.actuator_time_constant_s = c.rig.motor.time_constant_s;  // the observer's actuator model: the motor's
+  c.commanded_speed_m_per_s = speed_m_per_s;                           // the nominal speed the scenario stands for
   const bool strong = speed_m_per_s > 1.0;
   c.hand.start_m = {0.0, strong ? 0.130 : 0.200};
   c.hand.direction = {0.0, 1.0};
@@ -156,19 +189,63 @@ WallScenarioConfig PaperWallScenario(WallKind kind, double speed_m_per_s) {
 
 ScenarioResult RunWallScenario(const WallScenarioConfig& config) {
   WallModel wall(config.wall);
-  const bool hybrid = config.wall.kind == WallKind::kHybrid;
+  const bool hybrid = config.wall.kind == WallKind::kHybrid || config.wall.kind == WallKind::kLinearDamper;
   ScenarioResult r =
       Run(config.rig, config.allocation, config.hand, config.hand_mass_kg, config.wall.normal, config.period_s,
           config.duration_s, [&](const Eigen::Vector2d& p, const Eigen::Vector2d& v, const Eigen::Vector2d& /*hand*/) {
             const WallOutput w = wall.Step(p, v, config.period_s);
             Demand d;
+            d.motor_N = w.motor_force_N;
             d.desired_N = w.desired_force_N;
             d.dissipative_N = w.dissipative_force_N;
             d.brakes_for_desired = hybrid;
             return d;
           });
   ContactMetricsFrom(r, config.wall.point_m, config.wall.normal);
+  r.metrics.commanded_speed_mm_s = 1e3 * config.hand.speed_m_per_s;
+  r.metrics.nominal_speed_mm_s = 1e3 * config.commanded_speed_m_per_s;
   return r;
+}
+
+void CalibrateContactSpeed(WallScenarioConfig& c, double contact_speed_m_per_s) {
+  if (!(contact_speed_m_per_s > 0.0)) throw Error("hybrid scenario: the contact speed must be > 0");
+  // The hand's arm overshoots its intended speed before contact; find the intended speed whose measured contact
+  // speed is the nominal one (secant on the run up to contact, which the wall does not influence).
+  const double distance = (c.wall.point_m - c.hand.start_m).dot(c.wall.normal);
+  const auto error = [&](double commanded) {
+    WallScenarioConfig probe = c;
+    probe.hand.speed_m_per_s = commanded;
+    probe.duration_s = std::min(c.duration_s, distance / commanded + 0.05);
+    const ContactMetrics m = RunWallScenario(probe).metrics;
+    return (m.contact_time_s < 0.0 ? 0.0 : 1e-3 * m.contact_speed_mm_s) - contact_speed_m_per_s;
+  };
+  double x0 = contact_speed_m_per_s;
+  double f0 = error(x0);
+  double x1 = contact_speed_m_per_s * contact_speed_m_per_s / std::max(1e-3, f0 + contact_speed_m_per_s);
+  for (int i = 0; i < 8 && std::abs(f0) > 1e-3 * contact_speed_m_per_s; ++i) {
+    const double f1 = error(x1);
+    if (std::abs(f1 - f0) < 1e-12) break;
+    const double x2 = std::clamp(x1 - f1 * (x1 - x0) / (f1 - f0), 0.2 * contact_speed_m_per_s, contact_speed_m_per_s);
+    x0 = x1;
+    f0 = f1;
+    x1 = x2;
+  }
+  c.hand.speed_m_per_s = x0;
+}
+
+WallScenarioConfig PaperWallScenarioAtContactSpeed(WallKind kind, double contact_speed_m_per_s) {
+  WallScenarioConfig c = PaperWallScenario(kind, contact_speed_m_per_s);
+  CalibrateContactSpeed(c, contact_speed_m_per_s);
+  return c;
+}
+
+WallScenarioConfig PaperDamperScenario(WallKind kind, double speed_m_per_s, bool brakes) {
+  WallScenarioConfig c = PaperWallScenario(kind, speed_m_per_s);
+  c.hand.start_m = {0.0, c.wall.point_m.y() - 0.005};
+  c.hand.travel_m = 0.005 + c.hand.max_force_N / c.hand.stiffness_N_per_m + 0.030;
+  c.allocation.use_brakes = brakes;
+  c.duration_s = 1.0;
+  return c;
 }
 
 FrictionScenarioConfig PaperFrictionScenario(FrictionDisplay display, double normal_force_N) {
@@ -177,7 +254,7 @@ FrictionScenarioConfig PaperFrictionScenario(FrictionDisplay display, double nor
   c.friction.point_m = {0.0, 0.250};
   c.friction.normal = {0.0, 1.0};
   c.allocation.motor = c.rig.motor;
-  c.allocation.brake = c.rig.brake;
+  c.allocation.brake = AllocationBrakeModel(c.rig.brake, c.allocation.brake_model_mismatch);
   c.allocation.use_brakes = display == FrictionDisplay::kBrake;
   c.hand.start_m = {-0.080, 0.240};
   c.hand.direction = {0.0, 1.0};

@@ -7,9 +7,9 @@
 #include <optional>
 #include <string>
 
+#include "device/hybrid/five_bar.hpp"
+#include "device/hybrid/motor_brake_allocation.hpp"
 #include "teleop/device/device.hpp"
-#include "teleop/device/hybrid/five_bar.hpp"
-#include "teleop/device/hybrid/motor_brake_allocation.hpp"
 #include "teleop/fieldbus/can_force_sensor.hpp"
 #include "teleop/fieldbus/can_port.hpp"
 #include "teleop/fieldbus/canopen_sync_producer.hpp"

@@ -17,6 +17,13 @@ struct BrakeConfig {
   /// Width of a play (backlash) operator on the lagged torque, N·m at the shaft: on a reversal of the command the
   /// delivered torque stays until the command has moved by this much. 0 = no hysteresis.
   double hysteresis_Nm = 0.0;
+  /// Remanence: after a release the brake keeps this fraction of the largest torque it has delivered (the particles'
+  /// residual magnetisation; the paper gives no number: 2 % by default, 0.08 N·m after a full 4 N·m, the size of the
+  /// drag). 0 = none.
+  double residual_fraction = 0.02;
+  /// Static torque / sliding torque: a stuck brake holds up to static_ratio × its capacity before it slips, a sliding
+  /// one exerts its capacity (1.1 by default: particle brakes slip smoothly, static a little above dynamic; 1 = none).
+  double static_ratio = 1.1;
   double pulley_ratio = 5.0;
 
   double MaxJointTorqueNm() const noexcept { return (max_torque_Nm + drag_Nm) * pulley_ratio; }
@@ -41,6 +48,7 @@ class ParticleBrake {
   BrakeConfig config_;
   double lagged_shaft_Nm_ = 0.0;
   double delivered_shaft_Nm_ = 0.0;
+  double peak_shaft_Nm_ = 0.0;
 };
 
 }  // namespace teleop::device::hybrid

@@ -3,10 +3,11 @@
 #include <Eigen/Core>
 #include <array>
 
-#include "teleop/device/hybrid/five_bar.hpp"
-#include "teleop/device/hybrid/handle_force_sensor.hpp"
-#include "teleop/device/hybrid/motor_model.hpp"
-#include "teleop/device/hybrid/particle_brake.hpp"
+#include "device/hybrid/five_bar.hpp"
+#include "device/hybrid/handle_force_sensor.hpp"
+#include "device/hybrid/motor_model.hpp"
+#include "device/hybrid/particle_brake.hpp"
+#include "device/hybrid/rig_sensing.hpp"
 
 namespace teleop::device::hybrid {
 
@@ -21,10 +22,16 @@ struct HybridRigConfig {
   MotorConfig motor{};
   BrakeConfig brake{};
   HandleForceSensorConfig force_sensor{};
+  ForceSensorDynamicsConfig force_sensor_dynamics{};  ///< Noise and bandwidth (the scenarios' and device's reading).
+  EncoderConfig encoders{};                           ///< Quantization and velocity estimate (the controller's view).
   double joint_inertia_kgm2 = 0.02;
   double handle_mass_kg = 0.3;
   double joint_damping_Nms_per_rad = 0.01;  ///< Viscous friction of bearings and tendons, per joint.
-  int substeps = 10;                        ///< Integration sub-steps per Step (1..1000).
+  /// Coulomb friction of bearings and tendons per joint (N·m, joint side; an estimate, 0.1 N·m ≈ 0.5 N at the
+  /// handle: §5 "the computed forces were a little different from the measured ones because of the friction of the
+  /// mechanism"). Acts like an always-on brake in the friction solver, with the brake's static_ratio.
+  double joint_coulomb_Nm = 0.1;
+  int substeps = 10;  ///< Integration sub-steps per Step (1..1000).
   Eigen::Vector2d initial_position_m{0.0, 0.200};
 
   void Validate() const;  ///< teleop::Error naming the bad field (also the initial position out of the workspace).
@@ -38,10 +45,12 @@ struct RigState {
   Eigen::Vector2d velocity_m_per_s{0.0, 0.0};
   Eigen::Vector2d measured_hand_force_N{0.0, 0.0};  ///< Handle force sensor.
   Eigen::Vector2d motor_joint_Nm{0.0, 0.0};         ///< Delivered (after lag and saturation), joint side.
-  Eigen::Vector2d brake_joint_Nm{0.0, 0.0};         ///< Exerted by the brakes (friction), joint side, step average.
+  Eigen::Vector2d brake_joint_Nm{0.0, 0.0};         ///< Exerted by the brakes, joint side, step average.
+  Eigen::Vector2d friction_joint_Nm{0.0, 0.0};      ///< Exerted by the joints' Coulomb friction, step average.
   Eigen::Vector2d brake_capacity_joint_Nm{0.0, 0.0};
   Eigen::Vector2d rendered_force_N{0.0, 0.0};  ///< (Jᵀ)⁻¹(τ_motor + τ_brake): the actuators' force on the handle.
   double brake_energy_J = 0.0;                 ///< Cumulative work of the brakes on the linkage (≤ 0).
+  double friction_energy_J = 0.0;              ///< Cumulative work of the joints' Coulomb friction (≤ 0).
   double motor_energy_J = 0.0;                 ///< Cumulative work of the motors on the linkage.
   bool singular = false;                       ///< The linkage reached a configuration with no Jacobian.
 };
@@ -72,6 +81,7 @@ class HybridRig {
   std::array<MotorModel, 2> motors_;
   std::array<ParticleBrake, 2> brakes_;
   RigState state_;
+  bool stuck_[2] = {true, true};  ///< The joint was held at rest by friction in the last sub-step.
 };
 
 }  // namespace teleop::device::hybrid

@@ -1,8 +1,8 @@
 #pragma once
 
+#include "device/hybrid/hybrid_device.hpp"
 #include "teleop/device/device_config.hpp"
 #include "teleop/device/device_registry.hpp"
-#include "teleop/device/hybrid/hybrid_device.hpp"
 
 namespace teleop::device::hybrid {
 

@@ -3,11 +3,11 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "teleop/device/hybrid/friction_display.hpp"
-#include "teleop/device/hybrid/hybrid_rig.hpp"
-#include "teleop/device/hybrid/motor_brake_allocation.hpp"
-#include "teleop/device/hybrid/operator_hand.hpp"
-#include "teleop/device/hybrid/wall_model.hpp"
+#include "device/hybrid/friction_display.hpp"
+#include "device/hybrid/hybrid_rig.hpp"
+#include "device/hybrid/motor_brake_allocation.hpp"
+#include "device/hybrid/operator_hand.hpp"
+#include "device/hybrid/wall_model.hpp"
 
 namespace teleop::device::hybrid {
 
@@ -33,14 +33,19 @@ struct ScenarioSample {
 /// The numbers the paper reads off Figs. 8, 9, 11, 12 (definitions in docs/hybrid.md).
 struct ContactMetrics {
   int bounces = 0;                     ///< Separations: in contact, then more than 0.1 mm outside the surface.
+  int big_bounces = 0;                 ///< Separations that leave the surface by more than 1 mm.
+  double largest_bounce_mm = 0.0;      ///< Highest excursion outside the surface after a contact.
   double transient_s = 0.0;            ///< First contact → last time the depth is outside final ± max(0.5 mm, 10 %).
   double steady_state_error_mm = 0.0;  ///< Mean depth over the last 0.1 s.
   double peak_force_N = 0.0;           ///< Largest push-back of the actuators on the handle.
   double peak_hand_force_N = 0.0;
   double max_depth_mm = 0.0;
-  double contact_speed_mm_s = 0.0;  ///< Inward speed at first contact.
-  double contact_time_s = -1.0;     ///< −1: never touched.
-  double brake_energy_J = 0.0;      ///< Work of the brakes on the linkage (≤ 0).
+  double contact_speed_mm_s = 0.0;    ///< Inward speed at first contact (measured).
+  double commanded_speed_mm_s = 0.0;  ///< The hand's intended approach speed.
+  double nominal_speed_mm_s = 0.0;    ///< The paper's speed the run stands for (250 or 1500).
+  int velocity_reversals = 0;         ///< Sign changes of the inward velocity in contact (damper chatter, Fig. 7(a)).
+  double contact_time_s = -1.0;       ///< −1: never touched.
+  double brake_energy_J = 0.0;        ///< Work of the brakes on the linkage (≤ 0).
   double motor_energy_J = 0.0;
   // Friction scenario only.
   double friction_rms_error_N = 0.0;      ///< RMS of (shown friction − μ·F_N) while sliding.
@@ -62,13 +67,23 @@ struct WallScenarioConfig {
   double hand_mass_kg = 0.5;  ///< Added to the handle mass.
   double period_s = 0.001;
   double duration_s = 0.8;
+  double commanded_speed_m_per_s = 0.0;  ///< The nominal speed (hand.speed_m_per_s may differ: calibrated).
 };
 
 /// The §4 experiment: the hand pushes the handle into the wall at `speed_m_per_s` with up to `hand_force_N`.
 /// Defaults: wall at y = 250 mm (normal +y), start at x = 0, y = 200 mm (weak) or 130 mm (strong, to reach the speed);
 /// weak (250 mm/s, 25 N) or strong (1500 mm/s, 80 N) contact as in Figs. 8 and 9.
 [[nodiscard]] WallScenarioConfig PaperWallScenario(WallKind kind, double speed_m_per_s);
+/// Sets c.hand.speed_m_per_s so that the speed measured at contact is contact_speed_m_per_s (within 0.1 %).
+void CalibrateContactSpeed(WallScenarioConfig& c, double contact_speed_m_per_s);
+/// PaperWallScenario with the hand's intended speed chosen so that the speed measured at contact is
+/// contact_speed_m_per_s (the arm overshoots: 1500 mm/s intended gives about 1680 mm/s at contact).
+[[nodiscard]] WallScenarioConfig PaperWallScenarioAtContactSpeed(WallKind kind, double contact_speed_m_per_s);
 [[nodiscard]] ScenarioResult RunWallScenario(const WallScenarioConfig& config);
+
+/// Fig. 7(a): the hand meets a damper wall (kHybrid: cubic, kLinearDamper: linear) 5 mm ahead at a slow speed
+/// (20–40 mm/s, the range where §4 saw the linear damper unstable), with up to 25 N, for 1 s; brakes as asked.
+[[nodiscard]] WallScenarioConfig PaperDamperScenario(WallKind kind, double speed_m_per_s, bool brakes);
 
 struct FrictionScenarioConfig {
   HybridRigConfig rig{};

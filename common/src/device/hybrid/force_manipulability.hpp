@@ -3,7 +3,7 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "teleop/device/hybrid/five_bar.hpp"
+#include "device/hybrid/five_bar.hpp"
 
 namespace teleop::device::hybrid {
 
