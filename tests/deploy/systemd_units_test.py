@@ -141,7 +141,8 @@ def check_credentials(args):
         creds = [c.split(":", 1) for c in s.get("LoadCredential", [])]
         check(creds == [["teleop.key", "/etc/teleop/teleop.key"]],
               f"{role}: LoadCredential=teleop.key:/etc/teleop/teleop.key ({s.get('LoadCredential')})")
-        # The .deb installs configs/loopback/<role>-udp.yaml as /etc/teleop/<role>.yaml (deploy/cmake/teleop_package.cmake).
+        # The .deb installs configs/loopback/<role>-udp.yaml as /etc/teleop/<role>.yaml
+        # (deploy/cmake/teleop_package.cmake).
         shipped = open(os.path.join(args.configs, "loopback", f"{role}-udp.yaml")).read()
         key = re.search(r"(?m)^\s*key_file:\s*(\S+)", shipped)
         named = key and (key.group(1) if key.group(1).startswith(("/", "credential:"))

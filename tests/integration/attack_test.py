@@ -33,10 +33,12 @@ Then the master is killed (SIGKILL), and:
   replay (master dead) from the master's port: the last captured frames, cyclically, for a second
 
 Each row: what was sent, the slave's cycles in the window and how many of them coupled (engaged), its motion, the
-counters. Each rejected attack: 100 % rejected and counted by reason (the slave's summary; the reason totals must balance exactly), no forged
-value ever reaches the slave's law (its telemetry), the slave's motion is what it is without the attack (excursion
-of the slave at rest, against a quiet window of the same phase), and after the master died the slave's watchdog is never fed: every cycle
-from the timeout on has the peer-lost flag and a frozen peer input. Prints the table docs/security.md shows.
+counters. Each rejected attack: 100 % rejected and counted by reason (the slave's summary; the reason totals must
+balance exactly), no forged value ever reaches the slave's law (its telemetry), the slave's motion is what it is
+without the attack (excursion of the slave at rest, against a quiet window of the same phase), the pair stays
+engaged through the floods and re-couples after the re-handshake, and after the master died the slave's watchdog is
+never fed: every cycle from the timeout on has the peer-lost flag and a frozen peer input. Prints the table
+docs/security.md shows.
 
 Raw sockets (spoofing and capture) need root or CAP_NET_RAW; without them those rows are skipped with a message and
 only the unprivileged attack runs.
@@ -589,7 +591,8 @@ def main():
     check(sec["handshake_messages"] >= dups + 2 * sec["sessions"],
           f"every duplicated hello was taken as a handshake message (answered from the cache): "
           f"{sec['handshake_messages']} >= {dups} + 2 x {sec['sessions']} sessions")
-    check(not privileged or sec["sessions"] >= 2, f"the slave re-handshook with the master ({sec['sessions']} sessions)")
+    check(not privileged or sec["sessions"] >= 2,
+          f"the slave re-handshook with the master ({sec['sessions']} sessions)")
     reasons = sorted({r for a in attacks for r in a.reasons})
     # Reason groups: each group's counters must add up to what the attacks of that group sent.
     groups = {}

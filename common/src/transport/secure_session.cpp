@@ -6,6 +6,7 @@
 #include <ctime>
 #include <new>
 #include <string>
+#include <system_error>
 
 #include "teleop/error.hpp"
 #include "teleop/proto/codec.hpp"
@@ -147,7 +148,13 @@ SecureSession::SecureSession(const SecureSessionConfig& config, const PreSharedK
                              key.bytes().data());
   crypto_kdf_derive_from_key(secrets_->mix_key.data(), kKeyBytes, kSubkeyMix, kHandshakeContext, key.bytes().data());
   if (config_.offload_key_exchange) {
-    helper_ = std::thread([this] { RunHelper(); });
+    try {
+      helper_ = std::thread([this] { RunHelper(); });
+    } catch (const std::system_error& e) {
+      secrets_->~Secrets();
+      sodium_free(secrets_);
+      throw Error(std::string("secure session: cannot start the key-exchange thread: ") + e.what());
+    }
     Kick();  // the initiator's first key pair, ahead of the first hello
   }
 }

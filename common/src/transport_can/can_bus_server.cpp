@@ -33,7 +33,7 @@ constexpr std::uint32_t kNoOwner = 0xFFFFFFFFu;
 
 // The owner (uid) of this host's UDP socket bound to `source` (address or 0.0.0.0, and port), from /proc/net/udp;
 // kNoOwner when there is none (the datagram came from another machine). Set-up path (a hello), not per frame.
-std::uint32_t LocalOwner(const sockaddr_in& source) {
+std::uint32_t LocalOwner(const sockaddr_in& source) noexcept try {
   std::ifstream in("/proc/net/udp");
   std::string line;
   std::getline(in, line);  // header
@@ -59,6 +59,8 @@ std::uint32_t LocalOwner(const sockaddr_in& source) {
     if (local_port == port && (local_address == source.sin_addr.s_addr || local_address == 0)) return uid;
   }
   return kNoOwner;
+} catch (...) {
+  return kNoOwner;  // cannot read it: treated as not a local socket (refused unless remote nodes are allowed)
 }
 
 bool Contains(const std::vector<std::uint32_t>& list, std::uint32_t uid, std::uint32_t own) {

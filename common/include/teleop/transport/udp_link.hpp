@@ -40,11 +40,15 @@ struct UdpLinkConfig {
 /// the socket each cycle (at most kMaxDatagramsPerPoll, so a flood cannot stall the loop) and keeps the newest
 /// sequence (see Link). Send and Poll use buffers allocated in the constructor: no allocation, no exception.
 ///
+/// The socket is connect()ed to the peer when accept_only_peer_address is set, so the kernel drops other sources.
+///
 /// Authenticated mode (security.mode kPsk): Poll passes every datagram from the peer's address to the session,
 /// sends its handshake replies, and feeds only authenticated samples to the keep-the-newest logic; everything else
 /// is counted by reason (LinkCounters::secure_rejected_by_reason). Send seals. The master drives the handshake
 /// from Poll: a hello at the first Poll and every handshake_retry_ms while no session is established or the peer
 /// has been silent for peer_silence_ms. A new session increments session_epoch() and resets the sequence tracker.
+/// The session runs its X25519 on its own helper thread (SecureSessionConfig::offload_key_exchange): each Poll first
+/// collects a finished key exchange (SecureSession::Pump) and sends the welcome or confirm it calls for.
 ///
 /// Receive times: the socket has SO_TIMESTAMPNS, so every datagram carries the kernel's receive time, which the
 /// kernel takes in CLOCK_REALTIME. Poll() converts the one of the newest accepted sample to CLOCK_MONOTONIC (the
