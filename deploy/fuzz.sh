@@ -15,7 +15,7 @@ set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD="${TELEOP_FUZZ_BUILD:-${ROOT}/build-fuzz}"
-HARNESSES=(udp_sample secure_messages secure_session can_cycle canopen_frames config)
+HARNESSES=(udp_sample secure_messages secure_session handshake can_cycle canopen_frames config)
 TIME=60
 BUILD_STEP=1
 RUN_STEP=1
@@ -112,7 +112,7 @@ generate_ninja() {
       echo "  extra = -fsanitize=fuzzer-no-link ${CONFIG_FLAGS}"
     done
     echo "build libteleop_fuzz_config.a: ar ${config_objects[*]}"
-    for h in udp_sample secure_messages secure_session can_cycle; do
+    for h in udp_sample secure_messages secure_session handshake can_cycle; do
       echo "build obj/fuzz_$h.o: cxx \$root/tests/fuzz/fuzz_$h.cpp"
       echo "  extra = -fsanitize=fuzzer-no-link"
       echo "build fuzz_$h: link obj/fuzz_$h.o libteleop_fuzz.a"

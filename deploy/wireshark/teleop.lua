@@ -17,10 +17,12 @@
 -- only, one per DOF), .crc, .crc.computed, .crc.status, .status.
 --
 -- Version 2 (the authenticated session, link.security.mode psk): the clear parts only, since the samples are
--- encrypted. hello/welcome: teleop.ephemeral_key, teleop.handshake_tag; confirm: teleop.session_id,
+-- encrypted. hello: teleop.ephemeral_key, teleop.hello_timestamp, teleop.handshake_tag; welcome:
+-- teleop.ephemeral_key, teleop.handshake_tag; confirm: teleop.session_id,
 -- teleop.handshake_tag; frame: teleop.session_id, teleop.frame_seq (64-bit), teleop.ciphertext_length,
--- teleop.ciphertext, teleop.aead_tag. teleop.version, .type (hello 2, welcome 3, confirm 4, frame 5), .role and
--- .status (ok, too_short, bad_length, bad_type; sizes as proto/secure_codec.cpp checks them) as for version 1.
+-- teleop.ciphertext, teleop.aead_tag. teleop.version, .type (hello 6, welcome 3, confirm 4, frame 5; 2 is the
+-- retired hello without timestamp, shown as bad_type), .role and .status (ok, too_short, bad_length, bad_type; sizes
+-- as proto/secure_codec.cpp checks them) as for version 1.
 -- Nothing here checks a tag: that needs the key.
 
 local teleop = Proto("teleop", "teleop bilateral teleoperation sample")
@@ -37,7 +39,7 @@ local kMaxAbsVelocity = 100.0
 local kMaxAbsForce = 10000.0
 
 local roles = { [0] = "master", [1] = "slave" }
-local types = { [1] = "sample", [2] = "hello", [3] = "welcome", [4] = "confirm", [5] = "frame" }
+local types = { [1] = "sample", [2] = "retired hello", [3] = "welcome", [4] = "confirm", [5] = "frame", [6] = "hello" }
 local crc_status = { [0] = "bad", [1] = "good", [2] = "not checked (truncated)" }
 
 local f = teleop.fields
@@ -73,6 +75,7 @@ f.crc_status = ProtoField.uint8("teleop.crc.status", "CRC status", base.DEC, crc
 f.status = ProtoField.string("teleop.status", "Decode status")
 f.ephemeral_key = ProtoField.bytes("teleop.ephemeral_key", "Ephemeral X25519 public key")
 f.handshake_tag = ProtoField.bytes("teleop.handshake_tag", "Handshake MAC (HMAC-SHA-512-256)")
+f.hello_timestamp = ProtoField.uint64("teleop.hello_timestamp", "Hello timestamp (ns, strictly increasing)", base.DEC)
 f.session_id = ProtoField.uint64("teleop.session_id", "Session id", base.HEX)
 f.frame_seq = ProtoField.uint64("teleop.frame_seq", "Frame sequence", base.DEC)
 f.ciphertext_length = ProtoField.uint16("teleop.ciphertext_length", "Ciphertext length", base.DEC)
@@ -253,7 +256,8 @@ local function dissect(tvb, pinfo, tree)
 end
 
 -- Version 2 (docs/protocol.md, "Authenticated session"): 8-byte common header, then by type.
-local kKeyExchangeSize = 72
+local kKeyExchangeSize = 72 -- welcome
+local kHelloSize = 80
 local kConfirmSize = 48
 local kFrameHeader = 28
 local kFrameTag = 16
@@ -280,7 +284,14 @@ local function dissect_v2(tvb, pinfo, tree)
     end
     return status == "ok"
   end
-  if mtype == 2 or mtype == 3 then
+  if mtype == 6 then
+    if expect(kHelloSize) then
+      root:add(f.ephemeral_key, tvb(8, 32))
+      root:add_le(f.hello_timestamp, tvb(40, 8))
+      root:add(f.handshake_tag, tvb(48, 32))
+      info = string.format("%s hello t=%s", who, tostring(tvb(40, 8):le_uint64()))
+    end
+  elseif mtype == 3 then
     if expect(kKeyExchangeSize) then
       root:add(f.ephemeral_key, tvb(8, 32))
       root:add(f.handshake_tag, tvb(40, 32))

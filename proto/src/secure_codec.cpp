@@ -81,14 +81,17 @@ DatagramKind ClassifyDatagram(std::span<const std::uint8_t> bytes) noexcept {
 }
 
 std::size_t EncodeKeyExchange(const KeyExchangeMessage& message, std::span<std::uint8_t> out) noexcept {
-  if (out.size() < sw::kKeyExchangeSize) return 0;
   if (message.type != SecureMessageType::kHello && message.type != SecureMessageType::kWelcome) return 0;
+  const bool hello = message.type == SecureMessageType::kHello;
+  const std::size_t size = hello ? sw::kHelloSize : sw::kWelcomeSize;
+  if (out.size() < size) return 0;
   if (!ValidRole(static_cast<std::uint8_t>(message.sender))) return 0;
   std::uint8_t* p = out.data();
   PutCommonHeader(p, message.type, message.sender);
   std::copy(message.ephemeral_key.begin(), message.ephemeral_key.end(), p + sw::kEphemeralKeyOffset);
-  std::copy(message.tag.begin(), message.tag.end(), p + sw::kKeyExchangeTagOffset);
-  return sw::kKeyExchangeSize;
+  if (hello) PutU64(p + sw::kHelloTimestampOffset, message.timestamp);
+  std::copy(message.tag.begin(), message.tag.end(), p + (hello ? sw::kHelloTagOffset : sw::kKeyExchangeTagOffset));
+  return size;
 }
 
 std::size_t EncodeConfirm(const ConfirmMessage& message, std::span<std::uint8_t> out) noexcept {
@@ -117,15 +120,17 @@ std::size_t EncodeSecureFrameHeader(const SecureFrameHeader& header, std::span<s
 DecodeStatus DecodeKeyExchange(std::span<const std::uint8_t> bytes, KeyExchangeMessage& out) noexcept {
   DecodeStatus s = CheckCommonHeader(bytes, SecureMessageType::kHello, SecureMessageType::kWelcome);
   if (s != DecodeStatus::kOk) return s;
-  s = CheckExactSize(bytes.size(), sw::kKeyExchangeSize);
-  if (s != DecodeStatus::kOk) return s;
   const std::uint8_t* p = bytes.data();
+  const bool hello = p[sw::kTypeOffset] == static_cast<std::uint8_t>(SecureMessageType::kHello);
+  s = CheckExactSize(bytes.size(), hello ? sw::kHelloSize : sw::kWelcomeSize);
+  if (s != DecodeStatus::kOk) return s;
   if (p[sw::kReservedOffset] != 0 || !ValidRole(p[sw::kSenderOffset])) return DecodeStatus::kOutOfRange;
   KeyExchangeMessage m{};
   m.type = static_cast<SecureMessageType>(p[sw::kTypeOffset]);
   m.sender = static_cast<SenderRole>(p[sw::kSenderOffset]);
   std::copy_n(p + sw::kEphemeralKeyOffset, kEphemeralKeyBytes, m.ephemeral_key.begin());
-  std::copy_n(p + sw::kKeyExchangeTagOffset, kHandshakeTagBytes, m.tag.begin());
+  if (hello) m.timestamp = GetU64(p + sw::kHelloTimestampOffset);
+  std::copy_n(p + (hello ? sw::kHelloTagOffset : sw::kKeyExchangeTagOffset), kHandshakeTagBytes, m.tag.begin());
   out = m;
   return DecodeStatus::kOk;
 }

@@ -140,6 +140,41 @@ TEST(Bridge, StateEventsAndSummaryArriveWithTheirFigures) {
   EXPECT_EQ(bridge.states_dropped(), 0U);
 }
 
+// Anyone on the domain can publish (docs/security.md, "DDS"): text from a sample reaches the CSV record and the
+// terminal only through SafeText, so it can neither add a CSV row or column nor move the cursor or clear the screen.
+TEST(Supervisor, TextFromTheDomainCannotInjectRowsOrTerminalEscapes) {
+  EXPECT_EQ(SafeText("peer_lost"), "peer_lost");
+  EXPECT_EQ(SafeText("peer shutdown"), "peer shutdown");
+  EXPECT_EQ(SafeText("a,b\n1,2,3\r\n"), "a?b?1?2?3??");
+  EXPECT_EQ(SafeText("\x1b[2J\x1b[Hlive"), "?[2J?[Hlive");
+  EXPECT_EQ(SafeText("\"q\" \\ \x7f \xc3\xa9"), "?q? ? ? ??");
+  const std::string long_text(200, 'x');
+  EXPECT_EQ(SafeText(long_text).size(), kMaxSafeTextLength);
+  EXPECT_EQ(SafeText(long_text).substr(kMaxSafeTextLength - 3), "...");
+
+  // End to end: a summary whose stop reason tries both.
+  Supervisor supervisor({TestDomain(), 1.0});
+  Bridge bridge(TestConfig("bridge_test_inject"), Role::kMaster, 1000.0);
+  std::uint64_t cycle = 0;
+  ASSERT_TRUE(WaitFor(
+      supervisor, "bridge_test_inject", "master", [](const ProcessView& v) { return v.have_state; },
+      [&] {
+        ++cycle;
+        (void)bridge.PushState(Sample(cycle, 0.001 * static_cast<double>(cycle), cycle, 0));
+      }));
+  node::RunSummary summary;
+  summary.role = Role::kMaster;
+  summary.stop_reason = "duration\n0,evil,row\x1b[2J";
+  bridge.PublishSummary(summary, "{}");
+  bridge.Stop();
+  ASSERT_TRUE(WaitFor(supervisor, "bridge_test_inject", "master", [](const ProcessView& p) { return p.have_summary; }));
+  for (const ProcessView& v : supervisor.Snapshot(runtime::MonotonicNowNs())) {
+    if (v.pair == "bridge_test_inject") {
+      EXPECT_EQ(v.stop_reason, "duration?0?evil?row?[2J");
+    }
+  }
+}
+
 TEST(Bridge, ABridgeThatLeavesWithoutASummaryIsGone) {
   Supervisor supervisor({TestDomain(), 1.0});
   auto bridge = std::make_unique<Bridge>(TestConfig("bridge_test_b"), Role::kMaster, 500.0);

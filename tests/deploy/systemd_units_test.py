@@ -8,9 +8,16 @@ only as warnings). A deliberately broken copy must be caught, so the check itsel
 
 Then the restart policy against the processes' exit statuses (common/include/teleop/node/exit_codes.hpp) and the
 real-time limits against the rig configs.
+
+The key as shipped: the units pass /etc/teleop/teleop.key as the systemd credential teleop.key (LoadCredential=),
+the config the .deb installs as /etc/teleop/<role>.yaml names that file, and the real process, started with the
+unit's own ExecStart arguments and CREDENTIALS_DIRECTORY set as systemd sets it, reads the credential where the
+key beside the config does not exist (the transient user could not read root's file); without the variable it
+refuses to start with a message naming the key.
 """
 import argparse
 import glob
+import json
 import os
 import re
 import shutil
@@ -19,7 +26,8 @@ import sys
 import tempfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
-from teleop_process import Failure, check, run_test  # noqa: E402
+from teleop_keys import write_key  # noqa: E402
+from teleop_process import Failure, check, free_udp_port, relax_realtime, run, run_test, set_ports  # noqa: E402
 
 
 def parse_unit(path):
@@ -122,6 +130,57 @@ def main():
         check(s["LimitMEMLOCK"] == ["infinity"], f"{role}: LimitMEMLOCK=infinity (realtime.lock_memory)")
         check(s.get("StartLimitBurst") is None and "StartLimitBurst" in u["Unit"],
               f"{role}: restarts are rate-limited ([Unit] StartLimitBurst)")
+    check_credentials(args)
+
+
+def check_credentials(args):
+    """The units' LoadCredential= against the installed configs, and the process finding the credential."""
+    for role in ("master", "slave"):
+        s = parse_unit(os.path.join(args.units, f"teleop-{role}.service"))["Service"]
+        check(s.get("DynamicUser") == ["yes"], f"{role}: DynamicUser=yes (the case a root-owned key file fails)")
+        creds = [c.split(":", 1) for c in s.get("LoadCredential", [])]
+        check(creds == [["teleop.key", "/etc/teleop/teleop.key"]],
+              f"{role}: LoadCredential=teleop.key:/etc/teleop/teleop.key ({s.get('LoadCredential')})")
+        # The .deb installs configs/loopback/<role>-udp.yaml as /etc/teleop/<role>.yaml
+        # (deploy/cmake/teleop_package.cmake).
+        shipped = open(os.path.join(args.configs, "loopback", f"{role}-udp.yaml")).read()
+        key = re.search(r"(?m)^\s*key_file:\s*(\S+)", shipped)
+        named = key and (key.group(1) if key.group(1).startswith(("/", "credential:"))
+                         else os.path.join("/etc/teleop", key.group(1)))
+        check(named in ("/etc/teleop/teleop.key", "credential:teleop.key"),
+              f"{role}: the installed config's key_file ({key and key.group(1)}) is the unit's credential")
+
+    # The slave as the unit starts it (its own ExecStart arguments, paths under a staged root), alone for 0.3 s.
+    s = parse_unit(os.path.join(args.units, "teleop-slave.service"))["Service"]
+    argv = s["ExecStart"][0].split()
+    with tempfile.TemporaryDirectory(prefix="teleop-creds-") as root:
+        etc, state = os.path.join(root, "etc/teleop"), os.path.join(root, "var/lib/teleop")
+        creds = os.path.join(root, "run/credentials/teleop-slave.service")
+        for d in (etc, state, creds):
+            os.makedirs(d)
+        text = open(os.path.join(args.configs, "loopback", "slave-udp.yaml")).read()
+        text = set_ports(re.sub(r"10\.77\.0\.\d", "127.0.0.1", relax_realtime(text)),
+                         (free_udp_port(), free_udp_port()))
+        with open(os.path.join(etc, "slave.yaml"), "w") as f:
+            f.write(text)
+        write_key(os.path.join(creds, "teleop.key"))
+        os.chmod(os.path.join(creds, "teleop.key"), 0o400)  # as systemd writes it
+        os.chmod(creds, 0o500)
+        cmd = [args.slave] + [a.replace("/etc/teleop", etc).replace("/var/lib/teleop", state) for a in argv[1:]]
+        cmd += ["--duration", "0.3"]
+        env = dict(os.environ, CREDENTIALS_DIRECTORY=creds)
+        check(not os.path.exists(os.path.join(etc, "teleop.key")), "no key beside the config (only the credential)")
+        rc, out, err = run(cmd, timeout_s=60, env=env)
+        summary = os.path.join(state, "slave-summary.json")
+        ok = rc == 0 and os.path.exists(summary)
+        check(ok, f"with CREDENTIALS_DIRECTORY the slave starts on the unit's arguments and reads the credential "
+                  f"(status {rc}) {'' if ok else (out + err)[-600:]}")
+        mode = json.load(open(summary)).get("security", {}).get("mode")
+        check(mode == "psk", f"its link is authenticated with that key (security mode {mode})")
+        env.pop("CREDENTIALS_DIRECTORY")
+        rc, out, err = run(cmd, timeout_s=60, env=env)
+        check(rc == 2 and "teleop.key" in out + err,
+              f"without it the slave refuses to start (status {rc}, set-up error) naming the key file")
 
 
 if __name__ == "__main__":

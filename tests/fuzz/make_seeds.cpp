@@ -113,13 +113,22 @@ int main(int argc, char** argv) {
   mask[0] = 1;
   mask[1 + 23] = 0x80;  // huge sequence jump
   Write(session, "sequence_jump", mask);
-  Bytes hello_mask(1 + 72, 0x00);
+  Bytes hello_mask(1 + 80, 0x00);
   hello_mask[0] = 2;
   Write(session, "genuine_hello", hello_mask);
   Bytes raw = {0x00};
   const Bytes v1 = EncodeV1(Sample(SenderRole::kMaster, 2, 3));
   raw.insert(raw.end(), v1.begin(), v1.end());
   Write(session, "v1_sample", raw);
+
+  // Handshake harness: scripts of (op, argument) pairs (fuzz_handshake.cpp). Messages are captured in order: hello
+  // 0, its welcome 1, the confirm 2, ...
+  const std::filesystem::path handshake = root / "handshake";
+  Write(handshake, "clean", Bytes{0, 1, 1, 0, 1, 1, 1, 2, 3, 0, 1, 3, 4, 0, 1, 4});
+  Write(handshake, "duplicated_hello", Bytes{0, 1, 1, 0, 6, 0, 1, 1, 1, 2, 1, 3, 1, 4, 3, 0, 1, 5});
+  Write(handshake, "replayed_old_hello", Bytes{0, 1, 1, 0, 1, 1, 1, 2, 0, 5, 1, 3, 1, 0, 1, 4, 1, 5, 1, 6});
+  Write(handshake, "clock_back", Bytes{0, 50, 1, 0, 0, 0x90, 1, 1, 1, 0, 1, 2, 1, 3, 5, 10, 1, 1});
+  Write(handshake, "mutated", Bytes{0, 1, 2, 0, 10, 1, 1, 0, 2, 1, 50, 2, 1, 1, 2, 2, 3, 4, 1, 2});
 
   // CAN harness: format byte, then per frame: control, id offset, length, data.
   const std::filesystem::path can_dir = root / "can_cycle";

@@ -2,6 +2,11 @@
 """Attacks on the authenticated link (docs/security.md): teleop-slave and teleop-master as real processes on
 127.0.0.1 with the shipped configs (link.security.mode psk, loopback plant), attacked from this script.
 
+During start-up (raw sockets; the slave is up, then the master starts):
+  stub flood           hello stubs (6 bytes, "v2 hello") and forged hellos (the layout, a tag without the key), 4 per
+                       ms from the master's port, until the pair has coupled: none may spend the handshake budget
+  duplicated hello     every hello the master sends, captured on lo and sent twice more at once
+  replayed hello       with each, a hello captured from an earlier master process (older timestamp)
 While the pair is coupled (master alive):
   spoofed v1 sample    raw socket, source = the master's address and port, a valid version-1 sample (CRC right,
                        sequence a little ahead) commanding -0.5 m
@@ -12,15 +17,28 @@ While the pair is coupled (master alive):
   replay (live)        raw socket: captured genuine frames sent again, a second later
   huge sequence jump   raw socket: a genuine frame with its sequence raised by 2^40 (the header is authenticated
                        data), and a version-1 sample 2^31 ahead
+  datagram flood       raw socket: 30 000 forged frames of the running session (fresh sequences, so each costs the
+                       slave a full AEAD) as fast as this process sends, above the rejection bucket (20 000/s):
+                       beyond it they are counted rate_limited, real frames never
+  other-port flood     no privileges: 3000 forged frames from another port; the slave's socket is connect()ed to the
+                       master, so the kernel drops them: nothing is counted at all
+  re-handshake         the slave is stopped (SIGSTOP) for 0.2 s, so the master re-handshakes; its new hellos are
+                       duplicated and the start-up's first hello replayed, as at start-up
+On the emulated CAN bus (teleop-canbus, --canbus):
+  unprivileged attach  a process running as nobody says hello to the daemon and sends it a bus-off command: it must
+                       get no welcome, the command must not act, and the daemon counts both refusals
 Then the master is killed (SIGKILL), and:
   foreign stream       no privileges: a process binds the master's freed port and streams version-1 samples from
                        sequence 0 (commanding 0.25 m), plus hellos with a wrong key
   replay (master dead) from the master's port: the last captured frames, cyclically, for a second
 
-Each: 100 % rejected and counted by reason (the slave's summary; the reason totals must balance exactly), no forged
-value ever reaches the slave's law (its telemetry), the slave's motion is what it is without the attack (excursion
-of the slave at rest, against a quiet window of the same phase), and after the master died the slave's watchdog is never fed: every cycle
-from the timeout on has the peer-lost flag and a frozen peer input. Prints the table docs/security.md shows.
+Each row: what was sent, the slave's cycles in the window and how many of them coupled (engaged), its motion, the
+counters. Each rejected attack: 100 % rejected and counted by reason (the slave's summary; the reason totals must
+balance exactly), no forged value ever reaches the slave's law (its telemetry), the slave's motion is what it is
+without the attack (excursion of the slave at rest, against a quiet window of the same phase), the pair stays
+engaged through the floods and re-couples after the re-handshake, and after the master died the slave's watchdog is
+never fed: every cycle from the timeout on has the peer-lost flag and a frozen peer input. Prints the table
+docs/security.md shows.
 
 Raw sockets (spoofing and capture) need root or CAP_NET_RAW; without them those rows are skipped with a message and
 only the unprivileged attack runs.
@@ -37,6 +55,7 @@ import socket
 import struct
 import subprocess
 import sys
+import threading
 import time
 
 sys.dont_write_bytecode = True  # imports from the source tree: leave no __pycache__ there
@@ -46,7 +65,7 @@ from two_process_test import Failure, Output, check, free_udp_port, load, write_
 
 FLAG_ENABLED, FLAG_PEER_LOST, FLAG_SHUTDOWN = 1, 4, 32
 FORGED_POSITIONS = (-0.5, 0.25)  # what the forgeries command; genuine positions stay within ±0.1 m here
-LIVE, DEAD = "live", "dead"
+START, LIVE, DEAD = "start", "live", "dead"
 
 
 # ---- wire formats (docs/protocol.md), written out here rather than taken from the library -----------------------
@@ -102,9 +121,15 @@ def flipped_shutdown(frame, sequence):
     return bytes(b)
 
 
+HELLO_TYPE, FRAME_TYPE = 6, 5
+
+
 def bad_hello(rng):
-    """A version-2 hello from "the master" with a random ephemeral key and a MAC made without the PSK."""
-    return struct.pack("<IBBBB", 0x504F4C54, 2, 2, 0, 0) + bytes(rng.getrandbits(8) for _ in range(64))
+    """A version-2 hello from "the master": random ephemeral key and timestamp, a MAC made without the PSK."""
+    return struct.pack("<IBBBB", 0x504F4C54, 2, HELLO_TYPE, 0, 0) + bytes(rng.getrandbits(8) for _ in range(72))
+
+
+HELLO_STUB = struct.pack("<IBB", 0x504F4C54, 2, HELLO_TYPE)  # 6 bytes that say "version 2 hello", nothing else
 
 
 # ---- raw sockets: spoof the master's source port, capture its frames --------------------------------------------
@@ -115,15 +140,20 @@ class Raw:
     def __init__(self):
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_RAW, socket.IPPROTO_RAW)
 
-    def send(self, payload, src_port, dst_port):
+    @staticmethod
+    def packet(payload, src_port, dst_port):
         udp = struct.pack("!HHHH", src_port, dst_port, 8 + len(payload), 0)  # checksum 0: none (IPv4)
         ip = struct.pack("!BBHHHBBH4s4s", 0x45, 0, 20 + 8 + len(payload), 0, 0, 64, socket.IPPROTO_UDP, 0,
                          socket.inet_aton("127.0.0.1"), socket.inet_aton("127.0.0.1"))
-        self.sock.sendto(ip + udp + payload, ("127.0.0.1", 0))
+        return ip + udp + payload
+
+    def send(self, payload, src_port, dst_port):
+        self.sock.sendto(self.packet(payload, src_port, dst_port), ("127.0.0.1", 0))
 
 
-def capture(src_port, dst_port, seconds):
-    """Genuine version-2 frames from src_port to dst_port on lo, for `seconds` (AF_PACKET, root)."""
+def capture(src_port, dst_port, seconds, message_type=FRAME_TYPE):
+    """Genuine version-2 frames (or messages of `message_type`) from src_port to dst_port on lo, for `seconds`
+    (AF_PACKET, root)."""
     s = socket.socket(socket.AF_PACKET, socket.SOCK_DGRAM, socket.htons(0x0800))
     s.bind(("lo", 0x0800))
     s.settimeout(0.05)
@@ -140,7 +170,8 @@ def capture(src_port, dst_port, seconds):
             ihl = (data[0] & 0x0F) * 4
             sport, dport = struct.unpack("!HH", data[ihl:ihl + 4])
             payload = data[ihl + 8:]
-            if sport == src_port and dport == dst_port and len(payload) > 28 and payload[4] == 2 and payload[5] == 5:
+            if sport == src_port and dport == dst_port and len(payload) > 28 and payload[4] == 2 and \
+                    payload[5] == message_type:
                 frames.append(bytes(payload))
     finally:
         s.close()
@@ -154,6 +185,122 @@ def raw_sockets_available():
         return True, ""
     except (PermissionError, OSError) as e:
         return False, str(e)
+
+
+class HelloEcho(threading.Thread):
+    """Watches lo for the master's hellos; each new one is sent twice more at once (duplicated) and followed by a
+    replay of `old_hello` (an older, genuine hello), from the master's port, counted into the Attack objects
+    `self.dup` and `self.replay` (None: not now)."""
+
+    def __init__(self, raw, master_port, slave_port, old_hello):
+        super().__init__(daemon=True)
+        self.raw, self.master_port, self.slave_port, self.old_hello = raw, master_port, slave_port, old_hello
+        self.dup = self.replay = None
+        self.seen = {old_hello}
+        self.stop = threading.Event()
+        self.lock = threading.Lock()
+
+    def run(self):
+        s = socket.socket(socket.AF_PACKET, socket.SOCK_DGRAM, socket.htons(0x0800))
+        s.bind(("lo", 0x0800))
+        s.settimeout(0.02)
+        try:
+            while not self.stop.is_set():
+                try:
+                    data, addr = s.recvfrom(2048)
+                except socket.timeout:
+                    continue
+                if addr[2] == socket.PACKET_OUTGOING or len(data) < 28 or data[9] != socket.IPPROTO_UDP:
+                    continue
+                ihl = (data[0] & 0x0F) * 4
+                sport, dport = struct.unpack("!HH", data[ihl:ihl + 4])
+                payload = bytes(data[ihl + 8:])
+                if sport != self.master_port or dport != self.slave_port or len(payload) != 80 or \
+                        payload[5] != HELLO_TYPE or payload in self.seen:
+                    continue
+                self.seen.add(payload)  # our own copies come by here too: each hello is echoed once
+                with self.lock:
+                    dup, replay = self.dup, self.replay
+                if dup is not None:
+                    for _ in range(2):
+                        self.raw.send(payload, self.master_port, self.slave_port)
+                        dup.sent += 1
+                if replay is not None:
+                    self.raw.send(self.old_hello, self.master_port, self.slave_port)
+                    replay.sent += 1
+        finally:
+            s.close()
+
+    def attach(self, dup, replay):
+        with self.lock:
+            self.dup, self.replay = dup, replay
+
+
+def flood_until(send, make, per_ms, stop):
+    """Sends make(i) per_ms times per millisecond until `stop` is set; returns the count."""
+    n = 0
+    while not stop.is_set():
+        for _ in range(per_ms):
+            send(make(n))
+            n += 1
+        time.sleep(0.001)
+    return n
+
+
+BUS_MAGIC = 0x31424354  # "TCB1", common/include/teleop/transport/can_bus_datagram.hpp
+
+
+def _as_nobody():
+    os.setgid(65534)
+    os.setuid(65534)
+
+
+CAN_ATTACKER = r"""
+import socket, struct, sys, time
+port = int(sys.argv[1])
+s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+s.connect(("127.0.0.1", port))
+s.settimeout(0.02)
+hellos = welcomes = 0
+end = time.monotonic() + 0.5
+while time.monotonic() < end:
+    s.send(struct.pack("<IB", 0x31424354, 1))
+    hellos += 1
+    try:
+        data = s.recv(64)
+        if len(data) >= 6 and data[4] == 2:
+            welcomes += 1
+    except (socket.timeout, ConnectionRefusedError):
+        pass
+s.send(struct.pack("<IBBI", 0x31424354, 4, 2, 0))  # bus-off node 0
+print(hellos, welcomes)
+"""
+
+
+def can_attach_attack(canbus):
+    """An unprivileged process attaching to teleop-canbus (run as root: the daemon as root, the attacker as nobody).
+    Returns the row's figures."""
+    port = free_udp_port()
+    bus = subprocess.Popen([canbus, "--port", str(port), "--bitrate", "1000000", "--stats-every-s", "0"],
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    bus_out = Output(bus)
+    try:
+        time.sleep(0.3)
+        r = subprocess.run([sys.executable, "-c", CAN_ATTACKER, str(port)], stdout=subprocess.PIPE,
+                           stderr=subprocess.STDOUT, text=True, timeout=30, preexec_fn=_as_nobody)
+        hellos, welcomes = (int(x) for x in r.stdout.split()[:2])
+        time.sleep(0.1)
+    finally:
+        bus.send_signal(signal.SIGTERM)
+        bus.wait(timeout=30)
+    m = re.search(r"(\d+) hellos and (\d+) control commands refused", bus_out.text())
+    check(m is not None, "teleop-canbus printed its refusals")
+    refused_hellos, refused_controls = int(m.group(1)), int(m.group(2))
+    check(welcomes == 0, f"the unprivileged process got no welcome ({welcomes} of {hellos} hellos answered)")
+    check(refused_hellos == hellos and refused_controls == 1,
+          f"the daemon refused all {hellos} hellos ({refused_hellos}) and the bus-off command ({refused_controls})")
+    check(re.search(r": 0 node\(s\)", bus_out.text()) is not None, "no node attached")
+    return hellos, refused_hellos + refused_controls
 
 
 # ---- telemetry on the wall clock ----------------------------------------------------------------------------------
@@ -189,8 +336,12 @@ def between(rows, t0, t1):
 # ---- the run ------------------------------------------------------------------------------------------------------
 
 class Attack:
-    def __init__(self, name, phase, reasons):
-        self.name, self.phase, self.reasons = name, phase, reasons
+    """One row. `reasons`: the rejection reasons its datagrams are counted under (each one rejected). rejects=False:
+    datagrams the slave accepts as handshake messages (duplicates: the cached welcome) or never sees (dropped by
+    the kernel); they add nothing to `rejected`."""
+
+    def __init__(self, name, phase, reasons, rejects=True):
+        self.name, self.phase, self.reasons, self.rejects = name, phase, reasons, rejects
         self.sent = 0
         self.t0 = self.t1 = None
 
@@ -220,6 +371,7 @@ def main():
     ap.add_argument("--slave", required=True)
     ap.add_argument("--configs", required=True)
     ap.add_argument("--workdir", required=True)
+    ap.add_argument("--canbus", help="teleop-canbus, for the emulated-CAN row")
     args = ap.parse_args()
     os.makedirs(args.workdir, exist_ok=True)
     rng = random.Random(10)
@@ -240,15 +392,67 @@ def main():
         print(f"SKIPPED (no raw sockets: {why}): the spoofed-source, capture and replay attacks need root or "
               "CAP_NET_RAW; only the unprivileged foreign stream runs")
 
+    attacks = []
+    start_rows = []
+    can_row = None
+    if args.canbus and os.geteuid() == 0:
+        can_row = can_attach_attack(args.canbus)
+    elif args.canbus:
+        print("SKIPPED the emulated-CAN row: it runs the attacker as another user (needs root)")
+    echo = None
+    old_hellos = []
+    if privileged:
+        # An earlier master process, alone (no slave yet): its hellos are the "older" ones replayed below.
+        early = subprocess.Popen([args.master, "--config", files["master.yaml"], "--duration", "0"],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        old_hellos = capture(master_port, slave_port, 1.0, HELLO_TYPE)
+        early.kill()
+        early.wait(timeout=30)
+        check(len(old_hellos) >= 1, f"captured {len(old_hellos)} hello(s) of an earlier master process")
+        raw = Raw()
+        to_slave = lambda payload: raw.send(payload, master_port, slave_port)  # noqa: E731
+        echo = HelloEcho(raw, master_port, slave_port, old_hellos[0])
+        echo.start()
     slave = subprocess.Popen([args.slave, "--config", files["slave.yaml"], "--duration", "0", "--summary-json",
                               files["slave.json"]], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     slave_out = Output(slave)
-    master = subprocess.Popen([args.master, "--config", files["master.yaml"], "--duration", "0"],
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    master_out = Output(master)
-    attacks = []
+    master = None
     try:
-        if not (master_out.wait_for("peer connected", 120) and slave_out.wait_for("peer connected", 20)):
+        if privileged:
+            time.sleep(0.3)  # the slave is listening
+            stub = Attack("stub flood of the handshake limiter (start-up)", START,
+                          ("malformed", "bad_handshake_tag"))
+            dup = Attack("duplicated hello (start-up)", START, (), rejects=False)
+            replay = Attack("replayed older hello (start-up)", START, ("stale_handshake",))
+            echo.attach(dup, replay)
+            stop_flood = threading.Event()
+            result = {}
+            def flood_item(i):
+                if i % 2 == 0:
+                    return HELLO_STUB
+                forged = bad_hello(rng)
+                echo.seen.add(forged)  # not the master's: the echo must not answer it
+                return forged
+
+            flooder = threading.Thread(target=lambda: result.update(n=flood_until(to_slave, flood_item, 4, stop_flood)))
+            for a in (stub, dup, replay):
+                a.__enter__()
+            flooder.start()
+        master = subprocess.Popen([args.master, "--config", files["master.yaml"], "--duration", "0"],
+                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        master_out = Output(master)
+        coupled = master_out.wait_for("peer connected", 120) and slave_out.wait_for("peer connected", 20)
+        if privileged:
+            time.sleep(0.5)
+            stop_flood.set()
+            flooder.join()
+            echo.attach(None, None)
+            stub.sent = result["n"]
+            for a in (stub, dup, replay):
+                a.__exit__()
+            attacks += [stub, dup, replay]
+            start_rows = [stub, dup, replay]
+        if not coupled:
             raise Failure("the two processes never coupled")
         # The master's scripted operator ramps, holds and pulls back until 4 s, then holds (deploy/configs/master.yaml):
         # attack a pair at rest, so that any motion during an attack is the attack's.
@@ -288,6 +492,43 @@ def main():
                 a.sent = paced(to_slave, items)
             attacks.append(a)
             time.sleep(0.2)
+            # As fast as this process can send (whole IP packets built beforehand): above the rejection bucket
+            # (20 000/s) on any machine that can, and each one costs the slave a full AEAD.
+            base = ahead + 100000
+            packets = [raw.packet(with_sequence(frames[-1], base + i), master_port, slave_port) for i in range(30000)]
+            with Attack("datagram flood", LIVE, ("bad_tag", "rate_limited")) as a:
+                t0 = time.monotonic()
+                for pkt in packets:
+                    raw.sock.sendto(pkt, ("127.0.0.1", 0))
+                a.sent = len(packets)
+                rate = a.sent / max(time.monotonic() - t0, 1e-6)
+                shown = f"{rate:,.0f}".replace(",", " ")
+                a.name = f"datagram flood, forged frames at {shown}/s (rejection bucket 20 000/s)"
+            attacks.append(a)
+            time.sleep(0.3)
+        other = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        other.bind(("127.0.0.1", 0))
+        with Attack("flood from another port (dropped by the kernel: connect())", LIVE, (), rejects=False) as a:
+            fake = frames[-1] if privileged else v1_sample(1, FORGED_POSITIONS[0])
+            a.sent = paced(lambda p: other.sendto(p, ("127.0.0.1", slave_port)), [fake] * 3000, per_ms=6)
+        attacks.append(a)
+        other.close()
+        time.sleep(0.2)
+        if privileged:
+            # A re-handshake: the slave stalls past the master's timeout; the master's new hellos are duplicated and
+            # an older one replayed while the slave is stopped and as it resumes.
+            dup = Attack("duplicated hello (re-handshake)", LIVE, (), rejects=False)
+            replay = Attack("replayed older hello (re-handshake)", LIVE, ("stale_handshake",))
+            with dup, replay:
+                echo.attach(dup, replay)
+                slave.send_signal(signal.SIGSTOP)
+                time.sleep(0.2)
+                slave.send_signal(signal.SIGCONT)
+                time.sleep(0.8)
+                echo.attach(None, None)
+            attacks += [dup, replay]
+            rehandshake = (dup, replay)
+            time.sleep(0.2)
             last_frames = capture(master_port, slave_port, 0.3)
             check(len(last_frames) > 30, f"captured the master's last {len(last_frames)} frames before it dies")
         if master.poll() is not None:
@@ -304,25 +545,30 @@ def main():
         foreign.bind(("127.0.0.1", master_port))
         to_slave_unprivileged = lambda payload: foreign.sendto(payload, ("127.0.0.1", slave_port))  # noqa: E731
         with Attack("foreign stream after the master died (port reused)", DEAD,
-                    ("insecure", "bad_handshake_tag", "handshake_rate_limited")) as a:
-            a.sent = paced(to_slave_unprivileged, [bad_hello(rng) for _ in range(10)], per_ms=1)
+                    ("insecure", "bad_handshake_tag")) as a:
+            a.sent = paced(to_slave_unprivileged, [bad_hello(rng) for _ in range(10)], per_ms=1)  # none spends a token
             a.sent += paced(to_slave_unprivileged,
                             [v1_sample(i, FORGED_POSITIONS[1], velocity=12.0, force=10.0) for i in range(1000)],
                             per_ms=1)
         attacks.append(a)
         if privileged:
-            with Attack("replay with the master dead", DEAD, ("replayed", "too_old")) as a:
+            # The frames captured before the re-handshake belong to the old session: wrong_session now.
+            with Attack("replay with the master dead", DEAD, ("replayed", "too_old", "wrong_session")) as a:
                 replay = last_frames[-300:] + frames[-300:]
                 a.sent = paced(to_slave_unprivileged, (replay * 4)[:2000], per_ms=2)
             attacks.append(a)
         foreign.close()
         time.sleep(0.3)
+        if echo is not None:
+            echo.stop.set()
+            echo.join(timeout=5)
         end_wall = wall_now()
         slave.send_signal(signal.SIGTERM)
         slave.wait(timeout=60)
     finally:
         for p in (master, slave):
-            if p.poll() is None:
+            if p is not None and p.poll() is None:
+                p.send_signal(signal.SIGCONT)
                 p.kill()
     slave_text = slave_out.text()
     master_out.text()
@@ -336,14 +582,23 @@ def main():
     check(s["stop_reason"] == "signal", f"the slave ran until stopped (stop reason '{s['stop_reason']}': no spoofed "
                                         "shutdown stopped it)")
     counted = sec["rejected_by_reason"]
-    total_sent = sum(a.sent for a in attacks)
-    check(pk["wrong_sender"] == 0, "every attack came from the master's own address and port (none filtered by it)")
-    check(pk["rejected"] == total_sent, f"slave rejected {pk['rejected']} datagrams: all {total_sent} attacks, "
-                                        "nothing else")
+    total_sent = sum(a.sent for a in attacks if a.rejects)
+    check(pk["wrong_sender"] == 0, "no datagram from another source reached the link (the kernel drops them)")
+    check(pk["rejected"] == total_sent, f"slave rejected {pk['rejected']} datagrams: all {total_sent} rejected "
+                                        "attacks, nothing else")
+    dups = sum(a.sent for a in attacks if a.name.startswith("duplicated hello"))
+    check(not privileged or dups >= 4, f"{dups} duplicated hellos sent (at start-up and in the re-handshake)")
+    check(sec["handshake_messages"] >= dups + 2 * sec["sessions"],
+          f"every duplicated hello was taken as a handshake message (answered from the cache): "
+          f"{sec['handshake_messages']} >= {dups} + 2 x {sec['sessions']} sessions")
+    check(not privileged or sec["sessions"] >= 2,
+          f"the slave re-handshook with the master ({sec['sessions']} sessions)")
     reasons = sorted({r for a in attacks for r in a.reasons})
     # Reason groups: each group's counters must add up to what the attacks of that group sent.
     groups = {}
     for a in attacks:
+        if not a.rejects:
+            continue
         groups.setdefault(frozenset(a.reasons), []).append(a)
     merged = []  # union-find-free merge of overlapping reason sets
     for g in groups:
@@ -375,19 +630,41 @@ def main():
             raise Failure(f"no slave telemetry in the window of '{a.name}'")
         return max(abs(r["position_m_0"] - rows[0]["position_m_0"]) for r in rows)
 
-    table = [(quiet_live, None)] + [(a, None) for a in attacks if a.phase == LIVE] + [(quiet_dead, None)] + \
-        [(a, None) for a in attacks if a.phase == DEAD]
+    def coupled(a):
+        rows = between(slave_rows, a.t0, a.t1)
+        return len(rows), sum(1 for r in rows if int(r["engagement"]) == 3)
+
+    table = [a for a in attacks if a.phase == START] + [quiet_live] + [a for a in attacks if a.phase == LIVE] + \
+        [quiet_dead] + [a for a in attacks if a.phase == DEAD]
     rows_out = []
-    for a, _ in table:
-        ex = excursion(a)
-        rows_out.append((a.name, a.sent if a.reasons else "-", a.sent if a.reasons else "-",
-                         "+".join(a.reasons) if a.reasons else "-", ex * 1e3))
+    for a in table:
+        ex = excursion(a) if a.phase != START else max(abs(r["position_m_0"]) for r in between(slave_rows, a.t0, a.t1))
+        cycles, engaged = coupled(a)
+        quiet = not a.reasons and a.rejects
+        rows_out.append((a.name, "-" if quiet else a.sent, "-" if quiet else (a.sent if a.rejects else 0),
+                         "+".join(a.reasons) if a.reasons else ("-" if quiet else "(none: not a rejection)"),
+                         f"{engaged}/{cycles}", ex * 1e3))
     base_live = excursion(quiet_live)
     base_dead = excursion(quiet_dead)
     for a in attacks:
+        if a.phase == START:
+            continue
         ex = excursion(a)
         base = base_live if a.phase == LIVE else base_dead
         check(ex <= base + 0.1e-3, f"{a.name}: slave excursion {ex*1e3:.4f} mm, quiet window {base*1e3:.4f} mm")
+    for a in [quiet_live] + [a for a in attacks if a.phase == LIVE and a.name.startswith(("datagram", "flood"))]:
+        cycles, engaged = coupled(a)
+        check(cycles > 0 and engaged == cycles, f"{a.name}: coupled in {engaged} of {cycles} slave cycles")
+    for a in start_rows:
+        cycles, engaged = coupled(a)
+        check(engaged > 0, f"{a.name}: the pair coupled during it ({engaged} of {cycles} slave cycles engaged)")
+        rows = between(slave_rows, a.t0, a.t1)
+        check(max(abs(r["position_m_0"]) for r in rows) < 0.1, f"{a.name}: the slave stayed within its rest range")
+    if privileged:
+        for a in rehandshake:
+            rows = between(slave_rows, a.t1 - 0.3, a.t1)
+            check(rows and all(int(r["engagement"]) == 3 for r in rows),
+                  f"{a.name}: the pair recoupled after the re-handshake (engaged in the last 0.3 s of the window)")
 
     # The watchdog is never fed after the master died: from the kill + timeout (+ alignment margin) to the end,
     # every slave cycle says peer lost and its peer input is frozen.
@@ -402,10 +679,15 @@ def main():
 
     print("\nattack table (slave side). rejected: the slave's rejected total equals the datagrams sent and each datagram"
           " has exactly one outcome, so every one was rejected; the reason totals balance per group (checked above)")
-    print(f"| {'attack':<52} | {'sent':>5} | {'rejected':>8} | {'counted reason':<46} | slave excursion |")
-    print(f"| {'-'*52} | {'-'*4}: | {'-'*7}: | {'-'*46} | {'-'*14}: |")
-    for name, sent, rejected, reason, ex_mm in rows_out:
-        print(f"| {name:<52} | {sent!s:>5} | {rejected!s:>8} | {reason:<46} | {ex_mm*1e3:12.1f} µm |")
+    print(f"| {'attack':<66} | {'sent':>6} | {'rejected':>8} | {'counted reason':<34} | {'coupled cycles':>14} | "
+          "slave excursion |")
+    print(f"| {'-'*66} | {'-'*5}: | {'-'*7}: | {'-'*34} | {'-'*13}: | {'-'*14}: |")
+    for name, sent, rejected, reason, cyc, ex_mm in rows_out:
+        print(f"| {name:<66} | {sent!s:>6} | {rejected!s:>8} | {reason:<34} | {cyc:>14} | {ex_mm*1e3:12.1f} µm |")
+    if can_row is not None:
+        print(f"| {'unprivileged process attaching to the emulated CAN bus (+ bus-off)':<66} | {can_row[0] + 1:>6} | "
+              f"{can_row[1]:>8} | {'refused_hellos+refused_controls':<34} | {'n/a (bus)':>14} | {'n/a':>15} |")
+    print("(start-up rows: the excursion column is the slave's largest |position| in the window, from rest at 0)")
     print("\nslave counters: " + json.dumps({k: v for k, v in counted.items() if v}) +
           f"; sessions {sec['sessions']}; watchdog trips {s['watchdog_trips']}")
 

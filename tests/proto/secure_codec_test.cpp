@@ -31,9 +31,13 @@ Bytes Append(Bytes head, std::span<const std::uint8_t> tail) {
   return head;
 }
 
-// The hello of docs/protocol.md: master, ephemeral key 00..1F, tag A0..BF.
-const Bytes kGoldenHello =
-    Append(Append({0x54, 0x4C, 0x4F, 0x50, 0x02, 0x02, 0x00, 0x00}, Ramp<32>(0x00)), Ramp<32>(0xA0));
+// The hello of docs/protocol.md: master, ephemeral key 00..1F, timestamp 0x1122334455667788, tag A0..BF.
+const Bytes kGoldenHello = Append(Append(Append({0x54, 0x4C, 0x4F, 0x50, 0x02, 0x06, 0x00, 0x00}, Ramp<32>(0x00)),
+                                         Bytes{0x88, 0x77, 0x66, 0x55, 0x44, 0x33, 0x22, 0x11}),
+                                  Ramp<32>(0xA0));
+// The welcome: slave, ephemeral key 00..1F, tag A0..BF (no timestamp).
+const Bytes kGoldenWelcome =
+    Append(Append({0x54, 0x4C, 0x4F, 0x50, 0x02, 0x03, 0x01, 0x00}, Ramp<32>(0x00)), Ramp<32>(0xA0));
 // The confirm: master, session id 0x0102030405060708, tag C0..DF.
 const Bytes kGoldenConfirm = Append(
     {0x54, 0x4C, 0x4F, 0x50, 0x02, 0x04, 0x00, 0x00, 0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01}, Ramp<32>(0xC0));
@@ -46,27 +50,43 @@ TEST(SecureCodec, HelloAndWelcomeMatchTheGoldenBytes) {
   hello.type = SecureMessageType::kHello;
   hello.sender = SenderRole::kMaster;
   hello.ephemeral_key = Ramp<32>(0x00);
+  hello.timestamp = 0x1122334455667788;
   hello.tag = Ramp<32>(0xA0);
   std::array<std::uint8_t, 100> out{};
-  ASSERT_EQ(EncodeKeyExchange(hello, out), 72u);
-  EXPECT_EQ(Bytes(out.begin(), out.begin() + 72), kGoldenHello);
+  ASSERT_EQ(EncodeKeyExchange(hello, out), 80u);
+  EXPECT_EQ(Bytes(out.begin(), out.begin() + 80), kGoldenHello);
+  EXPECT_EQ(EncodeKeyExchange(hello, std::span(out).first(79)), 0u) << "short buffer";
   KeyExchangeMessage back{};
   ASSERT_EQ(DecodeKeyExchange(kGoldenHello, back), DecodeStatus::kOk);
   EXPECT_EQ(back.type, SecureMessageType::kHello);
   EXPECT_EQ(back.sender, SenderRole::kMaster);
   EXPECT_EQ(back.ephemeral_key, hello.ephemeral_key);
+  EXPECT_EQ(back.timestamp, hello.timestamp);
   EXPECT_EQ(back.tag, hello.tag);
 
-  // The welcome differs in type and sender only.
+  // The welcome: type and sender, and no timestamp.
   KeyExchangeMessage welcome = hello;
   welcome.type = SecureMessageType::kWelcome;
   welcome.sender = SenderRole::kSlave;
   ASSERT_EQ(EncodeKeyExchange(welcome, out), 72u);
-  Bytes expected = kGoldenHello;
-  expected[5] = 0x03;
-  expected[6] = 0x01;
-  EXPECT_EQ(Bytes(out.begin(), out.begin() + 72), expected);
+  EXPECT_EQ(Bytes(out.begin(), out.begin() + 72), kGoldenWelcome);
   EXPECT_EQ(EncodeKeyExchange(welcome, std::span(out).first(71)), 0u) << "short buffer";
+  ASSERT_EQ(DecodeKeyExchange(kGoldenWelcome, back), DecodeStatus::kOk);
+  EXPECT_EQ(back.type, SecureMessageType::kWelcome);
+  EXPECT_EQ(back.timestamp, 0u);
+  // The hello of the first release (type 2, 72 bytes, no timestamp) is refused by type, not mistaken for a short one.
+  Bytes retired = kGoldenWelcome;
+  retired[5] = kRetiredHelloType;
+  retired[6] = 0x00;
+  EXPECT_EQ(DecodeKeyExchange(retired, back), DecodeStatus::kBadType);
+  // A welcome-sized hello and a hello-sized welcome are refused by size.
+  Bytes short_hello = kGoldenWelcome;
+  short_hello[5] = 0x06;
+  short_hello[6] = 0x00;
+  EXPECT_EQ(DecodeKeyExchange(short_hello, back), DecodeStatus::kTooShort);
+  Bytes long_welcome = kGoldenHello;
+  long_welcome[5] = 0x03;
+  EXPECT_EQ(DecodeKeyExchange(long_welcome, back), DecodeStatus::kBadLength);
 }
 
 TEST(SecureCodec, ConfirmAndFrameHeaderMatchTheGoldenBytes) {
@@ -137,6 +157,7 @@ TEST(SecureCodec, DecodersRejectInTheDocumentedOrder) {
   EXPECT_EQ(DecodeKeyExchange(with(kGoldenHello, 0, 0x55), kx), DecodeStatus::kBadMagic);
   EXPECT_EQ(DecodeKeyExchange(with(kGoldenHello, 4, 0x01), kx), DecodeStatus::kBadVersion);
   EXPECT_EQ(DecodeKeyExchange(with(kGoldenHello, 5, 0x04), kx), DecodeStatus::kBadType);
+  EXPECT_EQ(DecodeKeyExchange(with(kGoldenHello, 5, 0x02), kx), DecodeStatus::kBadType);
   EXPECT_EQ(DecodeKeyExchange(Bytes(kGoldenHello.begin(), kGoldenHello.end() - 1), kx), DecodeStatus::kTooShort);
   EXPECT_EQ(DecodeKeyExchange(Append(kGoldenHello, std::array<std::uint8_t, 1>{}), kx), DecodeStatus::kBadLength);
   EXPECT_EQ(DecodeKeyExchange(with(kGoldenHello, 6, 0x02), kx), DecodeStatus::kOutOfRange);

@@ -8,12 +8,15 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <numeric>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "teleop/error.hpp"
@@ -45,6 +48,7 @@ class TempDir {
   TempDir(const TempDir&) = delete;
   TempDir& operator=(const TempDir&) = delete;
   std::string File(const std::string& name) const { return (fs::path(path_) / name).string(); }
+  const std::string& path() const { return path_; }
 
  private:
   std::string path_;
@@ -190,6 +194,111 @@ TEST(SecureKeyFile, RefusesBadContentMissingFilesAndDirectories) {
   EXPECT_THROW(static_cast<void>(LoadPreSharedKey(dir.File("d"))), Error);
 }
 
+const std::string kHexKey = "000102030405060708090a0b0c0d0e0f101112131415161718191A1B1C1D1E1F\n";
+
+// Expects LoadPreSharedKey(path) to throw an Error whose message contains every one of `words`.
+void ExpectRefused(const std::string& key_file, std::initializer_list<const char*> words) {
+  try {
+    static_cast<void>(LoadPreSharedKey(key_file));
+    ADD_FAILURE() << key_file << " accepted";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    for (const char* w : words) EXPECT_NE(what.find(w), std::string::npos) << what;
+  }
+}
+
+TEST(SecureKeyFile, RefusesASymbolicLinkEvenToAGoodKey) {
+  TempDir dir;
+  const std::string target = dir.File("psk");
+  WriteFile(target, kHexKey, 0600);
+  const std::string link = dir.File("link");
+  ASSERT_EQ(::symlink(target.c_str(), link.c_str()), 0);
+  ExpectRefused(link, {"symbolic link", "link"});
+  EXPECT_NO_THROW(static_cast<void>(LoadPreSharedKey(target)));
+}
+
+TEST(SecureKeyFile, RefusesAFifoWithoutHanging) {
+  TempDir dir;
+  const std::string fifo = dir.File("fifo");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  // Without O_NONBLOCK the open would wait for a writer forever; the test would hang, not fail.
+  ExpectRefused(fifo, {"not a regular file"});
+}
+
+TEST(SecureKeyFile, RefusesAFileOwnedByAnotherUser) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to give a file to another user";
+  TempDir dir;
+  const std::string path = dir.File("psk");
+  WriteFile(path, kHexKey, 0600);
+  ASSERT_EQ(::chown(path.c_str(), 65534, 65534), 0);  // nobody
+  ExpectRefused(path, {"owned by uid 65534", "chown"});
+  ExpectRefused(path, {path.c_str()});
+}
+
+// systemd credentials (LoadCredential=teleop.key:/etc/teleop/teleop.key): credential:NAME names
+// $CREDENTIALS_DIRECTORY/NAME.
+class CredentialDirectory : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const char* old = std::getenv("CREDENTIALS_DIRECTORY");
+    if (old != nullptr) saved_ = old;
+    had_ = old != nullptr;
+  }
+  void TearDown() override {
+    if (had_) {
+      ::setenv("CREDENTIALS_DIRECTORY", saved_.c_str(), 1);
+    } else {
+      ::unsetenv("CREDENTIALS_DIRECTORY");
+    }
+  }
+  TempDir dir_;
+  std::string saved_;
+  bool had_ = false;
+};
+
+TEST_F(CredentialDirectory, ACredentialIsReadFromTheDirectorySystemdNames) {
+  WriteFile(dir_.File("teleop.key"), kHexKey, 0400);
+  ASSERT_EQ(::setenv("CREDENTIALS_DIRECTORY", dir_.path().c_str(), 1), 0);
+  EXPECT_EQ(ResolveKeyPath("credential:teleop.key"), dir_.path() + "/teleop.key");
+  // The fallback: a config's key_file whose file name is a credential of the unit reads the credential.
+  EXPECT_EQ(ResolveKeyPath("/etc/teleop/teleop.key"), dir_.path() + "/teleop.key");
+  EXPECT_EQ(ResolveKeyPath("/etc/teleop/other.key"), "/etc/teleop/other.key") << "no such credential: the path";
+  EXPECT_EQ(LoadPreSharedKey("/nonexistent/teleop.key").bytes()[0], 0x00);
+  const PreSharedKey key = LoadPreSharedKey("credential:teleop.key");
+  EXPECT_EQ(key.bytes()[31], 0x1F);
+  // systemd grants the service's user read access by an ACL when it cannot chown: that shows as the group read bit.
+  ASSERT_EQ(::chmod(dir_.File("teleop.key").c_str(), 0440), 0);
+  EXPECT_NO_THROW(static_cast<void>(LoadPreSharedKey("credential:teleop.key")));
+  ASSERT_EQ(::chmod(dir_.File("teleop.key").c_str(), 0444), 0);
+  ExpectRefused("credential:teleop.key", {"chmod 600"});
+  ExpectRefused("credential:missing.key", {"missing.key", "cannot open"});
+  ExpectRefused("credential:../teleop.key", {"one file name"});
+  ASSERT_EQ(::chmod(dir_.File("teleop.key").c_str(), 0440), 0);
+  ASSERT_EQ(::unsetenv("CREDENTIALS_DIRECTORY"), 0);
+  ExpectRefused("credential:teleop.key", {"CREDENTIALS_DIRECTORY", "LoadCredential"});
+  ExpectRefused(dir_.File("teleop.key"), {"chmod 600"});  // outside systemd the same file is a plain key: refused
+}
+
+TEST(SecureSession, KeepsItsKeysInLockedMemoryExcludedFromCoreDumps) {
+  // Counted from /proc/self/smaps: the mappings flagged "dd" (MADV_DONTDUMP) and the locked kB.
+  const auto scan = [] {
+    std::ifstream in("/proc/self/smaps");
+    std::pair<int, long> out{0, 0};
+    for (std::string line; std::getline(in, line);) {
+      if (line.rfind("VmFlags:", 0) == 0 && (line + " ").find(" dd ") != std::string::npos) ++out.first;
+      if (line.rfind("Locked:", 0) == 0) out.second += std::stol(line.substr(7));
+    }
+    return out;
+  };
+  const auto before = scan();
+  {
+    const SecureSession session(Config(SenderRole::kSlave), KeyFromByte(1));
+    const auto during = scan();
+    EXPECT_GT(during.first, before.first) << "no new MADV_DONTDUMP mapping for the keys";
+    EXPECT_GT(during.second, before.second) << "no new locked memory for the keys";
+  }
+}
+
 TEST(SecureKeyFile, WritesAFreshPrivateKeyAndNeverOverwrites) {
   TempDir dir;
   const std::string path = dir.File("psk");
@@ -215,7 +324,7 @@ TEST(SecureSession, HandshakeEstablishesTheSameSessionOnBothEnds) {
   EXPECT_EQ(master.session.state(), SecureSessionState::kNoSession);
   EXPECT_EQ(master.Seal(Sample(SenderRole::kMaster, 0)).size(), 0u) << "sealed without a session";
   const auto messages = Handshake(master, slave);
-  EXPECT_EQ(messages[0].size(), 72u);
+  EXPECT_EQ(messages[0].size(), 80u);
   EXPECT_EQ(messages[1].size(), 72u);
   EXPECT_EQ(messages[2].size(), 48u);
   EXPECT_EQ(master.session.state(), SecureSessionState::kEstablished);
@@ -309,7 +418,7 @@ TEST_F(EstablishedPair, ForgedFramesAreRejectedAndDoNotMoveTheWindow) {
   // Huge sequence jumps: far ahead, the largest, and the next one.
   for (const std::uint64_t seq : {std::uint64_t{1} << 40, ~std::uint64_t{0}, std::uint64_t{1}}) {
     Bytes jump = genuine;
-    for (int b = 0; b < 8; ++b) jump[16 + b] = static_cast<std::uint8_t>(seq >> (8 * b));
+    for (int b = 0; b < 8; ++b) jump.at(16 + b) = static_cast<std::uint8_t>(seq >> (8 * b));
     EXPECT_EQ(slave_.Feed(jump).status, S::kBadTag) << seq;
   }
   // The genuine frame and its successors still go through: nothing forged marked the window.
@@ -412,7 +521,7 @@ TEST_F(EstablishedPair, ForgedShutdownAndFaultFlagsAreIgnoredAndCounted) {
   const Bytes genuine = master_.Seal(Sample(SenderRole::kMaster, 0));
   for (const std::uint8_t flag : {proto::kFlagShutdown, proto::kFlagFault, proto::kFlagPeerLost}) {
     Bytes forged = genuine;
-    forged[28 + proto::wire::kFlagsOffset] ^= flag;
+    forged.at(28 + proto::wire::kFlagsOffset) ^= flag;
     EXPECT_EQ(slave_.Feed(forged).status, S::kBadTag);
   }
   // 3. A frame sealed by the real master with the flag set is accepted, flag intact.
@@ -466,8 +575,15 @@ TEST_F(EstablishedPair, AReplayedHelloDoesNotDisturbTheRunningSession) {
   const std::uint64_t id = slave_.session.session_id();
   EXPECT_EQ(slave_.Feed(master_.Seal(Sample(SenderRole::kMaster, 0))).status, S::kSample);
   EXPECT_EQ(slave_.session.session_id(), id);
-  // A replayed confirm of the running session is not acted on.
+  // A replayed confirm of the running session is taken as a copy and changes nothing; one of an older session is
+  // not awaited.
+  const std::uint64_t before = slave_.session.counters().sessions_established;
   const auto messages = Handshake(master_, slave_);
+  const std::uint64_t id2 = slave_.session.session_id();
+  EXPECT_EQ(slave_.Feed(messages[2]).status, S::kHandshake);
+  EXPECT_EQ(slave_.session.session_id(), id2);
+  EXPECT_EQ(slave_.session.counters().sessions_established, before + 1);
+  static_cast<void>(Handshake(master_, slave_));
   EXPECT_EQ(slave_.Feed(messages[2]).status, S::kUnexpectedHandshake);
 }
 
@@ -505,12 +621,10 @@ TEST_F(EstablishedPair, ImplausibleSamplesAreRejectedAndCounted) {
   ExpectOnly(slave_.session.counters(), {{S::kHandshake, 2}, {S::kSample, 2}, {S::kImplausible, 3}});
 }
 
-TEST(SecureSession, InboundFloodsAreRateLimitedBeforeAnyParsing) {
+TEST(SecureSession, RejectionsBeyondTheBucketAreCountedAsAFlood) {
   SecureSessionConfig config = Config(SenderRole::kSlave);
   config.max_datagrams_per_s = 1000.0;
   config.datagram_burst = 10.0;
-  config.max_handshakes_per_s = 1.0;
-  config.handshake_burst = 2.0;
   SecureSession slave(config, KeyFromByte(1));
   std::array<std::uint8_t, proto::kMaxSecureMessageSize> reply{};
   proto::SampleMessage out{};
@@ -521,14 +635,309 @@ TEST(SecureSession, InboundFloodsAreRateLimitedBeforeAnyParsing) {
   now += 5'000'000;  // 5 ms: 5 tokens
   for (int i = 0; i < 8; ++i) static_cast<void>(slave.Receive(junk, now, reply, out));
   ExpectOnly(slave.counters(), {{S::kMalformed, 15}, {S::kRateLimited, 18}});
+}
 
-  // Hellos (X25519 each) have their own, stricter bucket.
+// A stub that says "version 2 hello" in its first 6 bytes: what took the handshake tokens before they were spent
+// only after the MAC.
+Bytes Stub(proto::SecureMessageType type) {
+  return {0x54, 0x4C, 0x4F, 0x50, proto::kSecureProtocolVersion, static_cast<std::uint8_t>(type)};
+}
+
+TEST(SecureSession, AStubFloodLeavesTheHandshakeToTheRealPeer) {
   End master(SenderRole::kMaster, KeyFromByte(1));
-  now += 1'000'000'000;
+  End slave(SenderRole::kSlave, KeyFromByte(1));
+  const Bytes hello_stub = Stub(proto::SecureMessageType::kHello);
+  Bytes forged_hello = Hello(master);  // the right layout and a fresh timestamp, a tag without the key
+  forged_hello[60] ^= 0x5A;
+  // Everything at one instant (no refill): 1000 stubs and 1000 forged hellos, then the real hello.
+  SecureReceiveResult r{};
+  for (int i = 0; i < 1000; ++i) {
+    r = slave.session.Receive(hello_stub, slave.now_ns, slave.reply, slave.received);
+    ASSERT_NE(r.status, S::kHandshake);
+    r = slave.session.Receive(forged_hello, slave.now_ns, slave.reply, slave.received);
+    ASSERT_NE(r.status, S::kHandshake);
+  }
+  EXPECT_EQ(slave.session.counters().count(S::kHandshakeRateLimited), 0u) << "nothing unauthentic spent a token";
+  const Bytes hello = Hello(master);
+  r = slave.session.Receive(hello, slave.now_ns, slave.reply, slave.received);
+  ASSERT_EQ(r.status, S::kHandshake);
+  const Bytes welcome = slave.Reply(r);
+  // The master's side: welcome stubs and forged welcomes first, then the real one.
+  Bytes forged_welcome = welcome;
+  forged_welcome.at(50) ^= 0x01;
+  for (int i = 0; i < 1000; ++i) {
+    ASSERT_NE(
+        master.session.Receive(Stub(proto::SecureMessageType::kWelcome), master.now_ns, master.reply, master.received)
+            .status,
+        S::kHandshake);
+    ASSERT_NE(master.session.Receive(forged_welcome, master.now_ns, master.reply, master.received).status,
+              S::kHandshake);
+  }
+  r = master.session.Receive(welcome, master.now_ns, master.reply, master.received);
+  ASSERT_EQ(r.status, S::kHandshake);
+  ASSERT_EQ(slave.Feed(master.Reply(r)).status, S::kHandshake);
+  EXPECT_EQ(slave.session.session_id(), master.session.session_id());
+  EXPECT_NE(slave.session.session_id(), 0u);
+  ExpectBalanced(slave.session.counters());
+  ExpectBalanced(master.session.counters());
+}
+
+TEST(SecureSession, OnlyTheX25519OfAnAuthenticFreshHelloIsRateLimited) {
+  SecureSessionConfig config = Config(SenderRole::kSlave);
+  config.max_handshakes_per_s = 1.0;
+  config.handshake_burst = 2.0;
+  End slave(config, KeyFromByte(1));
+  End master(SenderRole::kMaster, KeyFromByte(1));
   std::vector<S> statuses;
-  for (int i = 0; i < 5; ++i) statuses.push_back(slave.Receive(Hello(master), now, reply, out).status);
-  EXPECT_EQ(statuses, (std::vector<S>{S::kHandshake, S::kHandshake, S::kHandshakeRateLimited, S::kHandshakeRateLimited,
-                                      S::kHandshakeRateLimited}));
+  std::uint64_t replies_repeated = 0;
+  for (int i = 0; i < 4; ++i) {
+    const Bytes hello = Hello(master);  // each one fresh and authentic
+    statuses.push_back(slave.session.Receive(hello, slave.now_ns, slave.reply, slave.received).status);
+    // Its copy is answered from the cache, without X25519 and without a token.
+    const auto copy = slave.session.Receive(hello, slave.now_ns, slave.reply, slave.received);
+    if (copy.status == S::kHandshake) ++replies_repeated;
+  }
+  EXPECT_EQ(statuses,
+            (std::vector<S>{S::kHandshake, S::kHandshake, S::kHandshakeRateLimited, S::kHandshakeRateLimited}));
+  EXPECT_EQ(replies_repeated, 2u) << "the copies of the two answered hellos";
+  EXPECT_EQ(slave.session.counters().replies_repeated, 2u);
+  EXPECT_EQ(slave.session.counters().handshakes_started, 2u);
+}
+
+TEST_F(EstablishedPair, AFloodOfForgedFramesNeverCostsARealFrame) {
+  // Each cycle (1 kHz, one timestamp per cycle as the link gives one per poll): 300 forged frames of the running
+  // session with fresh, far-ahead sequences (each costs a full AEAD), 300 version-1 datagrams, then the real frame.
+  const Bytes genuine = master_.Seal(Sample(SenderRole::kMaster, 0));
+  Bytes forged = genuine;
+  std::array<std::uint8_t, 64> v1{};
+  ASSERT_EQ(proto::EncodeSample(Sample(SenderRole::kMaster, 0), v1), 64u);
+  const Bytes insecure(v1.begin(), v1.end());
+  std::uint64_t now = 20'000'000'000;
+  ASSERT_EQ(slave_.session.Receive(genuine, now, slave_.reply, slave_.received).status, S::kSample);
+  int accepted = 0;
+  constexpr int kCycles = 50;
+  for (int n = 1; n <= kCycles; ++n) {
+    now += kPeriod_ns;
+    for (int i = 0; i < 300; ++i) {
+      const std::uint64_t seq = 1000 + static_cast<std::uint64_t>(n) * 1000 + static_cast<std::uint64_t>(i);
+      for (int b = 0; b < 8; ++b) forged[16 + b] = static_cast<std::uint8_t>(seq >> (8 * b));
+      static_cast<void>(slave_.session.Receive(forged, now, slave_.reply, slave_.received));
+      static_cast<void>(slave_.session.Receive(insecure, now, slave_.reply, slave_.received));
+    }
+    const Bytes frame = master_.Seal(Sample(SenderRole::kMaster, static_cast<std::uint64_t>(n)));
+    const SecureReceiveResult r = slave_.session.Receive(frame, now, slave_.reply, slave_.received);
+    accepted += r.status == S::kSample && r.newest ? 1 : 0;
+  }
+  EXPECT_EQ(accepted, kCycles) << "every real frame got through";
+  const SecureCounters& c = slave_.session.counters();
+  // The bucket (burst 512 at its first use in cycle 1, then 20 000/s = 20 per cycle) decides only how the
+  // rejections are counted; ±1 for the rounding of the fractional refill.
+  const std::uint64_t by_reason = c.count(S::kBadTag) + c.count(S::kInsecure);
+  EXPECT_NEAR(static_cast<double>(by_reason), 512.0 + 20.0 * (kCycles - 1), 1.0);
+  EXPECT_EQ(c.count(S::kRateLimited) + by_reason, 600u * kCycles);
+  ExpectBalanced(c);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// An idempotent handshake: duplicated, retransmitted and replayed hellos
+
+TEST(SecureSession, ADuplicatedHelloGetsTheSameWelcomeAndKeepsThePendingSession) {
+  End master(SenderRole::kMaster, KeyFromByte(1));
+  End slave(SenderRole::kSlave, KeyFromByte(1));
+  const Bytes hello = Hello(master);
+  const SecureReceiveResult first = slave.Feed(hello);
+  ASSERT_EQ(first.status, S::kHandshake);
+  const Bytes welcome = slave.Reply(first);
+  const SecureReceiveResult second = slave.Feed(hello);  // the network duplicated it
+  ASSERT_EQ(second.status, S::kHandshake);
+  EXPECT_EQ(slave.Reply(second), welcome) << "the same welcome again";
+  // The master switches on the first welcome; the copy gets the same confirm again.
+  const SecureReceiveResult confirm = master.Feed(welcome);
+  ASSERT_EQ(confirm.status, S::kHandshake);
+  const SecureReceiveResult again = master.Feed(welcome);
+  ASSERT_EQ(again.status, S::kHandshake);
+  EXPECT_EQ(master.Reply(again), master.Reply(confirm));
+  ASSERT_EQ(slave.Feed(master.Reply(confirm)).status, S::kHandshake);
+  EXPECT_EQ(slave.session.session_id(), master.session.session_id()) << "the pending session survived the copy";
+  EXPECT_EQ(slave.Feed(master.Reply(again)).status, S::kHandshake) << "the copy of the confirm changes nothing";
+  EXPECT_EQ(slave.session.counters().sessions_established, 1u);
+  EXPECT_EQ(slave.Feed(master.Seal(Sample(SenderRole::kMaster, 0))).status, S::kSample);
+  EXPECT_EQ(master.Feed(slave.Seal(Sample(SenderRole::kSlave, 0))).status, S::kSample);
+  // Once the slave's frames arrive, the master no longer answers a copy of the welcome.
+  EXPECT_EQ(master.Feed(welcome).status, S::kUnexpectedHandshake);
+  EXPECT_EQ(slave.session.counters().sessions_established, 1u);
+  EXPECT_EQ(slave.session.counters().handshakes_started, 1u) << "one X25519 answer, one repeat";
+  EXPECT_EQ(slave.session.counters().replies_repeated, 1u);
+}
+
+TEST(SecureSession, AnOlderHelloIsRefusedAfterANewerOne) {
+  End master(SenderRole::kMaster, KeyFromByte(1));
+  End slave(SenderRole::kSlave, KeyFromByte(1));
+  std::array<std::uint8_t, proto::kMaxSecureMessageSize> out{};
+  const std::size_t n1 = master.session.BeginHandshake(out, 1'000);
+  const Bytes old_hello(out.begin(), out.begin() + n1);
+  const std::size_t n2 = master.session.BeginHandshake(out, 2'000);  // the retry
+  const Bytes hello(out.begin(), out.begin() + n2);
+  const SecureReceiveResult w = slave.Feed(hello);
+  ASSERT_EQ(w.status, S::kHandshake);
+  // The first hello arrives late (reordered, or replayed): refused, no welcome, the pending session kept.
+  const SecureReceiveResult late = slave.Feed(old_hello);
+  EXPECT_EQ(late.status, S::kStaleHandshake);
+  EXPECT_EQ(late.reply_size, 0u);
+  const SecureReceiveResult c = master.Feed(slave.Reply(w));
+  ASSERT_EQ(c.status, S::kHandshake);
+  ASSERT_EQ(slave.Feed(master.Reply(c)).status, S::kHandshake);
+  EXPECT_EQ(slave.session.session_id(), master.session.session_id());
+  // Later replays of either: the older one refused, the last one answered with its welcome (nobody confirms it).
+  EXPECT_EQ(slave.Feed(old_hello).status, S::kStaleHandshake);
+  EXPECT_EQ(slave.Feed(hello).status, S::kHandshake);
+  EXPECT_EQ(slave.Feed(master.Seal(Sample(SenderRole::kMaster, 0))).status, S::kSample);
+  ExpectOnly(slave.session.counters(), {{S::kHandshake, 3}, {S::kStaleHandshake, 2}, {S::kSample, 1}});
+}
+
+TEST(SecureSession, HelloTimestampsGrowEvenWhenTheClockDoesNot) {
+  End master(SenderRole::kMaster, KeyFromByte(1));
+  std::array<std::uint8_t, proto::kMaxSecureMessageSize> out{};
+  std::vector<std::uint64_t> stamps;
+  for (const std::uint64_t clock : {5'000u, 5'000u, 4'000u, 9'000u}) {
+    ASSERT_EQ(master.session.BeginHandshake(out, clock), proto::secure_wire::kHelloSize);
+    proto::KeyExchangeMessage hello{};
+    ASSERT_EQ(proto::DecodeKeyExchange(std::span(out).first(proto::secure_wire::kHelloSize), hello),
+              proto::DecodeStatus::kOk);
+    stamps.push_back(hello.timestamp);
+  }
+  EXPECT_EQ(stamps, (std::vector<std::uint64_t>{5'000, 5'001, 5'002, 9'000}));
+  // The timestamp is under the MAC: changed, the hello is refused.
+  End slave(SenderRole::kSlave, KeyFromByte(1));
+  Bytes hello(out.begin(), out.begin() + proto::secure_wire::kHelloSize);
+  hello[proto::secure_wire::kHelloTimestampOffset + 7] ^= 0x01;
+  EXPECT_EQ(slave.Feed(hello).status, S::kBadHandshakeTag);
+}
+
+TEST(SecureSession, DuplicatedAndReplayedHellosDuringAReHandshake) {
+  End master(SenderRole::kMaster, KeyFromByte(1));
+  End slave(SenderRole::kSlave, KeyFromByte(1));
+  const auto first = Handshake(master, slave);
+  const std::uint64_t old_id = slave.session.session_id();
+  ASSERT_EQ(slave.Feed(master.Seal(Sample(SenderRole::kMaster, 0))).status, S::kSample);
+  ASSERT_EQ(master.Feed(slave.Seal(Sample(SenderRole::kSlave, 0))).status, S::kSample);
+  // The master re-handshakes (the slave went quiet for a moment); the new hello is duplicated, the old one replayed.
+  const Bytes hello = Hello(master);
+  const SecureReceiveResult w = slave.Feed(hello);
+  ASSERT_EQ(w.status, S::kHandshake);
+  EXPECT_EQ(slave.Feed(first[0]).status, S::kStaleHandshake);
+  const SecureReceiveResult w2 = slave.Feed(hello);
+  ASSERT_EQ(w2.status, S::kHandshake);
+  EXPECT_EQ(slave.Reply(w2), slave.Reply(w));
+  // The running session carries on meanwhile.
+  EXPECT_EQ(slave.session.session_id(), old_id);
+  EXPECT_EQ(master.Feed(slave.Seal(Sample(SenderRole::kSlave, 1))).status, S::kSample);
+  const SecureReceiveResult c = master.Feed(slave.Reply(w2));
+  ASSERT_EQ(c.status, S::kHandshake);
+  EXPECT_NE(master.session.session_id(), old_id);
+  // The confirm is lost; the master's first frame of the new session promotes the pending one.
+  ASSERT_EQ(slave.Feed(master.Seal(Sample(SenderRole::kMaster, 0))).status, S::kSample);
+  EXPECT_EQ(slave.session.session_id(), master.session.session_id());
+  EXPECT_EQ(slave.session.counters().sessions_established, 2u);
+}
+
+// offload_key_exchange: Receive() hands the X25519 to the helper thread and returns at once; Pump() delivers the
+// welcome / confirm. Waits are bounded (a guard against a hang, nothing is timed).
+Bytes PumpUntilReply(End& end) {
+  for (int i = 0; i < 20000; ++i) {
+    const std::size_t n = end.session.Pump(end.reply);
+    if (n > 0) return Bytes(end.reply.begin(), end.reply.begin() + n);
+    std::this_thread::sleep_for(std::chrono::microseconds(100));
+  }
+  return {};
+}
+
+TEST(SecureSession, TheKeyExchangeRunsOnTheHelperThread) {
+  SecureSessionConfig mc = Config(SenderRole::kMaster);
+  mc.offload_key_exchange = true;
+  SecureSessionConfig sc = Config(SenderRole::kSlave);
+  sc.offload_key_exchange = true;
+  End master(mc, KeyFromByte(1));
+  End slave(sc, KeyFromByte(1));
+  // The helper makes the master's first key pair ahead of time; let it.
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const Bytes hello = Hello(master);
+  const SecureReceiveResult r = slave.Feed(hello);
+  ASSERT_EQ(r.status, S::kHandshake);
+  EXPECT_EQ(r.reply_size, 0u) << "no welcome from Receive: the helper computes it";
+  const SecureReceiveResult copy = slave.Feed(hello);  // a duplicate while it runs: no second exchange
+  EXPECT_EQ(copy.status, S::kHandshake);
+  EXPECT_EQ(copy.reply_size, 0u);
+  const Bytes welcome = PumpUntilReply(slave);
+  ASSERT_EQ(welcome.size(), proto::secure_wire::kWelcomeSize);
+  EXPECT_EQ(slave.session.Pump(slave.reply), 0u) << "one welcome per exchange";
+  const SecureReceiveResult again = slave.Feed(hello);  // and afterwards the cached welcome, inline
+  ASSERT_EQ(again.status, S::kHandshake);
+  EXPECT_EQ(slave.Reply(again), welcome);
+
+  const SecureReceiveResult w = master.Feed(welcome);
+  ASSERT_EQ(w.status, S::kHandshake);
+  EXPECT_EQ(w.reply_size, 0u);
+  EXPECT_EQ(master.session.state(), SecureSessionState::kHandshaking) << "switches only when the helper is done";
+  const Bytes confirm = PumpUntilReply(master);
+  ASSERT_EQ(confirm.size(), proto::secure_wire::kConfirmSize);
+  ASSERT_EQ(slave.Feed(confirm).status, S::kHandshake);
+  EXPECT_NE(master.session.session_id(), 0u);
+  EXPECT_EQ(master.session.session_id(), slave.session.session_id());
+  EXPECT_EQ(slave.Feed(master.Seal(Sample(SenderRole::kMaster, 0))).status, S::kSample);
+  EXPECT_EQ(master.Feed(slave.Seal(Sample(SenderRole::kSlave, 0))).status, S::kSample);
+  EXPECT_EQ(slave.session.counters().key_exchanges_offloaded, 1u);
+  EXPECT_EQ(master.session.counters().key_exchanges_offloaded, 1u);
+  ExpectBalanced(slave.session.counters());
+}
+
+TEST(SecureSession, ANewerHelloDuringAnOffloadedExchangeIsAnsweredInstead) {
+  // A slave that stalled finds two hellos queued (the master retried): only the newest gets a welcome.
+  SecureSessionConfig sc = Config(SenderRole::kSlave);
+  sc.offload_key_exchange = true;
+  End slave(sc, KeyFromByte(1));
+  End master(SenderRole::kMaster, KeyFromByte(1));
+  const Bytes first = Hello(master);
+  const Bytes second = Hello(master);
+  ASSERT_EQ(slave.Feed(first).status, S::kHandshake);
+  ASSERT_EQ(slave.Feed(second).status, S::kHandshake);
+  EXPECT_EQ(slave.Feed(second).reply_size, 0u) << "a copy of the queued hello is not queued twice";
+  EXPECT_EQ(slave.Feed(first).reply_size, 0u) << "a copy of the hello in flight starts nothing";
+  const Bytes welcome = PumpUntilReply(slave);
+  EXPECT_EQ(slave.Feed(first).status, S::kStaleHandshake) << "once superseded, the older one is a replay";
+  ASSERT_EQ(welcome.size(), proto::secure_wire::kWelcomeSize);
+  const SecureReceiveResult c = master.Feed(welcome);
+  ASSERT_EQ(c.status, S::kHandshake) << "the welcome answers the newest hello";
+  ASSERT_EQ(slave.Feed(master.Reply(c)).status, S::kHandshake);
+  EXPECT_EQ(slave.session.session_id(), master.session.session_id());
+  EXPECT_EQ(slave.session.counters().key_exchanges_offloaded, 2u);
+  EXPECT_EQ(slave.session.counters().handshakes_started, 1u) << "one welcome sent";
+}
+
+TEST(SecureSession, AnOffloadedExchangeForAnOlderHelloIsDropped) {
+  SecureSessionConfig mc = Config(SenderRole::kMaster);
+  mc.offload_key_exchange = true;
+  End master(mc, KeyFromByte(1));
+  End slave(SenderRole::kSlave, KeyFromByte(1));
+  const SecureReceiveResult w = slave.Feed(Hello(master));
+  ASSERT_EQ(master.Feed(slave.Reply(w)).status, S::kHandshake);  // handed over...
+  static_cast<void>(Hello(master));                              // ...and the master retries before the helper is done
+  for (int i = 0; i < 200 && master.session.counters().key_exchanges_offloaded == 0; ++i) {
+    static_cast<void>(master.session.Pump(master.reply));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  EXPECT_EQ(master.session.Pump(master.reply), 0u) << "the result for the older hello is not installed";
+  EXPECT_EQ(master.session.state(), SecureSessionState::kHandshaking);
+}
+
+TEST(SecureSession, AHelloOfTheRetiredTypeIsMalformed) {
+  End master(SenderRole::kMaster, KeyFromByte(1));
+  End slave(SenderRole::kSlave, KeyFromByte(1));
+  Bytes old = Hello(master);
+  old.resize(72);
+  old[5] = proto::kRetiredHelloType;
+  EXPECT_EQ(slave.Feed(old).status, S::kMalformed);
+  EXPECT_EQ(slave.session.state(), SecureSessionState::kNoSession);
 }
 
 TEST(SecureSession, RejectsInvalidConfigs) {

@@ -54,10 +54,23 @@ static int Run(int argc, char** argv) {
                  "append every frame the bus carries to this file, candump -L format (canplayer, log2asc)");
   app.add_option("--candump-interface", config.candump_interface, "interface name written in the candump log")
       ->capture_default_str();
+  app.add_option("--allow-uid", config.allowed_uids,
+                 "a user (uid) whose processes may attach, repeatable (default: only the daemon's own user); the "
+                 "owner of the sending socket, from /proc/net/udp (docs/security.md, \"What CAN trusts\")");
+  app.add_option("--controller-uid", config.controller_uids,
+                 "a user (uid) whose attached nodes may send bus-off/restart/error commands, repeatable (default: "
+                 "only the daemon's own user)");
+  bool allow_remote = false;
+  bool local_only = false;
+  app.add_flag("--allow-remote", allow_remote,
+               "admit nodes of other machines (default: only when --bind is not a loopback address)");
+  app.add_flag("--local-only", local_only, "admit only sockets of this host, whatever --bind is");
   app.add_option("--inject-errors", inject_errors, "client mode: destroy the next N transmissions on a running bus");
   app.add_option("--bus-off", bus_off_node, "client mode: put node N of a running bus bus-off");
   app.add_option("--restart", restart_node, "client mode: restart bus-off node N of a running bus");
   CLI11_PARSE(app, argc, argv);
+  if (allow_remote) config.allow_remote = CanBusServerConfig::Remote::kAllow;
+  if (local_only) config.allow_remote = CanBusServerConfig::Remote::kRefuse;
 
   try {
     if (inject_errors >= 0 || bus_off_node >= 0 || restart_node >= 0) {

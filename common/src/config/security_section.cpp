@@ -4,6 +4,7 @@
 #include <string>
 
 #include "sections.hpp"
+#include "teleop/transport/secure_key_file.hpp"
 
 namespace teleop::config::sections {
 
@@ -44,7 +45,9 @@ void ParseSecurity(const Map& link, const std::string& transport, int dof, trans
   const Field key = map.Required("key_file");
   std::filesystem::path path(key.AsString());
   if (path.empty()) key.Fail("must name the pre-shared key file; " + std::string(kHowTo));
-  if (path.is_relative()) path = std::filesystem::path(key.file()).parent_path() / path;  // beside the config
+  // Beside the config, unless it names a systemd credential (credential:NAME, resolved when the link opens).
+  const bool credential = key.AsString().rfind(transport::kCredentialPrefix, 0) == 0;
+  if (path.is_relative() && !credential) path = std::filesystem::path(key.file()).parent_path() / path;
   security.key_file = path.string();
   transport::SecureSessionConfig& s = security.session;
   s.dof = dof;

@@ -43,6 +43,17 @@ std::string Str(const char* s) { return s != nullptr ? std::string(s) : std::str
 
 }  // namespace
 
+std::string SafeText(std::string_view text) {
+  const bool cut = text.size() > kMaxSafeTextLength;
+  std::string out(text.substr(0, cut ? kMaxSafeTextLength - 3 : text.size()));
+  for (char& c : out) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte < 0x20 || byte > 0x7E || c == ',' || c == '"' || c == '\\') c = '?';
+  }
+  if (cut) out += "...";
+  return out;
+}
+
 struct Supervisor::Impl {
   struct Readers {
     dds_entity_t state = 0;
@@ -167,7 +178,7 @@ void Supervisor::Impl::TakeEvents(ProcessView& v, dds_entity_t reader) {
                                        [&](const teleop_msgs_msg_dds__Event_& e, const dds_sample_info_t& info) {
                                          if (!info.valid_data) return;
                                          ++v.events_received;
-                                         v.last_event = Str(e.kind_name);
+                                         v.last_event = SafeText(Str(e.kind_name));
                                          if (observer.on_event) observer.on_event(v, v.last_event, e.cycle, e.value);
                                        });
 }
@@ -177,7 +188,7 @@ void Supervisor::Impl::TakeSummary(ProcessView& v, dds_entity_t reader) {
       reader, [&](const teleop_msgs_msg_dds__RunSummary_& s, const dds_sample_info_t& info) {
         if (!info.valid_data) return;
         v.have_summary = true;
-        v.stop_reason = Str(s.stop_reason);
+        v.stop_reason = SafeText(Str(s.stop_reason));
         v.summary_cycles = s.cycles;
         v.summary_packets_accepted = s.packets_accepted;
         v.summary_packets_lost = s.packets_lost;

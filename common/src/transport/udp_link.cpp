@@ -86,6 +86,10 @@ std::int64_t NowNs(clockid_t clock) noexcept {
   return static_cast<std::int64_t>(ts.tv_sec) * kNsPerS + ts.tv_nsec;
 }
 
+// Asked for when the config leaves SO_RCVBUF at 0: a flood (or a stall of the loop) then overflows later. The
+// kernel caps SO_RCVBUF at net.core.rmem_max; SO_RCVBUFFORCE (CAP_NET_ADMIN) is tried first.
+constexpr int kDefaultReceiveBufferBytes = 4 * 1024 * 1024;
+
 // Room for one SCM_TIMESTAMPNS (a timespec) and slack for anything else the kernel attaches.
 constexpr std::size_t kControlBytes = CMSG_SPACE(sizeof(timespec)) + 64;
 
@@ -100,6 +104,8 @@ struct UdpLink::Impl {
   udp::endpoint peer;
   bool has_peer = false;
   bool accept_only_peer = true;
+  bool connected = false;        ///< connect()ed to the peer: the kernel drops datagrams from any other source.
+  int receive_buffer_bytes = 0;  ///< SO_RCVBUF as the kernel reports it (it doubles what is asked).
   detail::SampleIntake intake;
   std::array<std::uint8_t, kTransmitBufferBytes> tx{};
   // Authenticated mode only (security.mode kPsk).
@@ -135,12 +141,21 @@ UdpLink::UdpLink(const UdpLinkConfig& config) : impl_(std::make_unique<Impl>(con
     throw Error("UDP link on " + where + ": receive_buffer_bytes must be >= 0 (0 = kernel default), got " +
                 std::to_string(config.receive_buffer_bytes));
   }
+  const int fd = impl_->socket.native_handle();
   if (config.receive_buffer_bytes > 0) {
     impl_->socket.set_option(asio::socket_base::receive_buffer_size(config.receive_buffer_bytes), ec);
     if (ec) {
       throw Error("UDP link on " + where + ": cannot set SO_RCVBUF to " + std::to_string(config.receive_buffer_bytes) +
                   " bytes: " + ec.message());
     }
+  } else if (setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &kDefaultReceiveBufferBytes,
+                        sizeof kDefaultReceiveBufferBytes) != 0) {
+    // Best effort without CAP_NET_ADMIN: capped at net.core.rmem_max, which Describe() then shows.
+    (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &kDefaultReceiveBufferBytes, sizeof kDefaultReceiveBufferBytes);
+  }
+  socklen_t length = sizeof impl_->receive_buffer_bytes;
+  if (getsockopt(fd, SOL_SOCKET, SO_RCVBUF, &impl_->receive_buffer_bytes, &length) != 0) {
+    throw Error("UDP link on " + where + ": cannot read SO_RCVBUF back: " + std::strerror(errno));
   }
   // Kernel receive timestamps (CLOCK_REALTIME, ns) on every datagram, read with recvmsg in Poll.
   const int on = 1;
@@ -169,6 +184,7 @@ UdpLink::UdpLink(const UdpLinkConfig& config) : impl_(std::make_unique<Impl>(con
     }
     SecureSessionConfig session = security.session;
     session.role = proto::PeerOf(config.expected_peer);
+    session.offload_key_exchange = true;  // X25519 on the session's helper thread, never in the cycle
     impl_->session = std::make_unique<SecureSession>(session, LoadPreSharedKey(security.key_file));
     impl_->initiator = session.role == proto::SenderRole::kMaster;
     impl_->retry_ns = static_cast<std::int64_t>(security.handshake_retry_ms * 1e6);
@@ -188,6 +204,27 @@ void UdpLink::SetPeer(const std::string& address, std::uint16_t port) {
   }
   impl_->peer = udp::endpoint(parsed, port);
   impl_->has_peer = true;
+  if (impl_->accept_only_peer) {
+    // The kernel then delivers only the peer's datagrams: other sources never reach the queue or the session.
+    boost::system::error_code ec;
+    impl_->socket.connect(impl_->peer, ec);
+    if (ec)
+      throw Error("UDP link: cannot connect the socket to the peer " + ToString(impl_->peer) + ": " + ec.message());
+    impl_->connected = true;
+  }
+}
+
+bool UdpLink::SendBytes(const std::uint8_t* bytes, std::size_t size) noexcept {
+  // On a connected socket an ICMP "port unreachable" for an earlier datagram (the peer not started yet) is reported
+  // by the next send, which then sends nothing: once more, so that one report does not cost a datagram.
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const ssize_t sent = impl_->connected ? ::send(impl_->socket.native_handle(), bytes, size, MSG_DONTWAIT)
+                                          : ::sendto(impl_->socket.native_handle(), bytes, size, MSG_DONTWAIT,
+                                                     impl_->peer.data(), static_cast<socklen_t>(impl_->peer.size()));
+    if (sent == static_cast<ssize_t>(size)) return true;
+    if (sent >= 0 || errno != ECONNREFUSED) return false;
+  }
+  return false;
 }
 
 bool UdpLink::Send(const proto::SampleMessage& message) noexcept {
@@ -205,9 +242,7 @@ bool UdpLink::Send(const proto::SampleMessage& message) noexcept {
     ++counters_.send_errors;
     return false;
   }
-  boost::system::error_code ec;
-  const std::size_t sent = impl_->socket.send_to(asio::buffer(impl_->tx.data(), size), impl_->peer, 0, ec);
-  if (ec || sent != size) {
+  if (!SendBytes(impl_->tx.data(), size)) {
     ++counters_.send_errors;
     return false;
   }
@@ -222,9 +257,7 @@ bool UdpLink::Poll(proto::SampleMessage& newest) noexcept {
 
 void UdpLink::SendRaw(const std::uint8_t* bytes, std::size_t size) noexcept {
   if (!impl_->has_peer) return;
-  boost::system::error_code ec;
-  const std::size_t sent = impl_->socket.send_to(asio::buffer(bytes, size), impl_->peer, 0, ec);
-  if (ec || sent != size) ++counters_.send_errors;
+  if (!SendBytes(bytes, size)) ++counters_.send_errors;
 }
 
 void UdpLink::DriveHandshake(std::int64_t now_ns) noexcept {
@@ -234,18 +267,14 @@ void UdpLink::DriveHandshake(std::int64_t now_ns) noexcept {
   if (established && now_ns - s.last_sample_ns <= s.silence_ns) return;
   if (now_ns < s.next_hello_ns) return;
   s.next_hello_ns = now_ns + s.retry_ns;
-  // Two X25519 operations at the master (~0.1 ms), only while no session carries the slave's samples (start-up,
-  // slave restart, silence past the timeout): cycles in which the master is not coupled anyway.
+  // The key pair was made ahead by the session's helper thread (its first hello may still make one inline).
   const std::size_t size = s.session->BeginHandshake(s.reply);
   if (size > 0) SendRaw(s.reply.data(), size);
   counters_.handshakes_started = s.session->counters().handshakes_started;
 }
 
-bool UdpLink::OfferSecure(std::size_t length, std::int64_t now_ns) noexcept {
+void UdpLink::NoteSession(std::int64_t now_ns) noexcept {
   Impl& s = *impl_;
-  const SecureReceiveResult result = s.session->Receive(std::span<const std::uint8_t>(s.rx.data(), length),
-                                                        static_cast<std::uint64_t>(now_ns), s.reply, s.opened);
-  if (result.reply_size > 0) SendRaw(s.reply.data(), result.reply_size);
   counters_.handshakes_started = s.session->counters().handshakes_started;
   const std::uint64_t id = s.session->session_id();
   if (id != 0 && id != s.session_id) {
@@ -256,6 +285,22 @@ bool UdpLink::OfferSecure(std::size_t length, std::int64_t now_ns) noexcept {
     s.intake.ResetTracker();
     s.last_sample_ns = now_ns;
   }
+}
+
+void UdpLink::PumpSession(std::int64_t now_ns) noexcept {
+  Impl& s = *impl_;
+  // A key exchange the session's helper thread finished: send the welcome (slave) or confirm (master) now.
+  const std::size_t size = s.session->Pump(s.reply);
+  if (size > 0) SendRaw(s.reply.data(), size);
+  NoteSession(now_ns);
+}
+
+bool UdpLink::OfferSecure(std::size_t length, std::int64_t now_ns) noexcept {
+  Impl& s = *impl_;
+  const SecureReceiveResult result = s.session->Receive(std::span<const std::uint8_t>(s.rx.data(), length),
+                                                        static_cast<std::uint64_t>(now_ns), s.reply, s.opened);
+  if (result.reply_size > 0) SendRaw(s.reply.data(), result.reply_size);
+  NoteSession(now_ns);
   switch (result.status) {
     case SecureReceiveStatus::kSample:
       s.last_sample_ns = now_ns;
@@ -270,7 +315,11 @@ bool UdpLink::OfferSecure(std::size_t length, std::int64_t now_ns) noexcept {
 }
 
 bool UdpLink::PollUntil(proto::SampleMessage& newest, std::int64_t deadline_ns) noexcept {
-  if (impl_->session && impl_->initiator) DriveHandshake(NowNs(CLOCK_MONOTONIC));
+  if (impl_->session) {
+    const std::int64_t now = NowNs(CLOCK_MONOTONIC);
+    PumpSession(now);
+    if (impl_->initiator) DriveHandshake(now);
+  }
   while (true) {
     // The offset between the kernel's clock (realtime) and the loop's (monotonic), read once per drain.
     const std::int64_t monotonic = NowNs(CLOCK_MONOTONIC);
@@ -346,6 +395,7 @@ std::string UdpLink::Describe() const {
   std::string text = "udp " + ToString(impl_->local) + " -> " + (impl_->has_peer ? ToString(impl_->peer) : "?");
   text += std::string(" (expects ") + proto::ToString(impl_->intake.expected_peer()) +
           (impl_->accept_only_peer ? ", peer address only" : ", any address") +
+          (impl_->connected ? ", connected" : "") + ", rcvbuf " + std::to_string(impl_->receive_buffer_bytes) + " B" +
           (impl_->session ? ", authenticated: psk" : ", INSECURE: no authentication") +
           (busy_poll_us_ == 0   ? ")"
            : busy_poll_applied_ ? ", busy poll " + std::to_string(busy_poll_us_) + " us)"
@@ -354,5 +404,9 @@ std::string UdpLink::Describe() const {
 }
 
 std::uint16_t UdpLink::local_port() const noexcept { return impl_->local.port(); }
+
+int UdpLink::receive_buffer_bytes() const noexcept { return impl_->receive_buffer_bytes; }
+
+bool UdpLink::connected() const noexcept { return impl_->connected; }
 
 }  // namespace teleop::transport

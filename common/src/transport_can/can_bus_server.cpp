@@ -10,7 +10,10 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
+#include <fstream>
+#include <string>
 
 #include "teleop/error.hpp"
 #include "teleop/transport/can_bus_datagram.hpp"
@@ -20,9 +23,49 @@ namespace teleop::transport {
 struct CanBusServer::Peer {
   sockaddr_in address{};
   int node = 0;
+  bool local = false;  ///< A socket of this host (its owner is `uid`), not a remote node.
+  std::uint32_t uid = 0;
 };
 
 namespace {
+
+constexpr std::uint32_t kNoOwner = 0xFFFFFFFFu;
+
+// The owner (uid) of this host's UDP socket bound to `source` (address or 0.0.0.0, and port), from /proc/net/udp;
+// kNoOwner when there is none (the datagram came from another machine). Set-up path (a hello), not per frame.
+std::uint32_t LocalOwner(const sockaddr_in& source) noexcept try {
+  std::ifstream in("/proc/net/udp");
+  std::string line;
+  std::getline(in, line);  // header
+  const unsigned port = ntohs(source.sin_port);
+  while (std::getline(in, line)) {
+    unsigned sl = 0;
+    unsigned local_address = 0;
+    unsigned local_port = 0;
+    unsigned remote_address = 0;
+    unsigned remote_port = 0;
+    unsigned state = 0;
+    unsigned long tx = 0;
+    unsigned long rx = 0;
+    unsigned tr = 0;
+    unsigned long when = 0;
+    unsigned long retransmits = 0;
+    unsigned uid = 0;
+    if (std::sscanf(line.c_str(), " %u: %X:%X %X:%X %X %lX:%lX %X:%lX %lX %u", &sl, &local_address, &local_port,
+                    &remote_address, &remote_port, &state, &tx, &rx, &tr, &when, &retransmits, &uid) != 12) {
+      continue;
+    }
+    // The kernel prints the address as the raw (network-order) 32-bit value: compare with s_addr as stored.
+    if (local_port == port && (local_address == source.sin_addr.s_addr || local_address == 0)) return uid;
+  }
+  return kNoOwner;
+} catch (...) {
+  return kNoOwner;  // cannot read it: treated as not a local socket (refused unless remote nodes are allowed)
+}
+
+bool Contains(const std::vector<std::uint32_t>& list, std::uint32_t uid, std::uint32_t own) {
+  return list.empty() ? uid == own : std::find(list.begin(), list.end(), uid) != list.end();
+}
 
 bool SameAddress(const sockaddr_in& a, const sockaddr_in& b) noexcept {
   return a.sin_addr.s_addr == b.sin_addr.s_addr && a.sin_port == b.sin_port;
@@ -48,6 +91,9 @@ CanBusServer::CanBusServer(const CanBusServerConfig& config) : config_(config), 
     throw Error(fmt::format("teleop-canbus: cannot bind {}:{}: {} (another teleop-canbus running? use --port)",
                             config.bind_address, config.port, reason));
   }
+  allow_remote_ =
+      config.allow_remote == CanBusServerConfig::Remote::kAllow ||
+      (config.allow_remote == CanBusServerConfig::Remote::kByBindAddress && (ntohl(addr.sin_addr.s_addr) >> 24) != 127);
   socklen_t len = sizeof(addr);
   ::getsockname(socket_, reinterpret_cast<sockaddr*>(&addr), &len);  // NOLINT: sockets API
   port_ = ntohs(addr.sin_port);
@@ -99,13 +145,21 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
       case bus_datagram::Type::kHello: {
         if (peer == nodes_.end()) {
           if (nodes_.size() == nodes_.capacity()) break;  // full: the node times out and says so
+          // Who may join: the owner of the sending socket, or a remote node where the network is the bus.
+          const std::uint32_t owner = LocalOwner(source);
+          const bool local = owner != kNoOwner;
+          if (local ? !Contains(config_.allowed_uids, owner, static_cast<std::uint32_t>(::geteuid()))
+                    : !allow_remote_) {
+            ++refused_hellos_;  // no welcome: the node times out and says no daemon answered
+            break;
+          }
           int node = 0;
           try {
             node = bus_.AddNode();  // a node that said bye keeps its (idle) bus node
           } catch (...) {
             break;
           }
-          nodes_.push_back(Peer{source, node});
+          nodes_.push_back(Peer{source, node, local, owner});
           peer = nodes_.end() - 1;
         }
         bus_datagram::Message w{};
@@ -138,6 +192,12 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
         break;
       }
       case bus_datagram::Type::kControl:
+        // Only an attached node of a controller's user: anyone else could take the bus down.
+        if (peer == nodes_.end() || !peer->local ||
+            !Contains(config_.controller_uids, peer->uid, static_cast<std::uint32_t>(::geteuid()))) {
+          ++refused_controls_;
+          break;
+        }
         if (m.action == bus_datagram::Action::kInjectErrors) bus_.InjectErrors(static_cast<int>(m.argument));
         if (m.action == bus_datagram::Action::kBusOff) bus_.ForceBusOff(static_cast<int>(m.argument));
         if (m.action == bus_datagram::Action::kRestart) bus_.Restart(static_cast<int>(m.argument));
@@ -193,9 +253,10 @@ std::string CanBusServer::Describe() const {
   const EmulatedCanBus::Stats& s = bus_.stats();
   return fmt::format(
       "teleop-canbus {}:{}: {} node(s), {} frames, {} error frames, {} refused, {} rx overflows, {} malformed "
-      "datagrams, mean bus load {:.1f} % over {:.1f} s",
+      "datagrams, {} hellos and {} control commands refused (not allowed), mean bus load {:.1f} % over {:.1f} s",
       config_.bind_address, port_, nodes_.size(), s.frames_delivered, s.error_frames, s.tx_refused, s.rx_overflows,
-      malformed_.load(), elapsed_s > 0 ? 100.0 * static_cast<double>(s.busy_ns) * 1e-9 / elapsed_s : 0.0, elapsed_s);
+      malformed_.load(), refused_hellos_.load(), refused_controls_.load(),
+      elapsed_s > 0 ? 100.0 * static_cast<double>(s.busy_ns) * 1e-9 / elapsed_s : 0.0, elapsed_s);
 }
 
 }  // namespace teleop::transport

@@ -4,11 +4,21 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "teleop/dds/process_view.hpp"
 
 namespace teleop::dds {
+
+/// Longest text kept from a sample (event kind, stop reason) for the record and the terminal.
+inline constexpr std::size_t kMaxSafeTextLength = 64;
+
+/// Text a sample carries (anyone on the domain can publish one, docs/security.md "DDS") made safe for the CSV record
+/// and the terminal table: every byte outside printable ASCII (control characters, ESC sequences, newlines, UTF-8)
+/// and the CSV/JSON specials `,` `"` `\` become `?`; longer than kMaxSafeTextLength, it is cut and ends in "...".
+/// Names the node publishes (peer_lost, duration, ...) pass unchanged.
+std::string SafeText(std::string_view text);
 
 /// The reading side of the bridge (teleop-supervise, docs/dds.md): joins a DDS domain, discovers every
 /// rt/teleop/<pair>/<role>/{state,events,summary} topic from the built-in publication topic, subscribes to each with

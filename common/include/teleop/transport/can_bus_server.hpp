@@ -20,6 +20,16 @@ struct CanBusServerConfig {
   /// stamped with the wall clock, as interface `candump_interface` (canplayer/log2asc read it).
   std::string candump_log_path;
   std::string candump_interface = "emcan0";
+  /// Who may attach (docs/security.md, "What CAN trusts"). A datagram from a socket of this host is traced to its
+  /// owner through /proc/net/udp: a hello is answered only when that uid is in allowed_uids (empty: the daemon's own
+  /// effective user only). A source that is no socket of this host (another machine) is admitted only with
+  /// allow_remote, which defaults to on when the daemon binds a non-loopback address (the network is the bus).
+  std::vector<std::uint32_t> allowed_uids;
+  /// Who may send control commands (bus-off, restart, error injection): attached nodes whose owner is in this list
+  /// (empty: the daemon's own effective user only). Remote nodes never may.
+  std::vector<std::uint32_t> controller_uids;
+  enum class Remote : std::uint8_t { kByBindAddress, kAllow, kRefuse };
+  Remote allow_remote = Remote::kByBindAddress;
 };
 
 /// The core of teleop-canbus: an EmulatedCanBus on the wall clock, shared by nodes that talk to it over UDP
@@ -42,6 +52,10 @@ class CanBusServer {
   const EmulatedCanBus& bus() const noexcept { return bus_; }
   int node_count() const noexcept;
   std::uint64_t malformed_datagrams() const noexcept { return malformed_.load(); }
+  /// Hellos refused (owner not allowed, or a remote source without allow_remote) and control commands refused (not
+  /// from a controller). Read from other threads (tests).
+  std::uint64_t refused_hellos() const noexcept { return refused_hellos_.load(); }
+  std::uint64_t refused_controls() const noexcept { return refused_controls_.load(); }
   /// Lines written to the candump log so far (0 without one). Read from other threads (tests).
   std::uint64_t logged_frames() const noexcept { return logged_.load(); }
   std::string Describe() const;
@@ -57,6 +71,9 @@ class CanBusServer {
   std::uint16_t port_ = 0;
   std::vector<Peer> nodes_;
   std::atomic<std::uint64_t> malformed_{0};
+  std::atomic<std::uint64_t> refused_hellos_{0};
+  std::atomic<std::uint64_t> refused_controls_{0};
+  bool allow_remote_ = false;
   std::atomic<std::uint64_t> logged_{0};  ///< Read from other threads (tests).
   std::uint64_t started_ns_ = 0;
   int monitor_node_ = -1;  ///< The bus node that feeds the candump log (-1: none).

@@ -15,8 +15,12 @@ struct UdpLinkConfig {
   std::string peer_address = "127.0.0.1";  ///< Same address family as bind_address.
   std::uint16_t peer_port = 0;             ///< 0: no peer yet; set it with UdpLink::SetPeer before sending.
   proto::SenderRole expected_peer = proto::SenderRole::kSlave;  ///< Samples from any other role are rejected.
-  bool accept_only_peer_address = true;  ///< Reject datagrams whose source is not peer_address:peer_port.
-  int receive_buffer_bytes = 0;          ///< SO_RCVBUF; 0 = kernel default.
+  /// Reject datagrams whose source is not peer_address:peer_port. With a peer set, the socket is also connect()ed
+  /// to it, so the kernel drops other sources before they reach the queue.
+  bool accept_only_peer_address = true;
+  /// SO_RCVBUF (bytes; an explicit value the kernel refuses is an error). 0: the link asks for 4 MiB (SO_RCVBUFFORCE
+  /// with CAP_NET_ADMIN, else capped at net.core.rmem_max); receive_buffer_bytes() reports what the kernel took.
+  int receive_buffer_bytes = 0;
   /// SO_BUSY_POLL (µs): the kernel busy-polls the device queue in a receive instead of waiting for the interrupt.
   /// 0 = off. Raising it above net.core.busy_read needs CAP_NET_ADMIN; when refused the link runs without it and
   /// busy_poll_applied() says so (not an error). No effect on loopback (no NAPI queue to poll).
@@ -36,11 +40,15 @@ struct UdpLinkConfig {
 /// the socket each cycle (at most kMaxDatagramsPerPoll, so a flood cannot stall the loop) and keeps the newest
 /// sequence (see Link). Send and Poll use buffers allocated in the constructor: no allocation, no exception.
 ///
+/// The socket is connect()ed to the peer when accept_only_peer_address is set, so the kernel drops other sources.
+///
 /// Authenticated mode (security.mode kPsk): Poll passes every datagram from the peer's address to the session,
 /// sends its handshake replies, and feeds only authenticated samples to the keep-the-newest logic; everything else
 /// is counted by reason (LinkCounters::secure_rejected_by_reason). Send seals. The master drives the handshake
 /// from Poll: a hello at the first Poll and every handshake_retry_ms while no session is established or the peer
 /// has been silent for peer_silence_ms. A new session increments session_epoch() and resets the sequence tracker.
+/// The session runs its X25519 on its own helper thread (SecureSessionConfig::offload_key_exchange): each Poll first
+/// collects a finished key exchange (SecureSession::Pump) and sends the welcome or confirm it calls for.
 ///
 /// Receive times: the socket has SO_TIMESTAMPNS, so every datagram carries the kernel's receive time, which the
 /// kernel takes in CLOCK_REALTIME. Poll() converts the one of the newest accepted sample to CLOCK_MONOTONIC (the
@@ -76,6 +84,10 @@ class UdpLink final : public Link {
   std::string Describe() const override;
   /// The bound local port (useful with bind_port = 0 in tests).
   std::uint16_t local_port() const noexcept;
+  /// SO_RCVBUF read back from the kernel (Linux reports twice the payload it grants; Describe() shows it).
+  int receive_buffer_bytes() const noexcept;
+  /// Whether the socket is connect()ed to the peer (accept_only_peer_address with a peer set).
+  bool connected() const noexcept;
   /// Set-up only (not from the loop): sets or changes the peer. Throws teleop::Error on an invalid address.
   void SetPeer(const std::string& address, std::uint16_t port);
 
@@ -85,9 +97,14 @@ class UdpLink final : public Link {
                 std::int64_t realtime_minus_monotonic_ns) noexcept;
   /// Authenticated mode: one datagram through the session. True when it is now the newest sample of this drain.
   bool OfferSecure(std::size_t length, std::int64_t now_ns) noexcept;
+  /// Authenticated mode: a finished key exchange of the session's helper thread (its welcome or confirm sent), and
+  /// the bookkeeping of a new session.
+  void PumpSession(std::int64_t now_ns) noexcept;
+  void NoteSession(std::int64_t now_ns) noexcept;
   /// Authenticated mode, master: a hello when none is established or the peer went silent.
   void DriveHandshake(std::int64_t now_ns) noexcept;
   void SendRaw(const std::uint8_t* bytes, std::size_t size) noexcept;
+  bool SendBytes(const std::uint8_t* bytes, std::size_t size) noexcept;
 
   std::unique_ptr<Impl> impl_;
   LinkCounters counters_{};

@@ -21,11 +21,18 @@ inline constexpr std::uint8_t kSecureProtocolVersion = 2;
 
 /// Message types of version 2. Values do not overlap version 1's kSample (1), so a type alone names the message.
 enum class SecureMessageType : std::uint8_t {
-  kHello = 2,    ///< Initiator (master) → responder: its ephemeral X25519 key, MAC under the PSK.
+  // 2 was the hello of the first release (no timestamp, 72 bytes): retired, decoded as kBadType (docs/protocol.md).
   kWelcome = 3,  ///< Responder → initiator: its ephemeral key, MAC under the PSK over hello + welcome.
   kConfirm = 4,  ///< Initiator → responder: the derived session id, MAC under the derived confirm key.
   kFrame = 5,    ///< Either way: one AEAD-sealed sample of an established session.
+  /// Initiator (master) → responder: its ephemeral X25519 key and a timestamp that grows with every hello, MAC
+  /// under the PSK. The responder refuses a hello not newer than the last one it answered (a replay).
+  kHello = 6,
 };
+
+/// The retired hello type (first release, no timestamp): refused as kBadType, so a peer of that release is told
+/// apart from a truncated hello.
+inline constexpr std::uint8_t kRetiredHelloType = 2;
 
 /// Sizes of the cryptographic fields (they equal libsodium's constants; the session layer static_asserts it).
 inline constexpr std::size_t kEphemeralKeyBytes = 32;  ///< X25519 public key (crypto_scalarmult_BYTES).
@@ -43,10 +50,14 @@ inline constexpr std::size_t kSenderOffset = 6;    // u8 SenderRole
 inline constexpr std::size_t kReservedOffset = 7;  // u8, sent as 0
 inline constexpr std::size_t kCommonHeaderSize = 8;
 
-// Hello and welcome: header, ephemeral key, tag.
-inline constexpr std::size_t kEphemeralKeyOffset = 8;  // 32 bytes
-inline constexpr std::size_t kKeyExchangeTagOffset = 40;
-inline constexpr std::size_t kKeyExchangeSize = 72;  ///< The MAC covers bytes 0..39 (welcome: hello first).
+// Hello: header, ephemeral key, timestamp, tag. Welcome: header, ephemeral key, tag.
+inline constexpr std::size_t kEphemeralKeyOffset = 8;     // 32 bytes
+inline constexpr std::size_t kHelloTimestampOffset = 40;  // u64, strictly increasing per initiator (ns)
+inline constexpr std::size_t kHelloTagOffset = 48;
+inline constexpr std::size_t kHelloSize = 80;             ///< The MAC covers bytes 0..47.
+inline constexpr std::size_t kKeyExchangeTagOffset = 40;  ///< Welcome's tag.
+inline constexpr std::size_t kKeyExchangeSize = 72;       ///< Welcome; its MAC covers hello ‖ welcome bytes 0..39.
+inline constexpr std::size_t kWelcomeSize = kKeyExchangeSize;
 
 // Confirm: header, session id, tag.
 inline constexpr std::size_t kConfirmSessionIdOffset = 8;  // u64
@@ -80,11 +91,12 @@ struct DatagramKind {
 };
 [[nodiscard]] DatagramKind ClassifyDatagram(std::span<const std::uint8_t> bytes) noexcept;
 
-/// Hello or welcome (same layout, told apart by `type`).
+/// Hello (kHelloSize bytes, with a timestamp) or welcome (kWelcomeSize, none), told apart by `type`.
 struct KeyExchangeMessage {
   SecureMessageType type = SecureMessageType::kHello;
   SenderRole sender = SenderRole::kMaster;
   std::array<std::uint8_t, kEphemeralKeyBytes> ephemeral_key{};
+  std::uint64_t timestamp = 0;  ///< Hello only (welcome: not on the wire, decoded as 0).
   std::array<std::uint8_t, kHandshakeTagBytes> tag{};
 };
 
