@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "teleop/error.hpp"
+#include "teleop/fieldbus/cia402_eds.hpp"
 
 namespace teleop::fieldbus {
 
@@ -516,6 +517,14 @@ void Cia402Drive::Configure() {
   last_error_.clear();
   const std::string where = fmt::format("CiA 402 drive node {}: configure", config_.node_id);
   try {
+    if (!config_.eds_file.empty()) {  // before any bus traffic: a drive whose EDS does not fit is never touched
+      const std::vector<std::string> problems = CheckAgainstEds(canopen::Eds::Load(config_.eds_file), config_);
+      if (!problems.empty()) {
+        std::string text = fmt::format("{}: the EDS does not fit the configuration:", where);
+        for (const std::string& p : problems) text += "\n  " + p;
+        throw Error(text);
+      }
+    }
     CanFrame frame{};
     while (port_.Read(frame)) HandleFrame(frame);  // whatever came before is not this bring-up's
     boot_seen_ = false;

@@ -570,6 +570,7 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame, std::uint64_t now_ns
       m.kind != Kind::kDownloadInitiateSegmented) {
     return SendSdoAbort(m.index, m.subindex, abort_code::kBadCommand);  // block transfers, reserved specifiers
   }
+  if (ignore_index_ != 0 && m.index == ignore_index_) return;
   transfer_.phase = Phase::kIdle;  // a new initiate ends a transfer the client gave up
   if (abort_index_ != 0 && m.index == abort_index_) return SendSdoAbort(m.index, m.subindex, abort_code_);
   std::span<const std::uint8_t> bytes;

@@ -89,6 +89,9 @@ struct Cia402DriveConfig {
   double stale_after_ms = 10.0;
   /// Configure reads the identity, device name, versions and error history (ReadDeviceInfo) and logs them.
   bool read_device_info = true;
+  /// The drive's EDS/DCF (CiA 306): ApplyEds (cia402_eds.hpp) takes default COB-IDs from it, and it and Configure
+  /// check every object the client uses against it (type, access, PDO mapping, capacity). Empty: no check.
+  std::string eds_file;
 
   /// RPDO1 = controlword + target torque (4 bytes); TPDO1 = statusword + position actual (6 bytes), TPDO2 = velocity
   /// actual + torque actual (6 bytes); synchronous (type 1), default COB-IDs.

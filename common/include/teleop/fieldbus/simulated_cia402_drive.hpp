@@ -116,6 +116,8 @@ class SimulatedCia402Drive {
   void DropSdoResponses(int count) noexcept;
   /// Every SDO access to `index` is aborted with `abort_code` (0 clears).
   void AbortObject(std::uint16_t index, std::uint32_t abort_code) noexcept;
+  /// SDO requests for `index` get no answer at all (a node that answers only some SDOs; 0 clears).
+  void IgnoreObject(std::uint16_t index) noexcept { ignore_index_ = index; }
   /// Moves the joint (test set-up).
   void SetJointState(double position_rad, double velocity_rad_per_s) noexcept;
   /// An external torque on the joint (the environment), N·m.
@@ -172,6 +174,7 @@ class SimulatedCia402Drive {
   bool heartbeat_muted_ = false;
   int drop_sdo_ = 0;
   std::uint16_t abort_index_ = 0;
+  std::uint16_t ignore_index_ = 0;
   std::uint32_t abort_code_ = 0;
   std::uint64_t boot_at_ns_ = 0;
   std::uint64_t last_ns_ = 0;
