@@ -391,7 +391,7 @@ int FaultReset(const Options& o, int node_arg) {
 
 // ---- simulate ----
 int Simulate(const Options& o, const std::vector<int>& nodes, double for_s, const std::string& modes_text,
-             double fault_at_s, const std::string& fault_code_text) {
+             double fault_at_s, const std::string& fault_code_text, const fb::SimulatedLoopConfig& loops) {
   std::uint32_t fault_code = 0x2310;
   if (!canopen::ParseEdsValue(fault_code_text, 0, fault_code) || fault_code > 0xFFFF) {
     throw Error(fmt::format("--fault-code '{}' is not a 16-bit number", fault_code_text));
@@ -410,6 +410,7 @@ int Simulate(const Options& o, const std::vector<int>& nodes, double for_s, cons
     c.position_rad_per_count = o.position_rad_per_count;
     c.velocity_rad_per_s_per_unit = o.velocity_rad_per_s_per_unit;
     c.heartbeat_period_ms = 100;
+    c.loops = loops;
     ports.push_back(fb::OpenCanPort(PortConfig(o), fb::SimulatedCia402Drive::ReceiveOptions(c)));
     sims.push_back(std::make_unique<fb::SimulatedCia402Drive>(c, *ports.back()));
   }
@@ -507,6 +508,15 @@ int Main(int argc, char** argv) {
   simulate->add_option("--supported-modes", sim_modes, "0x6502 of the simulated drives (default 0x380)");
   double fault_at_s = 0.0;
   std::string fault_code = "0x2310";
+  fb::SimulatedLoopConfig loops;
+  simulate->add_option("--position-kp", loops.position_kp_per_s, "the drives' position loop gain (1/s)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  simulate->add_option("--velocity-kp", loops.velocity_kp_Nms_per_rad, "velocity loop gain (N·m·s/rad)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  simulate->add_option("--velocity-ki", loops.velocity_ki_Nm_per_rad, "velocity loop integral gain (N·m/rad)")
+      ->capture_default_str();
   simulate->add_option("--fault-at-s", fault_at_s, "inject a drive fault this long after the start (0: never)");
   simulate->add_option("--fault-code", fault_code, "the fault's error code (EMCY, 0x603F, 0x1003)")
       ->capture_default_str();
@@ -526,7 +536,7 @@ int Main(int argc, char** argv) {
     if (*enable) return Cycle(o, node, mode, limit, Run{for_s, 0.0, false, {}});
     if (*record) return Cycle(o, node, mode, limit, Run{for_s, 0.0, false, csv});
     if (*reset) return FaultReset(o, node);
-    if (*simulate) return Simulate(o, sim_nodes, for_s, sim_modes, fault_at_s, fault_code);
+    if (*simulate) return Simulate(o, sim_nodes, for_s, sim_modes, fault_at_s, fault_code, loops);
     if (*jog) {
       if (!jog_torque && !jog_velocity && !jog_position) throw Error("jog: give --torque, --velocity or --position");
       const double value = jog_torque ? *jog_torque : jog_velocity ? *jog_velocity : *jog_position;

@@ -146,6 +146,23 @@ TEST(Admittance, WithASlowPositionLoopTheModelDoesNotHoldAndSaysSo) {
   EXPECT_FALSE(AdmittanceModel(rig.config).applicable);
 }
 
+// The stiffest spring counts too: m_v = 2 kg on 2600 N/m oscillates at sqrt(1300) = 36 rad/s; a 250 rad/s loop is
+// 6.9 times faster (ratio 5: applicable), a 100 rad/s loop 2.8 times (not).
+TEST(Admittance, TheModelChecksTheLoopAgainstTheStiffestSpring) {
+  AdmittanceConfig c;
+  c.dof = 1;
+  c.virtual_mass_kg = DofVector::Constant(1, 2.0);
+  c.virtual_damping_Ns_per_m = DofVector::Constant(1, 20.0);
+  c.bandwidth_ratio = 5.0;
+  c.max_stiffness_N_per_m = 2600.0;
+  c.position_loop_bandwidth_rad_per_s = 250.0;
+  EXPECT_TRUE(AdmittanceModel(c).applicable) << AdmittanceModel(c).reason;
+  c.position_loop_bandwidth_rad_per_s = 100.0;
+  const AnalysisModel m = AdmittanceModel(c);
+  EXPECT_FALSE(m.applicable);
+  EXPECT_NE(m.reason.find("sqrt(K/m_v) = 36.1 rad/s (max_stiffness_N_per_m 2600)"), std::string::npos) << m.reason;
+}
+
 // A fixture as the law renders it: F = F_push − K (x − x_wall) inside the wall. The virtual mass stops at
 // x_wall + F_push/K, and the drive puts the joint there.
 TEST(Admittance, TwoAxesFollowAndStopAtAFixture) {

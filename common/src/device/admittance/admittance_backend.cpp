@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <memory>
 
 #include "admittance_device.hpp"
@@ -57,7 +58,7 @@ void ReadCan(const Field& f, fieldbus::CanPortConfig& can) {
 AdmittanceAxisConfig ReadDrive(const Field& f) {
   const Map map(f, {"node_id", "transmission_m_per_rad", "rated_torque_Nm", "position_rad_per_count",
                     "velocity_rad_per_s_per_unit", "direction", "max_torque_Nm", "heartbeat_period_ms",
-                    "heartbeat_timeout_ms", "eds"});
+                    "heartbeat_timeout_ms", "stale_after_ms", "eds"});
   AdmittanceAxisConfig a;
   fieldbus::Cia402DriveConfig& d = a.drive;
   d.node_id = static_cast<std::uint8_t>(config::IntInRange(map.Required("node_id"), 1, 127));
@@ -75,13 +76,15 @@ AdmittanceAxisConfig ReadDrive(const Field& f) {
   if (auto v = map.Optional("max_torque_Nm")) d.max_torque_Nm = Positive(*v, "N·m");
   if (auto v = map.Optional("heartbeat_period_ms")) d.drive_heartbeat_period_ms = Positive(*v, "ms");
   if (auto v = map.Optional("heartbeat_timeout_ms")) d.heartbeat_timeout_ms = Positive(*v, "ms");
+  if (auto v = map.Optional("stale_after_ms")) d.stale_after_ms = Positive(*v, "ms");
   if (auto v = map.Optional("eds")) d.eds_file = v->AsString();
   return a;
 }
 
 AdmittanceConfig ReadAdmittance(const Field& f, int dof) {
   const Map map(f, {"virtual_mass_kg", "virtual_damping_Ns_per_m", "mode", "max_force_N", "max_velocity_m_per_s",
-                    "position_loop_bandwidth_rad_per_s", "bandwidth_ratio", "cycle_period_ms", "can", "drives"});
+                    "position_loop_bandwidth_rad_per_s", "bandwidth_ratio", "max_stiffness_N_per_m", "cycle_period_ms",
+                    "can", "drives"});
   AdmittanceConfig c;
   c.dof = dof;
   c.virtual_mass_kg =
@@ -100,6 +103,7 @@ AdmittanceConfig ReadAdmittance(const Field& f, int dof) {
     c.position_loop_bandwidth_rad_per_s = Positive(*v, "rad/s");
   }
   if (auto v = map.Optional("bandwidth_ratio")) c.bandwidth_ratio = config::InRange(*v, 1.0, 1000.0, "");
+  if (auto v = map.Optional("max_stiffness_N_per_m")) c.max_stiffness_N_per_m = NonNegative(*v, "N/m");
   if (auto v = map.Optional("cycle_period_ms")) c.cycle_period_s = Positive(*v, "ms") * 1e-3;
   ReadCan(map.Required("can"), c.can);
   const Field drives = map.Required("drives");
@@ -137,6 +141,14 @@ AnalysisModel AdmittanceModel(const AdmittanceConfig& a) {
           "b_v/m_v = {:g} rad/s, so (m_v, b_v) does not describe the slave; raise the loop bandwidth or m_v",
           i, a.position_loop_bandwidth_rad_per_s, a.bandwidth_ratio, rate));
     }
+    const double natural = std::sqrt(a.max_stiffness_N_per_m / a.virtual_mass_kg[i]);
+    if (a.position_loop_bandwidth_rad_per_s < a.bandwidth_ratio * natural) {
+      return AnalysisModel::NotApplicable(fmt::format(
+          "axis {}: the drives' position loop ({:g} rad/s) is not {:g} times faster than the virtual mass on the "
+          "stiffest spring, sqrt(K/m_v) = {:.3g} rad/s (max_stiffness_N_per_m {:g}), so (m_v, b_v) does not describe "
+          "the slave in contact; raise the loop bandwidth or m_v",
+          i, a.position_loop_bandwidth_rad_per_s, a.bandwidth_ratio, natural, a.max_stiffness_N_per_m));
+    }
   }
   AnalysisModel m;
   m.mass_kg = a.virtual_mass_kg;
@@ -163,7 +175,8 @@ DeviceBackend AdmittanceBackend() {
       {"position_loop_bandwidth_rad_per_s",
        "the drives' position-loop bandwidth (rad/s): the stability model's "
        "assumption is checked against it; unset: the check is not applicable"},
-      {"bandwidth_ratio", "how much faster than b_v/m_v the loop must be, 1..1000; default 10"},
+      {"bandwidth_ratio", "how much faster than b_v/m_v and sqrt(K/m_v) the loop must be, 1..1000; default 10"},
+      {"max_stiffness_N_per_m", "K, the stiffest spring the slave meets (coupling kp + fixture), N/m, >= 0; default 0"},
       {"cycle_period_ms", "the drives' cycle (0x1006) (ms), > 0; default 1"},
       {"can", "the drives' bus"},
       {"can.medium", "socketcan (default) or emulated (the teleop-canbus daemon)"},
@@ -180,6 +193,7 @@ DeviceBackend AdmittanceBackend() {
       {"drives[].max_torque_Nm", "0x6072, the drive loops' torque limit (N·m), > 0; default 0.5"},
       {"drives[].heartbeat_period_ms", "the drive's heartbeat (0x1017) (ms); default 50"},
       {"drives[].heartbeat_timeout_ms", "the host's consumer timeout (ms), > the period; default 150"},
+      {"drives[].stale_after_ms", "TPDO data older than this is a fault (ms), > 0; default 10"},
       {"drives[].eds", "the drive's EDS/DCF: checked at configure (docs/cia402.md, EDS)"},
   };
   b.section_required = true;

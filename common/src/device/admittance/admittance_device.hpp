@@ -51,8 +51,11 @@ struct AdmittanceConfig {
   /// The drives' position-loop bandwidth (rad/s, from their tuning), for the assumption check of the model; 0: not
   /// known, the check is not applicable.
   double position_loop_bandwidth_rad_per_s = 0.0;
-  /// The assumption: the loop at least this many times faster than b_v/m_v (docs/cia402.md).
+  /// The assumption: the loop at least this many times faster than b_v/m_v and than sqrt(K/m_v) (docs/cia402.md).
   double bandwidth_ratio = 10.0;
+  /// K: the stiffest spring the virtual mass meets (the coupling's kp plus the fixture's stiffness), N/m; 0: only
+  /// b_v/m_v is checked.
+  double max_stiffness_N_per_m = 0.0;
   double cycle_period_s = 0.001;
   fieldbus::CanPortConfig can{};
   std::vector<AdmittanceAxisConfig> axes;  ///< One per DOF.
