@@ -272,9 +272,8 @@ int Sdo(const Options& o, const std::string& op, int node_arg, const std::string
   if (op != "write") throw Error(fmt::format("sdo {}: read or write", op));
   if (value_text.empty()) throw Error("sdo write: VALUE is missing");
   if (type == "string") {
-    sdo.DownloadBytes(
-        i, s,
-        std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(value_text.data()), value_text.size()));
+    const std::vector<std::uint8_t> bytes(value_text.begin(), value_text.end());
+    sdo.DownloadBytes(i, s, bytes);
   } else {
     std::uint32_t v = 0;
     if (!canopen::ParseEdsValue(value_text, 0, v)) throw Error(fmt::format("VALUE '{}' is not a number", value_text));

@@ -129,6 +129,12 @@ SimulatedCia402Drive::SimulatedCia402Drive(const SimulatedCia402DriveConfig& con
   }
   dict_->Reset(config_);
   dict_->max_torque = config.max_torque_per_mille;
+  // 0x1008..0x100A as bytes, kept here so that serving them allocates nothing.
+  const std::string* texts[] = {&config.device_name, &config.hardware_version, &config.software_version};
+  for (std::size_t k = 0; k < strings_.size(); ++k) {
+    string_sizes_[k] = std::min(texts[k]->size(), strings_[k].size());
+    std::copy_n(texts[k]->begin(), string_sizes_[k], strings_[k].begin());
+  }
 }
 
 SimulatedCia402Drive::~SimulatedCia402Drive() = default;
@@ -520,21 +526,15 @@ void SimulatedCia402Drive::FlushResetEmergency() noexcept {
 bool SimulatedCia402Drive::ByteObject(std::uint16_t index, std::uint8_t subindex, std::span<const std::uint8_t>& bytes,
                                       bool& writable) const noexcept {
   if (subindex != 0) return false;
-  auto of = [](const std::string& text) {
-    return std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(text.data()),
-                                         std::min<std::size_t>(text.size(), 64));
-  };
   writable = false;
   switch (index) {
     case obj301::kDeviceName:
-      bytes = of(config_.device_name);
-      return true;
     case obj301::kHardwareVersion:
-      bytes = of(config_.hardware_version);
+    case obj301::kSoftwareVersion: {
+      const auto k = static_cast<std::size_t>(index - obj301::kDeviceName);
+      bytes = std::span<const std::uint8_t>(strings_[k].data(), string_sizes_[k]);
       return true;
-    case obj301::kSoftwareVersion:
-      bytes = of(config_.software_version);
-      return true;
+    }
     case kLabelObject:
       bytes = std::span<const std::uint8_t>(label_.data(), label_size_);
       writable = true;

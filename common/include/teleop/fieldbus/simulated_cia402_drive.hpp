@@ -224,6 +224,8 @@ class SimulatedCia402Drive {
   std::array<std::uint32_t, 8> error_history_{};  ///< 0x1003 sub 1..8, newest first.
   std::uint8_t error_history_count_ = 0;
   std::array<std::uint8_t, 32> label_{};  ///< 0x2000 (manufacturer-specific VISIBLE_STRING, read-write).
+  std::array<std::array<std::uint8_t, 64>, 3> strings_{};  ///< 0x1008, 0x1009, 0x100A.
+  std::array<std::size_t, 3> string_sizes_{};
   std::size_t label_size_ = 0;
 };
 
