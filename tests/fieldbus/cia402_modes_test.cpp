@@ -10,6 +10,7 @@
 
 #include "cia402_test_rig.hpp"
 #include "teleop/error.hpp"
+#include "test_utilities/limit_malloc.hpp"
 
 namespace teleop::fieldbus {
 namespace {
@@ -252,6 +253,27 @@ TEST(Cia402Modes, HaltStopsAndHoldsInOperationEnabledAndResumes) {
   rig.drive->RequestHalt(false);
   for (int k = 0; k < 200; ++k) r = rig.Cycle(5.0);
   EXPECT_NEAR(r.reading.velocity_rad_per_s, 5.0, 2.0 / 4096);
+}
+
+// The cycle in position and velocity mode allocates nothing either (the rig's capture is off; the drive simulation
+// and the bus allocate nothing after set-up).
+TEST(Cia402Modes, ReadAndWriteDoNotAllocateInPositionAndVelocityMode) {
+  for (const Cia402Mode mode : {Cia402Mode::kCyclicSynchronousPosition, Cia402Mode::kCyclicSynchronousVelocity}) {
+    Cia402Rig rig;
+    rig.config.mode = mode;
+    rig.config.max_velocity_rad_per_s = 5.0;
+    rig.Build();
+    rig.BringUp();
+    (void)rig.Cycle(0.0);
+    int ok = 0;
+    ::teleop::test::AllocationCounter counter;
+    for (int k = 0; k < 200; ++k) {
+      const Cia402Rig::CycleResult r = rig.Cycle(0.5 * std::sin(k * 0.05));
+      ok += r.read == Cia402Status::kOk && r.write == Cia402Status::kOk ? 1 : 0;
+    }
+    EXPECT_EQ(counter.count(), 0u) << ToString(mode);
+    EXPECT_EQ(ok, 200) << ToString(mode);
+  }
 }
 
 TEST(Cia402Modes, TorqueModeStaysTheDefaultWithItsMapping) {
