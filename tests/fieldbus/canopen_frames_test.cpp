@@ -118,6 +118,8 @@ TEST(CanopenSdo, RequestGoldenBytes) {
   ASSERT_TRUE(DecodeSdoRequest(Frame(0x601, {0x40, 0x41, 0x60, 0x00, 0, 0, 0, 0}), m));
   EXPECT_EQ(m.kind, SdoMessage::Kind::kUploadRequest);
   ASSERT_TRUE(DecodeSdoRequest(Frame(0x601, {0x21, 0x40, 0x60, 0x00, 9, 0, 0, 0}), m));  // segmented download
+  EXPECT_EQ(m.kind, SdoMessage::Kind::kDownloadInitiateSegmented);  // canopen_sdo_segmented_test.cpp
+  ASSERT_TRUE(DecodeSdoRequest(Frame(0x601, {0xC0, 0x40, 0x60, 0x00, 9, 0, 0, 0}), m));  // block download
   EXPECT_EQ(m.kind, SdoMessage::Kind::kUnsupported);
   EXPECT_FALSE(DecodeSdoRequest(Frame(0x601, {0x40, 0x41, 0x60}), m));  // short
 }
@@ -143,6 +145,8 @@ TEST(CanopenSdo, ResponseAndAbortGoldenBytes) {
   ASSERT_TRUE(DecodeSdoResponse(Frame(0x581, {0x60, 0x40, 0x60, 0x00, 0, 0, 0, 0}), m));
   EXPECT_EQ(m.kind, SdoMessage::Kind::kDownloadResponse);
   ASSERT_TRUE(DecodeSdoResponse(Frame(0x581, {0x41, 0x08, 0x10, 0x00, 20, 0, 0, 0}), m));  // segmented upload
+  EXPECT_EQ(m.kind, SdoMessage::Kind::kUploadInitiateSegmented);  // canopen_sdo_segmented_test.cpp
+  ASSERT_TRUE(DecodeSdoResponse(Frame(0x581, {0xC4, 0x08, 0x10, 0x00, 20, 0, 0, 0}), m));  // block upload
   EXPECT_EQ(m.kind, SdoMessage::Kind::kUnsupported);
   CanFrame fd = Frame(0x581, {0x60, 0x40, 0x60, 0x00, 0, 0, 0, 0});
   fd.fd = true;

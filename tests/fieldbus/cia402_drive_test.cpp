@@ -255,7 +255,9 @@ TEST(Cia402Drive, QuickStopLeavesOperationEnabled) {
   rig.BringUp();
   for (int k = 0; k < 5; ++k) (void)rig.Cycle(0.1);
   rig.drive->RequestQuickStop();
-  (void)rig.Cycle(0.3);
+  // The drive brakes at its quick stop deceleration (0.47 rad/s at 500 rad/s², about 1 ms after the SYNC's lag),
+  // then disables (transition 12): a few cycles.
+  for (int k = 0; k < 4; ++k) (void)rig.Cycle(0.3);
   const Cia402Rig::CycleResult r = rig.Cycle(0.3);
   EXPECT_EQ(r.read, Cia402Status::kNotEnabled);
   EXPECT_EQ(r.reading.state, DriveState::kSwitchOnDisabled);

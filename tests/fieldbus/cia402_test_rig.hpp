@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "teleop/fieldbus/cia402_drive.hpp"
 #include "teleop/fieldbus/simulated_cia402_drive.hpp"
@@ -36,6 +37,8 @@ struct Cia402Rig {
   std::unique_ptr<Cia402Drive> drive;
   std::unique_ptr<transport::CandumpLogWriter> log;
   std::uint64_t monitored = 0;
+  bool capture = false;  ///< Keep every frame the monitor sees in `captured`.
+  std::vector<proto::can::CanFrame> captured;
 
   Cia402Rig()
       : bus(transport::EmulatedCanBusConfig{}, [this] { return now_ns; }),
@@ -76,6 +79,7 @@ struct Cia402Rig {
     proto::can::CanFrame f{};
     while (monitor_port->Read(f)) {
       ++monitored;
+      if (capture) captured.push_back(f);
       if (log) (void)log->Write(f, kLogEpoch_ns + now_ns);
     }
   }

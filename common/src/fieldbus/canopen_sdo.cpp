@@ -36,6 +36,29 @@ std::uint8_t ExpeditedCommand(std::uint8_t cs, std::uint8_t size) noexcept {
   return static_cast<std::uint8_t>(cs << 5 | (4 - size) << 2 | 0x03);
 }
 
+CanFrame SegmentFrame(std::uint32_t cob_id, std::uint8_t cs, bool toggle, std::span<const std::uint8_t> data,
+                      bool last) noexcept {
+  const std::size_t size = std::min(data.size(), kSdoSegmentBytes);
+  CanFrame f{};
+  f.id = cob_id;
+  f.len = 8;
+  f.data[0] =
+      static_cast<std::uint8_t>(cs << 5 | (toggle ? 0x10 : 0) | (kSdoSegmentBytes - size) << 1 | (last ? 1 : 0));
+  for (std::size_t i = 0; i < size; ++i) f.data[1 + i] = data[i];
+  return f;
+}
+
+/// A segment (ccs 0 / scs 0): t in bit 4, n in bits 3..1, c in bit 0, data in bytes 1..7.
+void DecodeSegment(const CanFrame& frame, SdoMessage& out) noexcept {
+  const std::uint8_t c = frame.data[0];
+  out.index = 0;
+  out.subindex = 0;
+  out.toggle = (c & 0x10) != 0;
+  out.last = (c & 0x01) != 0;
+  out.segment_size = static_cast<std::uint8_t>(kSdoSegmentBytes - ((c >> 1) & 0x7));
+  for (std::size_t i = 0; i < out.segment_size; ++i) out.segment[i] = frame.data[1 + i];
+}
+
 bool Common(const CanFrame& frame, SdoMessage& out) noexcept {
   if (frame.error || frame.fd || frame.extended || frame.remote || frame.len != 8) return false;
   out = SdoMessage{};
@@ -86,6 +109,8 @@ const char* DescribeSdoAbort(std::uint32_t code) noexcept {
       return "Value of parameter written too high (download only)";
     case sdo_abort::kValueTooLow:
       return "Value of parameter written too low (download only)";
+    case sdo_abort::kNoData:
+      return "No data available";
     case sdo_abort::kGeneral:
       return "General error";
     case sdo_abort::kCannotStore:
@@ -130,6 +155,46 @@ CanFrame EncodeSdoAbort(std::uint32_t cob_id, std::uint16_t index, std::uint8_t 
   return f;
 }
 
+CanFrame EncodeSdoInitiateDownloadSegmented(std::uint8_t node_id, std::uint16_t index, std::uint8_t subindex,
+                                            std::uint32_t size) noexcept {
+  CanFrame f = SdoFrame(cob::kSdoRx + node_id, 0x21, index, subindex);
+  PutValue(f, size);
+  return f;
+}
+
+CanFrame EncodeSdoInitiateUploadSegmented(std::uint8_t node_id, std::uint16_t index, std::uint8_t subindex,
+                                          std::uint32_t size) noexcept {
+  CanFrame f = SdoFrame(cob::kSdoTx + node_id, 0x41, index, subindex);
+  PutValue(f, size);
+  return f;
+}
+
+CanFrame EncodeSdoDownloadSegment(std::uint8_t node_id, bool toggle, std::span<const std::uint8_t> data,
+                                  bool last) noexcept {
+  return SegmentFrame(cob::kSdoRx + node_id, 0, toggle, data, last);
+}
+
+CanFrame EncodeSdoDownloadSegmentResponse(std::uint8_t node_id, bool toggle) noexcept {
+  CanFrame f{};
+  f.id = cob::kSdoTx + node_id;
+  f.len = 8;
+  f.data[0] = toggle ? 0x30 : 0x20;
+  return f;
+}
+
+CanFrame EncodeSdoUploadSegmentRequest(std::uint8_t node_id, bool toggle) noexcept {
+  CanFrame f{};
+  f.id = cob::kSdoRx + node_id;
+  f.len = 8;
+  f.data[0] = toggle ? 0x70 : 0x60;
+  return f;
+}
+
+CanFrame EncodeSdoUploadSegment(std::uint8_t node_id, bool toggle, std::span<const std::uint8_t> data,
+                                bool last) noexcept {
+  return SegmentFrame(cob::kSdoTx + node_id, 0, toggle, data, last);
+}
+
 bool DecodeSdoRequest(const CanFrame& frame, SdoMessage& out) noexcept {
   if (!Common(frame, out)) return false;
   const std::uint8_t c = frame.data[0];
@@ -143,6 +208,23 @@ bool DecodeSdoRequest(const CanFrame& frame, SdoMessage& out) noexcept {
     out.kind = SdoMessage::Kind::kDownloadRequest;
     out.size = static_cast<std::uint8_t>(4 - ((c >> 2) & 0x3));
     out.value = Masked(GetValue(frame), out.size);
+    out.size_indicated = true;
+  } else if (ccs == 1 && (c & 0x13) == 0x02) {  // expedited, size not indicated: all 4 bytes (§7.2.4.3.3)
+    out.kind = SdoMessage::Kind::kDownloadRequest;
+    out.size = 4;
+    out.value = GetValue(frame);
+  } else if (ccs == 1 && (c & 0x1E) == 0) {  // segmented: e = 0, n not used
+    out.kind = SdoMessage::Kind::kDownloadInitiateSegmented;
+    out.size_indicated = (c & 0x01) != 0;
+    out.value = out.size_indicated ? GetValue(frame) : 0;
+  } else if (ccs == 0) {
+    out.kind = SdoMessage::Kind::kDownloadSegmentRequest;
+    DecodeSegment(frame, out);
+  } else if (ccs == 3 && (c & 0x0F) == 0) {
+    out.kind = SdoMessage::Kind::kUploadSegmentRequest;
+    out.index = 0;
+    out.subindex = 0;
+    out.toggle = (c & 0x10) != 0;
   } else {
     out.kind = SdoMessage::Kind::kUnsupported;
   }
@@ -162,8 +244,25 @@ bool DecodeSdoResponse(const CanFrame& frame, SdoMessage& out) noexcept {
     out.kind = SdoMessage::Kind::kUploadResponse;
     out.size = static_cast<std::uint8_t>(4 - ((c >> 2) & 0x3));
     out.value = Masked(GetValue(frame), out.size);
+    out.size_indicated = true;
+  } else if (scs == 2 && (c & 0x13) == 0x02) {  // expedited, size not indicated: all 4 bytes
+    out.kind = SdoMessage::Kind::kUploadResponse;
+    out.size = 4;
+    out.value = GetValue(frame);
+  } else if (scs == 2 && (c & 0x1E) == 0) {  // segmented: e = 0
+    out.kind = SdoMessage::Kind::kUploadInitiateSegmented;
+    out.size_indicated = (c & 0x01) != 0;
+    out.value = out.size_indicated ? GetValue(frame) : 0;
+  } else if (scs == 0) {
+    out.kind = SdoMessage::Kind::kUploadSegmentResponse;
+    DecodeSegment(frame, out);
+  } else if (scs == 1 && (c & 0x0F) == 0) {
+    out.kind = SdoMessage::Kind::kDownloadSegmentResponse;
+    out.index = 0;
+    out.subindex = 0;
+    out.toggle = (c & 0x10) != 0;
   } else {
-    out.kind = SdoMessage::Kind::kUnsupported;  // segmented (e = 0) or expedited without size
+    out.kind = SdoMessage::Kind::kUnsupported;  // block transfers (scs 5, 6), reserved specifiers
   }
   return true;
 }

@@ -1,6 +1,7 @@
 #include "teleop/fieldbus/cia402_drive.hpp"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
@@ -8,6 +9,7 @@
 #include <utility>
 
 #include "teleop/error.hpp"
+#include "teleop/fieldbus/cia402_eds.hpp"
 
 namespace teleop::fieldbus {
 
@@ -39,6 +41,43 @@ PdoMapping Mapping(int number, std::initializer_list<PdoEntry> entries) {
 
 bool Positive(double x) noexcept { return std::isfinite(x) && x > 0.0; }
 
+bool SameMappings(const std::vector<PdoMapping>& a, const std::vector<PdoMapping>& b) noexcept {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const PdoMapping& x = a[i];
+    const PdoMapping& y = b[i];
+    if (x.number != y.number || x.cob_id != y.cob_id || x.transmission_type != y.transmission_type ||
+        x.entry_count != y.entry_count || !std::equal(x.mapped().begin(), x.mapped().end(), y.mapped().begin())) {
+      return false;
+    }
+  }
+  return true;
+}
+
+std::int32_t ClampToI32(double x) noexcept {
+  return static_cast<std::int32_t>(std::clamp<double>(std::round(x), -2147483647.0, 2147483647.0));
+}
+
+/// An abort that says the object is simply not there (CiA 301: no object, no subindex, unsupported access,
+/// write-only, no data): an optional object the drive lacks.
+bool IsAbsent(std::uint32_t code) noexcept {
+  namespace a = canopen::sdo_abort;
+  return code == a::kNoObject || code == a::kNoSubindex || code == a::kUnsupportedAccess || code == a::kWriteOnly ||
+         code == a::kNoData;
+}
+
+/// Runs `read`; an abort for a missing object leaves `present` false, any other error propagates.
+template <typename F>
+void ReadOptional(bool& present, F&& read) {
+  try {
+    read();
+    present = true;
+  } catch (const canopen::SdoAbortError& e) {
+    if (!IsAbsent(e.code())) throw;
+    present = false;
+  }
+}
+
 }  // namespace
 
 const char* ToString(Cia402Status status) noexcept {
@@ -67,6 +106,43 @@ const char* ToString(Cia402Status status) noexcept {
 
 std::vector<PdoMapping> Cia402DriveConfig::DefaultRpdos() {
   return {Mapping(1, {{obj::kControlword, 0, 16}, {obj::kTargetTorque, 0, 16}})};
+}
+
+std::vector<PdoMapping> Cia402DriveConfig::DefaultRpdos(Cia402Mode mode) {
+  switch (mode) {
+    case Cia402Mode::kCyclicSynchronousPosition:
+      return {Mapping(1, {{obj::kControlword, 0, 16}, {obj::kTargetPosition, 0, 32}})};
+    case Cia402Mode::kCyclicSynchronousVelocity:
+      return {Mapping(1, {{obj::kControlword, 0, 16}, {obj::kTargetVelocity, 0, 32}})};
+    case Cia402Mode::kCyclicSynchronousTorque:
+      break;
+  }
+  return DefaultRpdos();
+}
+
+const char* ToString(Cia402Mode mode) noexcept {
+  switch (mode) {
+    case Cia402Mode::kCyclicSynchronousPosition:
+      return "cyclic synchronous position";
+    case Cia402Mode::kCyclicSynchronousVelocity:
+      return "cyclic synchronous velocity";
+    case Cia402Mode::kCyclicSynchronousTorque:
+      return "cyclic synchronous torque";
+  }
+  return "unknown mode";
+}
+
+bool ParseCia402Mode(const std::string& text, Cia402Mode& mode) noexcept {
+  if (text == "position" || text == "csp" || text == "8") {
+    mode = Cia402Mode::kCyclicSynchronousPosition;
+  } else if (text == "velocity" || text == "csv" || text == "9") {
+    mode = Cia402Mode::kCyclicSynchronousVelocity;
+  } else if (text == "torque" || text == "cst" || text == "10") {
+    mode = Cia402Mode::kCyclicSynchronousTorque;
+  } else {
+    return false;
+  }
+  return true;
 }
 
 std::vector<PdoMapping> Cia402DriveConfig::DefaultTpdos() {
@@ -127,6 +203,21 @@ Cia402Drive::Cia402Drive(const Cia402DriveConfig& config, transport::CanPort& po
                      s.rated_torque_Nm * 32.767));
   }
   if ((config.sync_cob_id & ~0x7FFu) != 0 || config.sync_cob_id == 0) fail("sync_cob_id must be an 11-bit COB-ID");
+  const auto mode = static_cast<std::int8_t>(config.mode);
+  if (mode != cia402::kModeCyclicSynchronousPosition && mode != cia402::kModeCyclicSynchronousVelocity &&
+      mode != cia402::kModeCyclicSynchronousTorque) {
+    fail(fmt::format("mode {} is not a cyclic synchronous mode (8 position, 9 velocity, 10 torque)", mode));
+  }
+  if (!(config.max_velocity_rad_per_s >= 0.0) || !std::isfinite(config.max_velocity_rad_per_s)) {
+    fail("max_velocity_rad_per_s must be >= 0 (0: no clamp)");
+  }
+  if (config.halt_option_code && (*config.halt_option_code < 1 || *config.halt_option_code > 4)) {
+    fail("halt_option_code must be 1..4");
+  }
+  if (config.mode != Cia402Mode::kCyclicSynchronousTorque &&
+      SameMappings(config.rpdos, Cia402DriveConfig::DefaultRpdos())) {
+    config_.rpdos = Cia402DriveConfig::DefaultRpdos(config.mode);
+  }
   // PDOs.
   auto take = [&](const std::vector<PdoMapping>& list, std::array<PdoMapping, 4>& out, int& count, bool tpdo) {
     const char* what = tpdo ? "tpdos" : "rpdos";
@@ -146,7 +237,7 @@ Cia402Drive::Cia402Drive(const Cia402DriveConfig& config, transport::CanPort& po
       out[static_cast<std::size_t>(count++)] = m;
     }
   };
-  take(config.rpdos, rpdo_, rpdo_count_, false);
+  take(config_.rpdos, rpdo_, rpdo_count_, false);
   take(config.tpdos, tpdo_, tpdo_count_, true);
   auto find = [&](const std::array<PdoMapping, 4>& list, int count, std::uint16_t index, std::uint8_t bits) {
     Slot slot{};
@@ -169,8 +260,25 @@ Cia402Drive::Cia402Drive(const Cia402DriveConfig& config, transport::CanPort& po
   position_slot_ = find(tpdo_, tpdo_count_, obj::kPositionActual, 32);
   velocity_slot_ = find(tpdo_, tpdo_count_, obj::kVelocityActual, 32);
   torque_slot_ = find(tpdo_, tpdo_count_, obj::kTorqueActual, 16);
-  if (controlword_slot_.pdo < 0 || target_torque_slot_.pdo < 0) {
-    fail("rpdos must map the controlword 0x6040 and the target torque 0x6071 (16 bits each)");
+  switch (config.mode) {
+    case Cia402Mode::kCyclicSynchronousTorque:
+      if (controlword_slot_.pdo < 0 || target_torque_slot_.pdo < 0) {
+        fail("rpdos must map the controlword 0x6040 and the target torque 0x6071 (16 bits each)");
+      }
+      target_slot_ = target_torque_slot_;
+      break;
+    case Cia402Mode::kCyclicSynchronousVelocity:
+      target_slot_ = find(rpdo_, rpdo_count_, obj::kTargetVelocity, 32);
+      if (controlword_slot_.pdo < 0 || target_slot_.pdo < 0) {
+        fail("velocity mode: rpdos must map the controlword 0x6040 (16 bits) and the target velocity 0x60FF (32 bits)");
+      }
+      break;
+    case Cia402Mode::kCyclicSynchronousPosition:
+      target_slot_ = find(rpdo_, rpdo_count_, obj::kTargetPosition, 32);
+      if (controlword_slot_.pdo < 0 || target_slot_.pdo < 0) {
+        fail("position mode: rpdos must map the controlword 0x6040 (16 bits) and the target position 0x607A (32 bits)");
+      }
+      break;
   }
   if (statusword_slot_.pdo < 0 || position_slot_.pdo < 0 || velocity_slot_.pdo < 0) {
     fail(
@@ -349,6 +457,54 @@ void Cia402Drive::WritePdo(const PdoMapping& m, bool tpdo) {
   if (type != m.transmission_type) throw what(fmt::format("transmission type {}, not {}", type, m.transmission_type));
 }
 
+std::string Cia402DeviceInfo::Describe() const {
+  std::string s = fmt::format("device type 0x{:08X}", device_type);
+  if (identity_present) {
+    s += fmt::format("; identity: vendor 0x{:08X}, product 0x{:08X}, revision 0x{:08X}, serial 0x{:08X}", vendor_id,
+                     product_code, revision, serial);
+  }
+  s += device_name_present ? fmt::format("; device name '{}'", device_name) : std::string("; no device name");
+  if (hardware_version_present) s += fmt::format("; hardware '{}'", hardware_version);
+  if (software_version_present) s += fmt::format("; software '{}'", software_version);
+  if (supported_modes_present) s += fmt::format("; supported modes 0x{:08X}", supported_modes);
+  if (!error_history_present) {
+    s += "; no error history";
+  } else if (error_history.empty()) {
+    s += "; error history empty";
+  } else {
+    s += "; error history (newest first):";
+    for (const std::uint32_t e : error_history) s += fmt::format(" 0x{:04X}/0x{:04X}", e & 0xFFFFu, e >> 16);
+  }
+  return s;
+}
+
+const Cia402DeviceInfo& Cia402Drive::ReadDeviceInfo() {
+  Cia402DeviceInfo info;
+  info.device_type = sdo_.Upload(obj301::kDeviceType, 0, 4);
+  ReadOptional(info.identity_present, [&] {
+    const std::uint32_t count = sdo_.Upload(obj301::kIdentity, 0, 1);
+    info.vendor_id = sdo_.Upload(obj301::kIdentity, 1, 4);
+    if (count >= 2) info.product_code = sdo_.Upload(obj301::kIdentity, 2, 4);
+    if (count >= 3) info.revision = sdo_.Upload(obj301::kIdentity, 3, 4);
+    if (count >= 4) info.serial = sdo_.Upload(obj301::kIdentity, 4, 4);
+  });
+  ReadOptional(info.device_name_present, [&] { info.device_name = sdo_.UploadString(obj301::kDeviceName, 0, 256); });
+  ReadOptional(info.hardware_version_present,
+               [&] { info.hardware_version = sdo_.UploadString(obj301::kHardwareVersion, 0, 256); });
+  ReadOptional(info.software_version_present,
+               [&] { info.software_version = sdo_.UploadString(obj301::kSoftwareVersion, 0, 256); });
+  ReadOptional(info.supported_modes_present,
+               [&] { info.supported_modes = sdo_.Upload(obj::kSupportedDriveModes, 0, 4); });
+  ReadOptional(info.error_history_present, [&] {
+    const std::uint32_t count = sdo_.Upload(obj301::kErrorHistory, 0, 1);
+    for (std::uint32_t sub = 1; sub <= std::min<std::uint32_t>(count, 254); ++sub) {
+      info.error_history.push_back(sdo_.Upload(obj301::kErrorHistory, static_cast<std::uint8_t>(sub), 4));
+    }
+  });
+  info_ = std::move(info);
+  return info_;
+}
+
 void Cia402Drive::Configure() {
   active_ = false;
   configured_ = false;
@@ -361,6 +517,14 @@ void Cia402Drive::Configure() {
   last_error_.clear();
   const std::string where = fmt::format("CiA 402 drive node {}: configure", config_.node_id);
   try {
+    if (!config_.eds_file.empty()) {  // before any bus traffic: a drive whose EDS does not fit is never touched
+      const std::vector<std::string> problems = CheckAgainstEds(canopen::Eds::Load(config_.eds_file), config_);
+      if (!problems.empty()) {
+        std::string text = fmt::format("{}: the EDS does not fit the configuration:", where);
+        for (const std::string& p : problems) text += "\n  " + p;
+        throw Error(text);
+      }
+    }
     CanFrame frame{};
     while (port_.Read(frame)) HandleFrame(frame);  // whatever came before is not this bring-up's
     boot_seen_ = false;
@@ -369,19 +533,36 @@ void Cia402Drive::Configure() {
       throw Error(where + ": the CAN port refused the NMT command");
     }
     WaitForBoot();
-    const std::uint32_t device_type = sdo_.Upload(obj301::kDeviceType, 0, 4);
+    // The identity, name, versions and error history first (logged, so a refusal below names the drive).
+    if (config_.read_device_info) {
+      spdlog::info("CiA 402 drive node {}: {}", config_.node_id, ReadDeviceInfo().Describe());
+    }
+    const std::uint32_t device_type =
+        config_.read_device_info ? info_.device_type : sdo_.Upload(obj301::kDeviceType, 0, 4);
     if ((device_type & 0xFFFFu) != cia402::kDeviceProfile402) {
       throw Error(fmt::format("{}: device type 0x{:08X} is not a CiA 402 drive (profile 0x{:04X}, expected 0x0192)",
                               where, device_type, device_type & 0xFFFFu));
     }
-    const std::uint32_t modes = sdo_.Upload(obj::kSupportedDriveModes, 0, 4);
-    if ((modes & (1u << 9)) == 0) {
-      throw Error(fmt::format(
-          "{}: the drive does not support cyclic synchronous torque (0x6502 = 0x{:08X}, bit 9 clear)", where, modes));
+    const auto mode = static_cast<std::int8_t>(config_.mode);
+    const bool torque_mode = config_.mode == Cia402Mode::kCyclicSynchronousTorque;
+    const std::uint32_t modes = config_.read_device_info && info_.supported_modes_present
+                                    ? info_.supported_modes
+                                    : sdo_.Upload(obj::kSupportedDriveModes, 0, 4);
+    if ((modes & cia402::SupportedModeBit(mode)) == 0) {
+      throw Error(fmt::format("{}: the drive does not support {} (0x6502 = 0x{:08X}, bit {} clear)", where,
+                              ToString(config_.mode), modes, mode - 1));
     }
-    const std::uint32_t rated_mNm = sdo_.Upload(obj::kRatedTorque, 0, 4);
+    // The rated torque scales 0x6071/0x6072/0x6077: required in torque mode, checked when present otherwise.
+    std::uint32_t rated_mNm = 0;
+    bool rated_present = true;
+    if (torque_mode) {
+      rated_mNm = sdo_.Upload(obj::kRatedTorque, 0, 4);
+    } else {
+      ReadOptional(rated_present, [&] { rated_mNm = sdo_.Upload(obj::kRatedTorque, 0, 4); });
+    }
     const double rated_Nm = rated_mNm * 1e-3;
-    if (std::abs(rated_Nm - config_.scaling.rated_torque_Nm) > 1e-3 + 1e-3 * config_.scaling.rated_torque_Nm) {
+    if (rated_present &&
+        std::abs(rated_Nm - config_.scaling.rated_torque_Nm) > 1e-3 + 1e-3 * config_.scaling.rated_torque_Nm) {
       throw Error(
           fmt::format("{}: the drive's rated torque 0x6076 is {:g} N·m, the configuration says {:g} N·m "
                       "(scaling.rated_torque_Nm)",
@@ -423,14 +604,20 @@ void Cia402Drive::Configure() {
                       canopen::cob::kInvalidBit | canopen::cob::DefaultTpdo(n, config_.node_id), 4);
       }
     }
-    sdo_.Download(obj::kModesOfOperation, 0, static_cast<std::uint8_t>(cia402::kModeCyclicSynchronousTorque), 1);
-    const auto mode = static_cast<std::int8_t>(sdo_.Upload(obj::kModesOfOperationDisplay, 0, 1));
-    if (mode != cia402::kModeCyclicSynchronousTorque) {
-      throw Error(fmt::format("{}: modes of operation display 0x6061 is {} after writing 10 to 0x6060", where, mode));
+    sdo_.Download(obj::kModesOfOperation, 0, static_cast<std::uint8_t>(mode), 1);
+    const auto display = static_cast<std::int8_t>(sdo_.Upload(obj::kModesOfOperationDisplay, 0, 1));
+    if (display != mode) {
+      throw Error(
+          fmt::format("{}: modes of operation display 0x6061 is {} after writing {} to 0x6060", where, display, mode));
     }
-    sdo_.Download(
-        obj::kMaxTorque, 0,
-        static_cast<std::uint32_t>(std::lround(config_.max_torque_Nm / config_.scaling.rated_torque_Nm * 1000.0)), 2);
+    const auto max_torque =
+        static_cast<std::uint32_t>(std::lround(config_.max_torque_Nm / config_.scaling.rated_torque_Nm * 1000.0));
+    if (torque_mode) {
+      sdo_.Download(obj::kMaxTorque, 0, max_torque, 2);
+    } else {  // the torque limit of the drive's loops, where it has one
+      bool present = false;
+      ReadOptional(present, [&] { sdo_.Download(obj::kMaxTorque, 0, max_torque, 2); });
+    }
     if (config_.quick_stop_option_code) {
       sdo_.Download(obj::kQuickStopOptionCode, 0, static_cast<std::uint16_t>(*config_.quick_stop_option_code), 2);
     }
@@ -438,7 +625,10 @@ void Cia402Drive::Configure() {
       sdo_.Download(obj::kFaultReactionOptionCode, 0, static_cast<std::uint16_t>(*config_.fault_reaction_option_code),
                     2);
     }
-    sdo_.Download(obj::kTargetTorque, 0, 0, 2);
+    if (config_.halt_option_code) {
+      sdo_.Download(obj::kHaltOptionCode, 0, static_cast<std::uint16_t>(*config_.halt_option_code), 2);
+    }
+    WriteHoldTarget();
     configured_ = true;
   } catch (const Error& e) {
     last_error_ = e.what();
@@ -458,7 +648,7 @@ void Cia402Drive::Activate() {
     if (port_.Write(canopen::EncodeNmt(NmtCommand::kStart, config_.node_id)) != transport::CanWriteStatus::kOk) {
       throw Error(where + ": the CAN port refused NMT start");
     }
-    sdo_.Download(obj::kTargetTorque, 0, 0, 2);
+    WriteHoldTarget();
     DriveState state = DriveState::kUnknown;
     std::uint16_t sent = controlword_;
     std::string fault_text;
@@ -556,28 +746,67 @@ Cia402Status Cia402Drive::Read(Cia402Reading& reading) noexcept {
   return fresh ? Cia402Status::kOk : Cia402Status::kNoNewData;
 }
 
-Cia402Status Cia402Drive::Write(double torque_Nm) noexcept {
+Cia402Status Cia402Drive::Write(double setpoint) noexcept {
   if (!active_) return Cia402Status::kNotActive;
   const std::uint64_t now = timebase_.now_ns();
   Cia402Status status = Cia402Status::kOk;
-  if (!std::isfinite(torque_Nm)) {
-    ++counters_.non_finite_commands;
-    torque_Nm = 0.0;
-  }
-  if (std::abs(torque_Nm) > config_.max_torque_Nm) {
-    ++counters_.torque_clamped;
-    torque_Nm = std::clamp(torque_Nm, -config_.max_torque_Nm, config_.max_torque_Nm);
-  }
   const bool unsafe = fault_latched_ || heartbeat_lost_ || bus_off_;
-  if (quick_stop_requested_ || unsafe) torque_Nm = 0.0;
-  commanded_torque_Nm_ = torque_Nm;
+  const Cia402Scaling& sc = config_.scaling;
+  std::uint32_t raw = 0;
+  switch (config_.mode) {
+    case Cia402Mode::kCyclicSynchronousTorque: {
+      double torque_Nm = setpoint;
+      if (!std::isfinite(torque_Nm)) {
+        ++counters_.non_finite_commands;
+        torque_Nm = 0.0;
+      }
+      if (std::abs(torque_Nm) > config_.max_torque_Nm) {
+        ++counters_.torque_clamped;
+        torque_Nm = std::clamp(torque_Nm, -config_.max_torque_Nm, config_.max_torque_Nm);
+      }
+      if (quick_stop_requested_ || unsafe) torque_Nm = 0.0;
+      commanded_torque_Nm_ = torque_Nm;
+      raw = static_cast<std::uint16_t>(
+          static_cast<std::int16_t>(std::lround(sc.sign * torque_Nm / sc.rated_torque_Nm * 1000.0)));
+      break;
+    }
+    case Cia402Mode::kCyclicSynchronousVelocity: {
+      double velocity = setpoint;
+      if (!std::isfinite(velocity)) {
+        ++counters_.non_finite_commands;
+        velocity = 0.0;
+      }
+      const double limit = config_.max_velocity_rad_per_s;
+      if (limit > 0.0 && std::abs(velocity) > limit) {
+        ++counters_.velocity_clamped;
+        velocity = std::clamp(velocity, -limit, limit);
+      }
+      if (quick_stop_requested_ || unsafe) velocity = 0.0;
+      raw = static_cast<std::uint32_t>(ClampToI32(sc.sign * velocity / sc.velocity_rad_per_s_per_unit));
+      break;
+    }
+    case Cia402Mode::kCyclicSynchronousPosition: {
+      double position = setpoint;
+      if (!std::isfinite(position)) {
+        ++counters_.non_finite_commands;
+        position = position_target_rad_;
+      }
+      if (quick_stop_requested_ || unsafe) position = position_target_rad_;
+      const double step = config_.max_velocity_rad_per_s * config_.cycle_period_s;
+      if (step > 0.0 && std::abs(position - position_target_rad_) > step) {
+        ++counters_.position_step_clamped;
+        position = std::clamp(position, position_target_rad_ - step, position_target_rad_ + step);
+      }
+      position_target_rad_ = position;
+      raw = static_cast<std::uint32_t>(ClampToI32(sc.sign * position / sc.position_rad_per_count));
+      break;
+    }
+  }
   controlword_ = quick_stop_requested_ ? cia402::cw::kCmdQuickStop : cia402::cw::kCmdEnableOperation;
-  const auto per_mille = static_cast<std::int16_t>(
-      std::lround(config_.scaling.sign * torque_Nm / config_.scaling.rated_torque_Nm * 1000.0));
+  if (halt_requested_) controlword_ |= cia402::cw::kHalt;
   rpdo_values_[static_cast<std::size_t>(controlword_slot_.pdo)][static_cast<std::size_t>(controlword_slot_.entry)] =
       controlword_;
-  rpdo_values_[static_cast<std::size_t>(target_torque_slot_.pdo)][static_cast<std::size_t>(target_torque_slot_.entry)] =
-      static_cast<std::uint16_t>(per_mille);
+  rpdo_values_[static_cast<std::size_t>(target_slot_.pdo)][static_cast<std::size_t>(target_slot_.entry)] = raw;
   for (int p = 0; p < rpdo_count_; ++p) {
     const auto i = static_cast<std::size_t>(p);
     CanFrame frame{};
@@ -612,7 +841,7 @@ void Cia402Drive::RequestQuickStop() noexcept { quick_stop_requested_ = true; }
 bool Cia402Drive::Deactivate() noexcept {
   active_ = false;
   try {
-    sdo_.Download(obj::kTargetTorque, 0, 0, 2);
+    if (config_.mode != Cia402Mode::kCyclicSynchronousPosition) WriteHoldTarget();
     const DriveState state = cia402::DecodeStatusword(static_cast<std::uint16_t>(sdo_.Upload(obj::kStatusword, 0, 2)));
     if (state == DriveState::kOperationEnabled) {
       sdo_.Download(obj::kControlword, 0, cia402::cw::kCmdSwitchOn, 2);  // 5: disable operation
@@ -626,6 +855,25 @@ bool Cia402Drive::Deactivate() noexcept {
     last_error_ = fmt::format("CiA 402 drive node {}: deactivate: {}", config_.node_id, e.what());
     (void)port_.Write(canopen::EncodeNmt(NmtCommand::kEnterPreOperational, config_.node_id));
     return false;
+  }
+}
+
+void Cia402Drive::WriteHoldTarget() {
+  switch (config_.mode) {
+    case Cia402Mode::kCyclicSynchronousTorque:
+      sdo_.Download(obj::kTargetTorque, 0, 0, 2);
+      return;
+    case Cia402Mode::kCyclicSynchronousVelocity:
+      sdo_.Download(obj::kTargetVelocity, 0, 0, 4);
+      return;
+    case Cia402Mode::kCyclicSynchronousPosition: {
+      // The target where the joint is: enabling must not make it jump.
+      const std::uint32_t actual = sdo_.Upload(obj::kPositionActual, 0, 4);
+      sdo_.Download(obj::kTargetPosition, 0, actual, 4);
+      position_target_rad_ = config_.scaling.sign * config_.scaling.position_rad_per_count *
+                             static_cast<double>(static_cast<std::int32_t>(actual));
+      return;
+    }
   }
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/canopen_sdo.hpp"
@@ -21,6 +22,8 @@ namespace {
 
 constexpr std::uint64_t kResetCommunicationTime_ns = 1'000'000;
 constexpr std::uint64_t kFaultReactionTime_ns = 1'000'000;
+/// A manufacturer-specific VISIBLE_STRING (read-write, up to 32 bytes): the object segmented downloads are tested on.
+constexpr std::uint16_t kLabelObject = 0x2000;
 
 PdoMapping Mapping(int number, std::initializer_list<PdoEntry> entries) {
   PdoMapping m{};
@@ -51,6 +54,9 @@ int MappableBytes(std::uint16_t index, std::uint8_t subindex, bool tpdo) noexcep
     case obj::kControlword:
     case obj::kTargetTorque:
       return 2;
+    case obj::kTargetPosition:
+    case obj::kTargetVelocity:
+      return 4;
     case obj::kModesOfOperation:
       return 1;
     default:
@@ -81,6 +87,9 @@ struct SimulatedCia402Drive::Dictionary {
   std::int16_t quick_stop_option = 2;
   std::int16_t fault_reaction_option = 2;
   std::uint16_t max_torque = 1000;
+  std::int16_t halt_option = 1;
+  std::uint32_t profile_deceleration = 0;     // velocity units per s
+  std::uint32_t quick_stop_deceleration = 0;  // velocity units per s
 
   void Reset(const SimulatedCia402DriveConfig& c) {
     // A factory mapping unlike the client's (statusword alone in TPDO1, position alone in TPDO2, no torque in
@@ -101,6 +110,11 @@ struct SimulatedCia402Drive::Dictionary {
     cycle_period_us = 0;
     consumer_heartbeat = 0;
     producer_heartbeat_ms = c.heartbeat_period_ms;
+    halt_option = 1;
+    profile_deceleration =
+        static_cast<std::uint32_t>(std::llround(c.profile_deceleration_rad_per_s2 / c.velocity_rad_per_s_per_unit));
+    quick_stop_deceleration =
+        static_cast<std::uint32_t>(std::llround(c.quick_stop_deceleration_rad_per_s2 / c.velocity_rad_per_s_per_unit));
   }
 };
 
@@ -115,6 +129,12 @@ SimulatedCia402Drive::SimulatedCia402Drive(const SimulatedCia402DriveConfig& con
   }
   dict_->Reset(config_);
   dict_->max_torque = config.max_torque_per_mille;
+  // 0x1008..0x100A as bytes, kept here so that serving them allocates nothing.
+  const std::string* texts[] = {&config.device_name, &config.hardware_version, &config.software_version};
+  for (std::size_t k = 0; k < strings_.size(); ++k) {
+    string_sizes_[k] = std::min(texts[k]->size(), strings_[k].size());
+    std::copy_n(texts[k]->begin(), string_sizes_[k], strings_[k].begin());
+  }
 }
 
 SimulatedCia402Drive::~SimulatedCia402Drive() = default;
@@ -160,9 +180,86 @@ const PdoMapping& SimulatedCia402Drive::tpdo(int n) const noexcept {
   return dict_->tpdo[static_cast<std::size_t>(std::clamp(n, 1, 4) - 1)];
 }
 
+double SimulatedCia402Drive::TorqueLimit_Nm() const noexcept {
+  return std::min<int>(dict_->max_torque, 32767) * 1e-3 * config_.rated_torque_mNm * 1e-3;
+}
+
+double SimulatedCia402Drive::VelocityLoop(double velocity_ref, double h) noexcept {
+  const SimulatedLoopConfig& l = config_.loops;
+  const double limit = TorqueLimit_Nm();
+  const double error = velocity_ref - velocity_rad_per_s_;
+  const double unclamped = l.velocity_kp_Nms_per_rad * error + velocity_integral_Nm_;
+  // Conditional integration (anti-windup): the integral grows only while the output is not at the limit.
+  if (std::abs(unclamped) < limit) {
+    velocity_integral_Nm_ = std::clamp(velocity_integral_Nm_ + l.velocity_ki_Nm_per_rad * error * h, -limit, limit);
+  }
+  return std::clamp(unclamped, -limit, limit);
+}
+
+double SimulatedCia402Drive::LoopTorque(double h) noexcept {
+  const cia402::DriveState st = machine_.state();
+  const bool enabled = st == cia402::DriveState::kOperationEnabled;
+  const bool halted = enabled && (controlword_ & cia402::cw::kHalt) != 0;
+  const SimulatedLoopConfig& l = config_.loops;
+  if (enabled && !halted) {
+    stopping_ = false;
+    holding_ = false;
+    switch (mode_) {
+      case cia402::kModeCyclicSynchronousTorque:
+        velocity_integral_Nm_ = 0.0;
+        return commanded_torque_Nm();
+      case cia402::kModeCyclicSynchronousVelocity:
+        return VelocityLoop(target_velocity_ * config_.velocity_rad_per_s_per_unit, h);
+      case cia402::kModeCyclicSynchronousPosition:
+        return VelocityLoop(l.position_kp_per_s * (target_position_ * config_.position_rad_per_count - position_rad_),
+                            h);
+      default:
+        return 0.0;
+    }
+  }
+  if (halted || st == cia402::DriveState::kQuickStopActive) {
+    // The deceleration: halt by 0x605D (1 profile, 2 quick stop, 3/4 at the torque limit), quick stop by 0x605A
+    // (1/5 profile, 2/6 quick stop, 3/4/7/8 at the torque limit).
+    const int option = halted ? dict_->halt_option : dict_->quick_stop_option;
+    const int ramp = halted ? option : (option > 4 ? option - 4 : option);
+    double decel = std::numeric_limits<double>::infinity();
+    if (ramp == 1) decel = dict_->profile_deceleration * config_.velocity_rad_per_s_per_unit;
+    if (ramp == 2) decel = dict_->quick_stop_deceleration * config_.velocity_rad_per_s_per_unit;
+    if (!stopping_) {
+      stopping_ = true;
+      holding_ = false;
+      stop_velocity_ref_ = velocity_rad_per_s_;
+    }
+    const double step = decel * h;
+    stop_velocity_ref_ =
+        std::abs(stop_velocity_ref_) <= step ? 0.0 : stop_velocity_ref_ - std::copysign(step, stop_velocity_ref_);
+    if (!holding_ && stop_velocity_ref_ == 0.0 && std::abs(velocity_rad_per_s_) < l.standstill_rad_per_s) {
+      holding_ = true;
+      hold_position_rad_ = position_rad_;
+      // Quick stop options 1..4 end in Switch On Disabled once at rest (transition 12); 5..8 stay and hold.
+      if (!halted && option >= 1 && option <= 4) {
+        (void)machine_.Apply(cia402::cw::kCmdDisableVoltage, true);
+        stopping_ = false;
+        holding_ = false;
+        velocity_integral_Nm_ = 0.0;
+        return 0.0;
+      }
+    }
+    return VelocityLoop(holding_ ? l.position_kp_per_s * (hold_position_rad_ - position_rad_) : stop_velocity_ref_, h);
+  }
+  stopping_ = false;
+  holding_ = false;
+  velocity_integral_Nm_ = 0.0;
+  return 0.0;
+}
+
 double SimulatedCia402Drive::commanded_torque_Nm() const noexcept {
-  if (machine_.state() != cia402::DriveState::kOperationEnabled || mode_ != cia402::kModeCyclicSynchronousTorque) {
-    return 0.0;
+  if (machine_.state() != cia402::DriveState::kOperationEnabled || mode_ != cia402::kModeCyclicSynchronousTorque ||
+      (controlword_ & cia402::cw::kHalt) != 0) {
+    return machine_.state() == cia402::DriveState::kOperationEnabled ||
+                   machine_.state() == cia402::DriveState::kQuickStopActive
+               ? command_Nm_
+               : 0.0;
   }
   const int limit = std::min<int>(dict_->max_torque, 32767);
   const int per_mille = std::clamp<int>(target_torque_, -limit, limit);
@@ -185,6 +282,11 @@ void SimulatedCia402Drive::Boot(std::uint64_t now_ns) noexcept {
 
 void SimulatedCia402Drive::EnterFault(std::uint16_t error_code) noexcept {
   machine_.Fault();
+  // 0x1003: the newest error at sub 1 (the error code in bits 0..15, no manufacturer information).
+  std::copy_backward(error_history_.begin(), error_history_.end() - 1, error_history_.end());
+  error_history_[0] = error_code;
+  error_history_count_ =
+      static_cast<std::uint8_t>(std::min<std::size_t>(error_history_count_ + 1u, error_history_.size()));
   error_code_ = error_code;
   error_register_ =
       static_cast<std::uint8_t>(0x01 | ((error_code >> 12) == 0x8 ? 0x10 : 0) | ((error_code >> 12) == 0x2 ? 0x02 : 0));
@@ -210,6 +312,11 @@ void SimulatedCia402Drive::Step(std::uint64_t now_ns) noexcept {
   CanFrame frame{};
   while (port_.Read(frame)) HandleFrame(frame, now_ns);
   if (!booted_) return;
+  // SDO server: a segmented transfer whose client went silent is aborted (CiA 301 0x05040000).
+  if (transfer_.phase != SdoTransfer::Phase::kIdle &&
+      now_ns > transfer_.last_ns + static_cast<std::uint64_t>(std::llround(config_.sdo_server_timeout_ms * 1e6))) {
+    SendSdoAbort(transfer_.index, transfer_.subindex, abort_code::kTimeout);
+  }
   // Heartbeat producer.
   if (dict_->producer_heartbeat_ms > 0 && now_ns >= next_heartbeat_ns_) {
     if (!heartbeat_muted_) {
@@ -254,9 +361,12 @@ void SimulatedCia402Drive::HandleFrame(const CanFrame& frame, std::uint64_t now_
         machine_ = cia402::DriveStateMachine{};
         mode_ = 0;
         target_torque_ = 0;
+        target_position_ = 0;
+        target_velocity_ = 0;
         error_code_ = 0;
         error_register_ = 0;
         booted_ = false;
+        transfer_.phase = SdoTransfer::Phase::kIdle;
         boot_at_ns_ = now_ns + static_cast<std::uint64_t>(std::llround(config_.boot_time_ms * 1e6));
         break;
       }
@@ -265,6 +375,7 @@ void SimulatedCia402Drive::HandleFrame(const CanFrame& frame, std::uint64_t now_
         dict_->Reset(config_);
         dict_->max_torque = max_torque;
         booted_ = false;
+        transfer_.phase = SdoTransfer::Phase::kIdle;
         boot_at_ns_ = now_ns + kResetCommunicationTime_ns;
         break;
       }
@@ -273,7 +384,7 @@ void SimulatedCia402Drive::HandleFrame(const CanFrame& frame, std::uint64_t now_
   }
   if (!booted_) return;
   if (frame.id == canopen::cob::kSdoRx + config_.node_id) {
-    if (nmt_ != NmtState::kStopped) HandleSdo(frame);
+    if (nmt_ != NmtState::kStopped) HandleSdo(frame, now_ns);
     return;
   }
   std::uint8_t counter = 0;
@@ -318,6 +429,8 @@ void SimulatedCia402Drive::HandleRpdo(int n, const CanFrame& frame) noexcept {
     const std::uint32_t v = values[static_cast<std::size_t>(k)];
     if (e.index == obj::kControlword) pending_controlword_ = static_cast<std::uint16_t>(v);
     if (e.index == obj::kTargetTorque) pending_target_torque_ = static_cast<std::int16_t>(v);
+    if (e.index == obj::kTargetPosition) pending_target_position_ = static_cast<std::int32_t>(v);
+    if (e.index == obj::kTargetVelocity) pending_target_velocity_ = static_cast<std::int32_t>(v);
     if (e.index == obj::kModesOfOperation) mode_ = static_cast<std::int8_t>(v);
   }
   pending_rpdo_ = true;
@@ -329,9 +442,11 @@ void SimulatedCia402Drive::HandleSync() noexcept {
   if (pending_rpdo_) {
     pending_rpdo_ = false;
     target_torque_ = pending_target_torque_;
+    target_position_ = pending_target_position_;
+    target_velocity_ = pending_target_velocity_;
     if (pending_controlword_ != controlword_ || (pending_controlword_ & cia402::cw::kFaultReset) != 0) {
       controlword_ = pending_controlword_;
-      const int t = machine_.Apply(controlword_, dict_->quick_stop_option <= 4);
+      const int t = machine_.Apply(controlword_, dict_->quick_stop_option == 0);
       if (t == 15) {
         ++counters_.fault_resets;
         error_code_ = 0;
@@ -383,42 +498,211 @@ void SimulatedCia402Drive::HandleSync() noexcept {
 
 std::uint16_t SimulatedCia402Drive::Statusword() const noexcept {
   std::uint16_t s = machine_.Statusword() | cia402::sw::kRemote;
-  if (machine_.state() == cia402::DriveState::kOperationEnabled && mode_ == cia402::kModeCyclicSynchronousTorque) {
+  const bool cyclic = mode_ == cia402::kModeCyclicSynchronousTorque ||
+                      mode_ == cia402::kModeCyclicSynchronousVelocity ||
+                      mode_ == cia402::kModeCyclicSynchronousPosition;
+  const bool halted = (controlword_ & cia402::cw::kHalt) != 0;
+  if (machine_.state() == cia402::DriveState::kOperationEnabled && cyclic && !halted) {
     s |= cia402::sw::kFollowsCommand;
   }
+  // Halt: target reached (bit 10) once the drive is at rest (CiA 402, statusword of the cyclic modes).
+  if (machine_.state() == cia402::DriveState::kOperationEnabled && halted && holding_) s |= cia402::sw::kTargetReached;
   return s;
 }
 
-void SimulatedCia402Drive::HandleSdo(const CanFrame& frame) noexcept {
+void SimulatedCia402Drive::SendSdoAbort(std::uint16_t index, std::uint8_t subindex, std::uint32_t code) noexcept {
+  Send(canopen::EncodeSdoAbort(canopen::cob::kSdoTx + config_.node_id, index, subindex, code));
+  ++counters_.sdo_aborts_sent;
+  transfer_.phase = SdoTransfer::Phase::kIdle;
+}
+
+void SimulatedCia402Drive::FlushResetEmergency() noexcept {
+  if (!reset_emcy_pending_) return;
+  reset_emcy_pending_ = false;
+  Send(canopen::EncodeEmergency(config_.node_id, canopen::Emergency{}));
+  ++counters_.emergencies_sent;
+}
+
+bool SimulatedCia402Drive::ByteObject(std::uint16_t index, std::uint8_t subindex, std::span<const std::uint8_t>& bytes,
+                                      bool& writable) const noexcept {
+  if (subindex != 0) return false;
+  writable = false;
+  switch (index) {
+    case obj301::kDeviceName:
+    case obj301::kHardwareVersion:
+    case obj301::kSoftwareVersion: {
+      const auto k = static_cast<std::size_t>(index - obj301::kDeviceName);
+      bytes = std::span<const std::uint8_t>(strings_[k].data(), string_sizes_[k]);
+      return true;
+    }
+    case kLabelObject:
+      bytes = std::span<const std::uint8_t>(label_.data(), label_size_);
+      writable = true;
+      return true;
+    default:
+      return false;
+  }
+}
+
+void SimulatedCia402Drive::StoreLabel(std::span<const std::uint8_t> bytes) noexcept {
+  label_size_ = std::min(bytes.size(), label_.size());
+  std::copy_n(bytes.begin(), label_size_, label_.begin());
+}
+
+void SimulatedCia402Drive::HandleSdo(const CanFrame& frame, std::uint64_t now_ns) noexcept {
+  using Kind = canopen::SdoMessage::Kind;
+  using Phase = SdoTransfer::Phase;
   canopen::SdoMessage m{};
   if (!canopen::DecodeSdoRequest(frame, m)) return;
   ++counters_.sdo_requests;
-  if (m.kind == canopen::SdoMessage::Kind::kAbort) return;
+  if (m.kind == Kind::kAbort) {  // the client ends the transfer; an abort is never answered
+    transfer_.phase = Phase::kIdle;
+    return;
+  }
   if (drop_sdo_ > 0) {
     --drop_sdo_;
     return;
   }
-  const std::uint32_t reply_id = canopen::cob::kSdoTx + config_.node_id;
-  auto abort = [&](std::uint32_t code) {
-    Send(canopen::EncodeSdoAbort(reply_id, m.index, m.subindex, code));
-    ++counters_.sdo_aborts_sent;
-  };
-  if (m.kind == canopen::SdoMessage::Kind::kUnsupported) return abort(abort_code::kBadCommand);
-  if (abort_index_ != 0 && m.index == abort_index_) return abort(abort_code_);
+  if (m.kind == Kind::kUploadSegmentRequest || m.kind == Kind::kDownloadSegmentRequest) {
+    return HandleSdoSegment(m, now_ns);
+  }
+  if (m.kind != Kind::kUploadRequest && m.kind != Kind::kDownloadRequest &&
+      m.kind != Kind::kDownloadInitiateSegmented) {
+    return SendSdoAbort(m.index, m.subindex, abort_code::kBadCommand);  // block transfers, reserved specifiers
+  }
+  if (ignore_index_ != 0 && m.index == ignore_index_) return;
+  transfer_.phase = Phase::kIdle;  // a new initiate ends a transfer the client gave up
+  if (abort_index_ != 0 && m.index == abort_index_) return SendSdoAbort(m.index, m.subindex, abort_code_);
+  std::span<const std::uint8_t> bytes;
+  bool writable = false;
+  const bool is_bytes = ByteObject(m.index, m.subindex, bytes, writable);
+  if (m.kind == Kind::kUploadRequest && is_bytes) {
+    if (!bytes.empty() && bytes.size() <= 4) {
+      std::uint32_t value = 0;
+      for (std::size_t i = bytes.size(); i > 0; --i) value = value << 8 | bytes[i - 1];
+      Send(canopen::EncodeSdoUploadResponse(config_.node_id, m.index, m.subindex, value,
+                                            static_cast<std::uint8_t>(bytes.size())));
+      return;
+    }
+    transfer_ = SdoTransfer{};
+    transfer_.phase = Phase::kUpload;
+    transfer_.index = m.index;
+    transfer_.subindex = m.subindex;
+    transfer_.size = bytes.size();
+    transfer_.last_ns = now_ns;
+    std::copy(bytes.begin(), bytes.end(), transfer_.buffer.begin());
+    Send(canopen::EncodeSdoInitiateUploadSegmented(config_.node_id, m.index, m.subindex,
+                                                   static_cast<std::uint32_t>(bytes.size())));
+    return;
+  }
+  if (is_bytes && !writable && m.kind != Kind::kUploadRequest) {
+    return SendSdoAbort(m.index, m.subindex, abort_code::kReadOnly);
+  }
+  if (m.kind == Kind::kDownloadRequest && is_bytes) {
+    std::array<std::uint8_t, 4> value{};
+    for (std::size_t i = 0; i < value.size(); ++i) value[i] = static_cast<std::uint8_t>(m.value >> (8 * i));
+    StoreLabel(std::span<const std::uint8_t>(value.data(), m.size));
+    Send(canopen::EncodeSdoDownloadResponse(config_.node_id, m.index, m.subindex));
+    return;
+  }
+  if (m.kind == Kind::kDownloadInitiateSegmented) {
+    const std::size_t capacity = is_bytes ? label_.size() : 4;
+    if (m.size_indicated && m.value > capacity) return SendSdoAbort(m.index, m.subindex, abort_code::kLengthTooHigh);
+    transfer_ = SdoTransfer{};
+    transfer_.phase = Phase::kDownload;
+    transfer_.index = m.index;
+    transfer_.subindex = m.subindex;
+    transfer_.size_indicated = m.size_indicated;
+    transfer_.size = m.value;
+    transfer_.capacity = capacity;
+    transfer_.last_ns = now_ns;
+    Send(canopen::EncodeSdoDownloadResponse(config_.node_id, m.index, m.subindex));
+    return;
+  }
+  std::uint32_t value = 0;
+  std::uint8_t size = 0;
+  if (const std::uint32_t code = Access(m, value, size)) return SendSdoAbort(m.index, m.subindex, code);
+  if (m.kind == Kind::kUploadRequest) {
+    Send(canopen::EncodeSdoUploadResponse(config_.node_id, m.index, m.subindex, value, size));
+  } else {
+    Send(canopen::EncodeSdoDownloadResponse(config_.node_id, m.index, m.subindex));
+  }
+  FlushResetEmergency();
+}
+
+void SimulatedCia402Drive::HandleSdoSegment(const canopen::SdoMessage& m, std::uint64_t now_ns) noexcept {
+  using Kind = canopen::SdoMessage::Kind;
+  using Phase = SdoTransfer::Phase;
+  SdoTransfer& t = transfer_;
+  const bool upload = m.kind == Kind::kUploadSegmentRequest;
+  // A segment outside a transfer of its direction: command specifier not valid (CiA 301 abort 0x05040001).
+  if (t.phase != (upload ? Phase::kUpload : Phase::kDownload)) {
+    return SendSdoAbort(t.phase == Phase::kIdle ? 0 : t.index, t.phase == Phase::kIdle ? 0 : t.subindex,
+                        abort_code::kBadCommand);
+  }
+  if (m.toggle != t.toggle) return SendSdoAbort(t.index, t.subindex, abort_code::kToggleBit);
+  t.last_ns = now_ns;
+  ++counters_.sdo_segments;
+  if (upload) {
+    const std::size_t chunk = std::min(canopen::kSdoSegmentBytes, t.size - t.offset);
+    const bool last = t.offset + chunk == t.size;
+    Send(canopen::EncodeSdoUploadSegment(config_.node_id, t.toggle,
+                                         std::span<const std::uint8_t>(t.buffer.data() + t.offset, chunk), last));
+    t.offset += chunk;
+    t.toggle = !t.toggle;
+    if (last) t.phase = Phase::kIdle;
+    return;
+  }
+  if (t.offset + m.segment_size > t.capacity) return SendSdoAbort(t.index, t.subindex, abort_code::kLengthTooHigh);
+  std::copy_n(m.segment.begin(), m.segment_size, t.buffer.begin() + static_cast<std::ptrdiff_t>(t.offset));
+  t.offset += m.segment_size;
+  if (!m.last) {
+    Send(canopen::EncodeSdoDownloadSegmentResponse(config_.node_id, t.toggle));
+    t.toggle = !t.toggle;
+    return;
+  }
+  if (t.size_indicated && t.offset != t.size) return SendSdoAbort(t.index, t.subindex, abort_code::kLengthMismatch);
+  std::span<const std::uint8_t> bytes;
+  bool writable = false;
+  if (ByteObject(t.index, t.subindex, bytes, writable)) {
+    StoreLabel(std::span<const std::uint8_t>(t.buffer.data(), t.offset));
+  } else {
+    if (t.offset == 0) return SendSdoAbort(t.index, t.subindex, abort_code::kLengthTooLow);
+    canopen::SdoMessage write{};
+    write.kind = Kind::kDownloadRequest;
+    write.index = t.index;
+    write.subindex = t.subindex;
+    write.size = static_cast<std::uint8_t>(t.offset);
+    for (std::size_t i = t.offset; i > 0; --i) write.value = write.value << 8 | t.buffer[i - 1];
+    std::uint32_t unused_value = 0;
+    std::uint8_t unused_size = 0;
+    if (const std::uint32_t code = Access(write, unused_value, unused_size)) {
+      return SendSdoAbort(t.index, t.subindex, code);
+    }
+  }
+  Send(canopen::EncodeSdoDownloadSegmentResponse(config_.node_id, t.toggle));
+  t.phase = Phase::kIdle;
+  FlushResetEmergency();
+}
+
+std::uint32_t SimulatedCia402Drive::Access(const canopen::SdoMessage& m, std::uint32_t& out_value,
+                                           std::uint8_t& out_size) noexcept {
+  auto abort = [](std::uint32_t code) { return code; };
   Dictionary& d = *dict_;
   const bool upload = m.kind == canopen::SdoMessage::Kind::kUploadRequest;
   const std::uint8_t sub = m.subindex;
   const std::uint32_t v = m.value;
   // ---- Reads ----
   auto reply = [&](std::uint32_t value, std::uint8_t size) {
-    Send(canopen::EncodeSdoUploadResponse(config_.node_id, m.index, sub, value, size));
+    out_value = value;
+    out_size = size;
+    return std::uint32_t{0};
   };
-  auto ok = [&] { Send(canopen::EncodeSdoDownloadResponse(config_.node_id, m.index, sub)); };
-  // Checks the length of a download against the object's.
-  auto length_ok = [&](std::uint8_t size) {
-    if (m.size == size) return true;
-    abort(m.size > size ? abort_code::kLengthTooHigh : abort_code::kLengthTooLow);
-    return false;
+  auto ok = [] { return std::uint32_t{0}; };
+  // Checks the length of a download against the object's: 0 or the abort code.
+  auto length = [&](std::uint8_t size) -> std::uint32_t {
+    if (m.size == size) return 0;
+    return m.size > size ? abort_code::kLengthTooHigh : abort_code::kLengthTooLow;
   };
   const std::uint16_t index = m.index;
   if (index >= obj301::kRpdoCommunication && index < obj301::kRpdoCommunication + 4) {
@@ -426,14 +710,14 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame) noexcept {
     if (sub == 0) return upload ? reply(2, 1) : abort(abort_code::kReadOnly);
     if (sub == 1) {
       if (upload) return reply(d.rpdo_cob[i] | (d.rpdo_valid[i] ? 0u : canopen::cob::kInvalidBit), 4);
-      if (!length_ok(4)) return;
+      if (const std::uint32_t c = length(4)) return c;
       d.rpdo_valid[i] = (v & canopen::cob::kInvalidBit) == 0;
       d.rpdo_cob[i] = v & 0x7FFu;
       return ok();
     }
     if (sub == 2) {
       if (upload) return reply(d.rpdo[i].transmission_type, 1);
-      if (!length_ok(1)) return;
+      if (const std::uint32_t c = length(1)) return c;
       if (v == 0 || (v > 240 && v < 254) || v > 255) return abort(abort_code::kValueRange);
       d.rpdo[i].transmission_type = static_cast<std::uint8_t>(v);
       return ok();
@@ -445,14 +729,14 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame) noexcept {
     if (sub == 0) return upload ? reply(2, 1) : abort(abort_code::kReadOnly);
     if (sub == 1) {
       if (upload) return reply(d.tpdo_cob[i] | (d.tpdo_valid[i] ? 0u : canopen::cob::kInvalidBit), 4);
-      if (!length_ok(4)) return;
+      if (const std::uint32_t c = length(4)) return c;
       d.tpdo_valid[i] = (v & canopen::cob::kInvalidBit) == 0;
       d.tpdo_cob[i] = v & 0x7FFu;
       return ok();
     }
     if (sub == 2) {
       if (upload) return reply(d.tpdo[i].transmission_type, 1);
-      if (!length_ok(1)) return;
+      if (const std::uint32_t c = length(1)) return c;
       if (v == 0 || (v > 240 && v < 254) || v > 255) return abort(abort_code::kValueRange);
       d.tpdo[i].transmission_type = static_cast<std::uint8_t>(v);
       d.tpdo_sync_count[i] = 0;
@@ -474,7 +758,7 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame) noexcept {
     // CiA 301 PDO mapping procedure: the mapping changes only while the PDO is invalid; entries only while sub 0 is 0.
     if (valid) return abort(abort_code::kCannotStoreState);
     if (sub == 0) {
-      if (!length_ok(1)) return;
+      if (const std::uint32_t c = length(1)) return c;
       if (v > canopen::kMaxPdoEntries) return abort(abort_code::kValueRange);
       int bits = 0;
       for (std::uint32_t k = 0; k < v; ++k) bits += map.entries[k].bits;
@@ -483,7 +767,7 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame) noexcept {
       return ok();
     }
     if (map.entry_count != 0) return abort(abort_code::kUnsupportedAccess);
-    if (!length_ok(4)) return;
+    if (const std::uint32_t c = length(4)) return c;
     const PdoEntry e = PdoEntry::FromMappingValue(v);
     const int bytes = MappableBytes(e.index, e.subindex, tpdo_map);
     if (bytes == 0) return abort(abort_code::kNotMappable);
@@ -498,16 +782,28 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame) noexcept {
     case obj301::kErrorRegister:
       if (sub != 0) return abort(abort_code::kNoSubindex);
       return upload ? reply(error_register_, 1) : abort(abort_code::kReadOnly);
+    case obj301::kErrorHistory:
+      if (sub == 0) {
+        if (upload) return reply(error_history_count_, 1);
+        if (const std::uint32_t c = length(1)) return c;
+        if (v != 0) return abort(abort_code::kValueRange);  // only 0 (clear) may be written
+        error_history_count_ = 0;
+        return ok();
+      }
+      if (sub > error_history_.size()) return abort(abort_code::kNoSubindex);
+      if (!upload) return abort(abort_code::kReadOnly);
+      if (sub > error_history_count_) return abort(abort_code::kNoData);
+      return reply(error_history_[sub - 1u], 4);
     case obj301::kCobIdSync:
       if (sub != 0) return abort(abort_code::kNoSubindex);
       if (upload) return reply(d.sync_cob, 4);
-      if (!length_ok(4)) return;
+      if (const std::uint32_t c = length(4)) return c;
       d.sync_cob = v & 0x7FFu;
       return ok();
     case obj301::kCommunicationCyclePeriod:
       if (sub != 0) return abort(abort_code::kNoSubindex);
       if (upload) return reply(d.cycle_period_us, 4);
-      if (!length_ok(4)) return;
+      if (const std::uint32_t c = length(4)) return c;
       d.cycle_period_us = v;
       return ok();
     case obj301::kCobIdEmcy:
@@ -517,14 +813,14 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame) noexcept {
       if (sub == 0) return upload ? reply(1, 1) : abort(abort_code::kReadOnly);
       if (sub != 1) return abort(abort_code::kNoSubindex);
       if (upload) return reply(d.consumer_heartbeat, 4);
-      if (!length_ok(4)) return;
+      if (const std::uint32_t c = length(4)) return c;
       d.consumer_heartbeat = v & 0x00FF'FFFFu;
       host_heartbeat_seen_ = false;  // re-armed by the next heartbeat
       return ok();
     case obj301::kProducerHeartbeatTime:
       if (sub != 0) return abort(abort_code::kNoSubindex);
       if (upload) return reply(d.producer_heartbeat_ms, 2);
-      if (!length_ok(2)) return;
+      if (const std::uint32_t c = length(2)) return c;
       d.producer_heartbeat_ms = static_cast<std::uint16_t>(v);
       next_heartbeat_ns_ = last_ns_;  // the first heartbeat at once
       return ok();
@@ -543,16 +839,13 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame) noexcept {
       return upload ? reply(error_code_, 2) : abort(abort_code::kReadOnly);
     case obj::kControlword:
       if (upload) return reply(controlword_, 2);
-      if (!length_ok(2)) return;
+      if (const std::uint32_t c = length(2)) return c;
       controlword_ = static_cast<std::uint16_t>(v);
-      if (machine_.Apply(controlword_, d.quick_stop_option <= 4) == 15) {
+      if (machine_.Apply(controlword_, d.quick_stop_option == 0) == 15) {
         ++counters_.fault_resets;
         error_code_ = 0;
         error_register_ = 0;
-        ok();
-        Send(canopen::EncodeEmergency(config_.node_id, canopen::Emergency{}));
-        ++counters_.emergencies_sent;
-        return;
+        reset_emcy_pending_ = true;  // the "error reset" EMCY follows the SDO response
       }
       return ok();
     case obj::kStatusword:
@@ -561,20 +854,48 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame) noexcept {
     case obj::kFaultReactionOptionCode: {
       std::int16_t& option = index == obj::kQuickStopOptionCode ? d.quick_stop_option : d.fault_reaction_option;
       if (upload) return reply(static_cast<std::uint16_t>(option), 2);
-      if (!length_ok(2)) return;
+      if (const std::uint32_t c = length(2)) return c;
       const auto value = static_cast<std::int16_t>(v);
       if (value < 0 || value > 8) return abort(abort_code::kValueRange);
       option = value;
       return ok();
     }
-    case obj::kModesOfOperation:
+    case obj::kModesOfOperation: {
       if (upload) return reply(static_cast<std::uint8_t>(mode_), 1);
-      if (!length_ok(1)) return;
-      if (static_cast<std::int8_t>(v) != 0 && static_cast<std::int8_t>(v) != cia402::kModeCyclicSynchronousTorque) {
-        return abort(abort_code::kValueRange);  // this drive knows only cyclic synchronous torque
+      if (const std::uint32_t c = length(1)) return c;
+      const auto mode = static_cast<std::int8_t>(v);
+      if (mode != 0 && (config_.supported_modes & cia402::SupportedModeBit(mode)) == 0) {
+        return abort(abort_code::kValueRange);  // a mode 0x6502 does not list
       }
-      mode_ = static_cast<std::int8_t>(v);
+      mode_ = mode;
       return ok();
+    }
+    case obj::kTargetPosition:
+    case obj::kTargetVelocity: {
+      std::int32_t& target = index == obj::kTargetPosition ? target_position_ : target_velocity_;
+      std::int32_t& pending = index == obj::kTargetPosition ? pending_target_position_ : pending_target_velocity_;
+      if (upload) return reply(static_cast<std::uint32_t>(target), 4);
+      if (const std::uint32_t c = length(4)) return c;
+      target = static_cast<std::int32_t>(v);
+      pending = target;
+      return ok();
+    }
+    case obj::kProfileDeceleration:
+    case obj::kQuickStopDeceleration: {
+      std::uint32_t& decel = index == obj::kProfileDeceleration ? d.profile_deceleration : d.quick_stop_deceleration;
+      if (upload) return reply(decel, 4);
+      if (const std::uint32_t c = length(4)) return c;
+      decel = v;
+      return ok();
+    }
+    case obj::kHaltOptionCode: {
+      if (upload) return reply(static_cast<std::uint16_t>(d.halt_option), 2);
+      if (const std::uint32_t c = length(2)) return c;
+      const auto value = static_cast<std::int16_t>(v);
+      if (value < 1 || value > 4) return abort(abort_code::kValueRange);
+      d.halt_option = value;
+      return ok();
+    }
     case obj::kModesOfOperationDisplay:
       return upload ? reply(static_cast<std::uint8_t>(mode_), 1) : abort(abort_code::kReadOnly);
     case obj::kPositionActual:
@@ -587,12 +908,13 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame) noexcept {
                     : abort(abort_code::kReadOnly);
     case obj::kTargetTorque:
       if (upload) return reply(static_cast<std::uint16_t>(target_torque_), 2);
-      if (!length_ok(2)) return;
+      if (const std::uint32_t c = length(2)) return c;
       target_torque_ = static_cast<std::int16_t>(v);
+      pending_target_torque_ = target_torque_;
       return ok();
     case obj::kMaxTorque:
       if (upload) return reply(d.max_torque, 2);
-      if (!length_ok(2)) return;
+      if (const std::uint32_t c = length(2)) return c;
       d.max_torque = static_cast<std::uint16_t>(v);
       return ok();
     case obj::kRatedTorque:
@@ -603,7 +925,7 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame) noexcept {
                          2)
                  : abort(abort_code::kReadOnly);
     case obj::kSupportedDriveModes:
-      return upload ? reply(1u << 9, 4) : abort(abort_code::kReadOnly);
+      return upload ? reply(config_.supported_modes, 4) : abort(abort_code::kReadOnly);
     default:
       return abort(abort_code::kNoObject);
   }
@@ -614,10 +936,11 @@ void SimulatedCia402Drive::Integrate(std::uint64_t now_ns) noexcept {
   const SimulatedJointConfig& j = config_.joint;
   double remaining_s = static_cast<double>(now_ns - last_ns_) * 1e-9;
   last_ns_ = now_ns;
-  const double command_Nm = commanded_torque_Nm();
   while (remaining_s > 0.0) {
     const double h = std::min(remaining_s, j.integration_step_s);
     remaining_s -= h;
+    const double command_Nm = LoopTorque(h);
+    command_Nm_ = command_Nm;
     applied_torque_Nm_ += j.torque_lag_s > 0.0
                               ? (command_Nm - applied_torque_Nm_) * (1.0 - std::exp(-h / j.torque_lag_s))
                               : command_Nm - applied_torque_Nm_;

@@ -31,6 +31,16 @@ struct Cia402Scaling {
   double sign = 1.0;  ///< -1 when the drive's positive direction is the joint's negative one.
 };
 
+/// The cyclic synchronous modes of CiA 402 (0x6060): the target the RPDO carries each cycle.
+enum class Cia402Mode : std::int8_t {
+  kCyclicSynchronousPosition = 8,  ///< 0x607A target position; the drive closes position and velocity loops.
+  kCyclicSynchronousVelocity = 9,  ///< 0x60FF target velocity; the drive closes the velocity loop.
+  kCyclicSynchronousTorque = 10,   ///< 0x6071 target torque.
+};
+const char* ToString(Cia402Mode mode) noexcept;
+/// "position" / "csp" / "8", "velocity" / "csv" / "9", "torque" / "cst" / "10"; false for anything else.
+[[nodiscard]] bool ParseCia402Mode(const std::string& text, Cia402Mode& mode) noexcept;
+
 /// Configuration of one drive (a driver's config section fills it).
 struct Cia402DriveConfig {
   std::uint8_t node_id = 1;  ///< 1..127.
@@ -60,8 +70,16 @@ struct Cia402DriveConfig {
   std::vector<canopen::PdoMapping> rpdos = DefaultRpdos();
   std::vector<canopen::PdoMapping> tpdos = DefaultTpdos();
 
+  /// The mode written to 0x6060 and checked against 0x6502. With rpdos left at the torque default, another mode
+  /// takes its own default RPDO (DefaultRpdos(mode)).
+  Cia402Mode mode = Cia402Mode::kCyclicSynchronousTorque;
   Cia402Scaling scaling{};
   double max_torque_Nm = 0.5;  ///< Written to 0x6072; Write also clamps to it (counted).
+  /// Velocity mode: Write clamps the target velocity to it; position mode: the target moves at most
+  /// max_velocity_rad_per_s · cycle_period_s per Write (both counted). 0: no clamp.
+  double max_velocity_rad_per_s = 0.0;
+  /// 0x605D (1..4: how halt stops the motor), written when set.
+  std::optional<std::int16_t> halt_option_code{};
   /// 0x605A and 0x605E, written when set (what quick stop and a fault do is the drive's; the field notes).
   std::optional<std::int16_t> quick_stop_option_code{};
   std::optional<std::int16_t> fault_reaction_option_code{};
@@ -69,11 +87,19 @@ struct Cia402DriveConfig {
   double state_timeout_ms = 500.0;  ///< Activate: time allowed for each state machine step.
   /// Read: data older than this (no TPDO since) is a fault (kStale); a missed TPDO before that is kNoNewData.
   double stale_after_ms = 10.0;
+  /// Configure reads the identity, device name, versions and error history (ReadDeviceInfo) and logs them.
+  bool read_device_info = true;
+  /// The drive's EDS/DCF (CiA 306): ApplyEds (cia402_eds.hpp) takes default COB-IDs from it, and it and Configure
+  /// check every object the client uses against it (type, access, PDO mapping, capacity). Empty: no check.
+  std::string eds_file;
 
   /// RPDO1 = controlword + target torque (4 bytes); TPDO1 = statusword + position actual (6 bytes), TPDO2 = velocity
   /// actual + torque actual (6 bytes); synchronous (type 1), default COB-IDs.
   static std::vector<canopen::PdoMapping> DefaultRpdos();
   static std::vector<canopen::PdoMapping> DefaultTpdos();
+  /// RPDO1 = controlword + the mode's target: 0x607A (32 bits, 6 bytes), 0x60FF (32 bits, 6 bytes) or 0x6071
+  /// (16 bits, 4 bytes: DefaultRpdos()).
+  static std::vector<canopen::PdoMapping> DefaultRpdos(Cia402Mode mode);
 };
 
 /// What Read/Write report (the cycle's status; a device maps it onto its fault flags).
@@ -101,6 +127,24 @@ struct Cia402Reading {
   bool fresh = false;  ///< New since the last Read.
 };
 
+/// What a drive says about itself (CiA 301 0x1000, 0x1018, 0x1008, 0x1009, 0x100A, 0x1003; CiA 402 0x6502). The
+/// strings are read by segmented SDO when longer than 4 bytes; an optional object the drive lacks (aborted with
+/// 0x0602xxxx, 0x0609xxxx or 0x0601xxxx) is left empty and its `*_present` false.
+struct Cia402DeviceInfo {
+  std::uint32_t device_type = 0;
+  std::uint32_t vendor_id = 0, product_code = 0, revision = 0, serial = 0;
+  bool identity_present = false;
+  std::string device_name, hardware_version, software_version;
+  bool device_name_present = false, hardware_version_present = false, software_version_present = false;
+  std::uint32_t supported_modes = 0;  ///< 0x6502 (bit m - 1 for mode m 1..7; bit 7, 8, 9 for modes 8, 9, 10).
+  bool supported_modes_present = false;
+  /// 0x1003 sub 1..n, newest first: error code in bits 0..15, manufacturer information in 16..31.
+  std::vector<std::uint32_t> error_history;
+  bool error_history_present = false;
+  /// One line per item ("device name 'x'", "error history: 0x2310 (1 of 1)").
+  std::string Describe() const;
+};
+
 /// What the client counted.
 struct Cia402Counters {
   std::uint64_t rpdos_sent = 0;
@@ -117,7 +161,9 @@ struct Cia402Counters {
   std::uint64_t torque_clamped = 0;
   std::uint64_t non_finite_commands = 0;  ///< NaN/inf torque commands: sent as 0.
   std::uint64_t state_changes = 0;
-  std::uint64_t other_frames = 0;  ///< Frames on the port that are not this drive's.
+  std::uint64_t other_frames = 0;           ///< Frames on the port that are not this drive's.
+  std::uint64_t velocity_clamped = 0;       ///< Velocity targets clamped to max_velocity_rad_per_s.
+  std::uint64_t position_step_clamped = 0;  ///< Position targets that moved faster than max_velocity_rad_per_s.
 };
 
 class Cia402Drive {
@@ -144,17 +190,32 @@ class Cia402Drive {
   /// Cycle: drains the port (TPDOs, heartbeat, EMCY, error frames), checks the heartbeat and staleness, fills
   /// `reading` with the newest values. Non-blocking, no allocation.
   [[nodiscard]] Cia402Status Read(Cia402Reading& reading) noexcept;
-  /// Cycle: sends the RPDO (controlword + target torque `torque_Nm`, clamped to max_torque_Nm, NaN → 0), then the
-  /// SYNC (produce_sync) and the host heartbeat when due. Non-blocking, no allocation.
-  [[nodiscard]] Cia402Status Write(double torque_Nm) noexcept;
+  /// Cycle: sends the RPDO (controlword + the target of the configured mode), then the SYNC (produce_sync) and the
+  /// host heartbeat when due. `setpoint` is in the mode's SI unit: torque N·m (the default mode; clamped to
+  /// max_torque_Nm, NaN → 0), velocity rad/s (clamped to max_velocity_rad_per_s, NaN → 0) or position rad (NaN, a
+  /// fault, a lost heartbeat or a quick stop hold the last target; the step clamped by max_velocity_rad_per_s).
+  /// Non-blocking, no allocation.
+  [[nodiscard]] Cia402Status Write(double setpoint) noexcept;
   /// Cycle: from the next Write on, the controlword commands Quick Stop (bit 2 = 0) and the torque is 0.
   void RequestQuickStop() noexcept;
+  /// Cycle: from the next Write on, controlword bit 8 (halt) is `halt`: the drive stops by 0x605D and holds, staying
+  /// in Operation Enabled (statusword bit 10 once at rest); clearing it resumes the targets.
+  void RequestHalt(bool halt) noexcept { halt_requested_ = halt; }
+  /// The last target sent in position mode (rad), e.g. to start a jog from it.
+  double position_target_rad() const noexcept { return position_target_rad_; }
   /// Set-up (safe state): torque 0, Disable Operation then Shutdown by SDO, NMT Enter Pre-operational. Never throws;
   /// returns false (and keeps the reason in last_error()) when the drive did not confirm.
   bool Deactivate() noexcept;
 
   /// Set-up: reads the error register 0x1001 by SDO (throws on failure).
   std::uint8_t ReadErrorRegister();
+  /// Set-up: reads the device type, identity, name, versions, supported modes and error history (Cia402DeviceInfo);
+  /// optional objects the drive lacks are left empty, a timeout throws. Configure calls it (read_device_info) and
+  /// logs the result; it is kept in device_info().
+  const Cia402DeviceInfo& ReadDeviceInfo();
+  const Cia402DeviceInfo& device_info() const noexcept { return info_; }
+  /// The set-up SDO client (teleop-drive's `sdo read|write`; never in the cycle).
+  canopen::SdoClient& sdo() noexcept { return sdo_; }
 
   bool active() const noexcept { return active_; }
   cia402::DriveState drive_state() const noexcept { return drive_state_; }
@@ -179,6 +240,8 @@ class Cia402Drive {
   bool SendHeartbeatIfDue(std::uint64_t now_ns) noexcept;
   void WaitForBoot();
   void WritePdo(const canopen::PdoMapping& mapping, bool tpdo);
+  /// The mode's target that holds the joint: torque 0, velocity 0, or position = the actual position (by SDO).
+  void WriteHoldTarget();
   void SetDriveState(cia402::DriveState state) noexcept;
   [[nodiscard]] bool HeartbeatExpired(std::uint64_t now_ns) noexcept;
 
@@ -197,6 +260,9 @@ class Cia402Drive {
   std::array<std::uint64_t, 4> tpdo_stamp_ns_{};
   Slot statusword_slot_{}, position_slot_{}, velocity_slot_{}, torque_slot_{};
   Slot controlword_slot_{}, target_torque_slot_{};
+  Slot target_slot_{};  ///< The configured mode's target (target_torque_slot_ in torque mode).
+  bool halt_requested_ = false;
+  double position_target_rad_ = 0.0;
   unsigned tpdo_seen_mask_ = 0;  ///< TPDOs received since the last Read (bit per slot).
   bool configured_ = false;
   bool heartbeat_lost_ = false;
@@ -218,6 +284,7 @@ class Cia402Drive {
   Cia402Reading newest_{};
   Cia402Counters counters_{};
   std::string last_error_;
+  Cia402DeviceInfo info_{};
 };
 
 }  // namespace teleop::fieldbus

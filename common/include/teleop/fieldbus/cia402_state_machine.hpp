@@ -70,11 +70,16 @@ inline constexpr std::uint16_t kErrorCode = 0x603F;                ///< UNSIGNED
 inline constexpr std::uint16_t kControlword = 0x6040;              ///< UNSIGNED16.
 inline constexpr std::uint16_t kStatusword = 0x6041;               ///< UNSIGNED16.
 inline constexpr std::uint16_t kQuickStopOptionCode = 0x605A;      ///< INTEGER16.
+inline constexpr std::uint16_t kHaltOptionCode = 0x605D;           ///< INTEGER16, 1..4.
 inline constexpr std::uint16_t kFaultReactionOptionCode = 0x605E;  ///< INTEGER16.
 inline constexpr std::uint16_t kModesOfOperation = 0x6060;         ///< INTEGER8.
 inline constexpr std::uint16_t kModesOfOperationDisplay = 0x6061;  ///< INTEGER8.
 inline constexpr std::uint16_t kPositionActual = 0x6064;           ///< INTEGER32, position units (counts).
 inline constexpr std::uint16_t kVelocityActual = 0x606C;           ///< INTEGER32, velocity units.
+inline constexpr std::uint16_t kTargetPosition = 0x607A;           ///< INTEGER32, position units (CSP).
+inline constexpr std::uint16_t kProfileDeceleration = 0x6084;      ///< UNSIGNED32, velocity units per s.
+inline constexpr std::uint16_t kQuickStopDeceleration = 0x6085;    ///< UNSIGNED32, velocity units per s.
+inline constexpr std::uint16_t kTargetVelocity = 0x60FF;           ///< INTEGER32, velocity units (CSV).
 inline constexpr std::uint16_t kTargetTorque = 0x6071;             ///< INTEGER16, per mille of rated torque.
 inline constexpr std::uint16_t kMaxTorque = 0x6072;                ///< UNSIGNED16, per mille of rated torque.
 inline constexpr std::uint16_t kRatedTorque = 0x6076;              ///< UNSIGNED32, mN·m.
@@ -84,10 +89,15 @@ inline constexpr std::uint16_t kSupportedDriveModes = 0x6502;      ///< UNSIGNED
 
 /// Communication objects of CiA 301 used here.
 namespace obj301 {
-inline constexpr std::uint16_t kDeviceType = 0x1000;                ///< UNSIGNED32; 0x0192 (402) in bits 0..15.
-inline constexpr std::uint16_t kErrorRegister = 0x1001;             ///< UNSIGNED8.
-inline constexpr std::uint16_t kCobIdSync = 0x1005;                 ///< UNSIGNED32.
+inline constexpr std::uint16_t kDeviceType = 0x1000;     ///< UNSIGNED32; 0x0192 (402) in bits 0..15.
+inline constexpr std::uint16_t kErrorRegister = 0x1001;  ///< UNSIGNED8.
+inline constexpr std::uint16_t kErrorHistory =
+    0x1003;                                          ///< sub 0 count (write 0: clear), sub n UNSIGNED32, newest at 1.
+inline constexpr std::uint16_t kCobIdSync = 0x1005;  ///< UNSIGNED32.
 inline constexpr std::uint16_t kCommunicationCyclePeriod = 0x1006;  ///< UNSIGNED32, µs.
+inline constexpr std::uint16_t kDeviceName = 0x1008;                ///< VISIBLE_STRING (segmented when > 4 bytes).
+inline constexpr std::uint16_t kHardwareVersion = 0x1009;           ///< VISIBLE_STRING.
+inline constexpr std::uint16_t kSoftwareVersion = 0x100A;           ///< VISIBLE_STRING.
 inline constexpr std::uint16_t kCobIdEmcy = 0x1014;                 ///< UNSIGNED32.
 inline constexpr std::uint16_t kConsumerHeartbeatTime = 0x1016;     ///< sub n: UNSIGNED32 node << 16 | ms.
 inline constexpr std::uint16_t kProducerHeartbeatTime = 0x1017;     ///< UNSIGNED16, ms.
@@ -98,8 +108,14 @@ inline constexpr std::uint16_t kTpdoCommunication = 0x1800;         ///< + n - 1
 inline constexpr std::uint16_t kTpdoMapping = 0x1A00;               ///< + n - 1.
 }  // namespace obj301
 
-/// Modes of operation (0x6060).
+/// Modes of operation (0x6060). 0x6502 (supported drive modes) has bit m - 1 set for each mode m supported.
+inline constexpr std::int8_t kModeCyclicSynchronousPosition = 8;
+inline constexpr std::int8_t kModeCyclicSynchronousVelocity = 9;
 inline constexpr std::int8_t kModeCyclicSynchronousTorque = 10;
+/// The 0x6502 bit of mode `mode` (1..10; 0 for anything else).
+constexpr std::uint32_t SupportedModeBit(std::int8_t mode) noexcept {
+  return mode >= 1 && mode <= 10 ? 1u << (mode - 1) : 0u;
+}
 /// Device type 0x1000 bits 0..15 of a CiA 402 drive.
 inline constexpr std::uint32_t kDeviceProfile402 = 0x0192;
 

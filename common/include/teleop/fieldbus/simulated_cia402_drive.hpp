@@ -2,15 +2,18 @@
 
 // A simulated CiA 402 drive on a CAN port (docs/cia402.md, "Simulated drive"): the same bytes a real drive speaks,
 // so the client under test is the client in use. A joint with inertia, viscous and Coulomb friction and a
-// first-order torque lag; its own NMT state machine, SDO server (expedited) for the objects the client uses,
-// PDOs on SYNC, heartbeat producer, a consumer of the host's heartbeat, EMCY on fault. Fault injection for tests.
+// first-order torque lag; its own NMT state machine, SDO server (expedited and segmented) for the objects the client
+// uses, PDOs on SYNC, heartbeat producer, a consumer of the host's heartbeat, EMCY on fault. Fault injection for tests.
 
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <span>
+#include <string>
 
 #include "teleop/fieldbus/canopen_frames.hpp"
 #include "teleop/fieldbus/canopen_pdo.hpp"
+#include "teleop/fieldbus/canopen_sdo.hpp"
 #include "teleop/fieldbus/cia402_state_machine.hpp"
 #include "teleop/transport/can_filter.hpp"
 #include "teleop/transport/can_port.hpp"
@@ -27,6 +30,19 @@ struct SimulatedJointConfig {
   double integration_step_s = 1e-4;  ///< Sub-step of the joint's integration.
 };
 
+/// The drive's own control loops (cyclic synchronous position and velocity, CiA 402 modes 8 and 9), run at the
+/// joint's integration step (10 kHz by default) as a drive's loops run far faster than SYNC: a PI velocity loop
+/// τ = kv (ω_ref − ω) + ki ∫(ω_ref − ω) dt (clamped to 0x6072; the integral held while clamped) and, in position mode,
+/// a P position loop ω_ref = kp (θ_target − θ). With the velocity loop much faster than kp, θ/θ_target ≈ kp / (s + kp):
+/// the position loop's bandwidth is kp (100 rad/s by default, against J = 1e-3 kg·m²: velocity loop ≈ kv / J = 600
+/// rad/s).
+struct SimulatedLoopConfig {
+  double velocity_kp_Nms_per_rad = 0.6;
+  double velocity_ki_Nm_per_rad = 12.0;  ///< The PI zero at ki / kv = 20 rad/s, well below kp.
+  double position_kp_per_s = 100.0;
+  double standstill_rad_per_s = 0.05;  ///< Quick stop / halt: at rest below this speed.
+};
+
 struct SimulatedCia402DriveConfig {
   std::uint8_t node_id = 1;
   SimulatedJointConfig joint{};
@@ -37,6 +53,18 @@ struct SimulatedCia402DriveConfig {
   double boot_time_ms = 5.0;                  ///< Power-on / reset node → boot-up message.
   std::uint16_t heartbeat_period_ms = 0;      ///< 0x1017 at power-on (0: no heartbeat until written).
   std::uint32_t vendor_id = 0x0000'0A5A;      ///< 0x1018 sub 1.
+  /// 0x6502: cyclic synchronous position, velocity and torque (bits 7, 8, 9).
+  std::uint32_t supported_modes = 0x0000'0380;
+  SimulatedLoopConfig loops{};
+  /// 0x6084 / 0x6085 at power-on, rad/s² (the dictionary holds them in velocity units per second).
+  double profile_deceleration_rad_per_s2 = 200.0;
+  double quick_stop_deceleration_rad_per_s2 = 2000.0;
+  /// 0x1008 / 0x1009 / 0x100A (VISIBLE_STRING, served segmented when longer than 4 bytes; at most 64 bytes).
+  std::string device_name = "teleop simulated CiA 402 drive";
+  std::string hardware_version = "sim 1";
+  std::string software_version = "teleop 1.0";
+  /// The SDO server aborts a segmented transfer with 0x05040000 when the client is silent this long.
+  double sdo_server_timeout_ms = 1000.0;
 };
 
 /// What the simulated drive counted (for tests).
@@ -52,6 +80,7 @@ struct SimulatedDriveCounters {
   std::uint64_t nmt_commands = 0;
   std::uint64_t host_heartbeat_timeouts = 0;
   std::uint64_t fault_resets = 0;
+  std::uint64_t sdo_segments = 0;  ///< Segments served (upload) or taken (download).
 };
 
 class SimulatedCia402Drive {
@@ -87,6 +116,8 @@ class SimulatedCia402Drive {
   void DropSdoResponses(int count) noexcept;
   /// Every SDO access to `index` is aborted with `abort_code` (0 clears).
   void AbortObject(std::uint16_t index, std::uint32_t abort_code) noexcept;
+  /// SDO requests for `index` get no answer at all (a node that answers only some SDOs; 0 clears).
+  void IgnoreObject(std::uint16_t index) noexcept { ignore_index_ = index; }
   /// Moves the joint (test set-up).
   void SetJointState(double position_rad, double velocity_rad_per_s) noexcept;
   /// An external torque on the joint (the environment), N·m.
@@ -111,13 +142,26 @@ class SimulatedCia402Drive {
   struct Dictionary;
   void Boot(std::uint64_t now_ns) noexcept;
   void HandleFrame(const proto::can::CanFrame& frame, std::uint64_t now_ns) noexcept;
-  void HandleSdo(const proto::can::CanFrame& frame) noexcept;
+  void HandleSdo(const proto::can::CanFrame& frame, std::uint64_t now_ns) noexcept;
+  void HandleSdoSegment(const canopen::SdoMessage& m, std::uint64_t now_ns) noexcept;
+  void SendSdoAbort(std::uint16_t index, std::uint8_t subindex, std::uint32_t code) noexcept;
+  /// The object dictionary access of one expedited-sized value: 0 (and the value read) or the abort code.
+  std::uint32_t Access(const canopen::SdoMessage& m, std::uint32_t& out_value, std::uint8_t& out_size) noexcept;
+  /// The byte-string objects (0x1008, 0x1009, 0x100A, 0x2000 the writable label): false for any other object.
+  bool ByteObject(std::uint16_t index, std::uint8_t subindex, std::span<const std::uint8_t>& bytes,
+                  bool& writable) const noexcept;
+  void StoreLabel(std::span<const std::uint8_t> bytes) noexcept;
+  void FlushResetEmergency() noexcept;
   void HandleSync() noexcept;
   void HandleRpdo(int n, const proto::can::CanFrame& frame) noexcept;
   void Integrate(std::uint64_t now_ns) noexcept;
   void Send(const proto::can::CanFrame& frame) noexcept;
   void EnterFault(std::uint16_t error_code) noexcept;
   std::uint16_t Statusword() const noexcept;
+  /// The torque the drive's loops command over one integration step of `h` seconds.
+  double LoopTorque(double h) noexcept;
+  double VelocityLoop(double velocity_ref, double h) noexcept;
+  double TorqueLimit_Nm() const noexcept;
 
   SimulatedCia402DriveConfig config_;
   transport::CanPort& port_;
@@ -130,6 +174,7 @@ class SimulatedCia402Drive {
   bool heartbeat_muted_ = false;
   int drop_sdo_ = 0;
   std::uint16_t abort_index_ = 0;
+  std::uint16_t ignore_index_ = 0;
   std::uint32_t abort_code_ = 0;
   std::uint64_t boot_at_ns_ = 0;
   std::uint64_t last_ns_ = 0;
@@ -140,6 +185,16 @@ class SimulatedCia402Drive {
   std::uint16_t controlword_ = 0;
   std::int16_t target_torque_ = 0;
   std::int16_t pending_target_torque_ = 0;
+  std::int32_t target_position_ = 0;
+  std::int32_t target_velocity_ = 0;
+  std::int32_t pending_target_position_ = 0;
+  std::int32_t pending_target_velocity_ = 0;
+  double velocity_integral_Nm_ = 0.0;
+  double command_Nm_ = 0.0;  ///< What the loops commanded in the last step.
+  bool stopping_ = false;    ///< Quick stop or halt in progress (ramping or holding).
+  bool holding_ = false;     ///< At rest after a quick stop or halt: the position loop holds hold_position_rad_.
+  double stop_velocity_ref_ = 0.0;
+  double hold_position_rad_ = 0.0;
   std::uint16_t pending_controlword_ = 0;
   bool pending_rpdo_ = false;
   std::uint8_t error_register_ = 0;
@@ -149,6 +204,29 @@ class SimulatedCia402Drive {
   double applied_torque_Nm_ = 0.0;
   double external_torque_Nm_ = 0.0;
   SimulatedDriveCounters counters_{};
+
+  /// The SDO server's segmented transfer in progress (CiA 301 §7.2.4.3.3-6): one at a time, fixed buffer.
+  struct SdoTransfer {
+    enum class Phase : std::uint8_t { kIdle, kUpload, kDownload };
+    Phase phase = Phase::kIdle;
+    std::uint16_t index = 0;
+    std::uint8_t subindex = 0;
+    bool toggle = false;
+    bool size_indicated = false;
+    std::size_t size = 0;      ///< Upload: the bytes to send; download: the size indicated.
+    std::size_t offset = 0;    ///< Bytes sent / received so far.
+    std::size_t capacity = 0;  ///< Download: the object's largest size.
+    std::uint64_t last_ns = 0;
+    std::array<std::uint8_t, 64> buffer{};
+  };
+  SdoTransfer transfer_{};
+  bool reset_emcy_pending_ = false;
+  std::array<std::uint32_t, 8> error_history_{};  ///< 0x1003 sub 1..8, newest first.
+  std::uint8_t error_history_count_ = 0;
+  std::array<std::uint8_t, 32> label_{};  ///< 0x2000 (manufacturer-specific VISIBLE_STRING, read-write).
+  std::array<std::array<std::uint8_t, 64>, 3> strings_{};  ///< 0x1008, 0x1009, 0x100A.
+  std::array<std::size_t, 3> string_sizes_{};
+  std::size_t label_size_ = 0;
 };
 
 }  // namespace teleop::fieldbus

@@ -1,0 +1,204 @@
+#include "admittance_device.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "teleop/error.hpp"
+#include "teleop/fieldbus/cia402_eds.hpp"
+
+namespace teleop::device {
+
+using fieldbus::Cia402Mode;
+using fieldbus::Cia402Status;
+
+VirtualAdmittance::VirtualAdmittance(double mass_kg, double damping_Ns_per_m) : m_(mass_kg), b_(damping_Ns_per_m) {}
+
+void VirtualAdmittance::Reset(double position_m) noexcept {
+  x_ = position_m;
+  v_ = 0.0;
+}
+
+void VirtualAdmittance::Step(double force_N, double h, double max_velocity) noexcept {
+  if (!(h > 0.0)) return;
+  if (b_ > 0.0) {
+    // Exact under a held force: v → F/b with time constant m/b.
+    const double v_inf = force_N / b_;
+    const double decay = std::exp(-b_ / m_ * h);
+    x_ += v_inf * h + (v_ - v_inf) * m_ / b_ * (1.0 - decay);
+    v_ = v_inf + (v_ - v_inf) * decay;
+  } else {
+    x_ += v_ * h + 0.5 * force_N / m_ * h * h;
+    v_ += force_N / m_ * h;
+  }
+  if (max_velocity > 0.0 && std::abs(v_) > max_velocity) v_ = std::copysign(max_velocity, v_);
+}
+
+AdmittanceDevice::AdmittanceDevice(const AdmittanceConfig& config, AdmittancePortFactory ports,
+                                   fieldbus::Timebase timebase)
+    : config_(config), ports_(std::move(ports)), timebase_(std::move(timebase)) {
+  const auto fail = [](const std::string& what) { throw Error("device.admittance: " + what); };
+  const int n = config.dof;
+  if (n < 1) fail("dof must be >= 1");
+  if (config.virtual_mass_kg.size() != n || config.virtual_damping_Ns_per_m.size() != n) {
+    fail(fmt::format("virtual_mass_kg and virtual_damping_Ns_per_m need {} values (one per DOF)", n));
+  }
+  for (int i = 0; i < n; ++i) {
+    if (!(config.virtual_mass_kg[i] > 0.0) || !std::isfinite(config.virtual_mass_kg[i])) {
+      fail(fmt::format("virtual_mass_kg[{}] must be > 0", i));
+    }
+    if (!(config.virtual_damping_Ns_per_m[i] >= 0.0) || !std::isfinite(config.virtual_damping_Ns_per_m[i])) {
+      fail(fmt::format("virtual_damping_Ns_per_m[{}] must be >= 0", i));
+    }
+  }
+  if (config.mode != Cia402Mode::kCyclicSynchronousPosition && config.mode != Cia402Mode::kCyclicSynchronousVelocity) {
+    fail("mode must be position or velocity (the drives take the virtual mass's position or velocity)");
+  }
+  if (static_cast<int>(config.axes.size()) != n)
+    fail(fmt::format("drives: {} entries, dof is {}", config.axes.size(), n));
+  if (!(config.max_force_N > 0.0) || !(config.max_velocity_m_per_s > 0.0) || !(config.cycle_period_s > 0.0)) {
+    fail("max_force_N, max_velocity_m_per_s and cycle_period_ms must be > 0");
+  }
+  for (const AdmittanceAxisConfig& a : config.axes) {
+    if (!(a.transmission_m_per_rad > 0.0) || !std::isfinite(a.transmission_m_per_rad)) {
+      fail("drives[].transmission_m_per_rad must be > 0");
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    models_.emplace_back(config.virtual_mass_kg[i], config.virtual_damping_Ns_per_m[i]);
+  }
+  caps_.dof = n;
+  caps_.rendering = Rendering::kActiveForce;
+  caps_.max_force_N = DofVector::Constant(n, config.max_force_N);
+  caps_.measures_velocity = true;
+  caps_.measures_force = false;
+  force_N_ = DofVector::Zero(n);
+  rendered_N_ = DofVector::Zero(n);
+  if (!ports_) {
+    const fieldbus::CanPortConfig can = config.can;
+    ports_ = [can](const transport::CanReceiveOptions& options) { return fieldbus::OpenCanPort(can, options); };
+  }
+}
+
+AdmittanceDevice::~AdmittanceDevice() = default;
+
+void AdmittanceDevice::Configure() {
+  drives_.clear();
+  drive_ports_.clear();
+  sync_.reset();
+  for (int i = 0; i < config_.dof; ++i) {
+    const AdmittanceAxisConfig& a = config_.axes[static_cast<std::size_t>(i)];
+    fieldbus::Cia402DriveConfig c = a.drive;
+    c.mode = config_.mode;
+    c.rpdos = fieldbus::Cia402DriveConfig::DefaultRpdos(config_.mode);
+    c.produce_sync = false;  // one SYNC for the bus, at the start of each cycle (docs/cia402.md)
+    c.cycle_period_s = config_.cycle_period_s;
+    c.max_velocity_rad_per_s = config_.max_velocity_m_per_s / a.transmission_m_per_rad;
+    fieldbus::ApplyEds(c);
+    drive_ports_.push_back(ports_(fieldbus::Cia402Drive::ReceiveOptions(c)));
+    drives_.push_back(std::make_unique<fieldbus::Cia402Drive>(c, *drive_ports_.back(), timebase_));
+    drives_.back()->Configure();
+  }
+  sync_ = std::make_unique<fieldbus::canopen::SyncProducer>(*drive_ports_.front());
+}
+
+void AdmittanceDevice::Activate() {
+  if (drives_.empty()) throw Error("device.admittance: Configure() first");
+  for (int i = 0; i < config_.dof; ++i) {
+    auto& d = *drives_[static_cast<std::size_t>(i)];
+    d.Activate();
+    const double t = config_.axes[static_cast<std::size_t>(i)].transmission_m_per_rad;
+    // Position mode: the virtual mass starts where the joint is (the drive's target was set to it).
+    models_[static_cast<std::size_t>(i)].Reset(
+        config_.mode == Cia402Mode::kCyclicSynchronousPosition ? d.position_target_rad() * t : 0.0);
+  }
+  force_N_.setZero();
+  faults_ = kFaultNone;
+  safe_ = true;
+  active_ = true;
+}
+
+void AdmittanceDevice::Deactivate() noexcept {
+  SetSafe();
+  active_ = false;
+  for (auto& d : drives_) (void)d->Deactivate();
+}
+
+void AdmittanceDevice::Read(Reading& out) noexcept {
+  const int n = config_.dof;
+  out.position_m = DofVector::Zero(n);
+  out.velocity_m_per_s = DofVector::Zero(n);
+  out.force_N = DofVector::Zero(n);
+  out.rendered_force_N = rendered_N_;
+  out.warnings = kWarningNone;
+  std::uint32_t faults = faults_;
+  faults_ = kFaultNone;
+  for (int i = 0; i < n && i < static_cast<int>(drives_.size()); ++i) {
+    fieldbus::Cia402Reading r{};
+    const Cia402Status s = drives_[static_cast<std::size_t>(i)]->Read(r);
+    const double t = config_.axes[static_cast<std::size_t>(i)].transmission_m_per_rad;
+    out.position_m[i] = r.position_rad * t;
+    out.velocity_m_per_s[i] = r.velocity_rad_per_s * t;
+    switch (s) {
+      case Cia402Status::kOk:
+      case Cia402Status::kNoNewData:
+        break;
+      case Cia402Status::kFault:
+      case Cia402Status::kNotEnabled:
+      case Cia402Status::kNotActive:
+        faults |= kFaultDriver;
+        break;
+      default:
+        faults |= kFaultCommunication;
+        break;
+    }
+  }
+  if (drives_.empty()) faults |= kFaultDriver;
+  // One SYNC for every drive, after the TPDOs of the last one were read: it applies the previous cycle's RPDOs.
+  if (sync_ && sync_->Send() != transport::CanWriteStatus::kOk) faults |= kFaultCommunication;
+  out.faults = faults;
+}
+
+void AdmittanceDevice::Write(const Command& command) noexcept {
+  const int n = config_.dof;
+  if (command.force_N.size() != n || !command.force_N.allFinite()) {
+    faults_ |= kFaultDriver;
+    force_N_.setZero();
+    return;
+  }
+  force_N_ = command.force_N.cwiseMax(-config_.max_force_N).cwiseMin(config_.max_force_N);
+  safe_ = false;
+}
+
+void AdmittanceDevice::Update(double period_s) noexcept {
+  if (!active_) return;
+  for (int i = 0; i < config_.dof; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    const double t = config_.axes[k].transmission_m_per_rad;
+    VirtualAdmittance& m = models_[k];
+    if (safe_) {
+      m.Reset(m.position_m());  // hold: the mass stops where it is
+      rendered_N_[i] = 0.0;
+    } else {
+      m.Step(force_N_[i], period_s, config_.max_velocity_m_per_s);
+      rendered_N_[i] = force_N_[i];
+    }
+    const double target =
+        config_.mode == Cia402Mode::kCyclicSynchronousPosition ? m.position_m() / t : m.velocity_m_per_s() / t;
+    const Cia402Status s = drives_[k]->Write(target);
+    if (s == Cia402Status::kWriteFailed || s == Cia402Status::kBusOff || s == Cia402Status::kHeartbeatLost) {
+      faults_ |= kFaultCommunication;
+    } else if (s == Cia402Status::kFault) {
+      faults_ |= kFaultDriver;
+    }
+  }
+}
+
+void AdmittanceDevice::SetSafe() noexcept {
+  safe_ = true;
+  force_N_.setZero();
+}
+
+}  // namespace teleop::device

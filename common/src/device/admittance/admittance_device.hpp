@@ -1,0 +1,110 @@
+#pragma once
+
+// The admittance backend's device (private header): a virtual mass-damper per axis, m_v ẍ + b_v ẋ = F, driven by
+// the force the law commands; its position (mode 8) or velocity (mode 9) is the target of a CiA 402 drive. The
+// drive's own position loop makes the joint follow, so the slave behaves as the virtual dynamics — the model the
+// start-up stability check uses — as long as that loop is much faster than the virtual dynamics (b_v/m_v) and the
+// coupling (docs/cia402.md, "Admittance backend").
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "teleop/device/device.hpp"
+#include "teleop/fieldbus/can_port.hpp"
+#include "teleop/fieldbus/canopen_sync_producer.hpp"
+#include "teleop/fieldbus/cia402_drive.hpp"
+#include "teleop/types.hpp"
+
+namespace teleop::device {
+
+/// m ẍ + b ẋ = F with F held over each step, integrated exactly (zero-order hold): no step-size limit.
+class VirtualAdmittance {
+ public:
+  VirtualAdmittance(double mass_kg, double damping_Ns_per_m);
+  void Reset(double position_m) noexcept;
+  /// Advances by `h` seconds under `force_N`; the speed is clamped to ±max_velocity (0: no clamp).
+  void Step(double force_N, double h, double max_velocity) noexcept;
+  double position_m() const noexcept { return x_; }
+  double velocity_m_per_s() const noexcept { return v_; }
+
+ private:
+  double m_;
+  double b_;
+  double x_ = 0.0;
+  double v_ = 0.0;
+};
+
+struct AdmittanceAxisConfig {
+  fieldbus::Cia402DriveConfig drive{};  ///< node_id, scaling, heartbeat, eds_file …; mode and PDOs set by the device.
+  double transmission_m_per_rad = 1.0;  ///< Axis metres per joint radian (a capstan radius, a lead / 2π).
+};
+
+struct AdmittanceConfig {
+  int dof = 1;
+  DofVector virtual_mass_kg;           ///< m_v per axis, > 0.
+  DofVector virtual_damping_Ns_per_m;  ///< b_v per axis, >= 0 (> 0 in velocity mode is not required).
+  fieldbus::Cia402Mode mode = fieldbus::Cia402Mode::kCyclicSynchronousPosition;  ///< 8 or 9.
+  double max_force_N = 50.0;          ///< The law's force is clamped to it (the virtual actuator's limit).
+  double max_velocity_m_per_s = 0.5;  ///< The virtual mass's speed limit (and the drives' target limit).
+  /// The drives' position-loop bandwidth (rad/s, from their tuning), for the assumption check of the model; 0: not
+  /// known, the check is not applicable.
+  double position_loop_bandwidth_rad_per_s = 0.0;
+  /// The assumption: the loop at least this many times faster than b_v/m_v and than sqrt(K/m_v) (docs/cia402.md).
+  double bandwidth_ratio = 10.0;
+  /// K: the stiffest spring the virtual mass meets (the coupling's kp plus the fixture's stiffness), N/m; 0: only
+  /// b_v/m_v is checked.
+  double max_stiffness_N_per_m = 0.0;
+  double cycle_period_s = 0.001;
+  fieldbus::CanPortConfig can{};
+  std::vector<AdmittanceAxisConfig> axes;  ///< One per DOF.
+};
+
+/// Opens the port of one drive (tests: the in-process emulated bus).
+using AdmittancePortFactory =
+    std::function<std::unique_ptr<fieldbus::CanPort>(const transport::CanReceiveOptions& options)>;
+
+class AdmittanceDevice final : public Device {
+ public:
+  /// Validates (throws teleop::Error naming the key); no I/O. `ports` defaults to OpenCanPort(config.can, …).
+  explicit AdmittanceDevice(const AdmittanceConfig& config, AdmittancePortFactory ports = {},
+                            fieldbus::Timebase timebase = fieldbus::Timebase::Steady());
+  ~AdmittanceDevice() override;
+
+  const Capabilities& capabilities() const noexcept override { return caps_; }
+  const std::string& name() const noexcept override { return name_; }
+  void Configure() override;
+  void Activate() override;
+  void Deactivate() noexcept override;
+  void Read(Reading& out) noexcept override;
+  void Write(const Command& command) noexcept override;
+  void Update(double period_s) noexcept override;
+  void SetSafe() noexcept override;
+
+  const VirtualAdmittance& axis_model(int axis) const { return models_.at(static_cast<std::size_t>(axis)); }
+  const fieldbus::Cia402Drive& drive(int axis) const { return *drives_.at(static_cast<std::size_t>(axis)); }
+
+ private:
+  AdmittanceConfig config_;
+  AdmittancePortFactory ports_;
+  fieldbus::Timebase timebase_;
+  Capabilities caps_{};
+  std::string name_ = "admittance";
+  std::vector<VirtualAdmittance> models_;
+  std::vector<std::unique_ptr<fieldbus::CanPort>> drive_ports_;
+  std::vector<std::unique_ptr<fieldbus::Cia402Drive>> drives_;
+  std::unique_ptr<fieldbus::CanPort> sync_port_;
+  std::unique_ptr<fieldbus::canopen::SyncProducer> sync_;
+  DofVector force_N_;
+  DofVector rendered_N_;
+  std::uint32_t faults_ = kFaultNone;
+  bool active_ = false;
+  bool safe_ = true;
+};
+
+struct AnalysisModel;
+/// The stability check's model of the slave (admittance_backend.cpp).
+AnalysisModel AdmittanceModel(const AdmittanceConfig& config);
+
+}  // namespace teleop::device

@@ -1,0 +1,234 @@
+// The admittance backend (common/src/device/admittance) on simulated CiA 402 drives with their own position loop
+// (SimulatedLoopConfig: kp = 100 rad/s, velocity loop ~600 rad/s), on the in-process emulated bus, manual clock.
+//
+// The assumption of its stability model: the slave is the virtual mass-damper m_v ẍ + b_v ẋ = F only while the
+// drive's position loop is much faster than b_v/m_v. Under a constant force the virtual mass reaches
+// v∞ = F/b_v; a first-order position loop of bandwidth kp follows a ramp of slope v with the lag v/kp, so the joint
+// stays within v∞/kp (plus the cycle's two periods of transport: v∞ · 2 ms) of the closed form
+// x(t) = F/b (t − m/b (1 − e^{−b t / m})). With kp = 10 · b_v/m_v that holds; with a loop slower than the virtual
+// dynamics the error is several times larger and the model says "not applicable".
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "admittance_device.hpp"
+#include "teleop/device/device_registry.hpp"
+#include "teleop/error.hpp"
+#include "teleop/fieldbus/simulated_cia402_drive.hpp"
+#include "teleop/transport/can_emulated_bus.hpp"
+
+namespace teleop::device {
+namespace {
+
+constexpr double kCountsPerRad = 1048576.0;  // 2^20: quantisation far below the lags checked
+
+struct Rig {
+  std::uint64_t now_ns = 0;
+  transport::EmulatedCanBus bus{transport::EmulatedCanBusConfig{}, [this] { return now_ns; }};
+  std::vector<std::unique_ptr<transport::CanPort>> sim_ports;
+  std::vector<std::unique_ptr<fieldbus::SimulatedCia402Drive>> sims;
+  AdmittanceConfig config;
+  std::unique_ptr<AdmittanceDevice> device;
+
+  explicit Rig(int dof, double m_v, double b_v, double kp = 100.0) {
+    config.dof = dof;
+    config.virtual_mass_kg = DofVector::Constant(dof, m_v);
+    config.virtual_damping_Ns_per_m = DofVector::Constant(dof, b_v);
+    config.position_loop_bandwidth_rad_per_s = kp;
+    for (int i = 0; i < dof; ++i) {
+      AdmittanceAxisConfig a;
+      a.drive.node_id = static_cast<std::uint8_t>(i + 1);
+      a.drive.scaling.position_rad_per_count = 1.0 / kCountsPerRad;
+      a.drive.sdo.timeout_ms = 5.0;
+      a.drive.sdo.backoff_initial_ms = 1.0;
+      a.drive.max_torque_Nm = 1.0;
+      config.axes.push_back(a);
+      fieldbus::SimulatedCia402DriveConfig s;
+      s.node_id = a.drive.node_id;
+      s.position_rad_per_count = 1.0 / kCountsPerRad;
+      s.loops.position_kp_per_s = kp;
+      sim_ports.push_back(bus.MakePort(bus.AddNode(), fieldbus::SimulatedCia402Drive::ReceiveOptions(s)));
+      sims.push_back(std::make_unique<fieldbus::SimulatedCia402Drive>(s, *sim_ports.back()));
+    }
+  }
+  void Build() {
+    fieldbus::Timebase t;
+    t.now_ns = [this] { return now_ns; };
+    t.wait_ns = [this](std::uint64_t ns) { Advance(std::max<std::uint64_t>(ns, 1000)); };
+    device = std::make_unique<AdmittanceDevice>(
+        config, [this](const transport::CanReceiveOptions& o) { return bus.MakePort(bus.AddNode(), o); }, t);
+  }
+  void Advance(std::uint64_t ns) {
+    const std::uint64_t end = now_ns + ns;
+    while (now_ns < end) {
+      now_ns = std::min(end, now_ns + 100'000);
+      for (auto& s : sims) s->Step(now_ns);
+    }
+  }
+  /// One 1 ms cycle as the node runs it: Read, the law (here `force`), Write, Update, then the period passes.
+  Reading Cycle(const DofVector& force) {
+    Reading r;
+    device->Read(r);
+    device->Write(Command::Force(force));
+    device->Update(config.cycle_period_s);
+    Advance(1'000'000);
+    return r;
+  }
+};
+
+double Ideal(double F, double m, double b, double t) { return F / b * (t - m / b * (1.0 - std::exp(-b * t / m))); }
+
+/// The largest |joint − closed form| over 1 s under F = 1 N, and the final speed.
+double WorstDeviation(Rig& rig, double& speed) {
+  rig.Build();
+  rig.device->Configure();
+  rig.device->Activate();
+  const double m = rig.config.virtual_mass_kg[0];
+  const double b = rig.config.virtual_damping_Ns_per_m[0];
+  const DofVector F = DofVector::Constant(1, 1.0);
+  double worst = 0.0;
+  Reading r;
+  for (int k = 0; k < 1000; ++k) {
+    r = rig.Cycle(F);
+    EXPECT_EQ(r.faults, kFaultNone) << k;
+    // The reading of cycle k was sampled at the SYNC sent at its start; the force acted from cycle 0's Update on.
+    const double t = std::max(0.0, (k - 1) * 1e-3);
+    worst = std::max(worst, std::abs(r.position_m[0] - Ideal(1.0, m, b, t)));
+  }
+  speed = r.velocity_m_per_s[0];
+  return worst;
+}
+
+TEST(Admittance, VirtualMassDamperIsExactUnderAHeldForce) {
+  VirtualAdmittance a(0.5, 5.0);
+  a.Reset(0.0);
+  for (int k = 0; k < 300; ++k) a.Step(1.0, 1e-3, 0.0);
+  EXPECT_NEAR(a.position_m(), Ideal(1.0, 0.5, 5.0, 0.3), 1e-12);
+  EXPECT_NEAR(a.velocity_m_per_s(), 0.2 * (1.0 - std::exp(-3.0)), 1e-12);
+  VirtualAdmittance free(0.5, 0.0);  // b = 0: x = F t² / 2m
+  for (int k = 0; k < 100; ++k) free.Step(1.0, 1e-3, 0.0);
+  EXPECT_NEAR(free.position_m(), 0.5 * 1.0 / 0.5 * 0.01, 1e-12);
+  free.Step(1.0, 10.0, 0.3);
+  EXPECT_EQ(free.velocity_m_per_s(), 0.3);  // the speed limit
+}
+
+TEST(Admittance, WithAFastPositionLoopTheSlaveIsTheVirtualMassDamper) {
+  Rig rig(1, 0.5, 5.0, 100.0);  // b_v/m_v = 10 rad/s, kp = 100 rad/s: ratio 10
+  double speed = 0.0;
+  const double worst = WorstDeviation(rig, speed);
+  const double v_inf = 1.0 / 5.0;
+  EXPECT_NEAR(speed, v_inf, 0.01 * v_inf);  // F / b_v after 1 s = 5 m_v/b_v time constants
+  const double bound = v_inf / 100.0 + v_inf * 2e-3;
+  EXPECT_LT(worst, bound) << "the position loop's lag bound";
+  std::printf("fast loop: worst |x - x_ideal| %.3f mm, bound %.3f mm\n", worst * 1e3, bound * 1e3);
+  const AnalysisModel model = AdmittanceModel(rig.config);
+  ASSERT_TRUE(model.applicable) << model.reason;
+  EXPECT_EQ(model.mass_kg[0], 0.5);
+  EXPECT_EQ(model.damping_Ns_per_m[0], 5.0);
+}
+
+TEST(Admittance, WithASlowPositionLoopTheModelDoesNotHoldAndSaysSo) {
+  Rig rig(1, 0.5, 5.0, 5.0);  // kp = 5 rad/s < b_v/m_v = 10 rad/s
+  double speed = 0.0;
+  const double worst = WorstDeviation(rig, speed);
+  const double fast_bound = 0.2 / 100.0 + 0.2 * 2e-3;
+  EXPECT_GT(worst, 5.0 * fast_bound);  // v∞/kp = 40 mm of lag against 2.4 mm
+  std::printf("slow loop: worst |x - x_ideal| %.3f mm\n", worst * 1e3);
+  const AnalysisModel model = AdmittanceModel(rig.config);
+  EXPECT_FALSE(model.applicable);
+  EXPECT_NE(model.reason.find("is not 10 times faster than the virtual dynamics b_v/m_v = 10 rad/s"), std::string::npos)
+      << model.reason;
+  rig.config.position_loop_bandwidth_rad_per_s = 0.0;
+  EXPECT_FALSE(AdmittanceModel(rig.config).applicable);
+}
+
+// The stiffest spring counts too: m_v = 2 kg on 2600 N/m oscillates at sqrt(1300) = 36 rad/s; a 250 rad/s loop is
+// 6.9 times faster (ratio 5: applicable), a 100 rad/s loop 2.8 times (not).
+TEST(Admittance, TheModelChecksTheLoopAgainstTheStiffestSpring) {
+  AdmittanceConfig c;
+  c.dof = 1;
+  c.virtual_mass_kg = DofVector::Constant(1, 2.0);
+  c.virtual_damping_Ns_per_m = DofVector::Constant(1, 20.0);
+  c.bandwidth_ratio = 5.0;
+  c.max_stiffness_N_per_m = 2600.0;
+  c.position_loop_bandwidth_rad_per_s = 250.0;
+  EXPECT_TRUE(AdmittanceModel(c).applicable) << AdmittanceModel(c).reason;
+  c.position_loop_bandwidth_rad_per_s = 100.0;
+  const AnalysisModel m = AdmittanceModel(c);
+  EXPECT_FALSE(m.applicable);
+  EXPECT_NE(m.reason.find("sqrt(K/m_v) = 36.1 rad/s (max_stiffness_N_per_m 2600)"), std::string::npos) << m.reason;
+}
+
+// A fixture as the law renders it: F = F_push − K (x − x_wall) inside the wall. The virtual mass stops at
+// x_wall + F_push/K, and the drive puts the joint there.
+TEST(Admittance, TwoAxesFollowAndStopAtAFixture) {
+  Rig rig(2, 0.2, 4.0, 100.0);
+  rig.Build();
+  rig.device->Configure();
+  rig.device->Activate();
+  const double K = 200.0, wall = 0.05, push = 2.0;
+  Reading r;
+  DofVector F(2);
+  for (int k = 0; k < 2000; ++k) {
+    r = k == 0 ? rig.Cycle(DofVector::Zero(2)) : r;
+    for (int i = 0; i < 2; ++i) {
+      const double x = rig.device->axis_model(i).position_m();
+      F[i] = (i == 0 ? push : -push) - (i == 0 ? K * std::max(0.0, x - wall) : K * std::min(0.0, x + wall));
+    }
+    r = rig.Cycle(F);
+    ASSERT_EQ(r.faults, kFaultNone) << k;
+  }
+  EXPECT_NEAR(r.position_m[0], wall + push / K, 1e-4);
+  EXPECT_NEAR(r.position_m[1], -(wall + push / K), 1e-4);
+  EXPECT_NEAR(r.velocity_m_per_s[0], 0.0, 1e-3);
+  EXPECT_NEAR(r.rendered_force_N[0], 0.0, 0.05);
+  // Safe state: the mass stops and the drives hold.
+  rig.device->SetSafe();
+  const double held = r.position_m[0];
+  for (int k = 0; k < 200; ++k) r = rig.Cycle(DofVector::Constant(2, 0.0));
+  EXPECT_NEAR(r.position_m[0], held, 1e-4);
+  rig.device->Deactivate();
+  EXPECT_NE(rig.sims[0]->drive_state(), fieldbus::cia402::DriveState::kOperationEnabled);
+}
+
+TEST(Admittance, AFaultedDriveIsReportedAndNaNIsRefused) {
+  Rig rig(1, 0.5, 5.0);
+  rig.Build();
+  rig.device->Configure();
+  rig.device->Activate();
+  Reading r = rig.Cycle(DofVector::Constant(1, 0.0));
+  r = rig.Cycle(DofVector::Constant(1, 0.0));
+  EXPECT_EQ(r.faults, kFaultNone);
+  rig.device->Write(Command::Force(DofVector::Constant(1, std::nan(""))));
+  rig.device->Read(r);
+  EXPECT_NE(r.faults & kFaultDriver, 0u);
+  rig.sims[0]->InjectFault(0x2310);
+  rig.Advance(3'000'000);
+  r = rig.Cycle(DofVector::Constant(1, 0.0));
+  EXPECT_NE(r.faults & kFaultDriver, 0u);
+}
+
+TEST(Admittance, ConfigErrorsNameTheKey) {
+  AdmittanceConfig c;
+  c.dof = 1;
+  c.virtual_mass_kg = DofVector::Constant(1, 0.0);
+  c.virtual_damping_Ns_per_m = DofVector::Constant(1, 1.0);
+  c.axes.resize(1);
+  EXPECT_THROW(AdmittanceDevice d(c), Error);
+  c.virtual_mass_kg[0] = 1.0;
+  c.mode = fieldbus::Cia402Mode::kCyclicSynchronousTorque;
+  try {
+    AdmittanceDevice d(c);
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("mode must be position or velocity"), std::string::npos) << e.what();
+  }
+  EXPECT_NE(FindDevice("admittance"), nullptr);
+}
+
+}  // namespace
+}  // namespace teleop::device
