@@ -13,6 +13,7 @@
 
 #include "teleop/error.hpp"
 #include "test_utilities/limit_malloc.hpp"
+#include "test_utilities/temp_dir.hpp"
 
 namespace teleop::runtime {
 namespace {
@@ -21,13 +22,6 @@ namespace fs = std::filesystem;
 
 class TelemetryWriterTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("teleop_telemetry_" + std::to_string(getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
   static std::vector<std::string> ReadLines(const fs::path& path) {
     std::ifstream in(path);
     std::vector<std::string> lines;
@@ -35,7 +29,8 @@ class TelemetryWriterTest : public ::testing::Test {
     return lines;
   }
 
-  fs::path dir_;
+  test::ScopedTempDir temp_{"telemetry"};
+  const fs::path& dir_ = temp_.path();
 };
 
 TelemetryRecord MakeRecord(std::uint64_t cycle, int dof) {
