@@ -165,59 +165,62 @@ TEST(NodeStages, DeviceWarningsReachTheCsvTheEventsAndTheSummary) {
   EXPECT_EQ(k, 40u);
 }
 
-TEST(NodeStages, TheLifecycleIsConfigureActivateDeactivate) {
-  test::ScopedTempDir dir("lifecycle");
-  auto device = std::make_unique<MockDevice>(1);
-  MockDevice* d = device.get();
-  int deactivations = 0;
-  d->deactivations = &deactivations;
-  {
-    TeleopNode node(config::ParseProcessConfig(Config(dir.path().string(), ""), "slave.yaml"), std::move(device),
-                    Link(), TeleopNode::Unconfigured{});
-    EXPECT_EQ(d->calls(), 0u) << "nothing opened before Configure";
-    EXPECT_THROW(node.Activate(), Error) << "Activate needs Configure";
-    node.Configure();
-    ASSERT_EQ(d->calls(), 1u);
-    EXPECT_EQ(d->call(0), Call::kConfigure);
-    node.Step(0, kPeriod_s, Ns(0));
-    EXPECT_EQ(d->calls(), 1u) << "a configured, inactive node does not cycle";
-    node.Activate();
-    node.Step(1, kPeriod_s, Ns(1));
-    node.Deactivate();
-    node.Deactivate();
-    node.Step(2, kPeriod_s, Ns(2));
-    ASSERT_EQ(d->calls(), 6u);
-    EXPECT_EQ(d->call(1), Call::kActivate);
-    EXPECT_EQ(d->call(2), Call::kRead);
-    EXPECT_EQ(d->call(3), Call::kWrite);
-    EXPECT_EQ(d->call(4), Call::kUpdate);
-    EXPECT_EQ(d->call(5), Call::kDeactivate);
+/// An unconfigured slave node on a MockDevice whose calls the test reads; `node.reset()` destroys it.
+struct UnconfiguredNode {
+  UnconfiguredNode(const std::string& name, const std::string& extra) : dir(name) {
+    auto d = std::make_unique<MockDevice>(1);
+    device = d.get();
+    device->deactivations = &deactivations;
+    node = std::make_unique<TeleopNode>(config::ParseProcessConfig(Config(dir.path().string(), extra), "slave.yaml"),
+                                        std::move(d), Link(), TeleopNode::Unconfigured{});
   }
-  EXPECT_EQ(deactivations, 1) << "once, not again when the node goes";
+  test::ScopedTempDir dir;
+  int deactivations = 0;  ///< Declared before `node`: outlives it.
+  MockDevice* device = nullptr;
+  std::unique_ptr<TeleopNode> node;
+};
+
+TEST(NodeStages, TheLifecycleIsConfigureActivateDeactivate) {
+  UnconfiguredNode n("lifecycle", "");
+  MockDevice* d = n.device;
+  TeleopNode& node = *n.node;
+  EXPECT_EQ(d->calls(), 0u) << "nothing opened before Configure";
+  EXPECT_THROW(node.Activate(), Error) << "Activate needs Configure";
+  node.Configure();
+  ASSERT_EQ(d->calls(), 1u);
+  EXPECT_EQ(d->call(0), Call::kConfigure);
+  node.Step(0, kPeriod_s, Ns(0));
+  EXPECT_EQ(d->calls(), 1u) << "a configured, inactive node does not cycle";
+  node.Activate();
+  node.Step(1, kPeriod_s, Ns(1));
+  node.Deactivate();
+  node.Deactivate();
+  node.Step(2, kPeriod_s, Ns(2));
+  ASSERT_EQ(d->calls(), 6u);
+  EXPECT_EQ(d->call(1), Call::kActivate);
+  EXPECT_EQ(d->call(2), Call::kRead);
+  EXPECT_EQ(d->call(3), Call::kWrite);
+  EXPECT_EQ(d->call(4), Call::kUpdate);
+  EXPECT_EQ(d->call(5), Call::kDeactivate);
+  n.node.reset();
+  EXPECT_EQ(n.deactivations, 1) << "once, not again when the node goes";
 }
 
 TEST(NodeStages, ARefusedRealtimeSettingNeverLeavesAnActiveDevice) {
   // realtime.cpu names a CPU this machine does not have: the affinity call fails in Activate, before the device's.
-  test::ScopedTempDir dir("realtime");
-  auto device = std::make_unique<MockDevice>(1);
-  MockDevice* d = device.get();
-  int deactivations = 0;
-  d->deactivations = &deactivations;
-  {
-    TeleopNode node(config::ParseProcessConfig(Config(dir.path().string(), "realtime: {cpu: 1000}\n"), "slave.yaml"),
-                    std::move(device), Link(), TeleopNode::Unconfigured{});
-    node.Configure();
-    try {
-      node.Activate();
-      FAIL() << "realtime.cpu 1000 was accepted";
-    } catch (const Error& e) {
-      EXPECT_THAT(e.what(), HasSubstr("cpu 1000"));
-    }
-    node.Step(0, kPeriod_s, Ns(0));
+  UnconfiguredNode n("realtime", "realtime: {cpu: 1000}\n");
+  n.node->Configure();
+  try {
+    n.node->Activate();
+    FAIL() << "realtime.cpu 1000 was accepted";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cpu 1000"));
   }
-  ASSERT_EQ(d->calls(), 1u) << "configured, never activated, never cycled";
-  EXPECT_EQ(d->call(0), Call::kConfigure);
-  EXPECT_EQ(deactivations, 0);
+  n.node->Step(0, kPeriod_s, Ns(0));
+  ASSERT_EQ(n.device->calls(), 1u) << "configured, never activated, never cycled";
+  EXPECT_EQ(n.device->call(0), Call::kConfigure);
+  n.node.reset();  // the device goes with the node
+  EXPECT_EQ(n.deactivations, 0) << "never deactivated either: it was never active";
 }
 
 }  // namespace
