@@ -19,7 +19,7 @@ teleop::ctest "${TELEOP_BUILD}" --output-on-failure --parallel "$(nproc)" --time
 # Sanitizer pass: the `debug` preset (clang, AddressSanitizer + UndefinedBehaviorSanitizer, -g1 -O1) builds every
 # GoogleTest executable (unit, closed-loop and node tests; target teleop_unit_tests) into build-debug/ and runs them
 # (`ctest -L unit`), after the release suite has finished, never beside it: timing-sensitive tests would be starved.
-# On by default and in CI; TELEOP_SANITIZE=0 skips it. Cost on the 2-core CI machine: README "Test time".
+# On by default and in CI; TELEOP_SANITIZE=0 skips it. Cost on the 2-core CI machine: docs/testing.md, "Test time".
 if [[ "${TELEOP_SANITIZE:-1}" != "0" ]]; then
   teleop::build_sanitized
   export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:strict_string_checks=1}"

@@ -3,7 +3,7 @@
 
 Takes each file's command from <build>/compile_commands.json, swaps the compiler and the -g/-O flags, compiles it to a
 scratch object and prints the user+system CPU time per file and in total (what a clean build would spend on them;
-wall time on a shared machine is noise). How the sanitizer pass's options were compared (README "Test time"):
+wall time on a shared machine is noise). How the sanitizer pass's options were compared (docs/testing.md, "Test time"):
 
   cmake --preset debug
   deploy/lib/compile_cost.py build-debug --opt "-g -O1" --cxx g++ FILES...     # the old preset: GCC, -g -O1

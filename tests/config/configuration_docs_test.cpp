@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "teleop/config/key_table.hpp"
 #include "teleop/device/device_registry.hpp"
 
 namespace teleop {
@@ -65,6 +66,26 @@ TEST(ConfigurationDocs, EveryKeyOfEveryRegisteredBackendIsDocumented) {
       EXPECT_FALSE(key.description.empty()) << "device." << name << "." << key.key << " has no description";
     }
   }
+}
+
+// A backend's key table is the source of its docs rows: each row is in docs/configuration.md verbatim, so a default,
+// range or unit changed in the table and not in the docs (or the other way round) fails here.
+TEST(ConfigurationDocs, EveryKeyTableRowIsInTheDocsVerbatim) {
+  const std::string docs = ReadDocs();
+  int rows = 0;
+  for (const std::string& name : device::RegisteredDevices()) {
+    for (const config::KeySpec& spec : device::FindDevice(name)->key_table) {
+      const std::string row = config::KeyTableRow(spec);
+      EXPECT_NE(docs.find("\n" + row + "\n"), std::string::npos)
+          << "device." << name << "." << spec.key << ": docs/configuration.md lacks the row\n"
+          << row;
+      ++rows;
+    }
+  }
+  EXPECT_GE(rows, 7) << "the loopback backend's table (loopback_keys.hpp) has 7 keys";
+  config::KeySpec changed{"mass_kg", config::KeyType::kNumber, "kg", config::KeyRange::kPositive, false, 0.05, "x"};
+  EXPECT_EQ(docs.find(config::KeyTableRow(changed)), std::string::npos) << "the check can fail";
+  EXPECT_EQ(config::KeyTableRow(changed), "| `mass_kg` | number, kg | 0.05 | > 0 | x |");
 }
 
 TEST(ConfigurationDocs, TheCheckFindsAMissingKey) {

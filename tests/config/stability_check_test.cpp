@@ -19,6 +19,7 @@
 #include "teleop/analysis/human_bounds.hpp"
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/error.hpp"
+#include "test_utilities/temp_dir.hpp"
 
 namespace teleop::config {
 namespace {
@@ -336,21 +337,9 @@ TEST(StabilityCheck, EveryAxisWithItsOwnGains) {
   EXPECT_THAT(DescribeFailure(ParseProcessConfig(text, "s3.yaml"), above), HasSubstr("axis 2"));
 }
 
-class TempDir {
- public:
-  TempDir() : path_(std::filesystem::temp_directory_path() / ("teleop_stability_" + std::to_string(getpid()))) {
-    std::filesystem::create_directories(path_);
-  }
-  ~TempDir() { std::filesystem::remove_all(path_); }
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
-
 // human_bounds is relative to the config file; the shipped CSV is the built-in table, so the limit is the same.
 TEST(StabilityCheck, HumanBoundsFileRelativeToTheConfig) {
-  const TempDir dir;
+  const test::ScopedTempDir dir("stability");
   std::filesystem::copy_file(Deploy("human_bounds_finger.csv"), dir.path() / "finger.csv");
   const std::string text =
       Replace(ReadFile(Deploy("slave.yaml")), "human_bounds: \"\"", "human_bounds: \"finger.csv\"");

@@ -12,7 +12,9 @@
 
 #include "teleop/device/loopback/loopback_plant.hpp"
 #include "teleop/error.hpp"
+#include "test_utilities/base_config.hpp"
 #include "test_utilities/config_text.hpp"
+#include "test_utilities/temp_dir.hpp"
 
 namespace teleop::config {
 namespace {
@@ -20,26 +22,15 @@ namespace {
 using ::testing::HasSubstr;
 
 // A small valid master config. Tests replace one line at a time, so line numbers stay put.
-constexpr const char* kBase = R"(role: master
-dof: 1
-rate_hz: 1000
-link:
-  security: {mode: insecure}
-  bind: "127.0.0.1:47001"
-  peer: "127.0.0.1:47002"
-  timeout_ms: 50
-law:
-  kp_N_per_m: 600
-  kd_Ns_per_m: 2
-device:
-  backend: loopback
-  loopback:
-    mass_kg: 0.04
-    damping_Ns_per_m: 0.41
-    operator:
+const std::string kBase = [] {
+  std::string text = test::BaseConfig("master");
+  const std::string peer = "  peer: \"127.0.0.1:47002\"\n";
+  text.replace(text.find(peer), peer.size(), peer + "  timeout_ms: 50\n");
+  return text + R"(    operator:
       script:
         - {type: ramp, start_s: 0.5, duration_s: 1.5, from_N: 0, to_N: 3}
 )";
+}();
 
 using test::ErrorOf;
 using test::ExpectError;
@@ -366,7 +357,8 @@ TEST(LoadProcessConfig, MissingFileNamesThePath) {
 }
 
 TEST(LoadProcessConfig, MessagesCarryTheRealFileName) {
-  const auto path = std::filesystem::temp_directory_path() / ("teleop_cfg_" + std::to_string(getpid()) + ".yaml");
+  const test::ScopedTempDir dir("cfg");
+  const auto path = dir.path() / "teleop.yaml";
   {
     std::ofstream out(path);
     out << Replace(kBase, "rate_hz: 1000", "rate_hz: 100");
@@ -377,7 +369,6 @@ TEST(LoadProcessConfig, MessagesCarryTheRealFileName) {
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()).rfind(path.string() + ":3:10: key 'rate_hz': ", 0), 0u) << e.what();
   }
-  std::filesystem::remove(path);
 }
 
 }  // namespace

@@ -6,28 +6,14 @@
 
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/error.hpp"
+#include "test_utilities/base_config.hpp"
 
 namespace teleop::config {
 namespace {
 
 using ::testing::HasSubstr;
 
-constexpr const char* kBase = R"(role: slave
-dof: 1
-rate_hz: 1000
-link:
-  security: {mode: insecure}
-  bind: "127.0.0.1:47002"
-  peer: "127.0.0.1:47001"
-law:
-  kp_N_per_m: 600
-  kd_Ns_per_m: 2
-device:
-  backend: loopback
-  loopback:
-    mass_kg: 0.036
-    damping_Ns_per_m: 0.49
-)";
+const std::string kBase = test::BaseConfig("slave");
 
 ProcessConfig WithDds(const std::string& dds) { return ParseProcessConfig(std::string(kBase) + dds, "rig.yaml"); }
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The installed tree: `cmake --install` into a temporary prefix, then deploy/examples/custom_backend (a device
-# backend registered from outside the tree) configured with find_package(teleop) against that prefix only, built and
-# run. Also: the layout the docs promise, and the installed processes starting on the installed configs.
+# backend registered from outside the tree, and spring-master, its own teleop-master through ProcessMain) configured
+# with find_package(teleop) against that prefix only, built, run alone and as a process pair with teleop-slave.
+# Also: the layout the docs promise, and the installed processes starting on the installed configs.
 #   installed_tree_test.sh <build dir> <source dir> <work dir>
 set -euo pipefail
 build=$1 src=$2 work=$3
@@ -52,6 +53,12 @@ grep -q "registered backends: .*example-spring" <<<"${out}" && grep -q "register
   fail "example-spring is not registered beside loopback"
 grep -q "x = 10.0000 mm" <<<"${out}" || fail "the example backend did not reach 10 mm"
 ok "the out-of-tree backend registers, is created by name through MakeDevice and runs"
+# The real path: spring-master (the example's own teleop-master through ProcessMain) paired with the installed
+# teleop-slave.
+/usr/bin/python3 "${src}/tests/deploy/custom_rig_pair.py" --master "${work}/example/spring-master" \
+  --slave "${prefix}/bin/teleop-slave" --configs "${src}/deploy/examples/custom_backend" --workdir "${work}/pair" ||
+  fail "the out-of-tree rig as a process pair"
+ok "the out-of-tree rig runs as a process pair with teleop-slave"
 # Every exported target resolves in a consumer: its dependencies are found by teleopConfig.cmake (a target that
 # names, say, CLI11::CLI11 without a find_dependency fails here at generate time).
 # Device backends (teleop::device_<name>) are reached through teleop::devices, which links them whole-archive; CMake

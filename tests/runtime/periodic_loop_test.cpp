@@ -15,6 +15,7 @@
 
 #include "teleop/error.hpp"
 #include "test_utilities/limit_malloc.hpp"
+#include "test_utilities/temp_dir.hpp"
 
 namespace teleop::runtime {
 namespace {
@@ -215,14 +216,15 @@ bool HoldsOpen(const std::filesystem::path& path) {
   return false;
 }
 
+/// A path under a directory that does not exist.
 std::filesystem::path TempPath(const std::string& name) {
-  return std::filesystem::temp_directory_path() / (name + "-" + std::to_string(getpid()));
+  return std::filesystem::path(::testing::TempDir()) / (name + "-" + std::to_string(getpid()));
 }
 
 TEST(PeriodicLoopDmaLatency, HoldsTheRequestOpenWithTheValueForTheRunOnly) {
   // A regular file stands in for /dev/cpu_dma_latency: the loop writes the 32-bit value and keeps it open.
-  const std::filesystem::path path = std::filesystem::canonical(std::filesystem::temp_directory_path()) /
-                                     ("teleop-dma-latency-" + std::to_string(getpid()));
+  const test::ScopedTempDir dir("dma-latency");
+  const std::filesystem::path path = std::filesystem::canonical(dir.path()) / "cpu_dma_latency";
   { std::ofstream create(path); }
   PeriodicLoopConfig config;
   config.rate_hz = 1000.0;
@@ -250,7 +252,6 @@ TEST(PeriodicLoopDmaLatency, HoldsTheRequestOpenWithTheValueForTheRunOnly) {
   std::memcpy(&value, bytes.data(), sizeof value);
   EXPECT_TRUE(in.good());
   EXPECT_EQ(value, 7);
-  std::filesystem::remove(path);
 }
 
 TEST(PeriodicLoopDmaLatency, AnUnopenablePathIsACountedWarningNotAnError) {

@@ -13,6 +13,7 @@
 
 #include "teleop/error.hpp"
 #include "test_utilities/limit_malloc.hpp"
+#include "test_utilities/temp_dir.hpp"
 
 namespace teleop::runtime {
 namespace {
@@ -21,13 +22,6 @@ namespace fs = std::filesystem;
 
 class TelemetryWriterTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("teleop_telemetry_" + std::to_string(getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
   static std::vector<std::string> ReadLines(const fs::path& path) {
     std::ifstream in(path);
     std::vector<std::string> lines;
@@ -35,7 +29,8 @@ class TelemetryWriterTest : public ::testing::Test {
     return lines;
   }
 
-  fs::path dir_;
+  test::ScopedTempDir temp_{"telemetry"};
+  const fs::path& dir_ = temp_.path();
 };
 
 TelemetryRecord MakeRecord(std::uint64_t cycle, int dof) {
@@ -64,6 +59,7 @@ TelemetryRecord MakeRecord(std::uint64_t cycle, int dof) {
   }
   r.engagement = 3;
   r.data_age_s = 3e-5;
+  r.device_warnings = 1;  // device::kWarningStabilityGuard
   return r;
 }
 
@@ -72,7 +68,7 @@ TEST(TelemetryCsv, HeaderCarriesUnitsInColumnNames) {
             "cycle,time_s,dof,position_m_0,velocity_m_per_s_0,force_sensor_N_0,command_N_0,rendered_force_N_0,"
             "fixture_force_N_0,"
             "peer_position_m_0,peer_velocity_m_per_s_0,peer_force_N_0,fixture_penetration_m,law_status,flags,rtt_s,"
-            "compute_s,engagement,data_age_s,passivity_observed_J_0,passivity_damping_Ns_per_m_0");
+            "compute_s,engagement,data_age_s,passivity_observed_J_0,passivity_damping_Ns_per_m_0,device_warnings");
   const std::string two = TelemetryCsvHeader(2);
   EXPECT_NE(two.find("position_m_0,position_m_1,velocity_m_per_s_0"), std::string::npos) << two;
 }
@@ -83,10 +79,10 @@ TEST(TelemetryCsv, GoldenRow) {
   EXPECT_EQ(TelemetryCsvRow(r, 2),
             "7,0.007,2,0.25,0.5,-0.5,-0.5,3,3,-1.5,-1.5,-1.25,-1.25,0,0,0.125,0.125,2,2,-4,-4,0.001,1,9,0.0015,2.5e-05,"
             "3,3e-05,"
-            "0.125,0.25,4,4");
+            "0.125,0.25,4,4,1");
   r.rtt_s = std::numeric_limits<double>::quiet_NaN();
   const std::string row = TelemetryCsvRow(r, 1);
-  EXPECT_EQ(row, "7,0.007,2,0.25,-0.5,3,-1.5,-1.25,0,0.125,2,-4,0.001,1,9,nan,2.5e-05,3,3e-05,0.125,4")
+  EXPECT_EQ(row, "7,0.007,2,0.25,-0.5,3,-1.5,-1.25,0,0.125,2,-4,0.001,1,9,nan,2.5e-05,3,3e-05,0.125,4,1")
       << "NaN RTT written as nan";
 }
 
@@ -111,7 +107,7 @@ TEST_F(TelemetryWriterTest, WritesHeaderAndOneRowPerPushedRecordInOrder) {
   std::stringstream row(lines[3]);
   std::vector<double> values;
   for (std::string cell; std::getline(row, cell, ',');) values.push_back(std::stod(cell));
-  ASSERT_EQ(values.size(), 3u + 9u * 2u + 7u + 2u * 2u);
+  ASSERT_EQ(values.size(), 3u + 9u * 2u + 7u + 2u * 2u + 1u);
   EXPECT_EQ(values[0], 2.0);            // cycle
   EXPECT_DOUBLE_EQ(values[1], 0.002);   // time_s
   EXPECT_DOUBLE_EQ(values[4], 0.5);     // position_m_1

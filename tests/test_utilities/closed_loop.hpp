@@ -4,7 +4,7 @@
 #include <functional>
 #include <vector>
 
-#include "teleop/control/passivity_observer.hpp"
+#include "teleop/control/passivity_controller.hpp"
 #include "teleop/control/three_channel_law.hpp"
 #include "teleop/control/velocity_estimator.hpp"
 #include "teleop/device/law_command.hpp"

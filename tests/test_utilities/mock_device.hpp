@@ -32,6 +32,7 @@ class MockDevice final : public device::Device {
   DofVector position_m;          ///< Returned by Read.
   DofVector force_N;             ///< Returned by Read as the force sensor.
   std::uint32_t faults = 0;      ///< Returned by Read.
+  std::uint32_t warnings = 0;    ///< Returned by Read (device::WarningBits).
   std::string configure_error;   ///< Non-empty: Configure throws teleop::Error with it.
   std::string activate_error;    ///< Non-empty: Activate throws teleop::Error with it.
   int* deactivations = nullptr;  ///< When set, incremented by Deactivate (outlives the device, which the node owns).
@@ -66,6 +67,7 @@ class MockDevice final : public device::Device {
     out.force_N = force_N;
     out.rendered_force_N = rendered_force_N_;
     out.faults = faults;
+    out.warnings = warnings;
   }
   void Write(const device::Command& command) noexcept override {
     Log(Call::kWrite);

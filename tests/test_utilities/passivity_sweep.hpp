@@ -3,7 +3,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "teleop/control/passivity_observer.hpp"
+#include "teleop/control/passivity_controller.hpp"
 
 namespace teleop::test {
 

@@ -76,6 +76,8 @@ const char* EventKindName(node::Event::Kind kind) noexcept {
       return "aligning";
     case Kind::kEngaged:
       return "engaged";
+    case Kind::kDeviceWarning:
+      return "device_warning";
   }
   return "unknown";
 }

@@ -73,6 +73,14 @@ void EventLog::Drain() {
       case Event::Kind::kEngaged:
         spdlog::info("cycle {}: engaged", e.cycle);
         break;
+      case Event::Kind::kDeviceWarning:
+        if (e.value == 0.0) {
+          spdlog::info("cycle {}: device warnings cleared", e.cycle);
+        } else {
+          spdlog::warn("cycle {}: device warnings 0x{:x} (informational; the node acts on none)", e.cycle,
+                       static_cast<unsigned>(e.value));
+        }
+        break;
     }
     if (EventObserver* observer = observer_.load(std::memory_order_acquire)) observer->OnEvent(e);
   }

@@ -151,7 +151,9 @@ int ProcessMain(int argc, char** argv, Role role) {
 
     auto device = device::MakeDevice(config.device);
     auto link = transport::MakeLink(config.link, transport::ToSender(role));
-    TeleopNode node(config, std::move(device), std::move(link));
+    TeleopNode node(config, std::move(device), std::move(link), TeleopNode::Unconfigured{});
+    node.Configure();
+    node.Activate();  // real-time settings on this thread, checked, before the device is activated
 
     g_running_node.store(&node);
     struct sigaction action {};

@@ -137,6 +137,9 @@ std::string FormatSummaryText(const RunSummary& s) {
   }
   out += "\n";
   out += fmt::format("  telemetry         {} records, {} dropped\n", s.telemetry_records, s.telemetry_dropped);
+  const auto& w = s.device_warnings;
+  out += fmt::format("  device warnings   {} changes, set in {} cycles, seen 0x{:x}, last 0x{:x}\n", w.changes,
+                     w.cycles, w.seen, w.last);
   const auto& e = s.engagement;
   out += fmt::format(
       "  engagement        engaged {} times ({} cycles), coupling lost {} times, now {}; aligning mean {:.1f} ms, "
@@ -223,6 +226,10 @@ std::string FormatSummaryJson(const RunSummary& s) {
   out += fmt::format(R"(  "telemetry_records": {}, "telemetry_dropped": {},)"
                      "\n",
                      s.telemetry_records, s.telemetry_dropped);
+  out +=
+      fmt::format(R"(  "device_warnings": {{"changes": {}, "cycles": {}, "seen": {}, "last": {}}},)"
+                  "\n",
+                  s.device_warnings.changes, s.device_warnings.cycles, s.device_warnings.seen, s.device_warnings.last);
   const auto& e = s.engagement;
   out += fmt::format(
       R"(  "engagement": {{"reaction": {}, "final_state": {}, "times_engaged": {}, "couplings_lost": {}, )"

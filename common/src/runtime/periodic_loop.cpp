@@ -137,6 +137,12 @@ void PeriodicLoop::ApplySchedulingSettings() const {
                   OsReason(rc) + ". The CPU may be offline or outside this process's cpuset (see taskset -p " +
                   std::to_string(getpid()) + "); set realtime.cpu to -1 to run on any CPU");
     }
+    cpu_set_t held;
+    CPU_ZERO(&held);
+    if (pthread_getaffinity_np(pthread_self(), sizeof(held), &held) != 0 || !CPU_EQUAL(&held, &set)) {
+      throw Error("periodic loop: the loop thread was pinned to cpu " + std::to_string(config_.cpu) +
+                  " but its affinity reads back otherwise (a cpuset may override it); set realtime.cpu to -1");
+    }
   }
   if (config_.fifo_priority > 0) {
     const int max_priority = sched_get_priority_max(SCHED_FIFO);
@@ -153,6 +159,14 @@ void PeriodicLoop::ApplySchedulingSettings() const {
                   ". Run as root or grant CAP_SYS_NICE (sudo setcap cap_sys_nice+ep <binary>, or an rtprio "
                   "limit in /etc/security/limits.conf), or set realtime.fifo_priority: 0 for normal scheduling");
     }
+    int policy = 0;
+    sched_param held{};
+    if (pthread_getschedparam(pthread_self(), &policy, &held) != 0 || policy != SCHED_FIFO ||
+        held.sched_priority != config_.fifo_priority) {
+      throw Error("periodic loop: SCHED_FIFO priority " + std::to_string(config_.fifo_priority) +
+                  " was accepted but does not read back (policy " + std::to_string(policy) + ", priority " +
+                  std::to_string(held.sched_priority) + "); set realtime.fifo_priority: 0 for normal scheduling");
+    }
   }
   if (config_.lock_memory) {
     if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
@@ -165,8 +179,13 @@ void PeriodicLoop::ApplySchedulingSettings() const {
   }
 }
 
-void PeriodicLoop::Run(const Body& body) {
+void PeriodicLoop::ApplyRealtimeSettings() {
   ApplySchedulingSettings();
+  settings_applied_ = true;
+}
+
+void PeriodicLoop::Run(const Body& body) {
+  if (!settings_applied_) ApplySchedulingSettings();
   std::optional<DmaLatencyRequest> dma_latency;
   if (config_.cpu_dma_latency_us >= 0) dma_latency.emplace(config_.cpu_dma_latency_path, config_.cpu_dma_latency_us);
   stats_.cpu_dma_latency_held = dma_latency.has_value() && dma_latency->held();

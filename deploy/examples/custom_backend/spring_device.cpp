@@ -1,10 +1,9 @@
 // A custom device backend registered from outside the tree: a 1-DOF mass on a spring, simulated. A real backend
 // would open its bus in Configure(), enable its drives in Activate() and exchange frames in Read/Write/Update
-// (teleop/device/device.hpp). Its registration (teleop/device/device_registry.hpp) gives the name, a one-line
-// description, the reader of its `device.example-spring` section, the factory, its keys and its stability model.
+// (teleop/device/device.hpp). Its registration (teleop/device/device_registry.hpp, at the end of this file) gives the
+// name, a one-line description, the reader of its `device.example-spring` section, the factory and its stability
+// model. Compiled into an executable, the object registers itself before main() runs.
 #include <any>
-#include <cmath>
-#include <cstdio>
 #include <memory>
 #include <string>
 #include <utility>
@@ -45,9 +44,7 @@ class SpringDevice final : public teleop::device::Device {
   double force_N_ = 0.0;
 };
 
-}  // namespace
-
-int main() {
+teleop::device::DeviceBackend SpringBackend() {
   teleop::device::DeviceBackend backend;
   backend.name = "example-spring";
   backend.description = "a simulated 1-DOF mass on a spring (out-of-tree example)";
@@ -59,25 +56,9 @@ int main() {
   backend.model = [](const teleop::device::DeviceConfig& config) {
     return teleop::device::AnalysisModel::Uniform(config.dof, 0.05, 2.0);
   };
-  teleop::device::RegisterDevice(std::move(backend));  // or TELEOP_REGISTER_DEVICE(...) in the backend's .cpp
-  std::printf("registered backends:");
-  for (const auto& name : teleop::device::RegisteredDevices()) std::printf(" %s", name.c_str());
-  std::printf("\n");
-
-  teleop::device::DeviceConfig config;
-  config.backend = "example-spring";
-  config.dof = 1;
-  auto device = teleop::device::MakeDevice(config);
-  teleop::device::Reading reading;
-  const auto command = teleop::device::Command::Force(teleop::DofVector::Constant(1, 1.0));
-  for (int cycle = 0; cycle < 2000; ++cycle) {  // 2 s at 1 kHz, the loop's order: Read, Write, Update
-    device->Read(reading);
-    device->Write(command);
-    device->Update(1e-3);
-  }
-  device->Read(reading);
-  // 1 N against 100 N/m settles at 10 mm.
-  std::printf("%s: x = %.4f mm after 2 s under 1 N (spring 100 N/m: 10 mm expected)\n", device->name().c_str(),
-              reading.position_m[0] * 1e3);
-  return std::abs(reading.position_m[0] - 0.01) < 1e-4 ? 0 : 1;
+  return backend;
 }
+
+}  // namespace
+
+TELEOP_REGISTER_DEVICE(example_spring, SpringBackend())

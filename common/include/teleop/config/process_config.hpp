@@ -3,7 +3,7 @@
 #include <optional>
 #include <string>
 
-#include "teleop/control/passivity_observer.hpp"
+#include "teleop/control/passivity_controller.hpp"
 #include "teleop/control/three_channel_law.hpp"
 #include "teleop/dds/bridge_config.hpp"
 #include "teleop/device/device_config.hpp"

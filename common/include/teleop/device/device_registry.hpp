@@ -7,6 +7,7 @@
 #include <string_view>
 #include <vector>
 
+#include "teleop/config/key_spec.hpp"
 #include "teleop/device/device.hpp"
 #include "teleop/device/device_config.hpp"
 #include "teleop/types.hpp"
@@ -52,6 +53,9 @@ struct DeviceBackend {
   /// capabilities() is what the node checks.
   Capabilities nominal{};
   std::vector<ConfigKey> keys;  ///< Every key its reader accepts.
+  /// The keys written once in a key table (teleop/config/key_table.hpp): their reader, their `keys` entry and their
+  /// docs row come from it. Empty for a backend that has not adopted one.
+  std::vector<config::KeySpec> key_table;
   /// Whether `device.<name>:` must be present. When it is absent and not required, `read` gets nullptr.
   bool section_required = true;
   /// Reads and validates `device.<name>` (errors through config::Field::Fail, "FILE:LINE:COL: key 'a.b': reason";

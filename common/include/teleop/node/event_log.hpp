@@ -24,7 +24,8 @@ struct Event {
     kLatencyGate,   ///< value: the round trip (ms).
     kCouplingLost,  ///< value: the node::Outage.
     kAligning,
-    kEngaged,  ///< value: the longest aligning so far (s).
+    kEngaged,        ///< value: the longest aligning so far (s).
+    kDeviceWarning,  ///< The device's warning word changed; value: the new device::WarningBits (0: cleared).
   };
   Kind kind = Kind::kPeerConnected;
   std::uint64_t cycle = 0;

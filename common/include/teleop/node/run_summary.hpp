@@ -40,6 +40,15 @@ struct EngagementSummary {
   std::uint64_t nonfinite_readings = 0;
 };
 
+/// The device's warnings over the run (device::Reading::warnings, WarningBits; informational, the node acts on
+/// none).
+struct DeviceWarningSummary {
+  std::uint64_t changes = 0;  ///< Cycles in which the warning word changed (each an event).
+  std::uint64_t cycles = 0;   ///< Cycles with any warning bit set.
+  std::uint32_t last = 0;     ///< The word at the end of the run.
+  std::uint32_t seen = 0;     ///< Every bit seen during the run (OR).
+};
+
 /// What a process prints at the end of a run and writes with --summary-json. The field names are the JSON keys.
 struct RunSummary {
   Role role = Role::kMaster;
@@ -89,6 +98,7 @@ struct RunSummary {
   double passivity_min_observed_J = 0.0;            ///< Minimum of the observed energy W (docs/stability.md).
   std::uint64_t passivity_peer_without_energy = 0;  ///< energy_exchange: peer samples without the energy block.
   EngagementSummary engagement{};
+  DeviceWarningSummary device_warnings{};
   std::vector<FaultReport> faults;          ///< Every fault: what, when, the reaction, its record file.
   std::uint64_t fault_records_skipped = 0;  ///< Faults without a record (writer busy, safety.max_fault_records).
 };

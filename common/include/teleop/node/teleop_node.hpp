@@ -7,6 +7,7 @@
 #include "teleop/config/process_config.hpp"
 #include "teleop/control/three_channel_law.hpp"
 #include "teleop/device/device.hpp"
+#include "teleop/node/cycle_sink.hpp"
 #include "teleop/node/engagement.hpp"
 #include "teleop/node/run_summary.hpp"
 #include "teleop/transport/link.hpp"
@@ -14,24 +15,47 @@
 namespace teleop::node {
 
 /// One side of the teleoperator: device → law → link, every cycle, on a periodic real-time loop. teleop-master
-/// and teleop-slave are this class with a different config. Everything is allocated in the constructor; the
+/// and teleop-slave are this class with a different config. Everything is allocated before the first cycle; the
 /// cycle allocates nothing, takes no lock and does no I/O (telemetry and events leave through lock-free rings).
 ///
-/// The cycle's stages, in order: Sense (Device::Read), Receive (drain the link, watchdog), Control (the law),
-/// Actuate (Device::Write of the law's Command, or Device::SetSafe on a device fault; then Device::Update),
-/// Transmit (this cycle's sample), Record (statistics, events, telemetry).
+/// The cycle is a pipeline of values (docs/architecture.md, "The cycle"): Sense (Device::Read and the node's
+/// reading checks → Sensed), the peer tracker (receive, watchdog, round trip, data age → PeerView), the coupling
+/// (engagement, aligner, the law, force-rate limiter, safe reaction, passivity → Applied, the command actually
+/// applied), Actuate (Device::Write of it, or Device::SetSafe; then Device::Update), Transmit (this cycle's
+/// sample), Record (statistics, events, and the cycle's record to every sink: telemetry CSV, fault ring, DDS).
+///
+/// Lifecycle, after ros2_control: unconfigured → Configure() → configured → Activate() → active → Deactivate().
 class TeleopNode {
  public:
+  /// Asks the constructor to leave the node unconfigured: the caller runs Configure() and Activate().
+  struct Unconfigured {};
+
   /// Takes ownership of a device (constructed, not yet configured) and an opened link (so tests can pass
-  /// doubles). Configures the device, checks that it can render this config's law and fixture
-  /// (config::RequireRenderable: DOF, active gains on a device that cannot push, force limits), then activates it.
-  /// Throws teleop::Error naming the config key or the device's reason when any of this fails.
+  /// doubles), then Configure() and activates the device without the real-time settings (Run() applies them to its
+  /// own thread, as before). Throws teleop::Error naming the config key or the device's reason when this fails.
   TeleopNode(const config::ProcessConfig& config, std::unique_ptr<device::Device> device,
              std::unique_ptr<transport::Link> link);
-  /// Deactivates the device if Run() has not.
+  /// The same, unconfigured: nothing is opened or checked yet.
+  TeleopNode(const config::ProcessConfig& config, std::unique_ptr<device::Device> device,
+             std::unique_ptr<transport::Link> link, Unconfigured);
+  /// Deactivates the device if Run() or Deactivate() has not.
   ~TeleopNode();
   TeleopNode(const TeleopNode&) = delete;
   TeleopNode& operator=(const TeleopNode&) = delete;
+
+  /// Adds an output (teleop/node/cycle_sink.hpp) after the node's own (fault ring, telemetry CSV, DDS). Only while
+  /// unconfigured: the event log's thread reads the sinks from Configure() on.
+  void AddSink(std::unique_ptr<CycleSink> sink);
+  /// Configures the device (opens its bus), checks that it can render this config's law, fixture and reaction
+  /// (config::RequireRenderable, safety.reaction), and opens the outputs (telemetry CSV, fault records, DDS).
+  /// Throws teleop::Error; the device is never activated by it.
+  void Configure();
+  /// On the thread that will call Run(): applies the real-time settings (realtime.cpu affinity, SCHED_FIFO,
+  /// mlockall) and checks that they hold, then activates the device. A refused setting throws before the device is
+  /// activated. Requires Configure().
+  void Activate();
+  /// Puts the device into its inactive state (Device::Deactivate). Idempotent; noexcept.
+  void Deactivate() noexcept;
 
   /// Runs until Stop(), the configured duration, or the peer's clean shutdown; deactivates the device and returns
   /// the summary.
@@ -40,7 +64,7 @@ class TeleopNode {
   void Stop() noexcept;
 
   /// One cycle outside the periodic loop, for tests and lock-step simulations that step both sides in one thread.
-  /// `cycle` counts from 0. Same code as a cycle of Run(): allocation-free, never throws.
+  /// `cycle` counts from 0. Same code as a cycle of Run(): allocation-free, never throws. Does nothing unless active.
   void Step(std::uint64_t cycle, double period_s) noexcept;
   /// The same on a clock the caller drives (CLOCK_MONOTONIC-like ns): lock-step simulations are deterministic,
   /// watchdog and engagement included.

@@ -79,6 +79,10 @@ class PeriodicLoop {
   /// holds the cpu_dma_latency request until Run returns (a failure is counted, see CycleStats). Then resets the
   /// timing statistics and runs until Stop() or the duration elapses. A loop stopped before Run() does not run.
   void Run(const Body& body);
+  /// Applies the scheduling settings to the calling thread now and checks that they hold (the scheduling policy
+  /// and priority, the CPU affinity read back); throws teleop::Error as Run() would. Run() on the same thread then
+  /// does not apply them again. For a lifecycle that must know before a device is activated (TeleopNode::Activate).
+  void ApplyRealtimeSettings();
   /// Phase-locked cycles (config sync = kTriggered; before Run()): instead of sleeping to its own schedule, the
   /// loop waits on `wait` (e.g. the link socket's readiness) with the deadline of a TriggerSchedule (expected
   /// arrival + timeout margin; never less than half a period between cycle starts), then runs the cycle. A timeout
@@ -106,6 +110,7 @@ class PeriodicLoop {
   bool WaitForTheTrigger(std::int64_t expected_ns, std::int64_t deadline_ns);
 
   PeriodicLoopConfig config_;
+  bool settings_applied_ = false;  ///< ApplyRealtimeSettings() ran (on the thread that will call Run()).
   double period_s_;
   std::int64_t period_ns_;
   CycleStats stats_{};

@@ -42,6 +42,7 @@ struct TelemetryRecord {
   int engagement = 0;  ///< node::EngagementState as an integer (0 disengaged .. 3 engaged; teleop/node/engagement.hpp).
   /// Age of the peer sample the law used this cycle: cycle start - its (kernel) receive time; NaN when none.
   double data_age_s = std::numeric_limits<double>::quiet_NaN();
+  std::uint32_t device_warnings = 0;  ///< device::WarningBits the backend reported this cycle (0: none).
 };
 static_assert(std::is_trivially_copyable_v<TelemetryRecord>);
 

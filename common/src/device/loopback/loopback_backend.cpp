@@ -7,6 +7,8 @@
 #include <memory>
 #include <optional>
 
+#include "loopback_keys.hpp"
+#include "teleop/config/key_table.hpp"
 #include "teleop/config/yaml_reader.hpp"
 
 namespace teleop::device {
@@ -64,9 +66,9 @@ OperatorSegment ReadSegment(const Field& f, int dof) {
 void ReadOperator(const Field& f, int dof, SimulatedOperatorConfig& human) {
   const Map map(f, {"mass_kg", "damping_Ns_per_m", "stiffness_N_per_m", "script"});
   human.enabled = true;
-  if (auto v = map.Optional("mass_kg")) human.mass_kg = NonNegative(*v, "kg");
-  if (auto v = map.Optional("damping_Ns_per_m")) human.damping_Ns_per_m = NonNegative(*v, "N·s/m");
-  if (auto v = map.Optional("stiffness_N_per_m")) human.stiffness_N_per_m = NonNegative(*v, "N/m");
+  human.mass_kg = config::ReadNumber(map, loopback_keys::kOperatorMass);
+  human.damping_Ns_per_m = config::ReadNumber(map, loopback_keys::kOperatorDamping);
+  human.stiffness_N_per_m = config::ReadNumber(map, loopback_keys::kOperatorStiffness);
   if (auto script = map.Optional("script")) {
     const std::vector<Field> items = script->AsList();
     if (static_cast<int>(items.size()) > SimulatedOperatorConfig::kMaxSegments) {
@@ -101,10 +103,12 @@ LoopbackPlantConfig ReadLoopback(const Field& f, int dof) {
       f, {"mass_kg", "damping_Ns_per_m", "encoder_resolution_m", "initial_position_m", "operator", "environment"});
   LoopbackPlantConfig plant;
   plant.dof = dof;
-  plant.mass_kg = Positive(map.Required("mass_kg"), "kg");
-  plant.damping_Ns_per_m = NonNegative(map.Required("damping_Ns_per_m"), "N·s/m");
-  if (auto v = map.Optional("encoder_resolution_m")) plant.encoder_resolution_m = NonNegative(*v, "m");
-  if (auto v = map.Optional("initial_position_m")) plant.initial_position_m = config::ReadDofVector(*v, dof, Finite);
+  plant.mass_kg = config::ReadNumber(map, loopback_keys::kMass);
+  plant.damping_Ns_per_m = config::ReadNumber(map, loopback_keys::kDamping);
+  plant.encoder_resolution_m = config::ReadNumber(map, loopback_keys::kEncoderResolution);
+  if (map.Optional("initial_position_m")) {  // absent: empty, the plant starts at 0
+    plant.initial_position_m = config::ReadDofValue(map, loopback_keys::kInitialPosition, dof);
+  }
   if (auto v = map.Optional("operator")) ReadOperator(*v, dof, plant.human);
   if (auto v = map.Optional("environment")) ReadEnvironment(*v, dof, plant.environment);
   return plant;
@@ -122,14 +126,7 @@ DeviceBackend LoopbackBackend() {
   b.nominal.measures_velocity = false;
   b.nominal.measures_force = true;
   b.keys = {
-      {"mass_kg", "device mass (kg), > 0; the paper: master 0.040, slave 0.036"},
-      {"damping_Ns_per_m", "device damping (N·s/m), >= 0; the paper: master 0.41, slave 0.49"},
-      {"encoder_resolution_m", "position quantisation step (m), >= 0; 0 = none (default)"},
-      {"initial_position_m", "start position (m), one number or one per DOF; default 0"},
       {"operator", "simulated operator (master): mass-spring-damper with a scripted target force"},
-      {"operator.mass_kg", "operator mass m_h (kg), >= 0; default 0"},
-      {"operator.damping_Ns_per_m", "operator damping b_h (N·s/m), >= 0; default 0"},
-      {"operator.stiffness_N_per_m", "operator stiffness k_h (N/m), >= 0; default 0"},
       {"operator.script", "list of at most 16 segments of F_h*(t)"},
       {"operator.script[].type", "hold, step, ramp or sine"},
       {"operator.script[].axis", "the DOF the segment drives, 0..dof-1; default 0"},
@@ -147,6 +144,9 @@ DeviceBackend LoopbackBackend() {
       {"environment.stiffness_N_per_m", "wall stiffness (N/m), > 0"},
       {"environment.damping_Ns_per_m", "wall damping (N·s/m), >= 0; default 0"},
   };
+  // The keys with a value come from the key table (loopback_keys.hpp), written once.
+  b.key_table.assign(loopback_keys::kAll.begin(), loopback_keys::kAll.end());
+  for (const config::KeySpec& spec : b.key_table) b.keys.push_back({spec.key, config::DescribeKey(spec)});
   b.section_required = true;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
     return ReadLoopback(*section, context.dof);  // section_required: the config reader checked it is there

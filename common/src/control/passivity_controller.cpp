@@ -1,4 +1,4 @@
-#include "teleop/control/passivity_observer.hpp"
+#include "teleop/control/passivity_controller.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -121,7 +121,7 @@ PassivityController::Output PassivityController::Step(const Input& input, double
     double alpha = 0.0;
     // Rounding of the cumulative sums is not a deficit.
     const double tolerance_J = 1e-15 + 1e-12 * (state_.output_energy_J[k] + std::fabs(coming_J));
-    if (predicted < -tolerance_J && config_.mode != PassivityMode::kOff) {
+    if (predicted < -tolerance_J && config_.mode != PassivityMode::kOff && input.may_act) {
       if (alpha_max > 0.0 && v2t > 0.0) {
         alpha = std::min(-predicted / v2t, alpha_max);
         double u_pc = u - alpha * v;

@@ -1,7 +1,7 @@
 // PassivityController: the observer's energies on known power sequences, the controller dissipating exactly the
 // deficit and never adding energy, its bounds, the energy-exchange credit, bad input, no allocation.
 
-#include "teleop/control/passivity_observer.hpp"
+#include "teleop/control/passivity_controller.hpp"
 
 #include <gtest/gtest.h>
 

@@ -61,6 +61,9 @@ class PassivityController {
     DofVector velocity_m_per_s;      ///< v: the device's velocity at the port (the law's measured or estimated one).
     DofVector peer_input_energy_J;   ///< energy_exchange: the peer's cumulative E_in as last received; else unused.
     bool peer_energy_valid = false;  ///< energy_exchange: a peer value has been received (false: no credit).
+    /// False: observe only this step (α = 0, the force passes unchanged), for a command that must stay what it is
+    /// (a safe state, a zero-force reaction); the observer still settles the interval with it.
+    bool may_act = true;
   };
 
   struct Output {

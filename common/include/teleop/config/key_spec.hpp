@@ -1,0 +1,33 @@
+#pragma once
+
+// One config key written once (no YAML here: device_registry.hpp lists a backend's table). Reading, describing and
+// the docs row: teleop/config/key_table.hpp.
+
+#include <cstdint>
+
+namespace teleop::config {
+
+/// What a key holds.
+enum class KeyType : std::uint8_t {
+  kNumber,    ///< One number.
+  kDofValue,  ///< One number for every DOF, or a list of exactly `dof` numbers (ReadDofVector).
+};
+
+/// The range a key's value must lie in (the reader's check and the docs' "range" column).
+enum class KeyRange : std::uint8_t { kFinite, kPositive, kNonNegative };
+
+/// One key of a config section, written once: its reader (ReadNumber, ReadDofValue), its line in `--list-devices`
+/// (DescribeKey) and its row in docs/configuration.md (KeyTableRow; tests/config/configuration_docs_test.cpp checks
+/// the row is there verbatim) all come from it. A backend keeps its table in one private header
+/// (common/src/device/loopback/loopback_keys.hpp is the model) and lists it in DeviceBackend::key_table.
+struct KeySpec {
+  const char* key = "";  ///< Path below the section, e.g. "mass_kg", "operator.mass_kg" (the reader reads the leaf).
+  KeyType type = KeyType::kNumber;
+  const char* unit = "";  ///< SI unit as the docs write it ("kg", "N·s/m"); "" for a pure number.
+  KeyRange range = KeyRange::kFinite;
+  bool required = false;
+  double default_value = 0.0;  ///< When not required and absent.
+  const char* meaning = "";    ///< One sentence for the docs and `--list-devices`.
+};
+
+}  // namespace teleop::config

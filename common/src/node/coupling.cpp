@@ -1,0 +1,221 @@
+#include "coupling.hpp"
+
+#include <algorithm>
+
+namespace teleop::node {
+
+namespace {
+
+void CopyFromWire(const std::array<double, proto::kMaxWireDof>& in, int dof, DofVector& out) noexcept {
+  out.resize(dof);
+  for (int i = 0; i < dof; ++i) out[i] = in[static_cast<std::size_t>(i)];
+}
+
+double MaxAbs(const DofVector& v) noexcept { return v.size() > 0 ? v.cwiseAbs().maxCoeff() : 0.0; }
+
+/// A config built in code may leave the controller's config unsized.
+control::PassivityController::Config PassivityConfigOf(const config::ProcessConfig& cfg) {
+  control::PassivityController::Config pc = cfg.passivity;
+  pc.dof = cfg.dof;
+  if (pc.max_damping_Ns_per_m.size() != cfg.dof) pc.max_damping_Ns_per_m = ZeroDof(cfg.dof);
+  pc.max_force_N = cfg.law.max_force_N;
+  return pc;
+}
+
+}  // namespace
+
+Coupling::Coupling(const Config& config, EventLog& events)
+    : config_(config),
+      events_(events),
+      law_(config.process.law),
+      passivity_(PassivityConfigOf(config.process)),
+      aligner_(config.process.engagement, config.process.dof),
+      limiter_(config.process.dof),
+      reaction_(config.process.safety, config.process.law) {
+  const int dof = config.process.dof;
+  state_.last_velocity = ZeroDof(dof);
+  state_.last_reference_m = ZeroDof(dof);
+  for (DofVector* v : {&input_.position_m, &input_.velocity_m_per_s, &input_.peer_position_m,
+                       &input_.peer_velocity_m_per_s, &input_.peer_force_N, &passivity_input_.peer_input_energy_J,
+                       &zero_, &applied_.damping_Ns_per_m, &applied_.peer_local_m, &applied_.command.command_N,
+                       &applied_.command.fixture_force_N, &applied_.command.velocity_m_per_s}) {
+    *v = ZeroDof(dof);
+  }
+  applied_.law_input = &input_;
+  applied_.passivity = &passivity_.state();
+  applied_.passivity_mode = passivity_.config().mode;
+  applied_.reaction = reaction_.reaction();
+}
+
+const Applied& Coupling::Step(const Sensed& sensed, const PeerView& peer, std::uint64_t cycle, double t_s,
+                              double period_s) noexcept {
+  Engage(sensed, peer, cycle, t_s);
+  PrepareInput(*sensed.reading, peer, t_s, period_s);
+  applied_.law = law_.Step(input_, period_s);
+  applied_.nonfinite = applied_.law.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput;
+  EngagementMachine::Transition& tr = applied_.transition;
+  if (applied_.nonfinite)
+    tr.coupling_lost = engagement_.Update(Outage::kNonFiniteInput, false, t_s).coupling_lost || tr.coupling_lost;
+  if (tr.coupling_lost)
+    events_.Push({Event::Kind::kCouplingLost, cycle, static_cast<double>(engagement_.last_outage())});
+  if (tr.aligning_started) events_.Push({Event::Kind::kAligning, cycle, 0.0});
+  if (tr.engaged) events_.Push({Event::Kind::kEngaged, cycle, engagement_.aligning_max_s()});
+  const Path path = PathOf(sensed);
+  Shape(path, t_s, period_s);
+  Passivate(path, peer, period_s);
+  Track(path, period_s);
+  state_.last_velocity = applied_.law.velocity_m_per_s;
+  applied_.engagement = engagement_.state();
+  return applied_;
+}
+
+void Coupling::Engage(const Sensed& sensed, const PeerView& peer, std::uint64_t /*cycle*/, double t_s) noexcept {
+  applied_.transition = engagement_.Update(Blocker(sensed.local_faults, peer), state_.aligned_verdict, t_s);
+}
+
+Coupling::Path Coupling::PathOf(const Sensed& sensed) const noexcept {
+  if (sensed.local_faults != device::kFaultNone) return Path::kDeviceFault;
+  if (applied_.nonfinite) return Path::kNonFinite;
+  if (!engagement_.coupling()) return Path::kReaction;
+  return engagement_.state() == EngagementState::kAligning ? Path::kAligning : Path::kEngaged;
+}
+
+void Coupling::PrepareInput(const device::Reading& reading, const PeerView& peer, double t_s,
+                            double period_s) noexcept {
+  const int dof = config_.process.dof;
+  input_.position_m = reading.position_m;
+  input_.has_velocity = config_.measures_velocity;
+  input_.velocity_m_per_s = reading.velocity_m_per_s;
+  if (peer.have_peer) {
+    CopyFromWire(peer.sample->position_m, dof, input_.peer_position_m);
+    CopyFromWire(peer.sample->velocity_m_per_s, dof, input_.peer_velocity_m_per_s);
+    CopyFromWire(peer.sample->force_N, dof, input_.peer_force_N);
+  }
+  applied_.peer_local_m = config_.process.law.peer_position_scale * input_.peer_position_m;
+  if (!engagement_.coupling()) {
+    if (!state_.reaction_latched) {
+      reaction_.Latch(reading.position_m, state_.last_velocity, limiter_.last_N(), t_s);
+      state_.reaction_latched = true;
+    }
+    reaction_.PrepareInput(input_, period_s);
+    return;
+  }
+  state_.reaction_latched = false;
+  input_.peer_valid = true;
+  if (applied_.transition.aligning_started) {
+    aligner_.Start(reading.position_m, t_s);
+    state_.aligned_verdict = false;
+    state_.last_reference_m = reading.position_m;
+  }
+  if (engagement_.state() == EngagementState::kAligning) {
+    Align(reading, t_s, period_s);
+    return;
+  }
+  if (applied_.transition.engaged) {
+    state_.max_reference_step_m =
+        std::max(state_.max_reference_step_m, MaxAbs(applied_.peer_local_m - state_.last_reference_m));
+  }
+  state_.last_reference_m = applied_.peer_local_m;
+}
+
+void Coupling::Align(const device::Reading& /*reading*/, double t_s, double period_s) noexcept {
+  // The law sees a peer that starts where this device is and moves to the real one at bounded speed.
+  const double scale = config_.process.law.peer_position_scale;
+  const DofVector& ref = aligner_.Step(applied_.peer_local_m, t_s, period_s);
+  state_.max_reference_step_m = std::max(state_.max_reference_step_m, aligner_.last_step_m());
+  input_.peer_position_m = ref / scale;
+  // Once caught up the reference is the peer: its velocity is the peer's (no K_d step at the switch).
+  if (!aligner_.caught_up()) input_.peer_velocity_m_per_s = aligner_.reference_velocity_m_per_s() / scale;
+  input_.peer_force_N *= aligner_.ramp();
+  state_.last_reference_m = ref;
+}
+
+void Coupling::Shape(Path path, double t_s, double period_s) noexcept {
+  const control::ThreeChannelLaw::Output& out = applied_.law;
+  control::ThreeChannelLaw::Output& cmd = applied_.command;
+  cmd.velocity_m_per_s = out.velocity_m_per_s;
+  cmd.fixture_penetration_m = out.fixture_penetration_m;
+  cmd.status = out.status;
+  cmd.fixture_force_N = out.fixture_force_N;
+  applied_.safe = false;
+  switch (path) {
+    case Path::kDeviceFault:
+      applied_.safe = true;
+      break;
+    case Path::kNonFinite:
+      cmd.command_N = out.command_N;  // the law's zero command
+      cmd.fixture_force_N.setZero();
+      break;
+    case Path::kAligning: {
+      // The coupling part ramps in at a bounded rate; the fixture's share is never limited.
+      const double max_force_N = config_.process.law.max_force_N;
+      const DofVector before = limiter_.last_N();
+      cmd.command_N = limiter_.Limit(out.command_N - out.fixture_force_N,
+                                     config_.process.engagement.max_force_rate_N_per_s, period_s) +
+                      out.fixture_force_N;
+      if (max_force_N > 0.0) cmd.command_N = cmd.command_N.cwiseMax(-max_force_N).cwiseMin(max_force_N);
+      state_.max_aligning_force_rate =
+          std::max(state_.max_aligning_force_rate, MaxAbs(limiter_.last_N() - before) / period_s);
+      state_.aligned_verdict = aligner_.aligned() && !limiter_.clipped();
+      break;
+    }
+    case Path::kEngaged:
+      cmd.command_N = out.command_N;
+      break;
+    case Path::kReaction: {
+      applied_.safe = !reaction_.Command(out, t_s, cmd.command_N);
+      const Reaction r = reaction_.reaction();
+      const bool with_fixture = r == Reaction::kHold || r == Reaction::kDecelerate || r == Reaction::kFade;
+      if (!with_fixture) cmd.fixture_force_N.setZero();
+      break;
+    }
+  }
+  if (applied_.safe) {
+    cmd.command_N = zero_;
+    cmd.fixture_force_N.setZero();
+  }
+}
+
+void Coupling::Passivate(Path path, const PeerView& peer, double period_s) noexcept {
+  // The port sees the command the device gets: after the limiter, the reaction and the safe state. Where that
+  // command must stay what it is (the safe state, zero_force), the controller only observes.
+  passivity_input_.force_N = applied_.command.command_N;
+  passivity_input_.velocity_m_per_s = applied_.law.velocity_m_per_s;
+  passivity_input_.may_act =
+      !applied_.safe && !(path == Path::kReaction && reaction_.reaction() == Reaction::kZeroForce);
+  passivity_input_.peer_energy_valid = peer.have_peer && peer.sample->has_energy;
+  if (passivity_input_.peer_energy_valid) {
+    CopyFromWire(peer.sample->input_energy_J, config_.process.dof, passivity_input_.peer_input_energy_J);
+  } else if (peer.have_peer && passivity_.config().mode == control::PassivityMode::kEnergyExchange) {
+    ++state_.passivity_peer_without_energy;
+  }
+  const control::PassivityController::Output pc = passivity_.Step(passivity_input_, period_s);
+  applied_.command.command_N = pc.force_N;
+  applied_.damping_Ns_per_m = pc.damping_Ns_per_m;
+}
+
+void Coupling::Track(Path path, double period_s) noexcept {
+  const DofVector& applied_N = applied_.command.command_N;
+  switch (path) {
+    case Path::kEngaged: {
+      const DofVector coupling = applied_N - applied_.law.fixture_force_N;
+      if (applied_.transition.engaged) {
+        state_.max_aligning_force_rate =
+            std::max(state_.max_aligning_force_rate, MaxAbs(coupling - limiter_.last_N()) / period_s);
+      }
+      limiter_.Track(coupling);
+      break;
+    }
+    case Path::kReaction:
+      limiter_.Track(applied_N - applied_.command.fixture_force_N);
+      break;
+    case Path::kDeviceFault:
+      limiter_.Track(applied_N);
+      break;
+    case Path::kAligning:  // the limiter holds what it let through
+    case Path::kNonFinite:
+      break;
+  }
+}
+
+}  // namespace teleop::node

@@ -1,0 +1,101 @@
+#pragma once
+
+// Stage 3 of the cycle (docs/architecture.md, "The cycle"): from what the device sensed and what the peer tracker
+// saw to the command actually applied. Private to the node.
+
+#include <cstdint>
+
+#include "peer_tracker.hpp"
+#include "teleop/config/process_config.hpp"
+#include "teleop/control/passivity_controller.hpp"
+#include "teleop/control/three_channel_law.hpp"
+#include "teleop/device/device.hpp"
+#include "teleop/node/engagement.hpp"
+#include "teleop/node/event_log.hpp"
+#include "teleop/node/safe_reaction.hpp"
+
+namespace teleop::node {
+
+/// Stage 1's output: the device's reading and the faults the node sees in it.
+struct Sensed {
+  const device::Reading* reading = nullptr;
+  std::uint32_t local_faults = 0;  ///< Device fault bits | the node's reading checks (ReadingCheck).
+};
+
+/// The coupling's output: the command the device gets this cycle, after the aligning limiter, the safe-state
+/// reaction, the device-fault replacement and the passivity controller, in that order.
+struct Applied {
+  control::ThreeChannelLaw::Output law;      ///< The law's own output (velocity, fixture, status, penetration).
+  control::ThreeChannelLaw::Output command;  ///< Applied: command_N (0 in the safe state), its fixture share.
+  DofVector damping_Ns_per_m;                ///< The passivity controller's α this cycle.
+  DofVector peer_local_m;                    ///< The peer's position in the local frame.
+  const control::ThreeChannelLaw::Input* law_input = nullptr;  ///< What the law saw (virtual peer included).
+  EngagementMachine::Transition transition;
+  EngagementState engagement = EngagementState::kDisengaged;       ///< After this cycle's transitions.
+  Reaction reaction = Reaction::kZeroForce;                        ///< safety.reaction (what "not coupled" does).
+  const control::PassivityController::State* passivity = nullptr;  ///< The port's energies after this step.
+  control::PassivityMode passivity_mode = control::PassivityMode::kOff;
+  bool safe = false;       ///< Device::SetSafe instead of Write (device fault, brake).
+  bool nonfinite = false;  ///< The law saw NaN/inf.
+};
+
+/// Engagement, aligner, force-rate limiter, safe reaction and time-domain passivity around the three-channel law:
+/// Config + State + one Step that returns the command actually applied. The passivity port integrates that
+/// command (docs/stability.md). Allocation-free and noexcept in Step.
+class Coupling {
+ public:
+  struct Config {
+    config::ProcessConfig process;  ///< law, engagement, safety, passivity, dof.
+    bool measures_velocity = false;
+  };
+  /// What crosses from one cycle to the next.
+  struct State {
+    bool aligned_verdict = false;   ///< Aligner reached the peer and the limiter did not clip (for the next Update).
+    bool reaction_latched = false;  ///< The reaction holds the state latched at the loss of coupling.
+    DofVector last_velocity;        ///< The law's velocity of the previous cycle (for the reaction's latch).
+    DofVector last_reference_m;     ///< The coupling reference of the previous cycle (local frame).
+    double max_reference_step_m = 0.0;     ///< Largest one-cycle jump of the reference while (re)engaging.
+    double max_aligning_force_rate = 0.0;  ///< Largest |Δ coupling force| / period aligning and at engagement.
+    std::uint64_t passivity_peer_without_energy = 0;  ///< energy_exchange: peer samples without the block.
+  };
+
+  Coupling(const Config& config, EventLog& events);
+
+  const Applied& Step(const Sensed& sensed, const PeerView& peer, std::uint64_t cycle, double t_s,
+                      double period_s) noexcept;
+
+  const State& state() const noexcept { return state_; }
+  const EngagementMachine& engagement() const noexcept { return engagement_; }
+  const control::ThreeChannelLaw& law() const noexcept { return law_; }
+  const control::PassivityController& passivity() const noexcept { return passivity_; }
+  Reaction reaction() const noexcept { return reaction_.reaction(); }
+
+ private:
+  /// Which path chose the command.
+  enum class Path : std::uint8_t { kDeviceFault, kNonFinite, kAligning, kEngaged, kReaction };
+
+  void Engage(const Sensed& sensed, const PeerView& peer, std::uint64_t cycle, double t_s) noexcept;
+  void PrepareInput(const device::Reading& reading, const PeerView& peer, double t_s, double period_s) noexcept;
+  void Align(const device::Reading& reading, double t_s, double period_s) noexcept;
+  void Shape(Path path, double t_s, double period_s) noexcept;
+  void Passivate(Path path, const PeerView& peer, double period_s) noexcept;
+  void Track(Path path, double period_s) noexcept;
+  Path PathOf(const Sensed& sensed) const noexcept;
+
+  Config config_;
+  EventLog& events_;
+  control::ThreeChannelLaw law_;
+  control::PassivityController passivity_;  ///< Off = observe only.
+  EngagementMachine engagement_;
+  Aligner aligner_;
+  ForceRateLimiter limiter_;  ///< The coupling part of the command while aligning; tracks it otherwise.
+  SafeReaction reaction_;
+  State state_;
+  // Preallocated values of this cycle.
+  control::ThreeChannelLaw::Input input_;
+  control::PassivityController::Input passivity_input_;
+  DofVector zero_;
+  Applied applied_;
+};
+
+}  // namespace teleop::node
