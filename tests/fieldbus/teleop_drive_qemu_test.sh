@@ -30,6 +30,7 @@ expect info 'device name +teleop simulated CiA 402 drive'
 expect info 'supported modes +0x00000380: 8 \(cyclic synchronous position\), 9 .*, 10'
 expect sdo '^teleop simulated CiA 402 drive$'
 for mode in position velocity torque; do
+  expect "enable-${mode}" "Operation Enabled, cyclic synchronous ${mode}"
   expect "enable-${mode}" 'stopped after [0-9]+ cycles \(time\).*disabled'
 done
 expect jog 'stopped after [0-9]+ cycles \(time\).*velocity (1\.9|2\.0)[0-9]* rad/s.*disabled'
@@ -37,7 +38,9 @@ expect jog-position 'stopped after [0-9]+ cycles.*velocity -?0\.0[0-9]* rad/s.*d
 expect jog-torque 'stopped after .*torque 0\.0500 N·m; disabled'
 expect eds 'stopped after [0-9]+ cycles \(time\).*velocity (0\.9|1\.0)[0-9]* rad/s.*disabled'
 expect eds-bad 'bad\.eds: \[6060\] DataType is 0x0005 \(UNSIGNED8\), the client uses INTEGER8'
-expect info-after-bad-eds 'state +Switch On Disabled'
+# Nothing was written: the drive is still disabled, in the velocity mode of the last jog (not torque, 10).
+expect info-after-bad-eds 'state +(Switch On Disabled|Ready To Switch On)'
+expect info-after-bad-eds 'mode display +9$'
 expect fault-reset 'after fault reset: '
 if grep -q '^FAIL' "${log}"; then
   echo "FAIL: $(grep '^FAIL' "${log}" | tr '\n' ' ')" >&2
