@@ -239,11 +239,11 @@ analysis::StabilityLimit PredictedLimit(const LimitCase& c) {
                                           analysis::MakeHumanGrid(analysis::DefaultFingerBounds(), 2));
 }
 
-/// The position ripple (std dev about the mean) of the law's x_s in the third quarter and the last quarter of a run.
+/// The position ripple (std dev about the mean) of the law's x_s in the second quarter and the last quarter of a run.
 struct Ripple {
   double early = 0.0, late = 0.0;
   double follow = 0.0;  ///< Largest |joint − virtual mass two cycles earlier| in the last half, m.
-  bool Decays() const { return late < 0.7 * early; }
+  bool Decays() const { return late < early; }
 };
 /// What the law reads as x_s: the virtual mass (the model the analysis uses), the virtual mass two cycles late (the
 /// transport alone, no drive in the loop), or the drive's reading (what AdmittanceDevice::Read reports and the
@@ -287,17 +287,18 @@ Ripple RunAtStiffness(const LimitCase& c, double k, double bandwidth, Feedback f
     for (int i = from; i < to; ++i) var += std::pow(xs[static_cast<std::size_t>(i)] - mean, 2);
     return std::sqrt(var / (to - from));
   };
-  out.early = sd(cycles / 2, 3 * cycles / 4);
+  out.early = sd(cycles / 4, cycles / 2);
   out.late = sd(3 * cycles / 4, cycles);
   return out;
 }
 
-/// The simulated limit: bisection in [lo, hi] N/m on "the ripple decays" (1.5 s runs) to 2 %.
+/// The simulated limit: bisection in [lo, hi] N/m on "the ripple decays" (2 s runs, last quarter against the second) to
+/// 2 %.
 double SimulatedLimit(const LimitCase& c, double bandwidth, double lo, double hi,
                       Feedback feedback = Feedback::kReading) {
   while (hi - lo > 0.02 * lo) {
     const double mid = 0.5 * (lo + hi);
-    (RunAtStiffness(c, mid, bandwidth, feedback, 1500).Decays() ? lo : hi) = mid;
+    (RunAtStiffness(c, mid, bandwidth, feedback, 2000).Decays() ? lo : hi) = mid;
   }
   return lo;
 }
@@ -333,16 +334,22 @@ TEST(AdmittanceLimit, AFastDriveMeetsThePredictionOnTheModelButTheReadingIsTwoCy
   EXPECT_GT(above.late, 2e-5);
   EXPECT_LT(below.follow, 0.02 * 0.01) << "the joint does not follow the virtual mass";
 
+  // The same bisection on the virtual state finds the prediction (its criterion, 2 % steps on "the ripple decays",
+  // is what sets this tolerance, not the analysis' 0.1 %).
+  const double on_model = SimulatedLimit(c, kFast, 0.5 * k_star, 1.5 * k_star, Feedback::kVirtual);
+  EXPECT_NEAR(on_model, k_star, 0.03 * k_star);
   const double simulated = SimulatedLimit(c, kFast, 0.0, 0.5 * k_star);
   const double faster = SimulatedLimit(c, 10.0 * kFast, 0.0, 0.5 * k_star);
   const double transport = SimulatedLimit(c, kFast, 0.0, 0.5 * k_star, Feedback::kVirtualTwoCyclesLate);
   std::printf(
       "admittance limit: predicted %.0f N/m; loop %.0f rad/s = %.1f x sqrt(K*/m_v); on the virtual state: 0.9x ripple "
-      "%.2g -> %.2g m, 1.1x %.2g -> %.2g m; joint - virtual(2 cycles earlier) <= %.3f mm; on the drive's reading: "
+      "%.2g -> %.2g m, 1.1x %.2g -> %.2g m, bisection %.0f N/m (%.3f x); joint - virtual(2 cycles earlier) <= %.3f mm; "
+      "on the drive's reading: "
       "simulated limit %.0f N/m (%.2f x predicted), with a %.0f rad/s loop %.0f N/m (%.2f x); the virtual state two "
       "cycles late, no drive: %.0f N/m (%.2f x)\n",
-      k_star, kFast, ratio, below.early, below.late, above.early, above.late, below.follow * 1e3, simulated,
-      simulated / k_star, 10.0 * kFast, faster, faster / k_star, transport, transport / k_star);
+      k_star, kFast, ratio, below.early, below.late, above.early, above.late, on_model, on_model / k_star,
+      below.follow * 1e3, simulated, simulated / k_star, 10.0 * kFast, faster, faster / k_star, transport,
+      transport / k_star);
   EXPECT_LT(simulated, 0.3 * k_star) << "the reading's two cycles no longer lower the limit";
   EXPECT_GT(simulated, 0.05 * k_star);
   EXPECT_NEAR(faster, simulated, 0.25 * simulated) << "the drive's loop, not the transport, sets the limit";
