@@ -5,6 +5,7 @@
 // first-order torque lag; its own NMT state machine, SDO server (expedited and segmented) for the objects the client
 // uses, PDOs on SYNC, heartbeat producer, a consumer of the host's heartbeat, EMCY on fault. Fault injection for tests.
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -42,6 +43,21 @@ struct SimulatedLoopConfig {
   double position_kp_per_s = 100.0;
   double standstill_rad_per_s = 0.05;  ///< Quick stop / halt: at rest below this speed.
 };
+
+/// Loops as a lab drive is tuned (position-loop bandwidth 100–400 Hz, i.e. 600–2500 rad/s), for `bandwidth_rad_per_s`
+/// on `joint`: kp = the bandwidth, the velocity loop 5 times faster (kv = 5 · bandwidth · J), its PI zero at
+/// bandwidth / 5. A velocity loop that fast needs a faster torque lag and integration step than the defaults, so
+/// `joint` gets torque_lag_s = 0.02 / bandwidth and integration_step_s = min(1e-4, 0.02 / bandwidth). The defaults of
+/// SimulatedLoopConfig and SimulatedJointConfig (kp = 100 rad/s) are unchanged.
+inline SimulatedLoopConfig LoopsForBandwidth(double bandwidth_rad_per_s, SimulatedJointConfig& joint) noexcept {
+  SimulatedLoopConfig l;
+  l.position_kp_per_s = bandwidth_rad_per_s;
+  l.velocity_kp_Nms_per_rad = 5.0 * bandwidth_rad_per_s * joint.inertia_kg_m2;
+  l.velocity_ki_Nm_per_rad = l.velocity_kp_Nms_per_rad * bandwidth_rad_per_s / 5.0;
+  joint.torque_lag_s = 0.02 / bandwidth_rad_per_s;
+  joint.integration_step_s = std::min(1e-4, 0.02 / bandwidth_rad_per_s);
+  return l;
+}
 
 struct SimulatedCia402DriveConfig {
   std::uint8_t node_id = 1;
