@@ -18,6 +18,7 @@
 #include <chrono>
 #include <deque>
 #include <fstream>
+#include <iterator>
 #include <mutex>
 #include <optional>
 #include <sstream>
@@ -211,7 +212,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
 
   void OnWrite(beast::error_code ec) {
     writing_ = false;
-    if (ec) {
+    if (ec || !open_) {
       Close();
       return;
     }
@@ -226,8 +227,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   void Close() {
     if (open_) s_.websocket_clients.fetch_sub(1);
     open_ = false;
-    queue_.clear();
-    queued_bytes_ = 0;
+    // The message being written stays until its write completes (with an error, once the socket is closed).
+    queue_.erase(writing_ && !queue_.empty() ? std::next(queue_.begin()) : queue_.begin(), queue_.end());
+    queued_bytes_ = queue_.empty() ? 0 : queue_.front()->size();
     boost::system::error_code ignored;
     beast::get_lowest_layer(ws_).socket().shutdown(tcp::socket::shutdown_both, ignored);
     beast::get_lowest_layer(ws_).socket().close(ignored);
