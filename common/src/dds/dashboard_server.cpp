@@ -136,7 +136,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   WsSession(const WsSession&) = delete;
   WsSession& operator=(const WsSession&) = delete;
 
-  void Run(http::request<http::empty_body> request) {
+  void Run(const http::request<http::empty_body>& request) {
     beast::get_lowest_layer(ws_).expires_never();  // the WebSocket's own timeouts from here on
     websocket::stream_base::timeout timeout = websocket::stream_base::timeout::suggested(beast::role_type::server);
     timeout.handshake_timeout = kHttpTimeout;
@@ -280,7 +280,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
                 "a WebSocket is served only on /ws, to a page of this server\n");
         return;
       }
-      std::make_shared<WsSession>(stream_.release_socket(), s_, std::move(slot_))->Run(std::move(request));
+      std::make_shared<WsSession>(stream_.release_socket(), s_, std::move(slot_))->Run(request);
       return;
     }
     if (request.method() != http::verb::get && request.method() != http::verb::head) {
@@ -465,7 +465,9 @@ struct DashboardServer::Impl {
           std::make_shared<const std::string>(EncodeProcesses(processes->first, processes->second));
       ForEachClient([&](WsSession& c) { c.Send(state.latest_processes); });
     }
-    for (const auto& [trace, t_s] : states) {
+    for (const auto& entry : states) {
+      const StateTrace& trace = entry.first;  // not a structured binding: a lambda captures it below
+      const double t_s = entry.second;
       std::shared_ptr<const std::string> message;
       ForEachClient([&](WsSession& c) {
         if (c.pair() != trace.pair) return;
