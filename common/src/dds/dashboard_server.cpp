@@ -154,10 +154,10 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   void Send(const std::shared_ptr<const std::string>& message) {
     if (!open_) return;
     if (queued_bytes_ + message->size() > s_.config.client_queue_bytes) {
-      s_.clients_dropped_slow.fetch_add(1);
       spdlog::warn("dashboard: client {} is {} bytes behind (limit {}): dropped", peer_, queued_bytes_,
                    s_.config.client_queue_bytes);
       Close();
+      s_.clients_dropped_slow.fetch_add(1);  // after Close: whoever sees the drop sees the client gone too
       return;
     }
     queue_.push_back(message);
