@@ -51,11 +51,16 @@ if [[ "${1:-}" == "--device" && "${2:-}" == "hybrid" ]]; then
   # Columns by name (the header of the telemetry CSV, runtime/telemetry.cpp), never by number: the CSV grew
   # rendered_force_N_* columns once and a numbered plot silently showed them as the fixture share.
   gnuplot -e "master='${out}/hybrid-master.csv'; slave='${out}/hybrid-slave.csv'; png='${out}/demo-hybrid.png'" - <<'GNUPLOT'
-set terminal png size 1000,600
+set terminal pngcairo size 1000,650 noenhanced font ",10"
 set output png
 set datafile separator ','
 set multiplot layout 2,1 title 'hybrid master (y axis) with loopback slave'
 set grid
+# Keys to the right of the plots, never over the traces; both panels share the same margins so the time axes align.
+set key outside right top vertical reverse Left
+set lmargin 10
+set rmargin 42
+set xrange [0:3]
 set ylabel 'mm'
 plot master using 'time_s':(1e3*column('position_m_1')) with lines title 'master y', \
      slave using 'time_s':(1e3*column('position_m_1')) with lines title 'slave y', \

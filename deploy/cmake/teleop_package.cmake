@@ -8,7 +8,7 @@
 #   share/teleop/configs/**.yaml              every rig config
 #   share/teleop/can-up.sh, rt-check.sh       host scripts
 #   share/teleop/wireshark/teleop.lua         the dissector
-#   share/doc/teleop/*.md                     the docs
+#   share/doc/teleop/*.md                     the docs (and figures/*.png, the gallery's images)
 #   /etc/teleop/{master,slave}.yaml           the loopback rig over UDP, what the units start with (prefix/etc/teleop
 #                                             when the prefix is not /usr, so a test install never writes /etc)
 
@@ -27,6 +27,8 @@ install(FILES ${TELEOP_DEPLOY_SOURCE}/wireshark/teleop.lua DESTINATION ${CMAKE_I
 file(GLOB TELEOP_DOCS ${PROJECT_SOURCE_DIR}/docs/*.md)
 install(FILES ${TELEOP_DOCS} DESTINATION ${CMAKE_INSTALL_DOCDIR})
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/rigs DESTINATION ${CMAKE_INSTALL_DOCDIR} FILES_MATCHING PATTERN "*.md")
+# The images of docs/figures.md (deploy/figures.sh), so the installed gallery shows them.
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/figures DESTINATION ${CMAKE_INSTALL_DOCDIR} FILES_MATCHING PATTERN "*.png")
 
 # /etc/teleop: decided at install time, from the prefix the install runs with (cpack installs with prefix /usr into
 # DESTDIR, which file(INSTALL) prepends to the absolute path).

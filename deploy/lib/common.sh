@@ -22,6 +22,8 @@ TELEOP_PACKAGES=(
   systemd
   dpkg-dev
   cyclonedds-dev cyclonedds-tools
+  # teleop-supervise --http (docs/dds.md, "The dashboard"): dygraphs for the page; its test drives headless Chromium
+  libjs-dygraphs chromium chromium-driver python3-selenium
   # deploy/bench.sh (docs/performance.md): cyclictest beside the loop, the NumPy/SciPy analysis reference
   rt-tests python3-numpy python3-scipy
 )

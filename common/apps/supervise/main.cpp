@@ -9,11 +9,13 @@
 #include <csignal>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <optional>
 #include <string>
 #include <thread>
 
+#include "teleop/dds/dashboard_server.hpp"
 #include "teleop/dds/process_view.hpp"
 #include "teleop/dds/supervisor.hpp"
 #include "teleop/error.hpp"
@@ -56,6 +58,22 @@ class Recorder {
   Format format_;
 };
 
+/// Feeds the dashboard from the supervisor's observer (every State and event as it is taken), keeping the recorder's
+/// event callback.
+void AttachDashboard(teleop::dds::Supervisor::Observer& observer, teleop::dds::DashboardServer& dashboard,
+                     const std::function<double()>& clock) {
+  observer.on_event = [previous = std::move(observer.on_event), &dashboard, clock](const teleop::dds::ProcessView& v,
+                                                                                   const std::string& kind,
+                                                                                   std::uint64_t cycle, double value) {
+    if (previous) previous(v, kind, cycle, value);
+    dashboard.PublishEvent(v.pair, v.role, kind, cycle, value, clock());
+  };
+  observer.on_state = [&dashboard, clock](const teleop::dds::ProcessView& /*view*/,
+                                          const teleop::dds::StateTrace& trace) {
+    dashboard.PublishState(trace, clock());
+  };
+}
+
 bool EndsWith(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
@@ -87,6 +105,11 @@ int Run(int argc, char** argv) {
   app.add_option("--format", format_name, "Record format: csv or jsonl (default: csv for *.csv, else jsonl)")
       ->check(CLI::IsMember({"csv", "jsonl"}));
   app.add_flag("-q,--quiet", quiet, "Do not print the table (record only)");
+  std::string http;
+  std::string dygraphs_dir(teleop::dds::kDefaultDygraphsDir);
+  app.add_option("--http", http,
+                 "Serve the live dashboard on [ADDRESS:]PORT (ADDRESS 127.0.0.1 unless given, e.g. 127.0.0.1:8080)");
+  app.add_option("--http-dygraphs", dygraphs_dir, "Where dygraph.min.js is (libjs-dygraphs)")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   spdlog::set_pattern("[%H:%M:%S.%e] [teleop-supervise] [%^%l%$] %v");
 
@@ -100,12 +123,20 @@ int Run(int argc, char** argv) {
     const auto since_start_s = [start_ns] {
       return static_cast<double>(teleop::runtime::MonotonicNowNs() - start_ns) * 1e-9;
     };
+    std::optional<teleop::dds::DashboardServer> dashboard;
+    if (!http.empty()) {
+      teleop::dds::DashboardServer::Config config;
+      config.endpoint = teleop::dds::ParseHttpEndpoint(http);
+      config.dygraphs_dir = dygraphs_dir;
+      dashboard.emplace(config);
+    }
     teleop::dds::Supervisor::Observer observer;
     if (recorder) {
       observer.on_event = [&](const teleop::dds::ProcessView& v, const std::string& kind, std::uint64_t cycle,
                               double value) { recorder->Event(v, kind, cycle, value, since_start_s()); };
       observer.on_summary = [&](const teleop::dds::ProcessView& v) { recorder->Summary(v, since_start_s()); };
     }
+    if (dashboard) AttachDashboard(observer, *dashboard, since_start_s);
     teleop::dds::Supervisor supervisor({domain_id, stale_after_s}, observer);
 
     struct sigaction action {};
@@ -117,6 +148,8 @@ int Run(int argc, char** argv) {
     const bool tty = isatty(STDOUT_FILENO) == 1;
     constexpr auto kPollInterval = std::chrono::milliseconds(20);
     double next_refresh_s = once ? settle_s : 0.0;
+    constexpr double kDashboardInterval_s = 0.1;  // the process table and the data-age trace of the dashboard
+    double next_dashboard_s = 0.0;
     while (!g_stop.load()) {
       supervisor.Poll();
       const double t_s = since_start_s();
@@ -132,8 +165,17 @@ int Run(int argc, char** argv) {
         }
         next_refresh_s = t_s + interval_s;
       }
+      if (dashboard && t_s >= next_dashboard_s) {
+        dashboard->PublishProcesses(supervisor.Snapshot(teleop::runtime::MonotonicNowNs()), t_s);
+        next_dashboard_s = t_s + kDashboardInterval_s;
+      }
       if (last) break;
       std::this_thread::sleep_for(kPollInterval);
+    }
+    if (dashboard) {
+      const auto st = dashboard->stats();
+      spdlog::info("dashboard: {} connections ({} refused), {} clients dropped as too slow, {} samples dropped",
+                   st.connections_accepted, st.connections_refused, st.clients_dropped_slow, st.samples_dropped);
     }
     if (recorder && !recorder->ok()) throw teleop::Error("writing the record file '" + record_path + "' failed");
     return 0;

@@ -41,6 +41,28 @@ void TakeAll(dds_entity_t reader, Each&& each) {
 
 std::string Str(const char* s) { return s != nullptr ? std::string(s) : std::string(); }
 
+/// The dashboard's traces of one State sample (the view already holds its pair, role and engagement).
+StateTrace TraceOf(const teleop_msgs_msg_dds__State_& s, const ProcessView& v) {
+  StateTrace t;
+  t.pair = v.pair;
+  t.role = v.role;
+  t.cycle = s.cycle;
+  t.time_s = s.time_s;
+  t.engagement = v.engagement;
+  t.device_faults = s.device_faults;
+  t.dof = std::min<std::uint8_t>(s.dof, StateTrace::kMaxDof);
+  for (std::size_t i = 0; i < t.dof; ++i) {
+    t.position_m[i] = s.position_m[i];
+    t.peer_position_m[i] = s.peer_position_m[i];
+    t.force_sensor_N[i] = s.force_sensor_N[i];
+    t.command_N[i] = s.command_N[i];
+  }
+  t.fixture_penetration_m = s.fixture_penetration_m;
+  t.tracking_error_m = s.tracking_error_m;
+  t.rtt_ms = s.rtt_ms;
+  return t;
+}
+
 }  // namespace
 
 std::string SafeText(std::string_view text) {
@@ -160,6 +182,7 @@ void Supervisor::Impl::TakeStates(ProcessView& v, dds_entity_t reader) {
     v.packets_rejected = s.packets_rejected;
     v.tracking_error_m = s.tracking_error_m;
     v.fixture_penetration_m = s.fixture_penetration_m;
+    if (observer.on_state) observer.on_state(v, TraceOf(s, v));
   });
   dds_subscription_matched_status_t matched{};
   if (dds_get_subscription_matched_status(reader, &matched) >= 0) {

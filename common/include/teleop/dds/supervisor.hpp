@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "teleop/dds/process_view.hpp"
+#include "teleop/dds/state_trace.hpp"
 
 namespace teleop::dds {
 
@@ -34,6 +35,8 @@ class Supervisor {
     std::function<void(const ProcessView& view, const std::string& kind_name, std::uint64_t cycle, double value)>
         on_event;
     std::function<void(const ProcessView& view)> on_summary;
+    /// Called from Poll() for every State sample, after `view` was updated with it (the dashboard's traces).
+    std::function<void(const ProcessView& view, const StateTrace& trace)> on_state;
   };
 
   /// Throws teleop::Error when the domain cannot be joined.

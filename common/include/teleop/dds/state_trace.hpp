@@ -1,0 +1,38 @@
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "teleop/dds/bridge_sample.hpp"
+
+namespace teleop::dds {
+
+/// The traces of one State sample as teleop-supervise's dashboard plots them (docs/dds.md, "The dashboard"): what
+/// the State carries of the devices and the link, copied out of the DDS sample by dds::Supervisor for every sample
+/// taken (Supervisor::Observer::on_state). Plain data; `dof` entries of each array are valid, the rest 0.
+struct StateTrace {
+  static constexpr std::size_t kMaxDof = 6;
+  using Axes = std::array<double, kMaxDof>;
+
+  std::string pair;
+  std::string role;
+  std::uint64_t cycle = 0;
+  double time_s = 0.0;  ///< The process's loop time (since its first cycle).
+  Engagement engagement = Engagement::kWaiting;
+  std::uint32_t device_faults = 0;
+  std::uint8_t dof = 0;
+  Axes position_m{};
+  Axes peer_position_m{};  ///< As received (peer frame, before scaling).
+  Axes force_sensor_N{};
+  Axes command_N{};
+  double fixture_penetration_m = 0.0;
+  double tracking_error_m = 0.0;
+  double rtt_ms = 0.0;  ///< NaN when unknown.
+  /// The clutch (issue 22, part 1): true while clutched. Not in the State message yet: stays empty, and the
+  /// dashboard shows a clutch field only for samples that have one.
+  std::optional<bool> clutched;
+};
+
+}  // namespace teleop::dds

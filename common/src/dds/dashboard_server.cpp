@@ -1,0 +1,567 @@
+// teleop-supervise's dashboard server (docs/dds.md, "The dashboard"): Boost.Beast HTTP and WebSocket on one thread
+// of its own. Everything below the Publish* functions runs on that thread only, so the sessions need no locks.
+#include "teleop/dds/dashboard_server.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <atomic>
+// Asio trips -Wnull-dereference in its own inlined scheduler code (GCC 12, -O2), as in transport/udp_link.cpp.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wnull-dereference"
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+#pragma GCC diagnostic pop
+#include <chrono>
+#include <deque>
+#include <fstream>
+#include <iterator>
+#include <mutex>
+#include <optional>
+#include <sstream>
+#include <thread>
+
+#include "dashboard_assets.hpp"
+#include "teleop/dds/dashboard_messages.hpp"
+#include "teleop/error.hpp"
+
+namespace teleop::dds {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+
+namespace {
+
+constexpr auto kTick = std::chrono::milliseconds(50);
+constexpr auto kHttpTimeout = std::chrono::seconds(10);
+constexpr std::uint32_t kHeaderLimit = 8192;
+constexpr std::size_t kPageMessageMax = 256;
+
+std::optional<std::string> ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// "host[:port]" of an Origin header ("http://host:port") or of a Host header ("host:port").
+std::string_view OriginAuthority(std::string_view origin) {
+  const std::size_t scheme = origin.find("://");
+  if (scheme != std::string_view::npos) origin.remove_prefix(scheme + 3);
+  const std::size_t path = origin.find('/');
+  return origin.substr(0, path);
+}
+
+}  // namespace
+
+HttpEndpoint ParseHttpEndpoint(std::string_view text) {
+  const std::string shown(text);
+  std::string address = "127.0.0.1";
+  std::string_view port_text = text;
+  if (!text.empty() && text.front() == '[') {
+    const std::size_t close = text.find(']');
+    if (close == std::string_view::npos || close + 1 >= text.size() || text[close + 1] != ':')
+      throw Error("--http '" + shown + "': expected [IPV6]:PORT");
+    address = std::string(text.substr(1, close - 1));
+    port_text = text.substr(close + 2);
+  } else if (const std::size_t colon = text.rfind(':'); colon != std::string_view::npos) {
+    if (text.find(':') != colon) throw Error("--http '" + shown + "': an IPv6 address goes in brackets, [::1]:8080");
+    address = std::string(text.substr(0, colon));
+    port_text = text.substr(colon + 1);
+  }
+  boost::system::error_code ec;
+  (void)net::ip::make_address(address, ec);
+  if (ec) throw Error("--http '" + shown + "': '" + address + "' is not a numeric IP address (e.g. 127.0.0.1)");
+  if (port_text.empty() || port_text.size() > 5 || port_text.find_first_not_of("0123456789") != std::string_view::npos)
+    throw Error("--http '" + shown + "': the port must be a number 1..65535");
+  const int port = std::stoi(std::string(port_text));
+  if (port < 1 || port > 65535) throw Error("--http '" + shown + "': the port must be a number 1..65535");
+  return {address, static_cast<std::uint16_t>(port)};
+}
+
+namespace {
+
+class WsSession;
+
+/// What the sessions share with the server: the configuration, the assets, the counters and the client list.
+struct ServerState {
+  DashboardServer::Config config;
+  std::string dygraph_js;
+  std::string dygraph_css;
+  bool have_dygraphs = false;
+  std::shared_ptr<const std::string> latest_processes;  ///< Sent to a client as soon as it connects.
+  std::vector<std::weak_ptr<WsSession>> clients;        ///< Server thread only.
+  std::atomic<std::uint64_t> connections{0};            ///< Open HTTP + WebSocket connections.
+  std::atomic<std::uint64_t> connections_accepted{0};
+  std::atomic<std::uint64_t> connections_refused{0};
+  std::atomic<std::uint64_t> websocket_clients{0};
+  std::atomic<std::uint64_t> clients_dropped_slow{0};
+  std::atomic<std::uint64_t> websocket_refused{0};
+  std::atomic<std::uint64_t> requests_malformed{0};
+  std::atomic<std::uint64_t> messages_sent{0};
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+};
+
+/// Counts one open connection for as long as it lives.
+class ConnectionSlot {
+ public:
+  explicit ConnectionSlot(ServerState& s) : s_(&s) { s_->connections.fetch_add(1); }
+  ~ConnectionSlot() {
+    if (s_ != nullptr) s_->connections.fetch_sub(1);
+  }
+  ConnectionSlot(ConnectionSlot&& other) noexcept : s_(other.s_) { other.s_ = nullptr; }
+  ConnectionSlot(const ConnectionSlot&) = delete;
+  ConnectionSlot& operator=(const ConnectionSlot&) = delete;
+  ConnectionSlot& operator=(ConnectionSlot&&) = delete;
+
+ private:
+  ServerState* s_;
+};
+
+/// One WebSocket client: a bounded queue of encoded messages, written one at a time.
+class WsSession : public std::enable_shared_from_this<WsSession> {
+ public:
+  WsSession(tcp::socket&& socket, ServerState& s, ConnectionSlot slot)
+      : ws_(std::move(socket)), s_(s), slot_(std::move(slot)) {}
+  ~WsSession() {
+    if (open_) s_.websocket_clients.fetch_sub(1);
+  }
+  WsSession(const WsSession&) = delete;
+  WsSession& operator=(const WsSession&) = delete;
+
+  void Run(const http::request<http::empty_body>& request) {
+    beast::get_lowest_layer(ws_).expires_never();  // the WebSocket's own timeouts from here on
+    websocket::stream_base::timeout timeout = websocket::stream_base::timeout::suggested(beast::role_type::server);
+    timeout.handshake_timeout = kHttpTimeout;
+    timeout.idle_timeout = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(s_.config.idle_timeout_s));
+    timeout.keep_alive_pings = true;  // a ping at half the idle time; no answer by the end: dropped
+    ws_.set_option(timeout);
+    ws_.read_message_max(kPageMessageMax);
+    ws_.set_option(websocket::stream_base::decorator(
+        [](websocket::response_type& r) { r.set(http::field::server, "teleop-supervise"); }));
+    ws_.async_accept(request, [self = shared_from_this()](beast::error_code ec) { self->OnAccept(ec); });
+  }
+
+  /// Queues `message` (server thread). A client already this far behind is dropped instead.
+  void Send(const std::shared_ptr<const std::string>& message) {
+    if (!open_) return;
+    if (queued_bytes_ + message->size() > s_.config.client_queue_bytes) {
+      spdlog::warn("dashboard: client {} is {} bytes behind (limit {}): dropped", peer_, queued_bytes_,
+                   s_.config.client_queue_bytes);
+      Close();
+      s_.clients_dropped_slow.fetch_add(1);  // after Close: whoever sees the drop sees the client gone too
+      return;
+    }
+    queue_.push_back(message);
+    queued_bytes_ += message->size();
+    if (!writing_) Write();
+  }
+
+  /// The pair this client's page asked for ("" = none).
+  const std::string& pair() const { return pair_; }
+  bool open() const { return open_; }
+
+ private:
+  void OnAccept(beast::error_code ec) {
+    if (ec) return;
+    open_ = true;
+    s_.websocket_clients.fetch_add(1);
+    boost::system::error_code ignored;
+    const auto remote = beast::get_lowest_layer(ws_).socket().remote_endpoint(ignored);
+    peer_ = remote.address().to_string(ignored) + ":" + std::to_string(remote.port());
+    s_.clients.push_back(weak_from_this());
+    const double t_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - s_.start).count();
+    Send(std::make_shared<const std::string>(EncodeHello(t_s)));
+    if (s_.latest_processes) Send(s_.latest_processes);
+    Read();
+  }
+
+  void Read() {
+    ws_.async_read(in_, [self = shared_from_this()](beast::error_code ec, std::size_t) { self->OnRead(ec); });
+  }
+
+  void OnRead(beast::error_code ec) {
+    if (ec) {
+      Close();
+      return;
+    }
+    const std::string text = beast::buffers_to_string(in_.data());
+    in_.consume(in_.size());
+    if (auto pair = ParseDashboardRequest(text)) {
+      pair_ = std::move(*pair);
+    } else {
+      s_.requests_malformed.fetch_add(1);
+    }
+    Read();
+  }
+
+  void Write() {
+    writing_ = true;
+    ws_.text(true);
+    ws_.async_write(net::buffer(*queue_.front()),
+                    [self = shared_from_this()](beast::error_code ec, std::size_t) { self->OnWrite(ec); });
+  }
+
+  void OnWrite(beast::error_code ec) {
+    writing_ = false;
+    if (ec || !open_) {
+      Close();
+      return;
+    }
+    s_.messages_sent.fetch_add(1);
+    queued_bytes_ -= queue_.front()->size();
+    queue_.pop_front();
+    if (!queue_.empty() && open_) Write();
+  }
+
+  /// Closes the socket at once (no closing handshake: the client is too slow or gone); the pending read and write
+  /// complete with an error and release the session.
+  void Close() {
+    if (open_) s_.websocket_clients.fetch_sub(1);
+    open_ = false;
+    // The message being written stays until its write completes (with an error, once the socket is closed).
+    queue_.erase(writing_ && !queue_.empty() ? std::next(queue_.begin()) : queue_.begin(), queue_.end());
+    queued_bytes_ = queue_.empty() ? 0 : queue_.front()->size();
+    boost::system::error_code ignored;
+    beast::get_lowest_layer(ws_).socket().shutdown(tcp::socket::shutdown_both, ignored);
+    beast::get_lowest_layer(ws_).socket().close(ignored);
+  }
+
+  websocket::stream<beast::tcp_stream> ws_;
+  ServerState& s_;
+  ConnectionSlot slot_;
+  beast::flat_buffer in_;
+  std::deque<std::shared_ptr<const std::string>> queue_;
+  std::size_t queued_bytes_ = 0;
+  bool writing_ = false;
+  bool open_ = false;
+  std::string pair_;
+  std::string peer_;
+};
+
+/// One HTTP connection: GET of the page, its script and style, dygraphs, or the upgrade to /ws.
+class HttpSession : public std::enable_shared_from_this<HttpSession> {
+ public:
+  HttpSession(tcp::socket&& socket, ServerState& s, ConnectionSlot slot)
+      : stream_(std::move(socket)), s_(s), slot_(std::move(slot)) {}
+
+  void Read() {
+    parser_.emplace();
+    parser_->header_limit(kHeaderLimit);
+    parser_->body_limit(1024);
+    stream_.expires_after(kHttpTimeout);
+    http::async_read(stream_, buffer_, *parser_,
+                     [self = shared_from_this()](beast::error_code ec, std::size_t) { self->OnRead(ec); });
+  }
+
+ private:
+  void OnRead(beast::error_code ec) {
+    if (ec == http::error::end_of_stream) {
+      stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
+      return;
+    }
+    if (ec) {
+      if (ec != beast::error::timeout && ec != net::error::operation_aborted) s_.requests_malformed.fetch_add(1);
+      return;
+    }
+    http::request<http::empty_body> request = parser_->release();
+    if (websocket::is_upgrade(request)) {
+      if (request.target() != "/ws" || !SameOrigin(request)) {
+        s_.websocket_refused.fetch_add(1);
+        Respond(request, http::status::forbidden, "text/plain; charset=utf-8",
+                "a WebSocket is served only on /ws, to a page of this server\n");
+        return;
+      }
+      std::make_shared<WsSession>(stream_.release_socket(), s_, std::move(slot_))->Run(request);
+      return;
+    }
+    if (request.method() != http::verb::get && request.method() != http::verb::head) {
+      Respond(request, http::status::method_not_allowed, "text/plain; charset=utf-8", "GET only\n");
+      return;
+    }
+    const beast::string_view target = request.target();
+    if (target == "/" || target == "/index.html" || target.starts_with("/?")) {
+      Respond(request, http::status::ok, "text/html; charset=utf-8", std::string(DashboardPageHtml()));
+    } else if (target == "/dashboard.js") {
+      Respond(request, http::status::ok, "text/javascript; charset=utf-8", std::string(DashboardPageScript()));
+    } else if (target == "/dashboard.css") {
+      Respond(request, http::status::ok, "text/css; charset=utf-8", std::string(DashboardPageStyle()));
+    } else if (target == "/favicon.ico") {
+      Respond(request, http::status::no_content, "text/plain; charset=utf-8", "");
+    } else if (target == "/dygraph.min.js" && s_.have_dygraphs) {
+      Respond(request, http::status::ok, "text/javascript; charset=utf-8", s_.dygraph_js);
+    } else if (target == "/dygraph.min.css" && s_.have_dygraphs) {
+      Respond(request, http::status::ok, "text/css; charset=utf-8", s_.dygraph_css);
+    } else if (target == "/dygraph.min.js" || target == "/dygraph.min.css") {
+      Respond(request, http::status::not_found, "text/plain; charset=utf-8",
+              "dygraphs is not installed where teleop-supervise looks (apt-get install libjs-dygraphs)\n");
+    } else {
+      Respond(request, http::status::not_found, "text/plain; charset=utf-8", "not found\n");
+    }
+  }
+
+  /// A browser names the page that opens a WebSocket in Origin: only this server's own page may (another site open
+  /// in the same browser must not read the telemetry). A client that is not a browser sends no Origin.
+  static bool SameOrigin(const http::request<http::empty_body>& request) {
+    const auto origin = request.find(http::field::origin);
+    if (origin == request.end()) return true;
+    const auto host = request.find(http::field::host);
+    if (host == request.end()) return false;
+    const auto o = origin->value();
+    const auto h = host->value();
+    return OriginAuthority(std::string_view(o.data(), o.size())) == std::string_view(h.data(), h.size());
+  }
+
+  void Respond(const http::request<http::empty_body>& request, http::status status, const char* type,
+               std::string body) {
+    response_.emplace(status, request.version());
+    response_->set(http::field::server, "teleop-supervise");
+    response_->set(http::field::content_type, type);
+    response_->set(http::field::cache_control, "no-store");
+    response_->set("X-Content-Type-Options", "nosniff");
+    // dygraphs positions its canvases and legend with style attributes: 'unsafe-inline' for styles, not scripts.
+    response_->set(
+        "Content-Security-Policy",
+        "default-src 'self'; connect-src 'self' ws: wss:; img-src 'self' data:; style-src 'self' 'unsafe-inline'; "
+        "frame-ancestors 'none'");
+    response_->keep_alive(request.keep_alive());
+    const bool head = request.method() == http::verb::head;
+    response_->body() = std::move(body);
+    response_->prepare_payload();
+    if (head) response_->body().clear();
+    stream_.expires_after(kHttpTimeout);
+    http::async_write(stream_, *response_,
+                      [self = shared_from_this()](beast::error_code ec, std::size_t) { self->OnWrite(ec); });
+  }
+
+  void OnWrite(beast::error_code ec) {
+    if (ec) return;
+    if (!response_->keep_alive()) {
+      stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
+      return;
+    }
+    response_.reset();
+    Read();
+  }
+
+  beast::tcp_stream stream_;
+  ServerState& s_;
+  ConnectionSlot slot_;
+  beast::flat_buffer buffer_{kHeaderLimit};
+  std::optional<http::request_parser<http::empty_body>> parser_;
+  std::optional<http::response<http::string_body>> response_;
+};
+
+}  // namespace
+
+struct DashboardServer::Impl {
+  struct PendingEvent {
+    std::string pair;
+    std::string role;
+    std::string kind;
+    std::uint64_t cycle = 0;
+    double value = 0.0;
+    double t_s = 0.0;
+  };
+
+  explicit Impl(Config config) {
+    state.config = std::move(config);
+    const std::string dir = state.config.dygraphs_dir;
+    auto js = ReadFile(dir + "/dygraph.min.js");
+    auto css = ReadFile(dir + "/dygraph.min.css");
+    state.have_dygraphs = js.has_value();
+    if (js) state.dygraph_js = std::move(*js);
+    if (css) state.dygraph_css = std::move(*css);
+    if (!state.have_dygraphs)
+      spdlog::warn("dashboard: no {}/dygraph.min.js (apt-get install libjs-dygraphs): the page shows no plots", dir);
+
+    const auto& ep = state.config.endpoint;
+    boost::system::error_code ec;
+    const auto address = net::ip::make_address(ep.address, ec);
+    if (ec) throw Error("dashboard: '" + ep.address + "' is not a numeric IP address");
+    const tcp::endpoint endpoint(address, ep.port);
+    const auto fail = [&](const char* what) {
+      throw Error(std::string("dashboard: cannot ") + what + " " + ep.address + ":" + std::to_string(ep.port) + ": " +
+                  ec.message());
+    };
+    if (acceptor.open(endpoint.protocol(), ec)) fail("open a socket for");
+    if (acceptor.set_option(net::socket_base::reuse_address(true), ec)) fail("set SO_REUSEADDR on");
+    if (acceptor.bind(endpoint, ec)) fail("listen on");
+    if (acceptor.listen(net::socket_base::max_listen_connections, ec)) fail("listen on");
+    bound_port = acceptor.local_endpoint(ec).port();
+
+    Accept();
+    Tick();
+    thread = std::thread([this] {
+      try {
+        io.run();
+      } catch (const std::exception& e) {
+        spdlog::error("dashboard: server thread stopped: {}", e.what());
+      }
+    });
+  }
+
+  ~Impl() {
+    io.stop();
+    if (thread.joinable()) thread.join();
+  }
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
+
+  void Accept() {
+    acceptor.async_accept([this](beast::error_code ec, tcp::socket socket) {
+      if (ec == net::error::operation_aborted) return;
+      if (!ec) {
+        if (state.connections.load() >= state.config.max_connections) {
+          state.connections_refused.fetch_add(1);
+          boost::system::error_code ignored;
+          socket.close(ignored);
+        } else {
+          state.connections_accepted.fetch_add(1);
+          std::make_shared<HttpSession>(std::move(socket), state, ConnectionSlot(state))->Read();
+        }
+      }
+      Accept();
+    });
+  }
+
+  void Tick() {
+    timer.expires_after(kTick);
+    timer.async_wait([this](beast::error_code ec) {
+      if (ec) return;
+      Deliver();
+      Tick();
+    });
+  }
+
+  /// Server thread: takes what the supervisor queued, encodes each message once, hands it to the clients.
+  void Deliver() {
+    std::vector<std::pair<StateTrace, double>> states;
+    std::vector<PendingEvent> events;
+    std::optional<std::pair<std::vector<ProcessView>, double>> processes;
+    {
+      const std::lock_guard<std::mutex> lock(mutex);
+      states.swap(pending_states);
+      events.swap(pending_events);
+      processes.swap(pending_processes);
+    }
+    auto& clients = state.clients;
+    clients.erase(std::remove_if(clients.begin(), clients.end(),
+                                 [](const std::weak_ptr<WsSession>& c) {
+                                   const auto s = c.lock();
+                                   return !s || !s->open();
+                                 }),
+                  clients.end());
+    if (processes) {
+      state.latest_processes =
+          std::make_shared<const std::string>(EncodeProcesses(processes->first, processes->second));
+      ForEachClient([&](WsSession& c) { c.Send(state.latest_processes); });
+    }
+    for (const auto& entry : states) {
+      const StateTrace& trace = entry.first;  // not a structured binding: a lambda captures it below
+      const double t_s = entry.second;
+      std::shared_ptr<const std::string> message;
+      ForEachClient([&](WsSession& c) {
+        if (c.pair() != trace.pair) return;
+        if (!message) message = std::make_shared<const std::string>(EncodeState(trace, t_s));
+        c.Send(message);
+      });
+    }
+    for (const PendingEvent& e : events) {
+      std::shared_ptr<const std::string> message;
+      ForEachClient([&](WsSession& c) {
+        if (c.pair() != e.pair) return;
+        if (!message)
+          message = std::make_shared<const std::string>(EncodeEvent(e.pair, e.role, e.kind, e.cycle, e.value, e.t_s));
+        c.Send(message);
+      });
+    }
+  }
+
+  template <typename F>
+  void ForEachClient(F&& f) {
+    // Send may drop a client; the list itself changes only here and on accept (same thread, not during the loop).
+    const std::size_t n = state.clients.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (auto c = state.clients[i].lock(); c && c->open()) f(*c);
+    }
+  }
+
+  bool Admit() {
+    if (pending_states.size() + pending_events.size() >= state.config.max_pending) {
+      ++samples_dropped;
+      return false;
+    }
+    return true;
+  }
+
+  ServerState state;  // before io: the sessions the io_context still holds refer to it when it is destroyed
+  net::io_context io{1};
+  tcp::acceptor acceptor{io};
+  net::steady_timer timer{io};
+  std::uint16_t bound_port = 0;
+  std::thread thread;
+
+  mutable std::mutex mutex;  // the pending queues, shared with the supervisor's thread
+  std::vector<std::pair<StateTrace, double>> pending_states;
+  std::vector<PendingEvent> pending_events;
+  std::optional<std::pair<std::vector<ProcessView>, double>> pending_processes;
+  std::uint64_t samples_dropped = 0;
+};
+
+DashboardServer::DashboardServer(Config config) : impl_(std::make_unique<Impl>(std::move(config))) {
+  spdlog::info("dashboard: http://{}:{}/ (dygraphs {})", impl_->state.config.endpoint.address, impl_->bound_port,
+               impl_->state.have_dygraphs ? "from " + impl_->state.config.dygraphs_dir : std::string("not found"));
+}
+
+DashboardServer::~DashboardServer() = default;
+
+std::uint16_t DashboardServer::port() const noexcept { return impl_->bound_port; }
+
+bool DashboardServer::have_dygraphs() const noexcept { return impl_->state.have_dygraphs; }
+
+void DashboardServer::PublishState(const StateTrace& trace, double t_s) {
+  auto entry = std::make_pair(trace, t_s);  // the copy outside the lock
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  if (impl_->Admit()) impl_->pending_states.push_back(std::move(entry));
+}
+
+void DashboardServer::PublishEvent(const std::string& pair, const std::string& role, const std::string& kind_name,
+                                   std::uint64_t cycle, double value, double t_s) {
+  Impl::PendingEvent e{pair, role, kind_name, cycle, value, t_s};
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  if (impl_->Admit()) impl_->pending_events.push_back(std::move(e));
+}
+
+void DashboardServer::PublishProcesses(std::vector<ProcessView> views, double t_s) {
+  auto entry = std::make_pair(std::move(views), t_s);
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->pending_processes = std::move(entry);
+}
+
+DashboardServer::Stats DashboardServer::stats() const {
+  const ServerState& s = impl_->state;
+  Stats out;
+  out.connections_accepted = s.connections_accepted.load();
+  out.connections_refused = s.connections_refused.load();
+  out.websocket_clients = s.websocket_clients.load();
+  out.clients_dropped_slow = s.clients_dropped_slow.load();
+  out.websocket_refused = s.websocket_refused.load();
+  out.requests_malformed = s.requests_malformed.load();
+  out.messages_sent = s.messages_sent.load();
+  {
+    const std::lock_guard<std::mutex> lock(impl_->mutex);
+    out.samples_dropped = impl_->samples_dropped;
+  }
+  return out;
+}
+
+}  // namespace teleop::dds

@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# Regenerates every figure of the gallery docs/figures.md into docs/figures/ (or --out DIR): the demo's PNGs
+# (deploy/demo.sh: deploy/teleop-plot of both processes, the hybrid and cobot device demos), `teleop-analyze sweep`
+# and every `teleop-scenario` scenario with its defaults. About 30 s on 2 cores.
+#   ./deploy/figures.sh                 into docs/figures/
+#   ./deploy/figures.sh --out /tmp/fig  elsewhere (tests/deploy/figures_test.py)
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
+
+out="${TELEOP_ROOT}/docs/figures"
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --out) out="$2"; shift 2 ;;
+    *) echo "usage: $0 [--out DIR]" >&2; exit 2 ;;
+  esac
+done
+mkdir -p "${out}"
+out="$(cd "${out}" && pwd)"
+
+teleop::ensure_packages "${TELEOP_PACKAGES[@]}"
+teleop::build --target teleop-master teleop-slave teleop_keygen teleop-analyze teleop-scenario
+bin="${TELEOP_BUILD}/bin"
+work="${TELEOP_BUILD}/figures"
+rm -rf "${work}"
+mkdir -p "${work}"
+rm -f "${out}"/*.png
+
+# The demo (loopback plant, UDP, 1 kHz): deploy/teleop-plot's seven views of each process.
+"${TELEOP_ROOT}/deploy/demo.sh" > "${work}/demo.log" 2>&1 || { tail -40 "${work}/demo.log"; exit 1; }
+for f in "${TELEOP_BUILD}"/demo/{master,slave}-{positions,forces,fixture,period,rtt,loss,engagement}.png; do
+  cp "${f}" "${out}/demo-$(basename "${f}")"
+done
+"${TELEOP_ROOT}/deploy/demo.sh" --device hybrid > "${work}/demo-hybrid.log" 2>&1 ||
+  { tail -40 "${work}/demo-hybrid.log"; exit 1; }
+cp "${TELEOP_BUILD}/demo/demo-hybrid.png" "${out}/demo-hybrid.png"
+"${TELEOP_ROOT}/deploy/demo.sh" --device cobot > "${work}/demo-cobot.log" 2>&1 ||
+  { tail -40 "${work}/demo-cobot.log"; exit 1; }
+cp "${TELEOP_BUILD}/demo-cobot/demo-cobot.png" "${out}/demo-cobot.png"
+
+# The stability analysis (docs/stability.md): the master fixture's limit against the rate and against K_p.
+"${bin}/teleop-analyze" sweep --side master --variable rate --values 250,500,1000,2000,4000 \
+  --output "${work}/sweep-rate" > "${work}/sweep-rate.log"
+"${bin}/teleop-analyze" sweep --side master --variable kp --rate 1000 --values 100,200,400,600,800,1000,1600,3200 \
+  --output "${work}/sweep-kp" > "${work}/sweep-kp.log"
+cp "${work}/sweep-rate.png" "${out}/analyze-sweep-rate.png"
+cp "${work}/sweep-kp.png" "${out}/analyze-sweep-kp.png"
+
+# Every scenario with its defaults, in a directory of its own (each writes its PNG to the working directory).
+scenarios=$("${bin}/teleop-scenario" --help | sed -n 's/^  \([a-z][a-z-]*\)  .*/\1/p')
+for s in ${scenarios}; do
+  mkdir -p "${work}/${s}"
+  (cd "${work}/${s}" && "${bin}/teleop-scenario" "${s}" > run.log 2>&1) || { tail -20 "${work}/${s}/run.log"; exit 1; }
+  pngs=("${work}/${s}"/*.png)
+  [[ -f "${pngs[0]}" ]] || { echo "teleop-scenario ${s} wrote no PNG" >&2; exit 1; }
+  for p in "${pngs[@]}"; do cp "${p}" "${out}/scenario-$(basename "${p}" | tr '_' '-')"; done
+done
+
+count=$(ls "${out}"/*.png | wc -l)
+echo "[figures] ${count} PNGs, $(du -sk "${out}" | cut -f1) KiB in ${out} (gallery: docs/figures.md)"

@@ -1,0 +1,436 @@
+// teleop-supervise's dashboard (docs/dds.md, "The dashboard"): the WebSocket messages and their escaping, the page's
+// requests, the --http endpoint, and the server over real sockets on 127.0.0.1 (page, dygraphs, WebSocket, the
+// pair filter, the Origin check, a slow client dropped while publishing goes on).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <thread>
+// Asio and property_tree's multi_index trip -Wnull-dereference in their own inlined code (GCC 12), as in
+// transport/udp_link.cpp.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wnull-dereference"
+#include <boost/asio/connect.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+#include <boost/property_tree/json_parser.hpp>
+#include <boost/property_tree/ptree.hpp>
+#pragma GCC diagnostic pop
+
+#include "teleop/dds/dashboard_messages.hpp"
+#include "teleop/dds/dashboard_server.hpp"
+#include "teleop/error.hpp"
+
+namespace {
+
+namespace pt = boost::property_tree;
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using teleop::dds::DashboardJsonString;
+using teleop::dds::DashboardServer;
+
+pt::ptree ParseJson(const std::string& text) {
+  std::istringstream in(text);
+  pt::ptree tree;
+  pt::read_json(in, tree);
+  return tree;
+}
+
+/// What a JSON parser reads back from DashboardJsonString(text).
+std::string RoundTrip(const std::string& text) {
+  return ParseJson("{\"s\":" + DashboardJsonString(text) + "}").get<std::string>("s");
+}
+
+TEST(DashboardJson, EscapesQuotesBackslashesAndControlCharacters) {
+  EXPECT_EQ(DashboardJsonString("a\"b\\c"), R"("a\"b\\c")");
+  EXPECT_EQ(DashboardJsonString("x\ny\tz\r"), R"("x\ny\tz\r")");
+  EXPECT_EQ(DashboardJsonString(std::string("\x01\x1f\x7f", 3)), R"("\u0001\u001f\u007f")");
+  EXPECT_EQ(DashboardJsonString(std::string("a\0b", 3)), R"("a\u0000b")");
+}
+
+TEST(DashboardJson, HtmlSpecialCharactersAreEscapedSoNoMarkupSurvives) {
+  const std::string attack = "</script><img src=x onerror='alert(1)'>&amp;";
+  const std::string encoded = DashboardJsonString(attack);
+  EXPECT_EQ(encoded.find('<'), std::string::npos) << encoded;
+  EXPECT_EQ(encoded.find('>'), std::string::npos) << encoded;
+  EXPECT_EQ(encoded.find('&'), std::string::npos) << encoded;
+  EXPECT_EQ(encoded.find('\''), std::string::npos) << encoded;
+  EXPECT_NE(encoded.find(R"(\u003c/script\u003e)"), std::string::npos) << encoded;
+  EXPECT_EQ(RoundTrip(attack), attack);  // the text itself is unchanged for the page, only inert in transit
+}
+
+TEST(DashboardJson, ValidUtf8IsKeptAndLineSeparatorsEscaped) {
+  const std::string text = "F\xc3\xbc\xc3\x9f \xe2\x86\x92 \xf0\x9f\xa4\x96";  // "Füß → 🤖"
+  EXPECT_EQ(DashboardJsonString(text), "\"" + text + "\"");
+  EXPECT_EQ(RoundTrip(text), text);
+  EXPECT_EQ(DashboardJsonString("a\xe2\x80\xa8"
+                                "b\xe2\x80\xa9"),
+            R"("a\u2028b\u2029")");
+}
+
+TEST(DashboardJson, InvalidUtf8BecomesReplacementCharacters) {
+  // RFC 3629: a stray continuation byte, a truncated sequence, an overlong '/', a surrogate, beyond U+10FFFF, 0xFF.
+  EXPECT_EQ(DashboardJsonString("a\x80z"), R"("a\ufffdz")");
+  EXPECT_EQ(DashboardJsonString("a\xe2\x82"), R"("a\ufffd\ufffd")");
+  EXPECT_EQ(DashboardJsonString("\xc0\xaf"), R"("\ufffd\ufffd")");
+  EXPECT_EQ(DashboardJsonString("\xed\xa0\x80"), R"("\ufffd\ufffd\ufffd")");
+  EXPECT_EQ(DashboardJsonString("\xf4\x90\x80\x80"), R"("\ufffd\ufffd\ufffd\ufffd")");
+  EXPECT_EQ(DashboardJsonString("\xff"), R"("\ufffd")");
+  // What remains is valid UTF-8 and parses.
+  EXPECT_EQ(RoundTrip("ok\xff"), "ok\xef\xbf\xbd");
+}
+
+teleop::dds::StateTrace MakeTrace(const std::string& pair, const std::string& role) {
+  teleop::dds::StateTrace t;
+  t.pair = pair;
+  t.role = role;
+  t.cycle = 1234;
+  t.time_s = 1.234;
+  t.engagement = teleop::dds::Engagement::kCoupled;
+  t.dof = 2;
+  t.position_m = {0.001, -0.002, 9, 9, 9, 9};  // entries past dof must not appear
+  t.peer_position_m = {0.0011, -0.0021};
+  t.force_sensor_N = {0.5, std::numeric_limits<double>::quiet_NaN()};
+  t.command_N = {-1.5, 2.5};
+  t.fixture_penetration_m = 0.0003;
+  t.tracking_error_m = 0.0001;
+  t.rtt_ms = std::numeric_limits<double>::quiet_NaN();
+  return t;
+}
+
+std::vector<std::string> Array(const pt::ptree& tree, const std::string& key) {
+  std::vector<std::string> out;
+  for (const auto& [k, v] : tree.get_child(key)) out.push_back(v.get_value<std::string>());
+  return out;
+}
+
+TEST(DashboardMessages, StateCarriesDofEntriesAndNullForUnknown) {
+  const std::string text = teleop::dds::EncodeState(MakeTrace("rig1", "master"), 12.5);
+  const pt::ptree m = ParseJson(text);
+  EXPECT_EQ(m.get<std::string>("type"), "state");
+  EXPECT_DOUBLE_EQ(m.get<double>("t_s"), 12.5);
+  EXPECT_EQ(m.get<std::string>("pair"), "rig1");
+  EXPECT_EQ(m.get<std::string>("role"), "master");
+  EXPECT_EQ(m.get<std::uint64_t>("cycle"), 1234U);
+  EXPECT_EQ(m.get<std::string>("engagement"), "coupled");
+  EXPECT_EQ(m.get<int>("dof"), 2);
+  EXPECT_EQ(Array(m, "position_m"), (std::vector<std::string>{"0.001", "-0.002"}));
+  EXPECT_EQ(Array(m, "force_sensor_N"), (std::vector<std::string>{"0.5", "null"}));
+  EXPECT_EQ(Array(m, "command_N"), (std::vector<std::string>{"-1.5", "2.5"}));
+  EXPECT_DOUBLE_EQ(m.get<double>("fixture_penetration_m"), 0.0003);
+  EXPECT_NE(text.find(R"("rtt_ms":null)"), std::string::npos) << text;
+  EXPECT_EQ(m.count("clutch"), 0U) << "no clutch field in a State without one";
+}
+
+TEST(DashboardMessages, ClutchAppearsOnlyWhenTheSampleHasOne) {
+  auto t = MakeTrace("rig1", "slave");
+  t.clutched = true;
+  EXPECT_EQ(ParseJson(teleop::dds::EncodeState(t, 0)).get<std::string>("clutch"), "clutched");
+  t.clutched = false;
+  EXPECT_EQ(ParseJson(teleop::dds::EncodeState(t, 0)).get<std::string>("clutch"), "released");
+}
+
+TEST(DashboardMessages, ProcessesEscapeEveryTextFromDds) {
+  teleop::dds::ProcessView v;
+  v.pair = "rig1";
+  v.role = "slave";
+  v.have_state = true;
+  v.status = teleop::dds::ProcessView::Status::kStale;
+  v.engagement = teleop::dds::Engagement::kPeerLost;
+  v.age_s = 1.5;
+  v.rtt_ms = std::numeric_limits<double>::quiet_NaN();
+  v.last_event = "<b>x</b>\xff";
+  v.stop_reason = "\"quoted\"\n";
+  teleop::dds::ProcessView waiting;
+  waiting.pair = "rig2";
+  waiting.role = "master";
+  waiting.age_s = std::numeric_limits<double>::quiet_NaN();
+  const std::string text = teleop::dds::EncodeProcesses({v, waiting}, 3.0);
+  EXPECT_EQ(text.find('<'), std::string::npos) << text;
+  const pt::ptree m = ParseJson(text);
+  EXPECT_EQ(m.get<std::string>("type"), "processes");
+  const auto& list = m.get_child("processes");
+  ASSERT_EQ(list.size(), 2U);
+  const pt::ptree& a = list.begin()->second;
+  EXPECT_EQ(a.get<std::string>("status"), "stale");
+  EXPECT_EQ(a.get<std::string>("engagement"), "peer_lost");
+  EXPECT_DOUBLE_EQ(a.get<double>("age_s"), 1.5);
+  EXPECT_EQ(a.get<std::string>("rtt_ms"), "null");
+  EXPECT_EQ(a.get<std::string>("last_event"), "<b>x</b>\xef\xbf\xbd");
+  EXPECT_EQ(a.get<std::string>("stop_reason"), "\"quoted\"\n");
+  const pt::ptree& b = std::next(list.begin())->second;
+  EXPECT_EQ(b.get<std::string>("status"), "discovered");
+  EXPECT_EQ(b.get<std::string>("engagement"), "null") << "no engagement before the first State";
+  EXPECT_EQ(b.get<std::string>("age_s"), "null");
+}
+
+TEST(DashboardMessages, EventAndHello) {
+  const pt::ptree e = ParseJson(teleop::dds::EncodeEvent("rig1", "master", "peer_lost", 77, 2.0, 4.5));
+  EXPECT_EQ(e.get<std::string>("type"), "event");
+  EXPECT_EQ(e.get<std::string>("kind"), "peer_lost");
+  EXPECT_EQ(e.get<std::uint64_t>("cycle"), 77U);
+  EXPECT_DOUBLE_EQ(e.get<double>("value"), 2.0);
+  const pt::ptree h = ParseJson(teleop::dds::EncodeHello(0.5));
+  EXPECT_EQ(h.get<std::string>("type"), "hello");
+  EXPECT_EQ(h.get<int>("version"), teleop::dds::kDashboardProtocolVersion);
+}
+
+TEST(DashboardMessages, PageRequests) {
+  using teleop::dds::ParseDashboardRequest;
+  EXPECT_EQ(ParseDashboardRequest("subscribe rig1"), std::optional<std::string>("rig1"));
+  EXPECT_EQ(ParseDashboardRequest("subscribe"), std::optional<std::string>(""));
+  for (const char* bad : {"", "subscribe ", "subscribe rig 1", "subscribe ../x", "subscribex", "subscribe 1rig",
+                          "subscribe a__b", "unsubscribe rig1", "subscribe rig1\n"})
+    EXPECT_FALSE(ParseDashboardRequest(bad)) << "'" << bad << "'";
+  EXPECT_FALSE(ParseDashboardRequest("subscribe " + std::string(65, 'a'))) << "longer than a pair name may be";
+}
+
+TEST(DashboardEndpoint, ParsesPortAddressAndIpv6) {
+  using teleop::dds::ParseHttpEndpoint;
+  const auto a = ParseHttpEndpoint("8080");
+  EXPECT_EQ(a.address, "127.0.0.1") << "localhost unless an address is given";
+  EXPECT_EQ(a.port, 8080);
+  const auto b = ParseHttpEndpoint("0.0.0.0:80");
+  EXPECT_EQ(b.address, "0.0.0.0");
+  EXPECT_EQ(b.port, 80);
+  const auto c = ParseHttpEndpoint("[::1]:8081");
+  EXPECT_EQ(c.address, "::1");
+  EXPECT_EQ(c.port, 8081);
+  for (const char* bad : {"", "localhost:8080", "127.0.0.1:0", "127.0.0.1:65536", "127.0.0.1:", ":8080", "::1:8080",
+                          "[::1]8080", "127.0.0.1:80x", "300.1.1.1:80"})
+    EXPECT_THROW(ParseHttpEndpoint(bad), teleop::Error) << "'" << bad << "'";
+}
+
+// ---- the server over real sockets ----------------------------------------------------------------------------
+
+/// A dygraphs directory of the test's own (so the test does not depend on libjs-dygraphs being installed).
+std::string FakeDygraphs() {
+  // In the test's working directory (ctest: build/tests/dds), replaced on every run.
+  const auto dir = std::filesystem::current_path() / "dashboard_test_dygraphs";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "dygraph.min.js") << "/* fake */ var Dygraph = function () {};";
+  std::ofstream(dir / "dygraph.min.css") << ".dygraph-legend {}";
+  return dir.string();
+}
+
+DashboardServer::Config TestConfig() {
+  DashboardServer::Config c;
+  c.endpoint = {"127.0.0.1", 0};  // the kernel's choice
+  c.dygraphs_dir = FakeDygraphs();
+  return c;
+}
+
+http::response<http::string_body> Get(std::uint16_t port, const std::string& target,
+                                      http::verb verb = http::verb::get) {
+  net::io_context io;
+  tcp::socket socket(io);
+  socket.connect({net::ip::make_address("127.0.0.1"), port});
+  http::request<http::empty_body> request(verb, target, 11);
+  request.set(http::field::host, "127.0.0.1:" + std::to_string(port));
+  request.keep_alive(false);
+  http::write(socket, request);
+  beast::flat_buffer buffer;
+  http::response<http::string_body> response;
+  http::read(socket, buffer, response);
+  return response;
+}
+
+/// A WebSocket client with a deadline on every read (a test must not hang on a server that stays silent).
+class Client {
+ public:
+  Client(std::uint16_t port, const std::string& origin = "") : ws_(io_) {
+    beast::get_lowest_layer(ws_).connect(tcp::endpoint{net::ip::make_address("127.0.0.1"), port});
+    if (!origin.empty())
+      ws_.set_option(websocket::stream_base::decorator(
+          [origin](websocket::request_type& r) { r.set(http::field::origin, origin); }));
+    ws_.handshake("127.0.0.1:" + std::to_string(port), "/ws");
+  }
+  void Send(const std::string& text) { ws_.write(net::buffer(text)); }
+  /// The next message, or nullopt after `timeout` (or when the connection ended).
+  std::optional<std::string> Read(std::chrono::milliseconds timeout = std::chrono::milliseconds(3000)) {
+    beast::flat_buffer buffer;
+    std::optional<beast::error_code> result;
+    ws_.async_read(buffer, [&](beast::error_code ec, std::size_t) { result = ec; });
+    io_.restart();
+    io_.run_for(timeout);
+    if (!result) {
+      beast::get_lowest_layer(ws_).cancel();
+      io_.restart();
+      io_.run();
+      return std::nullopt;
+    }
+    if (*result) return std::nullopt;
+    return beast::buffers_to_string(buffer.data());
+  }
+  /// The next message of `type` (others skipped), or nullopt.
+  std::optional<pt::ptree> ReadType(const std::string& type) {
+    for (int i = 0; i < 100; ++i) {
+      const auto text = Read();
+      if (!text) return std::nullopt;
+      pt::ptree m = ParseJson(*text);
+      if (m.get<std::string>("type") == type) return m;
+    }
+    return std::nullopt;
+  }
+  tcp::socket& socket() { return beast::get_lowest_layer(ws_).socket(); }
+
+ private:
+  net::io_context io_;
+  websocket::stream<beast::tcp_stream> ws_;
+};
+
+TEST(DashboardServer, ServesThePageItsAssetsAndDygraphsAndNothingElse) {
+  DashboardServer server(TestConfig());
+  ASSERT_NE(server.port(), 0);
+  EXPECT_TRUE(server.have_dygraphs());
+  const auto page = Get(server.port(), "/");
+  EXPECT_EQ(page.result(), http::status::ok);
+  EXPECT_NE(page[http::field::content_type].find("text/html"), beast::string_view::npos);
+  EXPECT_NE(page.body().find("/dygraph.min.js"), std::string::npos);
+  EXPECT_NE(page.body().find("/dashboard.js"), std::string::npos);
+  EXPECT_FALSE(page["Content-Security-Policy"].empty());
+  EXPECT_EQ(Get(server.port(), "/?pair=rig1").result(), http::status::ok);
+  const auto script = Get(server.port(), "/dashboard.js");
+  EXPECT_EQ(script.result(), http::status::ok);
+  EXPECT_NE(script.body().find("textContent"), std::string::npos);
+  EXPECT_EQ(script.body().find("innerHTML"), std::string::npos) << "the page never parses text as HTML";
+  EXPECT_EQ(Get(server.port(), "/dashboard.css").result(), http::status::ok);
+  const auto dygraphs = Get(server.port(), "/dygraph.min.js");
+  EXPECT_EQ(dygraphs.result(), http::status::ok);
+  EXPECT_EQ(dygraphs.body(), "/* fake */ var Dygraph = function () {};");
+  for (const char* target : {"/etc/passwd", "/../dygraph.min.js", "/dygraph.js", "/ws/../index.html"})
+    EXPECT_EQ(Get(server.port(), target).result(), http::status::not_found) << target;
+  EXPECT_EQ(Get(server.port(), "/", http::verb::post).result(), http::status::method_not_allowed);
+}
+
+TEST(DashboardServer, WithoutDygraphsThePageIsStillServed) {
+  auto config = TestConfig();
+  config.dygraphs_dir = "/nonexistent/dygraphs";
+  DashboardServer server(config);
+  EXPECT_FALSE(server.have_dygraphs());
+  EXPECT_EQ(Get(server.port(), "/").result(), http::status::ok);
+  const auto js = Get(server.port(), "/dygraph.min.js");
+  EXPECT_EQ(js.result(), http::status::not_found);
+  EXPECT_NE(js.body().find("libjs-dygraphs"), std::string::npos);
+}
+
+TEST(DashboardServer, ABusyPortIsAClearError) {
+  DashboardServer first(TestConfig());
+  auto config = TestConfig();
+  config.endpoint.port = first.port();
+  try {
+    DashboardServer second(config);
+    FAIL() << "a second server on the same port";
+  } catch (const teleop::Error& e) {
+    EXPECT_NE(std::string(e.what()).find(std::to_string(first.port())), std::string::npos) << e.what();
+  }
+}
+
+TEST(DashboardServer, StreamsTheTableToAllAndStatesOnlyOfTheSubscribedPair) {
+  DashboardServer server(TestConfig());
+  Client client(server.port());
+  ASSERT_TRUE(client.ReadType("hello"));
+  teleop::dds::ProcessView v;
+  v.pair = "rig1";
+  v.role = "master";
+  server.PublishProcesses({v}, 1.0);
+  const auto table = client.ReadType("processes");
+  ASSERT_TRUE(table);
+  EXPECT_EQ(table->get_child("processes").begin()->second.get<std::string>("pair"), "rig1");
+
+  client.Send("subscribe rig1");
+  // The subscription is read on the server thread: publish until the first rig1 state arrives.
+  std::optional<pt::ptree> state;
+  for (int i = 0; i < 20 && !state; ++i) {
+    server.PublishState(MakeTrace("rig2", "master"), 2.0);
+    server.PublishState(MakeTrace("rig1", "slave"), 2.0);
+    const auto text = client.Read(std::chrono::milliseconds(200));
+    if (text && ParseJson(*text).get<std::string>("type") == "state") state = ParseJson(*text);
+  }
+  ASSERT_TRUE(state);
+  EXPECT_EQ(state->get<std::string>("pair"), "rig1");
+  // From here on: rig2's states never arrive, rig1's and its events do.
+  for (int i = 0; i < 5; ++i) server.PublishState(MakeTrace("rig2", "master"), 3.0);
+  server.PublishEvent("rig2", "master", "peer_lost", 1, 0, 3.0);
+  server.PublishEvent("rig1", "slave", "peer_lost", 2, 0, 3.0);
+  const auto event = client.ReadType("event");
+  ASSERT_TRUE(event);
+  EXPECT_EQ(event->get<std::string>("pair"), "rig1");
+  EXPECT_EQ(event->get<std::uint64_t>("cycle"), 2U);
+
+  client.Send("subscribe </script>");  // not a pair name: counted, the subscription stays
+  server.PublishState(MakeTrace("rig1", "slave"), 4.0);
+  const auto again = client.ReadType("state");
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->get<std::string>("pair"), "rig1");
+  // The malformed request is counted on the server thread, in no fixed order with the tick that sent the state.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  while (server.stats().requests_malformed == 0 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_EQ(server.stats().requests_malformed, 1U);
+  EXPECT_EQ(server.stats().websocket_clients, 1U);
+}
+
+TEST(DashboardServer, AWebSocketFromAnotherSiteIsRefused) {
+  DashboardServer server(TestConfig());
+  EXPECT_THROW(Client(server.port(), "http://evil.example"), boost::system::system_error);
+  EXPECT_EQ(server.stats().websocket_refused, 1U);
+  Client own(server.port(), "http://127.0.0.1:" + std::to_string(server.port()));
+  EXPECT_TRUE(own.ReadType("hello")) << "the server's own page may";
+}
+
+TEST(DashboardServer, ASlowClientIsDroppedAndPublishingGoesOn) {
+  auto config = TestConfig();
+  config.client_queue_bytes = 64 * 1024;
+  DashboardServer server(config);
+  Client slow(server.port());
+  slow.socket().set_option(net::socket_base::receive_buffer_size(4096));
+  ASSERT_TRUE(slow.ReadType("hello"));
+  slow.Send("subscribe rig1");
+  // The slow client never reads again: its TCP window closes, the kernel's buffers fill, then its queue at the
+  // server passes 64 KiB and the server drops it. Publishing never waits for it (the calls only append).
+  const auto trace = MakeTrace("rig1", "master");
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  std::uint64_t published = 0;
+  while (server.stats().clients_dropped_slow == 0 && std::chrono::steady_clock::now() < deadline) {
+    for (int i = 0; i < 200; ++i, ++published) server.PublishState(trace, 0.0);
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(server.stats().clients_dropped_slow, 1U) << "after " << published << " states";
+  EXPECT_EQ(server.stats().websocket_clients, 0U);
+  // The server still serves: a new client gets its hello and the states.
+  Client fresh(server.port());
+  EXPECT_TRUE(fresh.ReadType("hello"));
+  fresh.Send("subscribe rig1");
+  std::optional<pt::ptree> state;
+  for (int i = 0; i < 20 && !state; ++i) {
+    server.PublishState(trace, 1.0);
+    const auto text = fresh.Read(std::chrono::milliseconds(200));
+    if (text && ParseJson(*text).get<std::string>("type") == "state") state = ParseJson(*text);
+  }
+  EXPECT_TRUE(state);
+}
+
+TEST(DashboardServer, AFullQueueDropsAndCountsSamples) {
+  auto config = TestConfig();
+  config.max_pending = 10;
+  DashboardServer server(config);
+  const auto trace = MakeTrace("rig1", "master");
+  for (int i = 0; i < 1000; ++i) server.PublishState(trace, 0.0);
+  // The server thread drains every 50 ms; within this loop (well under a millisecond) at most a few drains.
+  const auto dropped = server.stats().samples_dropped;
+  EXPECT_GT(dropped, 900U);
+  EXPECT_LE(dropped, 990U);
+}
+
+}  // namespace
