@@ -221,6 +221,26 @@ TEST(Admittance, AFaultedDriveIsReportedAndNaNIsRefused) {
   EXPECT_NE(r.faults & kFaultDriver, 0u);
 }
 
+// Velocity mode: the virtual position is anchored to the joint's at the first fresh reading (the joint starts at
+// 0.3 rad here, not 0), and the tracking check follows the joint integrating the virtual velocity.
+TEST(Admittance, VelocityModeAnchorsTheVirtualPositionToTheJoint) {
+  Rig rig(1, 0.5, 5.0, 100.0);
+  rig.config.mode = fieldbus::Cia402Mode::kCyclicSynchronousVelocity;
+  rig.sims[0]->SetJointState(0.3, 0.0);
+  rig.Build();
+  rig.device->Configure();
+  rig.device->Activate();
+  Reading r;
+  for (int k = 0; k < 1000; ++k) {
+    r = rig.Cycle(DofVector::Constant(1, 1.0));
+    ASSERT_EQ(r.faults, kFaultNone) << k;
+  }
+  const double bound = rig.device->max_tracking_error_m();
+  EXPECT_GT(r.position_m[0], 0.3 + 0.5 * Ideal(1.0, 0.5, 5.0, 1.0));
+  EXPECT_LT(rig.device->tracking(0).max_error_m, 0.5 * bound);
+  EXPECT_NEAR(rig.device->measured_position_m(0), r.position_m[0], 0.5 * bound);
+}
+
 // ---- The fixture limit predicted from (m_v, b_v) against the closed loop on the simulated drive ----
 //
 // The law as the slave's node runs it, slave side, unilateral (the master saturated at x_m: only the slave's loop
