@@ -472,6 +472,17 @@ TEST(Admittance, ConfigErrorsNameTheKey) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("mode must be position or velocity"), std::string::npos) << e.what();
   }
+  c.mode = fieldbus::Cia402Mode::kCyclicSynchronousPosition;
+  c.tracking_error_cycles = 0;
+  try {
+    AdmittanceDevice d(c);
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("tracking_error_cycles must be >= 1"), std::string::npos) << e.what();
+  }
+  c.tracking_error_cycles = 10;
+  c.max_tracking_error_m = std::nan("");
+  EXPECT_THROW(AdmittanceDevice d(c), Error);
   EXPECT_NE(FindDevice("admittance"), nullptr);
 }
 
