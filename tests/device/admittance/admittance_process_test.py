@@ -7,7 +7,8 @@ teleop-master on master-admittance.yaml (the loopback master with a finger pushi
 Checks: both processes pass the start-up stability check with (m_v, b_v) as the slave's model and exit 0, no device
 fault cycle, the slave follows the master (tracking error below 3 mm rms) and stops at the fixture 10 mm out: its
 largest position within 10..12 mm (the finger's 3 N on the coupling and the fixture's 2000 N/m: ~1.5 mm of penetration
-at most) and at rest at the end. The configs are used as shipped except for free ports, the EDS path and the CSV.
+at most) and at rest at the end; the drive's joint (its measured position, logged by the device at the end) followed:
+never beyond the tracking bound, and at the end within 10..12 mm and 0.5 mm of the virtual mass. The configs are used as shipped except for free ports, the EDS path and the CSV.
 """
 import argparse
 import csv
@@ -97,6 +98,19 @@ def main():
             fail(f"the slave should be at rest at the fixture: |v| {v_end:.4f} m/s")
         if ss["tracking_error_rms_m"] > 0.003:
             fail(f"tracking error rms {ss['tracking_error_rms_m'] * 1e3:.2f} mm")
+        # The reading is the virtual mass (the admittance's commanded state); the joint itself is the drive's measured
+        # position, which the device checks every cycle and logs at Deactivate.
+        m = re.search(r"axis 0: drive's measured position (\S+) m, virtual (\S+) m; tracking error max (\S+) mm "
+                      r"\(bound (\S+) mm\), (\d+) cycles beyond, (\d+) tracking faults", slave_out)
+        if not m:
+            fail("the slave did not log the drive's measured position and tracking check")
+        joint, virtual, err_max, bound = (float(m.group(i)) for i in range(1, 5))
+        print(f"admittance pair: the drive's joint at the end {joint * 1e3:.2f} mm (virtual {virtual * 1e3:.2f} mm), "
+              f"tracking error max {err_max:.3f} mm of {bound:.3f} mm, {m.group(5)} cycles beyond")
+        if int(m.group(6)) != 0 or int(m.group(5)) != 0:
+            fail(f"the drive did not follow: {m.group(5)} cycles beyond the bound, {m.group(6)} tracking faults")
+        if not 0.010 < joint < 0.012 or abs(joint - virtual) > 0.0005:
+            fail(f"the joint should be at the fixture with the virtual mass: {joint * 1e3:.2f} mm")
     print("PASS")
 
 

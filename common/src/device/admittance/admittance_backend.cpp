@@ -84,7 +84,7 @@ AdmittanceAxisConfig ReadDrive(const Field& f) {
 AdmittanceConfig ReadAdmittance(const Field& f, int dof) {
   const Map map(f, {"virtual_mass_kg", "virtual_damping_Ns_per_m", "mode", "max_force_N", "max_velocity_m_per_s",
                     "position_loop_bandwidth_rad_per_s", "bandwidth_ratio", "max_stiffness_N_per_m", "cycle_period_ms",
-                    "can", "drives"});
+                    "max_tracking_error_m", "tracking_error_cycles", "can", "drives"});
   AdmittanceConfig c;
   c.dof = dof;
   c.virtual_mass_kg =
@@ -105,6 +105,10 @@ AdmittanceConfig ReadAdmittance(const Field& f, int dof) {
   if (auto v = map.Optional("bandwidth_ratio")) c.bandwidth_ratio = config::InRange(*v, 1.0, 1000.0, "");
   if (auto v = map.Optional("max_stiffness_N_per_m")) c.max_stiffness_N_per_m = NonNegative(*v, "N/m");
   if (auto v = map.Optional("cycle_period_ms")) c.cycle_period_s = Positive(*v, "ms") * 1e-3;
+  if (auto v = map.Optional("max_tracking_error_m")) c.max_tracking_error_m = Positive(*v, "m");
+  if (auto v = map.Optional("tracking_error_cycles")) {
+    c.tracking_error_cycles = config::IntInRange(*v, 1, 100000);
+  }
   ReadCan(map.Required("can"), c.can);
   const Field drives = map.Required("drives");
   const std::vector<Field> items = drives.AsList();
@@ -178,6 +182,11 @@ DeviceBackend AdmittanceBackend() {
       {"bandwidth_ratio", "how much faster than b_v/m_v and sqrt(K/m_v) the loop must be, 1..1000; default 10"},
       {"max_stiffness_N_per_m", "K, the stiffest spring the slave meets (coupling kp + fixture), N/m, >= 0; default 0"},
       {"cycle_period_ms", "the drives' cycle (0x1006) (ms), > 0; default 1"},
+      {"max_tracking_error_m",
+       "the largest |drive's measured position - virtual position two cycles earlier| (m), > 0; default "
+       "2 (v_max/loop bandwidth + v_max T), at least 1 mm"},
+      {"tracking_error_cycles",
+       "consecutive cycles beyond max_tracking_error_m that fault the pair, 1..100000; default 10"},
       {"can", "the drives' bus"},
       {"can.medium", "socketcan (default) or emulated (the teleop-canbus daemon)"},
       {"can.interface", "SocketCAN interface (can0, vcan0, ...); required for socketcan"},

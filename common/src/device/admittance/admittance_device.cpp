@@ -1,6 +1,7 @@
 #include "admittance_device.hpp"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
@@ -36,6 +37,23 @@ void VirtualAdmittance::Step(double force_N, double h, double max_velocity) noex
   if (max_velocity > 0.0 && std::abs(v_) > max_velocity) v_ = std::copysign(max_velocity, v_);
 }
 
+double DefaultMaxTrackingError(const AdmittanceConfig& config) {
+  double omega = config.position_loop_bandwidth_rad_per_s;
+  if (!(omega > 0.0)) {
+    for (int i = 0; i < config.dof && i < config.virtual_mass_kg.size() && i < config.virtual_damping_Ns_per_m.size();
+         ++i) {
+      const double m = config.virtual_mass_kg[i];
+      const double slowest =
+          config.bandwidth_ratio *
+          std::max(config.virtual_damping_Ns_per_m[i] / m, std::sqrt(std::max(0.0, config.max_stiffness_N_per_m) / m));
+      omega = std::max(omega, slowest);
+    }
+  }
+  if (!(omega > 0.0) || !std::isfinite(omega)) return 0.01;
+  const double v = config.max_velocity_m_per_s;
+  return std::max(1e-3, 2.0 * (v / omega + v * config.cycle_period_s));
+}
+
 AdmittanceDevice::AdmittanceDevice(const AdmittanceConfig& config, AdmittancePortFactory ports,
                                    fieldbus::Timebase timebase)
     : config_(config), ports_(std::move(ports)), timebase_(std::move(timebase)) {
@@ -61,6 +79,12 @@ AdmittanceDevice::AdmittanceDevice(const AdmittanceConfig& config, AdmittancePor
   if (!(config.max_force_N > 0.0) || !(config.max_velocity_m_per_s > 0.0) || !(config.cycle_period_s > 0.0)) {
     fail("max_force_N, max_velocity_m_per_s and cycle_period_ms must be > 0");
   }
+  if (!(config.max_tracking_error_m >= 0.0) || !std::isfinite(config.max_tracking_error_m)) {
+    fail("max_tracking_error_m must be >= 0 (0: the default)");
+  }
+  if (config.tracking_error_cycles < 1) fail("tracking_error_cycles must be >= 1");
+  max_tracking_error_m_ =
+      config.max_tracking_error_m > 0.0 ? config.max_tracking_error_m : DefaultMaxTrackingError(config);
   for (const AdmittanceAxisConfig& a : config.axes) {
     if (!(a.transmission_m_per_rad > 0.0) || !std::isfinite(a.transmission_m_per_rad)) {
       fail("drives[].transmission_m_per_rad must be > 0");
@@ -69,6 +93,10 @@ AdmittanceDevice::AdmittanceDevice(const AdmittanceConfig& config, AdmittancePor
   for (int i = 0; i < n; ++i) {
     models_.emplace_back(config.virtual_mass_kg[i], config.virtual_damping_Ns_per_m[i]);
   }
+  tracking_.assign(static_cast<std::size_t>(n), AdmittanceTracking{});
+  history_m_.assign(static_cast<std::size_t>(n), std::array<double, 3>{});
+  beyond_run_.assign(static_cast<std::size_t>(n), 0);
+  anchored_.assign(static_cast<std::size_t>(n), false);
   caps_.dof = n;
   caps_.rendering = Rendering::kActiveForce;
   caps_.max_force_N = DofVector::Constant(n, config.max_force_N);
@@ -111,9 +139,17 @@ void AdmittanceDevice::Activate() {
     d.Activate();
     const double t = config_.axes[static_cast<std::size_t>(i)].transmission_m_per_rad;
     // Position mode: the virtual mass starts where the joint is (the drive's target was set to it).
-    models_[static_cast<std::size_t>(i)].Reset(
-        config_.mode == Cia402Mode::kCyclicSynchronousPosition ? d.position_target_rad() * t : 0.0);
+    const auto k = static_cast<std::size_t>(i);
+    const bool position_mode = config_.mode == Cia402Mode::kCyclicSynchronousPosition;
+    models_[k].Reset(position_mode ? d.position_target_rad() * t : 0.0);
+    history_m_[k].fill(models_[k].position_m());
+    tracking_[k] = AdmittanceTracking{};
+    tracking_[k].measured_position_m = models_[k].position_m();
+    beyond_run_[k] = 0;
+    // Velocity mode: the virtual position is set to the joint's at the first fresh reading (Read).
+    anchored_[k] = position_mode;
   }
+  tracking_fault_ = false;
   force_N_.setZero();
   faults_ = kFaultNone;
   safe_ = true;
@@ -122,6 +158,19 @@ void AdmittanceDevice::Activate() {
 
 void AdmittanceDevice::Deactivate() noexcept {
   SetSafe();
+  if (active_) {
+    for (int i = 0; i < config_.dof; ++i) {
+      const AdmittanceTracking& a = tracking_[static_cast<std::size_t>(i)];
+      spdlog::info(
+          "device.admittance: axis {}: drive's measured position {:.6f} m, virtual {:.6f} m; tracking error max {:.3f} "
+          "mm (bound {:.3f} mm), {} cycles beyond, {} tracking faults",
+          i, a.measured_position_m, models_[static_cast<std::size_t>(i)].position_m(), a.max_error_m * 1e3,
+          max_tracking_error_m_ * 1e3, a.cycles_beyond, a.faults);
+      if (a.faults > 0) {
+        spdlog::error("device.admittance: axis {}: the drive did not follow the virtual mass (kFaultDriver)", i);
+      }
+    }
+  }
   active_ = false;
   for (auto& d : drives_) (void)d->Deactivate();
 }
@@ -138,9 +187,36 @@ void AdmittanceDevice::Read(Reading& out) noexcept {
   for (int i = 0; i < n && i < static_cast<int>(drives_.size()); ++i) {
     fieldbus::Cia402Reading r{};
     const Cia402Status s = drives_[static_cast<std::size_t>(i)]->Read(r);
-    const double t = config_.axes[static_cast<std::size_t>(i)].transmission_m_per_rad;
-    out.position_m[i] = r.position_rad * t;
-    out.velocity_m_per_s[i] = r.velocity_rad_per_s * t;
+    const auto k = static_cast<std::size_t>(i);
+    const double t = config_.axes[k].transmission_m_per_rad;
+    if (s == Cia402Status::kOk) {
+      const double measured = r.position_rad * t;
+      AdmittanceTracking& a = tracking_[k];
+      a.measured_position_m = measured;
+      if (!anchored_[k]) {
+        models_[k].Reset(measured);
+        history_m_[k].fill(measured);
+        anchored_[k] = true;
+      } else if (active_) {
+        // The reading was sampled at the SYNC of the previous cycle, where the joint had followed the target that
+        // SYNC's predecessor applied: the virtual position Read reported two cycles ago (history_m_[k][2]).
+        a.error_m = std::abs(measured - history_m_[k][2]);
+        a.max_error_m = std::max(a.max_error_m, a.error_m);
+        if (a.error_m > max_tracking_error_m_) {
+          ++a.cycles_beyond;
+          if (++beyond_run_[k] >= config_.tracking_error_cycles) {
+            if (beyond_run_[k] == config_.tracking_error_cycles) ++a.faults;
+            tracking_fault_ = true;
+            faults |= kFaultDriver;
+          }
+        } else {
+          beyond_run_[k] = 0;
+        }
+      }
+    }
+    // The admittance's commanded state: the law and the fixture close their loop on the virtual mass.
+    out.position_m[i] = models_[k].position_m();
+    out.velocity_m_per_s[i] = models_[k].velocity_m_per_s();
     switch (s) {
       case Cia402Status::kOk:
       case Cia402Status::kNoNewData:
@@ -185,6 +261,10 @@ void AdmittanceDevice::Update(double period_s) noexcept {
       m.Step(force_N_[i], period_s, config_.max_velocity_m_per_s);
       rendered_N_[i] = force_N_[i];
     }
+    auto& h = history_m_[k];
+    h[2] = h[1];
+    h[1] = h[0];
+    h[0] = m.position_m();
     const double target =
         config_.mode == Cia402Mode::kCyclicSynchronousPosition ? m.position_m() / t : m.velocity_m_per_s() / t;
     const Cia402Status s = drives_[k]->Write(target);
@@ -199,6 +279,16 @@ void AdmittanceDevice::Update(double period_s) noexcept {
 void AdmittanceDevice::SetSafe() noexcept {
   safe_ = true;
   force_N_.setZero();
+  if (tracking_fault_) {
+    // The joint did not follow: hold the virtual mass where the joint is, so the drive stops pushing towards a
+    // position it cannot reach.
+    for (std::size_t k = 0; k < models_.size(); ++k) {
+      models_[k].Reset(tracking_[k].measured_position_m);
+      history_m_[k].fill(tracking_[k].measured_position_m);
+      beyond_run_[k] = 0;
+    }
+    tracking_fault_ = false;
+  }
 }
 
 }  // namespace teleop::device

@@ -5,7 +5,19 @@
 // drive's own position loop makes the joint follow, so the slave behaves as the virtual dynamics — the model the
 // start-up stability check uses — as long as that loop is much faster than the virtual dynamics (b_v/m_v) and the
 // coupling (docs/cia402.md, "Admittance backend").
+//
+// What Read reports: the virtual mass's own state (position and velocity), i.e. the admittance's COMMANDED state,
+// which the device integrates every cycle; the law and the fixture close their loop on it, as admittance control
+// does, and that is the loop the start-up check models. The drives' measured positions are not fed to the law (they
+// are the virtual mass two cycles late: the target takes effect at the next SYNC, the position sampled at the
+// following SYNC is read a cycle later; closing the law on them lowers the fixture limit to 0.18 of the prediction).
+// Instead every cycle checks them against the virtual mass of two cycles earlier: an error beyond
+// max_tracking_error_m for tracking_error_cycles consecutive cycles (a stalled, blocked or too slow drive) is
+// kFaultDriver, and the pair goes to the safe state. The measured positions and the largest tracking error are in
+// measured_position_m / tracking() and in the log at Deactivate.
 
+#include <array>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -57,8 +69,28 @@ struct AdmittanceConfig {
   /// b_v/m_v is checked.
   double max_stiffness_N_per_m = 0.0;
   double cycle_period_s = 0.001;
+  /// The largest |drive's measured position − virtual position two cycles earlier| allowed, m; 0: the default,
+  /// DefaultMaxTrackingError() (derived from the assumption the stability check makes).
+  double max_tracking_error_m = 0.0;
+  /// How many consecutive cycles beyond max_tracking_error_m make kFaultDriver, >= 1.
+  int tracking_error_cycles = 10;
   fieldbus::CanPortConfig can{};
   std::vector<AdmittanceAxisConfig> axes;  ///< One per DOF.
+};
+
+/// The default tracking bound: a drive that meets the stability model's assumption (a first-order position loop of
+/// bandwidth ω ≥ bandwidth_ratio · max(b_v/m_v, sqrt(K/m_v)); ω = position_loop_bandwidth_rad_per_s when given, else
+/// the slowest loop the assumption admits) follows a ramp at the speed limit v_max with the lag v_max/ω, plus one
+/// cycle of timing (v_max · T); the default is twice that, at least 1 mm (no spring and no damping: 10 mm).
+double DefaultMaxTrackingError(const AdmittanceConfig& config);
+
+/// What the device checked of the drives, per axis (not reset by Read; reset by Activate).
+struct AdmittanceTracking {
+  double measured_position_m = 0.0;  ///< The drive's last measured position (axis metres).
+  double error_m = 0.0;              ///< Last |measured − virtual two cycles earlier|.
+  double max_error_m = 0.0;          ///< The largest since Activate.
+  std::uint64_t cycles_beyond = 0;   ///< Cycles beyond the bound since Activate.
+  std::uint64_t faults = 0;          ///< Times the persistence was reached (kFaultDriver set).
 };
 
 /// Opens the port of one drive (tests: the in-process emulated bus).
@@ -84,6 +116,10 @@ class AdmittanceDevice final : public Device {
 
   const VirtualAdmittance& axis_model(int axis) const { return models_.at(static_cast<std::size_t>(axis)); }
   const fieldbus::Cia402Drive& drive(int axis) const { return *drives_.at(static_cast<std::size_t>(axis)); }
+  /// The drive's measured position and the tracking check of `axis` (the operator's view of the real joint).
+  const AdmittanceTracking& tracking(int axis) const { return tracking_.at(static_cast<std::size_t>(axis)); }
+  double measured_position_m(int axis) const { return tracking(axis).measured_position_m; }
+  double max_tracking_error_m() const noexcept { return max_tracking_error_m_; }
 
  private:
   AdmittanceConfig config_;
@@ -92,6 +128,12 @@ class AdmittanceDevice final : public Device {
   Capabilities caps_{};
   std::string name_ = "admittance";
   std::vector<VirtualAdmittance> models_;
+  std::vector<AdmittanceTracking> tracking_;
+  std::vector<std::array<double, 3>> history_m_;  ///< Virtual position after the last three Updates, newest first.
+  std::vector<int> beyond_run_;                   ///< Consecutive cycles beyond the bound.
+  std::vector<bool> anchored_;                    ///< Velocity mode: the virtual position set to the joint's.
+  double max_tracking_error_m_ = 0.0;
+  bool tracking_fault_ = false;
   std::vector<std::unique_ptr<fieldbus::CanPort>> drive_ports_;
   std::vector<std::unique_ptr<fieldbus::Cia402Drive>> drives_;
   std::unique_ptr<fieldbus::CanPort> sync_port_;
