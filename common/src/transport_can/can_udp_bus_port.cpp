@@ -6,11 +6,13 @@
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <array>
 #include <cerrno>
 #include <chrono>
+#include <cstddef>
 #include <cstring>
 #include <utility>
 
@@ -35,18 +37,57 @@ UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double
     throw Error("emulated-can: " + std::to_string(options_.filters.size()) + " receive filters, at most " +
                 std::to_string(kMaxCanFilters));
   }
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(port);
-  if (::inet_pton(AF_INET, host.c_str(), &addr.sin_addr) != 1) {
-    throw Error("emulated-can: bus host '" + host + "' is not an IPv4 address (teleop-canbus listens on IPv4)");
-  }
-  socket_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (socket_ < 0) throw Error(std::string("emulated-can: socket: ") + std::strerror(errno));
-  if (::connect(socket_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) < 0) {  // NOLINT: sockets API
-    const std::string reason = std::strerror(errno);
-    ::close(socket_);
-    throw Error("emulated-can: connect to " + endpoint_ + ": " + reason);
+  const bool unix_mode = host.rfind("unix:", 0) == 0;
+  if (unix_mode) {
+    // A Unix-domain node: the socket file's permissions decide whether this process may send to the daemon at all
+    // (connect() fails with EACCES), and the daemon reads the uid from the kernel (docs/security.md).
+    endpoint_ = host;
+    const std::string path = host.substr(5);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    if (path.empty() || path.size() >= sizeof(addr.sun_path)) {
+      throw Error(
+          fmt::format("emulated-can: bus socket path '{}' must be 1..{} characters", path, sizeof(addr.sun_path) - 1));
+    }
+    std::memcpy(addr.sun_path, path.data(), path.size());
+    socket_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (socket_ < 0) throw Error(std::string("emulated-can: socket: ") + std::strerror(errno));
+    // An address to be answered at: the kernel picks a unique abstract name (autobind: only the family given).
+    sockaddr_un self{};
+    self.sun_family = AF_UNIX;
+    const auto* self_any = reinterpret_cast<const sockaddr*>(&self);  // NOLINT: sockets API
+    const auto* any = reinterpret_cast<const sockaddr*>(&addr);       // NOLINT: sockets API
+    if (::bind(socket_, self_any, sizeof(sa_family_t)) != 0 ||
+        ::connect(socket_, any, static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + path.size() + 1)) != 0) {
+      const int e = errno;
+      ::close(socket_);
+      socket_ = -1;
+      if (e == EACCES || e == EPERM) {
+        throw Error(
+            fmt::format("emulated-can: not allowed to join the bus at {}: {} (the socket file's mode and "
+                        "group say who may; docs/security.md, \"What CAN trusts\")",
+                        endpoint_, std::strerror(e)));
+      }
+      throw Error(
+          fmt::format("emulated-can: no teleop-canbus at {}: {}: start it first (teleop-canbus --bind {}) or "
+                      "use transport udp",
+                      endpoint_, std::strerror(e), endpoint_));
+    }
+  } else {
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(port);
+    if (::inet_pton(AF_INET, host.c_str(), &addr.sin_addr) != 1) {
+      throw Error("emulated-can: bus host '" + host +
+                  "' is not an IPv4 address or unix:PATH (teleop-canbus listens on IPv4 or a Unix socket)");
+    }
+    socket_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (socket_ < 0) throw Error(std::string("emulated-can: socket: ") + std::strerror(errno));
+    if (::connect(socket_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) < 0) {  // NOLINT: sockets API
+      const std::string reason = std::strerror(errno);
+      ::close(socket_);
+      throw Error("emulated-can: connect to " + endpoint_ + ": " + reason);
+    }
   }
   (void)detail::EnableReceiveTimestamps(socket_);  // else the read time stands in for the receive time
   // Attach: hello until welcome, for up to timeout_ms.
@@ -71,10 +112,11 @@ UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double
   }
   if (node_ < 0) {
     ::close(socket_);
-    throw Error(fmt::format(
-        "emulated-can: no teleop-canbus answered at {} within {:g} ms: start it first (teleop-canbus --port {}) "
-        "or use transport udp",
-        endpoint_, timeout_ms, port));
+    throw Error(
+        fmt::format("emulated-can: no teleop-canbus answered at {} within {:g} ms: start it first (teleop-canbus {}) "
+                    "or use transport udp{}",
+                    endpoint_, timeout_ms, unix_mode ? "--bind " + host : fmt::format("--port {}", port),
+                    unix_mode ? " (or it does not admit this user: --allow-uid)" : ""));
   }
 }
 
