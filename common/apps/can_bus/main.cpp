@@ -110,6 +110,9 @@ static int Run(int argc, char** argv) {
   }
 
   try {
+    const std::string where = config.bind_address.rfind("unix:", 0) == 0
+                                  ? config.bind_address
+                                  : fmt::format("{}:{}", config.bind_address, config.port);
     if (inject_errors >= 0 || bus_off_node >= 0 || restart_node >= 0) {
       UdpCanBusPort client(config.bind_address, config.port, 1000.0);
       bool ok = true;
@@ -120,10 +123,10 @@ static int Run(int argc, char** argv) {
       if (restart_node >= 0)
         ok &= client.SendControl(bus_datagram::Action::kRestart, static_cast<std::uint32_t>(restart_node));
       if (!ok) {
-        spdlog::error("could not send the control datagram to {} (port {})", config.bind_address, config.port);
+        spdlog::error("could not send the control datagram to {}", where);
         return 1;
       }
-      spdlog::info("sent to teleop-canbus {} (port {})", config.bind_address, config.port);
+      spdlog::info("sent to teleop-canbus {}", where);
       return 0;
     }
     CanBusServer server(config);
