@@ -1,8 +1,8 @@
 // Who may join the emulated CAN bus and who may command it (teleop-canbus, docs/security.md "What CAN trusts"): a
 // process of another user cannot attach (its hello is traced to its socket's owner through /proc/net/udp and
 // refused), and control commands (bus-off, restart, error injection) come only from a controller's nodes. The same
-// over a Unix-domain socket (`unix:PATH`): the socket file's mode and group decide who may send at all, the kernel
-// names the sender (SCM_CREDENTIALS), and a stale socket file is replaced while a live daemon's is not.
+// over a Unix-domain socket (`unix:PATH`): the socket file's mode and group decide who may connect at all, the
+// kernel names the connecting process (SO_PEERCRED), and a stale socket file is replaced while a live daemon's is not.
 #include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -280,7 +280,7 @@ TEST(CanBusAccessUnix, AnAllowedUserAttachesButItsControlCommandIsRefused) {
 TEST(CanBusAccessUnix, AStaleSocketIsReplacedALiveOneRefused) {
   TempDir dir;
   {
-    const int stale = ::socket(AF_UNIX, SOCK_DGRAM, 0);
+    const int stale = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
     sockaddr_un addr{};
     addr.sun_family = AF_UNIX;
     std::strncpy(addr.sun_path, dir.Socket().c_str(), sizeof(addr.sun_path) - 1);
@@ -321,10 +321,7 @@ TEST(CanBusAccessUnix, OneStepDrainsTheQueueAndCountsRefusals) {
   CanBusServerConfig config = UnixConfig(dir, 0600);
   config.controller_uids = {static_cast<std::uint32_t>(::geteuid()) + 1};  // not us
   Bus bus{config};                                                         // no thread: the test steps it
-  const int s = ::socket(AF_UNIX, SOCK_DGRAM, 0);
-  sockaddr_un self{};
-  self.sun_family = AF_UNIX;
-  ASSERT_EQ(::bind(s, reinterpret_cast<const sockaddr*>(&self), sizeof(sa_family_t)), 0);  // NOLINT: autobind
+  const int s = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
   std::strncpy(addr.sun_path, dir.Socket().c_str(), sizeof(addr.sun_path) - 1);
@@ -336,17 +333,20 @@ TEST(CanBusAccessUnix, OneStepDrainsTheQueueAndCountsRefusals) {
   control.type = bus_datagram::Type::kControl;
   control.action = bus_datagram::Action::kBusOff;
   const std::uint8_t junk[3] = {1, 2, 3};
-  // At most net.unix.max_dgram_qlen (10 by default) datagrams wait in the daemon's queue: 9, never blocking.
+  // Queued before the daemon has even accepted the connection: one step accepts and reads all of it.
   ASSERT_EQ(::send(s, out.data(), bus_datagram::Encode(hello, out), MSG_DONTWAIT), 5);
-  for (int i = 0; i < 4; ++i) ASSERT_EQ(::send(s, junk, sizeof junk, MSG_DONTWAIT), 3);
-  for (int i = 0; i < 4; ++i) ASSERT_GT(::send(s, out.data(), bus_datagram::Encode(control, out), MSG_DONTWAIT), 0);
+  for (int i = 0; i < 40; ++i) ASSERT_EQ(::send(s, junk, sizeof junk, MSG_DONTWAIT), 3);
+  for (int i = 0; i < 20; ++i) ASSERT_GT(::send(s, out.data(), bus_datagram::Encode(control, out), MSG_DONTWAIT), 0);
   bus.server->Step(0);  // everything is queued: one step reads all of it and returns
   EXPECT_EQ(bus.server->node_count(), 1);
-  EXPECT_EQ(bus.server->malformed_datagrams(), 4u);
-  EXPECT_EQ(bus.server->refused_controls(), 4u);
+  EXPECT_EQ(bus.server->malformed_datagrams(), 40u);
+  EXPECT_EQ(bus.server->refused_controls(), 20u);
   EXPECT_FALSE(bus.server->bus().is_bus_off(0));
   bus.server->Step(0);  // nothing queued: returns at once, nothing new counted
-  EXPECT_EQ(bus.server->malformed_datagrams(), 4u);
+  EXPECT_EQ(bus.server->malformed_datagrams(), 40u);
+  ::shutdown(s, SHUT_WR);  // the node goes away without a bye: the daemon drops it on the next step
+  bus.server->Step(0);
+  EXPECT_EQ(bus.server->node_count(), 0);
   std::array<std::uint8_t, 64> welcome{};
   EXPECT_EQ(::recv(s, welcome.data(), welcome.size(), MSG_DONTWAIT), 6) << "the hello was answered";
   ::close(s);

@@ -27,6 +27,7 @@ namespace teleop::transport {
 struct CanBusServer::Peer {
   sockaddr_storage address{};  ///< sockaddr_in (UDP) or sockaddr_un (the node's autobound abstract address).
   socklen_t address_len = 0;
+  int fd = -1;  ///< Unix mode: the node's connection (seqpacket), which replies and frames go out on.
   int node = 0;
   bool local = false;  ///< A socket of this host (its owner is `uid`), not a remote node.
   std::uint32_t uid = 0;
@@ -86,18 +87,15 @@ bool SameAddress(const sockaddr_storage& a, socklen_t a_len, const sockaddr_stor
 
 constexpr std::string_view kUnixPrefix = "unix:";
 
-// The sender's credentials the kernel attached (SO_PASSCRED): true with `uid` when present.
-bool SenderUid(msghdr& message, std::uint32_t& uid) noexcept {
-  for (cmsghdr* c = CMSG_FIRSTHDR(&message); c != nullptr; c = CMSG_NXTHDR(&message, c)) {
-    if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_CREDENTIALS && c->cmsg_len >= CMSG_LEN(sizeof(ucred))) {
-      ucred credentials{};
-      std::memcpy(&credentials, CMSG_DATA(c), sizeof credentials);
-      uid = credentials.uid;
-      return true;
-    }
-  }
-  return false;
+// The connecting process's credentials, recorded by the kernel at connect() (SO_PEERCRED): kNoOwner if unreadable.
+std::uint32_t PeerUid(int fd) noexcept {
+  ucred credentials{};
+  socklen_t len = sizeof credentials;
+  if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &credentials, &len) != 0 || len != sizeof credentials) return kNoOwner;
+  return credentials.uid;
 }
+
+constexpr std::size_t kMaxConnections = 64;  // connections before (or without) a hello; more are closed at once
 
 }  // namespace
 
@@ -169,7 +167,7 @@ void CanBusServer::BindUnix() {
                       "another path)",
                       path));
     }
-    const int probe = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    const int probe = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
     if (probe < 0) throw Error(std::string("teleop-canbus: socket: ") + std::strerror(errno));
     const int rc = ::connect(probe, any, len);
     const int probe_errno = errno;
@@ -188,7 +186,7 @@ void CanBusServer::BindUnix() {
     }
     stale_replaced_ = true;
   }
-  socket_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  socket_ = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (socket_ < 0) throw Error(std::string("teleop-canbus: socket: ") + std::strerror(errno));
   // Created owner-only, then given its group and mode: no moment where the file is wider than configured.
   const mode_t old_umask = ::umask(0177);
@@ -201,8 +199,12 @@ void CanBusServer::BindUnix() {
     throw Error(fmt::format("teleop-canbus: {} {}: {}", what, path, std::strerror(error)));
   };
   if (bound != 0) fail("cannot bind", bind_errno);
-  const int on = 1;
-  if (::setsockopt(socket_, SOL_SOCKET, SO_PASSCRED, &on, sizeof on) != 0) fail("SO_PASSCRED on", errno);
+  if (::listen(socket_, 16) != 0) {
+    const int e = errno;
+    ::unlink(path.c_str());
+    fail("cannot listen on", e);
+  }
+  conns_.reserve(kMaxConnections);
   if (config_.socket_gid >= 0 &&
       ::chown(path.c_str(), static_cast<uid_t>(-1), static_cast<gid_t>(config_.socket_gid)) != 0) {
     const int e = errno;
@@ -219,6 +221,8 @@ void CanBusServer::BindUnix() {
 }
 
 void CanBusServer::Close() noexcept {
+  for (const Conn& c : conns_) ::close(c.fd);
+  conns_.clear();
   if (socket_ >= 0) ::close(socket_);
   socket_ = -1;
   if (!unix_path_.empty() && unix_inode_ != 0) {
@@ -240,33 +244,25 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
   const std::uint64_t next = bus_.NextEvent_ns();
   std::uint64_t wait = max_wait_ns;
   if (next != UINT64_MAX) wait = next > now ? std::min(wait, next - now) : 0;
-  pollfd pfd{socket_, POLLIN, 0};
   const timespec timeout{static_cast<time_t>(wait / 1'000'000'000u), static_cast<long>(wait % 1'000'000'000u)};
+  if (!unix_path_.empty()) {
+    StepUnix(timeout);
+    Forward();
+    return;
+  }
+  pollfd pfd{socket_, POLLIN, 0};
   ::ppoll(&pfd, 1, &timeout, nullptr);
   std::array<std::uint8_t, 256> buffer{};
-  const bool unix_mode = !unix_path_.empty();
   const auto own_uid = static_cast<std::uint32_t>(::geteuid());
   for (int i = 0; i < 1024; ++i) {  // drain what is queued (non-blocking socket), bounded so the bus keeps time
     sockaddr_storage source{};
-    iovec iov{buffer.data(), buffer.size()};
-    std::array<std::uint8_t, CMSG_SPACE(sizeof(ucred))> control{};
-    msghdr message{};
-    message.msg_name = &source;
-    message.msg_namelen = sizeof(source);
-    message.msg_iov = &iov;
-    message.msg_iovlen = 1;
-    message.msg_control = control.data();
-    message.msg_controllen = unix_mode ? control.size() : 0;
-    const ssize_t n = ::recvmsg(socket_, &message, MSG_DONTWAIT);
+    socklen_t source_len = sizeof(source);
+    // The sockets API takes the address as sockaddr*; sockaddr_storage is the documented way to pass it.
+    const ssize_t n =
+        ::recvfrom(socket_, buffer.data(), buffer.size(), MSG_DONTWAIT,
+                   reinterpret_cast<sockaddr*>(&source),  // NOLINT(cppcoreguidelines-pro-type-reinterpret-cast)
+                   &source_len);
     if (n < 0) break;
-    const socklen_t source_len = message.msg_namelen;
-    // Unix mode: who sent this datagram, as the kernel says (not forgeable without CAP_SETUID/CAP_SYS_ADMIN).
-    std::uint32_t sender_uid = kNoOwner;
-    const bool has_credentials = unix_mode && SenderUid(message, sender_uid);
-    if (unix_mode && (!has_credentials || source_len <= offsetof(sockaddr_un, sun_path))) {
-      ++malformed_;  // no credentials or no address to answer: cannot be a node
-      continue;
-    }
     bus_datagram::Message m{};
     if (!bus_datagram::Decode(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), m)) {
       ++malformed_;
@@ -274,12 +270,6 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
     }
     auto peer = std::find_if(nodes_.begin(), nodes_.end(),
                              [&](const Peer& p) { return SameAddress(p.address, p.address_len, source, source_len); });
-    // A node's address reused by a process of another user (Unix mode: abstract names are freed on close): that
-    // process is not the node that attached.
-    if (unix_mode && peer != nodes_.end() && peer->uid != sender_uid) {
-      nodes_.erase(peer);
-      peer = nodes_.end();
-    }
     std::array<std::uint8_t, bus_datagram::kMaxSize> reply{};
     switch (m.type) {
       case bus_datagram::Type::kHello: {
@@ -287,8 +277,8 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
           if (nodes_.size() == nodes_.capacity()) break;  // full: the node times out and says so
           // Who may join: the owner of the sending socket, or a remote node where the network is the bus.
           sockaddr_in udp_source{};
-          if (!unix_mode) std::memcpy(&udp_source, &source, sizeof udp_source);
-          const std::uint32_t owner = unix_mode ? sender_uid : LocalOwner(udp_source);
+          std::memcpy(&udp_source, &source, sizeof udp_source);
+          const std::uint32_t owner = LocalOwner(udp_source);
           const bool local = owner != kNoOwner;
           if (local ? !Contains(config_.allowed_uids, owner, own_uid) : !allow_remote_) {
             ++refused_hellos_;  // no welcome: the node times out and says no daemon answered
@@ -300,7 +290,7 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
           } catch (...) {
             break;
           }
-          nodes_.push_back(Peer{source, source_len, node, local, owner});
+          nodes_.push_back(Peer{source, source_len, -1, node, local, owner});
           peer = nodes_.end() - 1;
         }
         bus_datagram::Message w{};
@@ -336,7 +326,6 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
       }
       case bus_datagram::Type::kControl:
         // Only an attached node of a controller's user: anyone else could take the bus down.
-        // Unix mode: the uid is this datagram's own credentials (checked equal to the node's above).
         if (peer == nodes_.end() || !peer->local || !Contains(config_.controller_uids, peer->uid, own_uid)) {
           ++refused_controls_;
           break;
@@ -354,6 +343,115 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
     }
   }
   Forward();
+}
+
+// Unix mode (SOCK_SEQPACKET): one connection per node, its uid from SO_PEERCRED at accept; the socket file's
+// permissions decided who could connect at all. Every connection is read without blocking, at most 256 messages
+// each per step; refusals are counted as in UDP mode.
+void CanBusServer::StepUnix(const timespec& timeout) noexcept {
+  std::array<pollfd, kMaxConnections + 1> fds{};
+  fds[0] = pollfd{socket_, POLLIN, 0};
+  for (std::size_t i = 0; i < conns_.size(); ++i) fds[i + 1] = pollfd{conns_[i].fd, POLLIN, 0};
+  ::ppoll(fds.data(), conns_.size() + 1, &timeout, nullptr);
+  for (;;) {  // accept what is pending
+    const int fd = ::accept4(socket_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (fd < 0) break;
+    if (conns_.size() == kMaxConnections) {
+      ::close(fd);
+      ++refused_hellos_;  // no room: as a refused hello, the node says no daemon answered
+      continue;
+    }
+    conns_.push_back(Conn{fd, PeerUid(fd)});
+  }
+  const auto own_uid = static_cast<std::uint32_t>(::geteuid());
+  std::array<std::uint8_t, 256> buffer{};
+  std::array<std::uint8_t, bus_datagram::kMaxSize> reply{};
+  for (std::size_t c = 0; c < conns_.size();) {
+    const Conn conn = conns_[c];
+    auto peer = std::find_if(nodes_.begin(), nodes_.end(), [&](const Peer& p) { return p.fd == conn.fd; });
+    bool closed = false;
+    for (int i = 0; i < 256; ++i) {
+      const ssize_t n = ::recv(conn.fd, buffer.data(), buffer.size(), MSG_DONTWAIT);
+      if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+        closed = true;  // the node closed (or died): as a bye
+        break;
+      }
+      if (n < 0) break;
+      bus_datagram::Message m{};
+      if (!bus_datagram::Decode(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), m)) {
+        ++malformed_;
+        continue;
+      }
+      switch (m.type) {
+        case bus_datagram::Type::kHello: {
+          if (peer == nodes_.end()) {
+            if (nodes_.size() == nodes_.capacity()) break;  // full: the node times out and says so
+            if (conn.uid == kNoOwner || !Contains(config_.allowed_uids, conn.uid, own_uid)) {
+              ++refused_hellos_;  // no welcome: the node times out and says no daemon answered
+              break;
+            }
+            int node = 0;
+            try {
+              node = bus_.AddNode();
+            } catch (...) {
+              break;
+            }
+            nodes_.push_back(Peer{sockaddr_storage{}, 0, conn.fd, node, true, conn.uid});
+            peer = nodes_.end() - 1;
+          }
+          bus_datagram::Message w{};
+          w.type = bus_datagram::Type::kWelcome;
+          w.node = static_cast<std::uint8_t>(peer->node);
+          (void)::send(conn.fd, reply.data(), bus_datagram::Encode(w, reply), MSG_DONTWAIT | MSG_NOSIGNAL);
+          break;
+        }
+        case bus_datagram::Type::kFrame: {
+          if (peer == nodes_.end()) {
+            ++malformed_;
+            break;
+          }
+          const CanWriteStatus status = bus_.Submit(peer->node, m.frame);
+          if (status == CanWriteStatus::kOk) break;
+          bus_datagram::Message e{};
+          e.type = bus_datagram::Type::kFrame;
+          e.frame.error = true;
+          e.frame.len = 8;
+          if (status == CanWriteStatus::kBusOff) {
+            e.frame.error_class = proto::can::kErrBusOff;
+          } else {
+            e.frame.error_class = proto::can::kErrController;
+            e.frame.data[1] = proto::can::kCtrlTxOverflow;
+          }
+          (void)::send(conn.fd, reply.data(), bus_datagram::Encode(e, reply), MSG_DONTWAIT | MSG_NOSIGNAL);
+          break;
+        }
+        case bus_datagram::Type::kControl:
+          if (peer == nodes_.end() || !Contains(config_.controller_uids, peer->uid, own_uid)) {
+            ++refused_controls_;
+            break;
+          }
+          if (m.action == bus_datagram::Action::kInjectErrors) bus_.InjectErrors(static_cast<int>(m.argument));
+          if (m.action == bus_datagram::Action::kBusOff) bus_.ForceBusOff(static_cast<int>(m.argument));
+          if (m.action == bus_datagram::Action::kRestart) bus_.Restart(static_cast<int>(m.argument));
+          break;
+        case bus_datagram::Type::kBye:
+          if (peer != nodes_.end()) nodes_.erase(peer);
+          peer = nodes_.end();
+          break;
+        default:
+          ++malformed_;
+          break;
+      }
+    }
+    if (closed) {
+      peer = std::find_if(nodes_.begin(), nodes_.end(), [&](const Peer& p) { return p.fd == conn.fd; });
+      if (peer != nodes_.end()) nodes_.erase(peer);  // the bus node stays (idle)
+      ::close(conn.fd);
+      conns_.erase(conns_.begin() + static_cast<std::ptrdiff_t>(c));
+      continue;
+    }
+    ++c;
+  }
 }
 
 void CanBusServer::Forward() noexcept {
@@ -381,6 +479,10 @@ void CanBusServer::Forward() noexcept {
     while (bus_.Receive(node, m.frame)) {
       if (peer == nodes_.end()) continue;  // detached node: drain and drop
       const std::size_t size = bus_datagram::Encode(m, out);
+      if (peer->fd >= 0) {
+        (void)::send(peer->fd, out.data(), size, MSG_DONTWAIT | MSG_NOSIGNAL);
+        continue;
+      }
       ::sendto(socket_, out.data(), size, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&peer->address),  // NOLINT
                peer->address_len);
     }

@@ -26,7 +26,7 @@ namespace {
 bool SendMessage(int socket, const bus_datagram::Message& m) noexcept {
   std::array<std::uint8_t, bus_datagram::kMaxSize> out{};
   const std::size_t size = bus_datagram::Encode(m, out);
-  return size > 0 && ::send(socket, out.data(), size, 0) == static_cast<ssize_t>(size);
+  return size > 0 && ::send(socket, out.data(), size, MSG_NOSIGNAL) == static_cast<ssize_t>(size);
 }
 
 }  // namespace
@@ -50,15 +50,19 @@ UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double
           fmt::format("emulated-can: bus socket path '{}' must be 1..{} characters", path, sizeof(addr.sun_path) - 1));
     }
     std::memcpy(addr.sun_path, path.data(), path.size());
-    socket_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    socket_ = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     if (socket_ < 0) throw Error(std::string("emulated-can: socket: ") + std::strerror(errno));
-    // An address to be answered at: the kernel picks a unique abstract name (autobind: only the family given).
-    sockaddr_un self{};
-    self.sun_family = AF_UNIX;
-    const auto* self_any = reinterpret_cast<const sockaddr*>(&self);  // NOLINT: sockets API
-    const auto* any = reinterpret_cast<const sockaddr*>(&addr);       // NOLINT: sockets API
-    if (::bind(socket_, self_any, sizeof(sa_family_t)) != 0 ||
-        ::connect(socket_, any, static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + path.size() + 1)) != 0) {
+    const auto* any = reinterpret_cast<const sockaddr*>(&addr);  // NOLINT: sockets API
+    int rc = ::connect(socket_, any, static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + path.size() + 1));
+    if (rc != 0 && errno == EINPROGRESS) {  // a full backlog on a non-blocking socket: wait, then ask how it went
+      pollfd pfd{socket_, POLLOUT, 0};
+      int error = ETIMEDOUT;
+      socklen_t len = sizeof error;
+      if (::poll(&pfd, 1, static_cast<int>(timeout_ms)) == 1) ::getsockopt(socket_, SOL_SOCKET, SO_ERROR, &error, &len);
+      errno = error;
+      rc = error == 0 ? 0 : -1;
+    }
+    if (rc != 0) {
       const int e = errno;
       ::close(socket_);
       socket_ = -1;
@@ -101,7 +105,7 @@ UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double
     std::array<std::uint8_t, bus_datagram::kMaxSize> in{};
     for (;;) {
       const ssize_t n = ::recv(socket_, in.data(), in.size(), 0);
-      if (n < 0) break;
+      if (n <= 0) break;  // nothing, or (Unix mode) the daemon closed the connection
       bus_datagram::Message m{};
       if (bus_datagram::Decode(std::span<const std::uint8_t>(in.data(), static_cast<std::size_t>(n)), m) &&
           m.type == bus_datagram::Type::kWelcome) {
@@ -137,7 +141,7 @@ CanWriteStatus UdpCanBusPort::Write(const proto::can::CanFrame& frame) noexcept 
   std::array<std::uint8_t, bus_datagram::kMaxSize> out{};
   const std::size_t size = bus_datagram::Encode(m, out);
   if (size == 0) return CanWriteStatus::kError;
-  const ssize_t n = ::send(socket_, out.data(), size, 0);
+  const ssize_t n = ::send(socket_, out.data(), size, MSG_NOSIGNAL);  // Unix mode: EPIPE, never SIGPIPE
   if (n == static_cast<ssize_t>(size)) return CanWriteStatus::kOk;
   if (n < 0 && (errno == EAGAIN || errno == ENOBUFS)) return CanWriteStatus::kBufferFull;
   return CanWriteStatus::kError;  // e.g. ECONNREFUSED: the daemon is gone
@@ -148,7 +152,8 @@ bool UdpCanBusPort::Read(proto::can::CanFrame& frame) noexcept {
   for (;;) {
     std::int64_t received_ns = 0;
     const ssize_t n = detail::ReceiveStamped(socket_, in.data(), in.size(), received_ns);
-    if (n < 0) return false;  // EAGAIN, or ECONNREFUSED for an earlier send (the daemon is gone)
+    // EAGAIN, or ECONNREFUSED for an earlier send / 0 at end of connection (Unix mode): the daemon is gone.
+    if (n <= 0) return false;
     bus_datagram::Message m{};
     if (bus_datagram::Decode(std::span<const std::uint8_t>(in.data(), static_cast<std::size_t>(n)), m) &&
         m.type == bus_datagram::Type::kFrame && Accepts(options_, m.frame)) {

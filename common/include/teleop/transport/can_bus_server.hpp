@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <ctime>
 #include <memory>
 #include <string>
 #include <vector>
@@ -12,9 +13,9 @@
 namespace teleop::transport {
 
 struct CanBusServerConfig {
-  /// An IPv4 address (UDP on `port`), or `unix:PATH`: a Unix-domain datagram socket at PATH (docs/security.md,
+  /// An IPv4 address (UDP on `port`), or `unix:PATH`: a Unix-domain SOCK_SEQPACKET socket at PATH (docs/security.md,
   /// "What CAN trusts"), created with `socket_mode` and `socket_gid`; the peer's uid comes from the kernel
-  /// (SCM_CREDENTIALS on every datagram), and a stale socket file is replaced, a live daemon's refused.
+  /// (SO_PEERCRED of its connection), and a stale socket file is replaced, a live daemon's refused.
   std::string bind_address = "127.0.0.1";
   std::uint16_t port = 47300;   ///< 0: any free port (tests). Not used with `unix:`.
   unsigned socket_mode = 0600;  ///< `unix:` only: the socket file's permission bits (who may connect).
@@ -26,7 +27,7 @@ struct CanBusServerConfig {
   std::string candump_log_path;
   std::string candump_interface = "emcan0";
   /// Who may attach (docs/security.md, "What CAN trusts"). In UDP mode a datagram from a socket of this host is
-  /// traced to its owner through /proc/net/udp; in `unix:` mode the kernel names the sender (SCM_CREDENTIALS) and
+  /// traced to its owner through /proc/net/udp; in `unix:` mode the kernel names the sender (SO_PEERCRED) and
   /// the socket file's mode and group decide who may send at all. A hello is answered only when that uid is in
   /// allowed_uids (empty: the daemon's own effective user only). A source that is no socket of this host (another
   /// machine) is admitted only with allow_remote, which defaults to on when the daemon binds a non-loopback address
@@ -73,6 +74,11 @@ class CanBusServer {
 
  private:
   struct Peer;
+  struct Conn {
+    int fd = -1;
+    std::uint32_t uid = 0;  ///< SO_PEERCRED at accept.
+  };
+  void StepUnix(const timespec& timeout) noexcept;
   void BindUdp();
   void BindUnix();
   void Close() noexcept;
@@ -86,6 +92,7 @@ class CanBusServer {
   std::uint64_t unix_inode_ = 0;  ///< The socket file's inode: removed only while it is still ours.
   bool stale_replaced_ = false;
   std::vector<Peer> nodes_;
+  std::vector<Conn> conns_;  ///< Unix mode: accepted connections (attached or not yet).
   std::atomic<std::uint64_t> malformed_{0};
   std::atomic<std::uint64_t> refused_hellos_{0};
   std::atomic<std::uint64_t> refused_controls_{0};
