@@ -28,8 +28,8 @@ On the emulated CAN bus (teleop-canbus, --canbus):
   unprivileged attach  a process running as nobody says hello to the daemon and sends it a bus-off command: it must
                        get no welcome, the command must not act, and the daemon counts both refusals
   ... Unix socket      the same against `teleop-canbus --bind unix:PATH`: with the default mode 0600 the kernel
-                       refuses nobody's connect and every send (EACCES: nothing reaches the daemon); with 0666 the
-                       daemon reads nobody's uid from SCM_CREDENTIALS and refuses the hellos and the bus-off (counted)
+                       refuses nobody's connect (EACCES: nothing reaches the daemon); with 0666 the daemon reads
+                       nobody's uid from SO_PEERCRED and refuses the hellos and the bus-off (counted)
 Then the master is killed (SIGKILL), and:
   foreign stream       no privileges: a process binds the master's freed port and streams version-1 samples from
                        sequence 0 (commanding 0.25 m), plus hellos with a wrong key
@@ -282,36 +282,36 @@ print(hellos, welcomes)
 
 
 CAN_UNIX_ATTACKER = r"""
-import os, socket, struct, sys, time
+import socket, struct, sys, time
 path = sys.argv[1]
-s = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
-s.bind("\0teleop-attacker-%d" % os.getpid())
-s.settimeout(0.02)
 hellos = welcomes = denied = 0
+s = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+s.settimeout(0.02)
+try:
+    s.connect(path)
+except PermissionError:
+    denied += 1
+    s = None
 end = time.monotonic() + 0.3
-while time.monotonic() < end:
+while s is not None and time.monotonic() < end:
     hellos += 1
+    s.send(struct.pack("<IB", 0x31424354, 1))
     try:
-        s.sendto(struct.pack("<IB", 0x31424354, 1), path)
         data = s.recv(64)
         if len(data) >= 6 and data[4] == 2:
             welcomes += 1
-    except PermissionError:
-        denied += 1
-        time.sleep(0.02)
     except socket.timeout:
         pass
-try:
-    s.sendto(struct.pack("<IBBI", 0x31424354, 4, 2, 0), path)  # bus-off node 0
-except PermissionError:
-    denied += 1
+if s is not None:
+    s.send(struct.pack("<IBBI", 0x31424354, 4, 2, 0))  # bus-off node 0
+    time.sleep(0.05)
 print(hellos, welcomes, denied)
 """
 
 
 def can_unix_attach_attack(canbus):
     """The unprivileged attach against a Unix-socket daemon, once with the default mode (0600: the kernel refuses)
-    and once with 0666 (the daemon refuses by the sender's credentials). Returns [(label, sent, rejected, reason)]."""
+    and once with 0666 (the daemon refuses by its SO_PEERCRED uid). Returns [(label, sent, rejected, reason)]."""
     rows = []
     for mode in ("0600", "0666"):
         # A short path nobody may traverse to (only the socket file's own mode decides), whatever the build dir is.
@@ -341,16 +341,16 @@ def can_unix_attach_attack(canbus):
         check(not os.path.exists(path), f"unix {mode}: the daemon removed its socket file")
         os.rmdir(d)
         if mode == "0600":
-            check(denied == hellos + 1 and refused_hellos == 0 and refused_controls == 0,
-                  f"unix 0600: the kernel refused all {hellos + 1} sends ({denied}), nothing reached the daemon "
+            check(denied == 1 and hellos == 0 and refused_hellos == 0 and refused_controls == 0,
+                  f"unix 0600: the kernel refused the connect ({denied}), nothing reached the daemon "
                   f"({refused_hellos} hellos, {refused_controls} commands)")
-            rows.append(("... over a Unix socket, mode 0600 (connect refused: EACCES)", hellos + 1, denied,
+            rows.append(("... over a Unix socket, mode 0600 (connect refused: EACCES)", 1, denied,
                          "(kernel: EACCES, none counted)"))
         else:
             check(denied == 0 and refused_hellos == hellos and refused_controls == 1,
                   f"unix 0666: the daemon refused all {hellos} hellos ({refused_hellos}) and the bus-off "
-                  f"({refused_controls}) by the sender's credentials")
-            rows.append(("... over a Unix socket, mode 0666 (SCM_CREDENTIALS)", hellos + 1,
+                  f"({refused_controls}) by its SO_PEERCRED uid")
+            rows.append(("... over a Unix socket, mode 0666 (SO_PEERCRED)", hellos + 1,
                          refused_hellos + refused_controls, "refused_hellos+refused_controls"))
     return rows
 

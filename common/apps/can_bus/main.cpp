@@ -39,7 +39,7 @@ static int Run(int argc, char** argv) {
   int bus_off_node = -1;
   int restart_node = -1;
   app.add_option("--bind", config.bind_address,
-                 "IPv4 address to listen on (UDP, --port), or unix:PATH: a Unix-domain datagram socket (the "
+                 "IPv4 address to listen on (UDP, --port), or unix:PATH: a Unix-domain seqpacket socket (the "
                  "processes' link.can.bus); a stale socket file is replaced, a live daemon's is refused")
       ->capture_default_str();
   std::string socket_mode = "0600";
