@@ -56,6 +56,18 @@ TEST(CanLinkConfig, EmulatedBusNeedsNoInterfaceAndTakesTheDaemonAddress) {
   EXPECT_EQ(d.link.can.emulated_bus_port, 47300);  // the documented default
 }
 
+// The Unix-domain form of the daemon's address (docs/security.md, "What CAN trusts"): kept whole as the host.
+TEST(CanLinkConfig, EmulatedBusTakesAUnixSocketPath) {
+  const ProcessConfig c = ParseProcessConfig(
+      Config("  transport: emulated-can\n  can: {bus: \"unix:/run/teleop/canbus.sock\"}\n"), "can.yaml");
+  EXPECT_EQ(c.link.can.emulated_bus_host, "unix:/run/teleop/canbus.sock");
+  EXPECT_EQ(c.link.can.emulated_bus_port, 0);
+  EXPECT_NE(ErrorOf(Config("  transport: emulated-can\n  can: {bus: \"unix:relative.sock\"}\n")).find("absolute path"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Config("  transport: emulated-can\n  can: {bus: \"unix:\"}\n")).find("link.can.bus"),
+            std::string::npos);
+}
+
 // A triggered slave waits for the master's whole cycle of frames (docs/can.md, "Phase-locked cycles over CAN").
 TEST(CanLinkConfig, TriggeredCyclesRunOverCan) {
   EXPECT_EQ(

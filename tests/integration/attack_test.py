@@ -27,6 +27,9 @@ While the pair is coupled (master alive):
 On the emulated CAN bus (teleop-canbus, --canbus):
   unprivileged attach  a process running as nobody says hello to the daemon and sends it a bus-off command: it must
                        get no welcome, the command must not act, and the daemon counts both refusals
+  ... Unix socket      the same against `teleop-canbus --bind unix:PATH`: with the default mode 0600 the kernel
+                       refuses nobody's connect (EACCES: nothing reaches the daemon); with 0666 the daemon reads
+                       nobody's uid from SO_PEERCRED and refuses the hellos and the bus-off (counted)
 Then the master is killed (SIGKILL), and:
   foreign stream       no privileges: a process binds the master's freed port and streams version-1 samples from
                        sequence 0 (commanding 0.25 m), plus hellos with a wrong key
@@ -55,6 +58,7 @@ import socket
 import struct
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 
@@ -277,6 +281,80 @@ print(hellos, welcomes)
 """
 
 
+CAN_UNIX_ATTACKER = r"""
+import socket, struct, sys, time
+path = sys.argv[1]
+hellos = welcomes = denied = 0
+s = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+s.settimeout(0.02)
+try:
+    s.connect(path)
+except PermissionError:
+    denied += 1
+    s = None
+end = time.monotonic() + 0.3
+while s is not None and time.monotonic() < end:
+    hellos += 1
+    s.send(struct.pack("<IB", 0x31424354, 1))
+    try:
+        data = s.recv(64)
+        if len(data) >= 6 and data[4] == 2:
+            welcomes += 1
+    except socket.timeout:
+        pass
+if s is not None:
+    s.send(struct.pack("<IBBI", 0x31424354, 4, 2, 0))  # bus-off node 0
+    time.sleep(0.05)
+print(hellos, welcomes, denied)
+"""
+
+
+def can_unix_attach_attack(canbus):
+    """The unprivileged attach against a Unix-socket daemon, once with the default mode (0600: the kernel refuses)
+    and once with 0666 (the daemon refuses by its SO_PEERCRED uid). Returns [(label, sent, rejected, reason)]."""
+    rows = []
+    for mode in ("0600", "0666"):
+        # A short path nobody may traverse to (only the socket file's own mode decides), whatever the build dir is.
+        d = tempfile.mkdtemp(prefix=f"teleop-canbus-{mode}-")
+        os.chmod(d, 0o755)
+        path = os.path.join(d, "canbus.sock")
+        bus = subprocess.Popen([canbus, "--bind", "unix:" + path, "--socket-mode", mode, "--stats-every-s", "0"],
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        bus_out = Output(bus)
+        try:
+            for _ in range(100):
+                if os.path.exists(path):
+                    break
+                time.sleep(0.01)
+            r = subprocess.run([sys.executable, "-c", CAN_UNIX_ATTACKER, path], stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, text=True, timeout=30, preexec_fn=_as_nobody)
+            hellos, welcomes, denied = (int(x) for x in r.stdout.split()[:3])
+            time.sleep(0.1)
+        finally:
+            bus.send_signal(signal.SIGTERM)
+            bus.wait(timeout=30)
+        m = re.search(r"(\d+) hellos and (\d+) control commands refused", bus_out.text())
+        check(m is not None, "teleop-canbus (unix) printed its refusals")
+        refused_hellos, refused_controls = int(m.group(1)), int(m.group(2))
+        check(welcomes == 0, f"unix {mode}: the unprivileged process got no welcome ({welcomes} of {hellos})")
+        check(re.search(r": 0 node\(s\)", bus_out.text()) is not None, f"unix {mode}: no node attached")
+        check(not os.path.exists(path), f"unix {mode}: the daemon removed its socket file")
+        os.rmdir(d)
+        if mode == "0600":
+            check(denied == 1 and hellos == 0 and refused_hellos == 0 and refused_controls == 0,
+                  f"unix 0600: the kernel refused the connect ({denied}), nothing reached the daemon "
+                  f"({refused_hellos} hellos, {refused_controls} commands)")
+            rows.append(("... over a Unix socket, mode 0600 (connect refused: EACCES)", 1, denied,
+                         "(kernel: EACCES, none counted)"))
+        else:
+            check(denied == 0 and refused_hellos == hellos and refused_controls == 1,
+                  f"unix 0666: the daemon refused all {hellos} hellos ({refused_hellos}) and the bus-off "
+                  f"({refused_controls}) by its SO_PEERCRED uid")
+            rows.append(("... over a Unix socket, mode 0666 (SO_PEERCRED)", hellos + 1,
+                         refused_hellos + refused_controls, "refused_hellos+refused_controls"))
+    return rows
+
+
 def can_attach_attack(canbus):
     """An unprivileged process attaching to teleop-canbus (run as root: the daemon as root, the attacker as nobody).
     Returns the row's figures."""
@@ -395,8 +473,10 @@ def main():
     attacks = []
     start_rows = []
     can_row = None
+    can_unix_rows = []
     if args.canbus and os.geteuid() == 0:
         can_row = can_attach_attack(args.canbus)
+        can_unix_rows = can_unix_attach_attack(args.canbus)
     elif args.canbus:
         print("SKIPPED the emulated-CAN row: it runs the attacker as another user (needs root)")
     echo = None
@@ -687,6 +767,8 @@ def main():
     if can_row is not None:
         print(f"| {'unprivileged process attaching to the emulated CAN bus (+ bus-off)':<66} | {can_row[0] + 1:>6} | "
               f"{can_row[1]:>8} | {'refused_hellos+refused_controls':<34} | {'n/a (bus)':>14} | {'n/a':>15} |")
+    for label, sent, rejected, reason in can_unix_rows:
+        print(f"| {label:<66} | {sent:>6} | {rejected:>8} | {reason:<34} | {'n/a (bus)':>14} | {'n/a':>15} |")
     print("(start-up rows: the excursion column is the slave's largest |position| in the window, from rest at 0)")
     print("\nslave counters: " + json.dumps({k: v for k, v in counted.items() if v}) +
           f"; sessions {sec['sessions']}; watchdog trips {s['watchdog_trips']}")

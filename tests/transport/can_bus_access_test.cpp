@@ -1,14 +1,25 @@
 // Who may join the emulated CAN bus and who may command it (teleop-canbus, docs/security.md "What CAN trusts"): a
 // process of another user cannot attach (its hello is traced to its socket's owner through /proc/net/udp and
-// refused), and control commands (bus-off, restart, error injection) come only from a controller's nodes.
+// refused), and control commands (bus-off, restart, error injection) come only from a controller's nodes. The same
+// over a Unix-domain socket (`unix:PATH`): the socket file's mode and group decide who may connect at all, the
+// kernel names the connecting process (SO_PEERCRED), and a stale socket file is replaced while a live daemon's is not.
 #include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <memory>
+#include <string>
 #include <thread>
 
 #include "teleop/error.hpp"
@@ -23,7 +34,7 @@ constexpr std::uint32_t kNobody = 65534;
 
 struct Bus {
   explicit Bus(CanBusServerConfig config) {
-    config.port = 0;
+    if (config.bind_address.rfind("unix:", 0) != 0) config.port = 0;
     server = std::make_unique<CanBusServer>(config);
   }
   void Start() {
@@ -114,6 +125,231 @@ TEST(CanBusAccess, RemoteNodesOnlyWhereTheNetworkIsTheBus) {
   UdpCanBusPort own("127.0.0.1", bus.server->port(), 2000.0);
   EXPECT_EQ(bus.server->node_count(), 1);
   EXPECT_EQ(bus.server->refused_hellos(), 0u);
+}
+
+// ---- Unix-domain mode -------------------------------------------------------------------------------------------
+
+// A fresh directory others may enter (mode 0755: the socket file's own mode is then what decides), removed after.
+struct TempDir {
+  TempDir() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "teleop-canbus-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) throw Error("mkdtemp");
+    path = pattern;
+    ::chmod(path.c_str(), 0755);
+  }
+  ~TempDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path, ignored);
+  }
+  std::string Socket() const { return path + "/canbus.sock"; }
+  std::string path;
+};
+
+CanBusServerConfig UnixConfig(const TempDir& dir, unsigned mode) {
+  CanBusServerConfig config;
+  config.bind_address = "unix:" + dir.Socket();
+  config.socket_mode = mode;
+  return config;
+}
+
+// As AttachAs, over the Unix socket, and when attached sends a bus-off command for node 0. Exit status: 0 attached
+// (and sent), 1 no welcome, 3 refused by the socket file's permissions, 2 no setuid.
+int AttachAndCommandAs(std::uint32_t uid, const std::string& address, Bus& bus) {
+  const pid_t child = ::fork();
+  if (child == 0) {
+    if (::setgid(uid) != 0 || ::setuid(uid) != 0) ::_exit(2);
+    try {
+      UdpCanBusPort port_as_user(address, 0, 300.0);
+      ::_exit(port_as_user.SendControl(bus_datagram::Action::kBusOff, 0) ? 0 : 4);
+    } catch (const Error& e) {
+      ::_exit(std::strstr(e.what(), "not allowed to join") != nullptr ? 3 : 1);
+    }
+  }
+  bus.Start();
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+template <typename Done>
+void WaitFor(Done done) {
+  for (int i = 0; i < 400 && !done(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+}
+
+TEST(CanBusAccessUnix, TheSocketFileHasTheConfiguredModeAndGroup) {
+  TempDir dir;
+  CanBusServerConfig config = UnixConfig(dir, 0660);
+  const gid_t group = ::geteuid() == 0 ? 65534 : ::getegid();  // root may give any group; a user its own
+  config.socket_gid = static_cast<int>(group);
+  {
+    Bus bus{config};
+    struct stat st {};
+    ASSERT_EQ(::lstat(dir.Socket().c_str(), &st), 0);
+    EXPECT_TRUE(S_ISSOCK(st.st_mode));
+    EXPECT_EQ(st.st_mode & 07777, 0660u);
+    EXPECT_EQ(st.st_gid, group);
+    EXPECT_EQ(st.st_uid, ::geteuid());
+    EXPECT_EQ(bus.server->unix_path(), dir.Socket());
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.Socket())) << "the daemon removes its socket file when it stops";
+}
+
+TEST(CanBusAccessUnix, FramesGoBetweenNodesAndControlComesOnlyFromAController) {
+  TempDir dir;
+  CanBusServerConfig config = UnixConfig(dir, 0600);
+  config.controller_uids = {static_cast<std::uint32_t>(::geteuid()) + 1};  // not us
+  Bus bus{config};
+  bus.Start();
+  UdpCanBusPort a("unix:" + dir.Socket(), 0, 2000.0);
+  UdpCanBusPort b("unix:" + dir.Socket(), 0, 2000.0);
+  EXPECT_EQ(bus.server->node_count(), 2);
+  EXPECT_NE(a.node(), b.node());
+  proto::can::CanFrame frame{};
+  frame.id = 0x123;
+  frame.len = 2;
+  frame.data[0] = 0xAB;
+  frame.data[1] = 0xCD;
+  ASSERT_EQ(a.Write(frame), CanWriteStatus::kOk);
+  proto::can::CanFrame got{};
+  bool received = false;
+  WaitFor([&] { return received = b.Read(got); });
+  ASSERT_TRUE(received) << "a frame sent by one node reaches the other";
+  EXPECT_EQ(got.id, 0x123u);
+  EXPECT_EQ(got.len, 2);
+  EXPECT_EQ(got.data[1], 0xCD);
+  EXPECT_GT(b.receive_time_ns(), 0);
+
+  ASSERT_TRUE(a.SendControl(bus_datagram::Action::kBusOff, 0));
+  ASSERT_TRUE(a.SendControl(bus_datagram::Action::kInjectErrors, 3));
+  WaitFor([&] { return bus.server->refused_controls() >= 2; });
+  EXPECT_EQ(bus.server->refused_controls(), 2u);
+  EXPECT_FALSE(bus.server->bus().is_bus_off(0)) << "a refused command must not act";
+  EXPECT_EQ(bus.server->refused_hellos(), 0u);
+}
+
+TEST(CanBusAccessUnix, TheDaemonsOwnUserIsTheController) {
+  TempDir dir;
+  Bus bus{UnixConfig(dir, 0600)};
+  bus.Start();
+  UdpCanBusPort a("unix:" + dir.Socket(), 0, 2000.0);
+  ASSERT_TRUE(a.SendControl(bus_datagram::Action::kBusOff, 0));
+  WaitFor([&] { return bus.server->bus().is_bus_off(0); });
+  EXPECT_TRUE(bus.server->bus().is_bus_off(0));
+  EXPECT_EQ(bus.server->refused_controls(), 0u);
+}
+
+TEST(CanBusAccessUnix, FilePermissionsRefuseAnotherUserBeforeTheDaemonSeesIt) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to run a process as another user";
+  TempDir dir;
+  CanBusServerConfig config = UnixConfig(dir, 0600);  // owner only ...
+  config.allowed_uids = {0, kNobody};                 // ... though the daemon itself would admit nobody
+  Bus bus{config};
+  EXPECT_EQ(AttachAndCommandAs(kNobody, "unix:" + dir.Socket(), bus), 3) << "connect() must fail with EACCES";
+  EXPECT_EQ(bus.server->refused_hellos(), 0u) << "nothing reached the daemon";
+  EXPECT_EQ(bus.server->node_count(), 0);
+  UdpCanBusPort own("unix:" + dir.Socket(), 0, 2000.0);
+  EXPECT_EQ(bus.server->node_count(), 1);
+}
+
+TEST(CanBusAccessUnix, TheKernelsCredentialsRefuseAUserNotAllowed) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to run a process as another user";
+  TempDir dir;
+  Bus bus{UnixConfig(dir, 0666)};  // anyone may send: only the credentials stand in the way
+  EXPECT_EQ(AttachAndCommandAs(kNobody, "unix:" + dir.Socket(), bus), 1) << "nobody attached";
+  EXPECT_GE(bus.server->refused_hellos(), 1u);
+  EXPECT_EQ(bus.server->node_count(), 0);
+}
+
+TEST(CanBusAccessUnix, AnAllowedUserAttachesButItsControlCommandIsRefused) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to run a process as another user";
+  TempDir dir;
+  CanBusServerConfig config = UnixConfig(dir, 0660);
+  config.socket_gid = static_cast<int>(kNobody);  // nogroup: nobody may send through the file's group bits
+  config.allowed_uids = {0, kNobody};             // controller: the daemon's own user only (default)
+  Bus bus{config};
+  EXPECT_EQ(AttachAndCommandAs(kNobody, "unix:" + dir.Socket(), bus), 0) << "nobody, allowed, attached";
+  WaitFor([&] { return bus.server->refused_controls() >= 1; });
+  EXPECT_EQ(bus.server->refused_controls(), 1u);
+  EXPECT_FALSE(bus.server->bus().is_bus_off(0)) << "the non-controller's bus-off must not act";
+  EXPECT_EQ(bus.server->refused_hellos(), 0u);
+}
+
+// Golden start-up behaviour at an existing path: a stale socket (its daemon was killed: the file stays, nothing is
+// bound) is replaced; a live daemon's socket is refused and that daemon keeps working; a file that is not a socket
+// is never removed.
+TEST(CanBusAccessUnix, AStaleSocketIsReplacedALiveOneRefused) {
+  TempDir dir;
+  {
+    const int stale = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, dir.Socket().c_str(), sizeof(addr.sun_path) - 1);
+    ASSERT_EQ(::bind(stale, reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0);  // NOLINT: sockets API
+    ::close(stale);                                                                      // as a killed daemon leaves it
+    ASSERT_TRUE(std::filesystem::is_socket(dir.Socket()));
+  }
+  Bus live{UnixConfig(dir, 0600)};
+  EXPECT_TRUE(live.server->replaced_stale_socket());
+  live.Start();
+  try {
+    CanBusServer second(UnixConfig(dir, 0600));
+    ADD_FAILURE() << "a second daemon took over a live bus";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("another teleop-canbus is running on " + dir.Socket()), std::string::npos)
+        << e.what();
+  }
+  UdpCanBusPort node("unix:" + dir.Socket(), 0, 2000.0);  // the first daemon still answers
+  EXPECT_EQ(live.server->node_count(), 1);
+
+  TempDir other;
+  { std::ofstream(other.Socket()) << "not a socket\n"; }
+  try {
+    CanBusServer refused(UnixConfig(other, 0600));
+    ADD_FAILURE() << "a regular file at the socket path was replaced";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("exists and is not a socket"), std::string::npos) << e.what();
+  }
+  std::ifstream kept(other.Socket());
+  std::string line;
+  std::getline(kept, line);
+  EXPECT_EQ(line, "not a socket");
+}
+
+// The receive path drains every queued datagram in one step without blocking, and counts each it refuses.
+TEST(CanBusAccessUnix, OneStepDrainsTheQueueAndCountsRefusals) {
+  TempDir dir;
+  CanBusServerConfig config = UnixConfig(dir, 0600);
+  config.controller_uids = {static_cast<std::uint32_t>(::geteuid()) + 1};  // not us
+  Bus bus{config};                                                         // no thread: the test steps it
+  const int s = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, dir.Socket().c_str(), sizeof(addr.sun_path) - 1);
+  ASSERT_EQ(::connect(s, reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0);  // NOLINT: sockets API
+  std::array<std::uint8_t, bus_datagram::kMaxSize> out{};
+  bus_datagram::Message hello{};
+  hello.type = bus_datagram::Type::kHello;
+  bus_datagram::Message control{};
+  control.type = bus_datagram::Type::kControl;
+  control.action = bus_datagram::Action::kBusOff;
+  const std::uint8_t junk[3] = {1, 2, 3};
+  // Queued before the daemon has even accepted the connection: one step accepts and reads all of it.
+  ASSERT_EQ(::send(s, out.data(), bus_datagram::Encode(hello, out), MSG_DONTWAIT), 5);
+  for (int i = 0; i < 40; ++i) ASSERT_EQ(::send(s, junk, sizeof junk, MSG_DONTWAIT), 3);
+  for (int i = 0; i < 20; ++i) ASSERT_GT(::send(s, out.data(), bus_datagram::Encode(control, out), MSG_DONTWAIT), 0);
+  bus.server->Step(0);  // everything is queued: one step reads all of it and returns
+  EXPECT_EQ(bus.server->node_count(), 1);
+  EXPECT_EQ(bus.server->malformed_datagrams(), 40u);
+  EXPECT_EQ(bus.server->refused_controls(), 20u);
+  EXPECT_FALSE(bus.server->bus().is_bus_off(0));
+  bus.server->Step(0);  // nothing queued: returns at once, nothing new counted
+  EXPECT_EQ(bus.server->malformed_datagrams(), 40u);
+  ::shutdown(s, SHUT_WR);  // the node goes away without a bye: the daemon drops it on the next step
+  bus.server->Step(0);
+  EXPECT_EQ(bus.server->node_count(), 0);
+  std::array<std::uint8_t, 64> welcome{};
+  EXPECT_EQ(::recv(s, welcome.data(), welcome.size(), MSG_DONTWAIT), 6) << "the hello was answered";
+  ::close(s);
 }
 
 }  // namespace

@@ -1,9 +1,12 @@
-// teleop-canbus: an emulated CAN bus on UDP 127.0.0.1 (docs/can.md, "Emulated bus between processes").
+// teleop-canbus: an emulated CAN bus on UDP 127.0.0.1 or a Unix socket (docs/can.md, "Emulated bus between
+// processes"; who may join: docs/security.md, "What CAN trusts").
 //
+//   teleop-canbus --bind unix:/run/teleop/canbus.sock --socket-mode 0660 --socket-group teleop --allow-uid 1001
 //   teleop-canbus [--port 47300] [--bitrate 1000000] [--data-bitrate 5000000] [--load-ceiling 1.0]
 //   teleop-canbus --port 47300 --inject-errors 32      # destroy the next 32 transmissions (then exit)
 //   teleop-canbus --port 47300 --bus-off 0             # put node 0 bus-off; --restart 0 brings it back
 //   teleop-canbus --candump-log bus.log                # also log every frame in candump -L format
+#include <grp.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -11,6 +14,7 @@
 #include <chrono>
 #include <csignal>
 #include <iostream>
+#include <string>
 #include <thread>
 
 #include "teleop/error.hpp"
@@ -34,7 +38,16 @@ static int Run(int argc, char** argv) {
   int inject_errors = -1;
   int bus_off_node = -1;
   int restart_node = -1;
-  app.add_option("--bind", config.bind_address, "IPv4 address to listen on")->capture_default_str();
+  app.add_option("--bind", config.bind_address,
+                 "IPv4 address to listen on (UDP, --port), or unix:PATH: a Unix-domain seqpacket socket (the "
+                 "processes' link.can.bus); a stale socket file is replaced, a live daemon's is refused")
+      ->capture_default_str();
+  std::string socket_mode = "0600";
+  std::string socket_group;
+  app.add_option("--socket-mode", socket_mode,
+                 "unix: only: the socket file's permission bits, octal (who may join: write permission)")
+      ->capture_default_str();
+  app.add_option("--socket-group", socket_group, "unix: only: the socket file's group (name or gid)");
   app.add_option("--port", config.port, "UDP port (the processes' emulated_bus_port)")->capture_default_str();
   app.add_option("--bitrate", config.bus.nominal_bitrate_bit_per_s, "nominal bit rate, bit/s")
       ->capture_default_str()
@@ -71,8 +84,35 @@ static int Run(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   if (allow_remote) config.allow_remote = CanBusServerConfig::Remote::kAllow;
   if (local_only) config.allow_remote = CanBusServerConfig::Remote::kRefuse;
+  {
+    std::size_t used = 0;
+    unsigned long mode = 0;
+    try {
+      mode = std::stoul(socket_mode, &used, 8);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != socket_mode.size() || mode > 0777) {
+      std::cerr << "teleop-canbus: --socket-mode '" << socket_mode << "' is not an octal mode 0..0777\n";
+      return 2;
+    }
+    config.socket_mode = static_cast<unsigned>(mode);
+  }
+  if (!socket_group.empty()) {
+    if (socket_group.find_first_not_of("0123456789") == std::string::npos && socket_group.size() < 10) {
+      config.socket_gid = std::stoi(socket_group);
+    } else if (const group* g = ::getgrnam(socket_group.c_str()); g != nullptr) {
+      config.socket_gid = static_cast<int>(g->gr_gid);
+    } else {
+      std::cerr << "teleop-canbus: --socket-group '" << socket_group << "': no such group\n";
+      return 2;
+    }
+  }
 
   try {
+    const std::string where = config.bind_address.rfind("unix:", 0) == 0
+                                  ? config.bind_address
+                                  : fmt::format("{}:{}", config.bind_address, config.port);
     if (inject_errors >= 0 || bus_off_node >= 0 || restart_node >= 0) {
       UdpCanBusPort client(config.bind_address, config.port, 1000.0);
       bool ok = true;
@@ -83,18 +123,21 @@ static int Run(int argc, char** argv) {
       if (restart_node >= 0)
         ok &= client.SendControl(bus_datagram::Action::kRestart, static_cast<std::uint32_t>(restart_node));
       if (!ok) {
-        spdlog::error("could not send the control datagram to {}:{}", config.bind_address, config.port);
+        spdlog::error("could not send the control datagram to {}", where);
         return 1;
       }
-      spdlog::info("sent to teleop-canbus {}:{}", config.bind_address, config.port);
+      spdlog::info("sent to teleop-canbus {}", where);
       return 0;
     }
     CanBusServer server(config);
     std::signal(SIGINT, OnSignal);
     std::signal(SIGTERM, OnSignal);
-    spdlog::info("teleop-canbus listening on {}:{}, {:.0f} bit/s nominal, {:.0f} bit/s FD data, load ceiling {:.2f}",
-                 config.bind_address, server.port(), config.bus.nominal_bitrate_bit_per_s,
-                 config.bus.data_bitrate_bit_per_s, config.bus.load_ceiling);
+    if (server.replaced_stale_socket()) spdlog::info("replaced the stale socket {}", server.unix_path());
+    spdlog::info("teleop-canbus listening on {}, {:.0f} bit/s nominal, {:.0f} bit/s FD data, load ceiling {:.2f}",
+                 server.unix_path().empty()
+                     ? fmt::format("{}:{}", config.bind_address, server.port())
+                     : fmt::format("unix:{} (mode {:04o})", server.unix_path(), config.socket_mode),
+                 config.bus.nominal_bitrate_bit_per_s, config.bus.data_bitrate_bit_per_s, config.bus.load_ceiling);
     if (!config.candump_log_path.empty()) {
       spdlog::info("logging every frame to {} (candump -L, interface {})", config.candump_log_path,
                    config.candump_interface);

@@ -59,9 +59,21 @@ void ParseCan(const Field& f, bool emulated, transport::CanLinkConfig& can) {
   }
   if (auto v = map.Optional("bus")) {
     if (!emulated) v->Fail("only for transport emulated-can (the teleop-canbus daemon's address)");
-    const Endpoint bus = ParseEndpoint(*v);
-    can.emulated_bus_host = bus.address;
-    can.emulated_bus_port = bus.port;
+    const std::string text = v->AsString();
+    if (text.rfind("unix:", 0) == 0) {  // a Unix-domain socket (docs/security.md, "What CAN trusts")
+      if (text.size() <= 5 || text.size() > 5 + 107 || text[5] != '/') {
+        v->Fail(
+            "unix:PATH needs an absolute path of at most 107 characters (e.g. unix:/run/teleop/canbus.sock), "
+            "got '" +
+            text + "'");
+      }
+      can.emulated_bus_host = text;
+      can.emulated_bus_port = 0;
+    } else {
+      const Endpoint bus = ParseEndpoint(*v);
+      can.emulated_bus_host = bus.address;
+      can.emulated_bus_port = bus.port;
+    }
   }
   if (auto v = map.Optional("fd")) can.fd = v->AsBool();
   if (auto v = map.Optional("bit_rate_switch")) can.bit_rate_switch = v->AsBool();

@@ -5,15 +5,19 @@
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <cstddef>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <string>
+#include <string_view>
 
 #include "teleop/error.hpp"
 #include "teleop/transport/can_bus_datagram.hpp"
@@ -21,7 +25,9 @@
 namespace teleop::transport {
 
 struct CanBusServer::Peer {
-  sockaddr_in address{};
+  sockaddr_storage address{};  ///< sockaddr_in (UDP) or sockaddr_un (the node's autobound abstract address).
+  socklen_t address_len = 0;
+  int fd = -1;  ///< Unix mode: the node's connection (seqpacket), which replies and frames go out on.
   int node = 0;
   bool local = false;  ///< A socket of this host (its owner is `uid`), not a remote node.
   std::uint32_t uid = 0;
@@ -67,15 +73,55 @@ bool Contains(const std::vector<std::uint32_t>& list, std::uint32_t uid, std::ui
   return list.empty() ? uid == own : std::find(list.begin(), list.end(), uid) != list.end();
 }
 
-bool SameAddress(const sockaddr_in& a, const sockaddr_in& b) noexcept {
-  return a.sin_addr.s_addr == b.sin_addr.s_addr && a.sin_port == b.sin_port;
+bool SameAddress(const sockaddr_storage& a, socklen_t a_len, const sockaddr_storage& b, socklen_t b_len) noexcept {
+  if (a.ss_family != b.ss_family) return false;
+  if (a.ss_family == AF_INET) {
+    sockaddr_in x{};
+    sockaddr_in y{};
+    std::memcpy(&x, &a, sizeof x);
+    std::memcpy(&y, &b, sizeof y);
+    return x.sin_addr.s_addr == y.sin_addr.s_addr && x.sin_port == y.sin_port;
+  }
+  return a_len == b_len && std::memcmp(&a, &b, a_len) == 0;  // AF_UNIX: the same (abstract) name
 }
+
+constexpr std::string_view kUnixPrefix = "unix:";
+
+// The connecting process's credentials, recorded by the kernel at connect() (SO_PEERCRED): kNoOwner if unreadable.
+std::uint32_t PeerUid(int fd) noexcept {
+  ucred credentials{};
+  socklen_t len = sizeof credentials;
+  if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &credentials, &len) != 0 || len != sizeof credentials) return kNoOwner;
+  return credentials.uid;
+}
+
+constexpr std::size_t kMaxConnections = 64;  // connections before (or without) a hello; more are closed at once
 
 }  // namespace
 
 CanBusServer::CanBusServer(const CanBusServerConfig& config) : config_(config), bus_(config.bus) {
   if (config.max_nodes < 1 || config.max_nodes > 64) throw Error("teleop-canbus: max_nodes must be 1..64");
   nodes_.reserve(static_cast<std::size_t>(config.max_nodes));
+  if (config.bind_address.rfind(kUnixPrefix, 0) == 0) {
+    unix_path_ = config.bind_address.substr(kUnixPrefix.size());
+    BindUnix();
+  } else {
+    BindUdp();
+  }
+  started_ns_ = EmulatedCanBus::SteadyNow_ns();
+  if (!config.candump_log_path.empty()) {
+    try {
+      log_ = std::make_unique<CandumpLogWriter>(config.candump_log_path, config.candump_interface);
+    } catch (...) {
+      Close();
+      throw;
+    }
+    monitor_node_ = bus_.AddNode();  // hears every frame, like candump on an interface
+  }
+}
+
+void CanBusServer::BindUdp() {
+  const CanBusServerConfig& config = config_;
   socket_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (socket_ < 0) throw Error(std::string("teleop-canbus: socket: ") + std::strerror(errno));
   sockaddr_in addr{};
@@ -97,39 +143,123 @@ CanBusServer::CanBusServer(const CanBusServerConfig& config) : config_(config), 
   socklen_t len = sizeof(addr);
   ::getsockname(socket_, reinterpret_cast<sockaddr*>(&addr), &len);  // NOLINT: sockets API
   port_ = ntohs(addr.sin_port);
-  started_ns_ = EmulatedCanBus::SteadyNow_ns();
-  if (!config.candump_log_path.empty()) {
-    try {
-      log_ = std::make_unique<CandumpLogWriter>(config.candump_log_path, config.candump_interface);
-    } catch (...) {
-      ::close(socket_);
-      throw;
+}
+
+void CanBusServer::BindUnix() {
+  const std::string& path = unix_path_;
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  if (path.empty() || path.size() >= sizeof(addr.sun_path)) {
+    throw Error(
+        fmt::format("teleop-canbus: socket path '{}' must be 1..{} characters", path, sizeof(addr.sun_path) - 1));
+  }
+  std::memcpy(addr.sun_path, path.data(), path.size());
+  const auto len = static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + path.size() + 1);
+  const auto* any = reinterpret_cast<const sockaddr*>(&addr);  // NOLINT: sockets API
+  // A file already at the path: a socket no process has bound is stale (a daemon that was killed) and is replaced;
+  // one a daemon has bound answers connect(), and so does nothing else: refuse (never take over a live bus); not a
+  // socket at all: refuse (never delete an operator's file).
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0) {
+    if (!S_ISSOCK(st.st_mode)) {
+      throw Error(
+          fmt::format("teleop-canbus: {} exists and is not a socket: not replaced (remove it or choose "
+                      "another path)",
+                      path));
     }
-    monitor_node_ = bus_.AddNode();  // hears every frame, like candump on an interface
+    const int probe = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+    if (probe < 0) throw Error(std::string("teleop-canbus: socket: ") + std::strerror(errno));
+    const int rc = ::connect(probe, any, len);
+    const int probe_errno = errno;
+    ::close(probe);
+    if (rc == 0) {
+      throw Error(
+          fmt::format("teleop-canbus: another teleop-canbus is running on {} (it answered): stop it or "
+                      "choose another path",
+                      path));
+    }
+    if (probe_errno != ECONNREFUSED) {
+      throw Error(fmt::format("teleop-canbus: cannot tell whether {} is in use: {}", path, std::strerror(probe_errno)));
+    }
+    if (::unlink(path.c_str()) != 0) {
+      throw Error(fmt::format("teleop-canbus: cannot remove the stale socket {}: {}", path, std::strerror(errno)));
+    }
+    stale_replaced_ = true;
+  }
+  socket_ = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (socket_ < 0) throw Error(std::string("teleop-canbus: socket: ") + std::strerror(errno));
+  // Created owner-only, then given its group and mode: no moment where the file is wider than configured.
+  const mode_t old_umask = ::umask(0177);
+  const int bound = ::bind(socket_, any, len);
+  const int bind_errno = errno;
+  ::umask(old_umask);
+  const auto fail = [&](const std::string& what, int error) {
+    ::close(socket_);
+    socket_ = -1;
+    throw Error(fmt::format("teleop-canbus: {} {}: {}", what, path, std::strerror(error)));
+  };
+  if (bound != 0) fail("cannot bind", bind_errno);
+  if (::listen(socket_, 16) != 0) {
+    const int e = errno;
+    ::unlink(path.c_str());
+    fail("cannot listen on", e);
+  }
+  conns_.reserve(kMaxConnections);
+  if (config_.socket_gid >= 0 &&
+      ::chown(path.c_str(), static_cast<uid_t>(-1), static_cast<gid_t>(config_.socket_gid)) != 0) {
+    const int e = errno;
+    ::unlink(path.c_str());
+    fail(fmt::format("cannot give group {} to", config_.socket_gid), e);
+  }
+  if (::chmod(path.c_str(), static_cast<mode_t>(config_.socket_mode & 07777u)) != 0) {
+    const int e = errno;
+    ::unlink(path.c_str());
+    fail("cannot chmod", e);
+  }
+  if (::stat(path.c_str(), &st) == 0) unix_inode_ = st.st_ino;
+  allow_remote_ = false;  // a Unix socket has no remote nodes
+}
+
+void CanBusServer::Close() noexcept {
+  for (const Conn& c : conns_) ::close(c.fd);
+  conns_.clear();
+  if (socket_ >= 0) ::close(socket_);
+  socket_ = -1;
+  if (!unix_path_.empty() && unix_inode_ != 0) {
+    struct stat st {};
+    // Only the file this daemon created: a later daemon's socket at the same path is left alone.
+    if (::lstat(unix_path_.c_str(), &st) == 0 && S_ISSOCK(st.st_mode) && st.st_ino == unix_inode_) {
+      ::unlink(unix_path_.c_str());
+    }
+    unix_inode_ = 0;
   }
 }
 
 int CanBusServer::node_count() const noexcept { return static_cast<int>(nodes_.size()); }
 
-CanBusServer::~CanBusServer() {
-  if (socket_ >= 0) ::close(socket_);
-}
+CanBusServer::~CanBusServer() { Close(); }
 
 void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
   const std::uint64_t now = EmulatedCanBus::SteadyNow_ns();
   const std::uint64_t next = bus_.NextEvent_ns();
   std::uint64_t wait = max_wait_ns;
   if (next != UINT64_MAX) wait = next > now ? std::min(wait, next - now) : 0;
-  pollfd pfd{socket_, POLLIN, 0};
   const timespec timeout{static_cast<time_t>(wait / 1'000'000'000u), static_cast<long>(wait % 1'000'000'000u)};
+  if (!unix_path_.empty()) {
+    StepUnix(timeout);
+    Forward();
+    return;
+  }
+  pollfd pfd{socket_, POLLIN, 0};
   ::ppoll(&pfd, 1, &timeout, nullptr);
   std::array<std::uint8_t, 256> buffer{};
-  for (int i = 0; i < 1024; ++i) {
-    sockaddr_in source{};
+  const auto own_uid = static_cast<std::uint32_t>(::geteuid());
+  for (int i = 0; i < 1024; ++i) {  // drain what is queued (non-blocking socket), bounded so the bus keeps time
+    sockaddr_storage source{};
     socklen_t source_len = sizeof(source);
-    // The sockets API takes the address as sockaddr*; sockaddr_in is the documented way to pass it.
+    // The sockets API takes the address as sockaddr*; sockaddr_storage is the documented way to pass it.
     const ssize_t n =
-        ::recvfrom(socket_, buffer.data(), buffer.size(), 0,
+        ::recvfrom(socket_, buffer.data(), buffer.size(), MSG_DONTWAIT,
                    reinterpret_cast<sockaddr*>(&source),  // NOLINT(cppcoreguidelines-pro-type-reinterpret-cast)
                    &source_len);
     if (n < 0) break;
@@ -138,18 +268,19 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
       ++malformed_;
       continue;
     }
-    auto peer =
-        std::find_if(nodes_.begin(), nodes_.end(), [&](const Peer& p) { return SameAddress(p.address, source); });
+    auto peer = std::find_if(nodes_.begin(), nodes_.end(),
+                             [&](const Peer& p) { return SameAddress(p.address, p.address_len, source, source_len); });
     std::array<std::uint8_t, bus_datagram::kMaxSize> reply{};
     switch (m.type) {
       case bus_datagram::Type::kHello: {
         if (peer == nodes_.end()) {
           if (nodes_.size() == nodes_.capacity()) break;  // full: the node times out and says so
           // Who may join: the owner of the sending socket, or a remote node where the network is the bus.
-          const std::uint32_t owner = LocalOwner(source);
+          sockaddr_in udp_source{};
+          std::memcpy(&udp_source, &source, sizeof udp_source);
+          const std::uint32_t owner = LocalOwner(udp_source);
           const bool local = owner != kNoOwner;
-          if (local ? !Contains(config_.allowed_uids, owner, static_cast<std::uint32_t>(::geteuid()))
-                    : !allow_remote_) {
+          if (local ? !Contains(config_.allowed_uids, owner, own_uid) : !allow_remote_) {
             ++refused_hellos_;  // no welcome: the node times out and says no daemon answered
             break;
           }
@@ -159,14 +290,15 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
           } catch (...) {
             break;
           }
-          nodes_.push_back(Peer{source, node, local, owner});
+          nodes_.push_back(Peer{source, source_len, -1, node, local, owner});
           peer = nodes_.end() - 1;
         }
         bus_datagram::Message w{};
         w.type = bus_datagram::Type::kWelcome;
         w.node = static_cast<std::uint8_t>(peer->node);
         const std::size_t size = bus_datagram::Encode(w, reply);
-        ::sendto(socket_, reply.data(), size, 0, reinterpret_cast<const sockaddr*>(&source), sizeof(source));  // NOLINT
+        ::sendto(socket_, reply.data(), size, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&source),  // NOLINT
+                 source_len);
         break;
       }
       case bus_datagram::Type::kFrame: {
@@ -188,13 +320,13 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
           e.frame.data[1] = proto::can::kCtrlTxOverflow;
         }
         const std::size_t size = bus_datagram::Encode(e, reply);
-        ::sendto(socket_, reply.data(), size, 0, reinterpret_cast<const sockaddr*>(&source), sizeof(source));  // NOLINT
+        ::sendto(socket_, reply.data(), size, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&source),  // NOLINT
+                 source_len);
         break;
       }
       case bus_datagram::Type::kControl:
         // Only an attached node of a controller's user: anyone else could take the bus down.
-        if (peer == nodes_.end() || !peer->local ||
-            !Contains(config_.controller_uids, peer->uid, static_cast<std::uint32_t>(::geteuid()))) {
+        if (peer == nodes_.end() || !peer->local || !Contains(config_.controller_uids, peer->uid, own_uid)) {
           ++refused_controls_;
           break;
         }
@@ -211,6 +343,115 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
     }
   }
   Forward();
+}
+
+// Unix mode (SOCK_SEQPACKET): one connection per node, its uid from SO_PEERCRED at accept; the socket file's
+// permissions decided who could connect at all. Every connection is read without blocking, at most 256 messages
+// each per step; refusals are counted as in UDP mode.
+void CanBusServer::StepUnix(const timespec& timeout) noexcept {
+  std::array<pollfd, kMaxConnections + 1> fds{};
+  fds[0] = pollfd{socket_, POLLIN, 0};
+  for (std::size_t i = 0; i < conns_.size(); ++i) fds[i + 1] = pollfd{conns_[i].fd, POLLIN, 0};
+  ::ppoll(fds.data(), conns_.size() + 1, &timeout, nullptr);
+  for (;;) {  // accept what is pending
+    const int fd = ::accept4(socket_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (fd < 0) break;
+    if (conns_.size() == kMaxConnections) {
+      ::close(fd);
+      ++refused_hellos_;  // no room: as a refused hello, the node says no daemon answered
+      continue;
+    }
+    conns_.push_back(Conn{fd, PeerUid(fd)});
+  }
+  const auto own_uid = static_cast<std::uint32_t>(::geteuid());
+  std::array<std::uint8_t, 256> buffer{};
+  std::array<std::uint8_t, bus_datagram::kMaxSize> reply{};
+  for (std::size_t c = 0; c < conns_.size();) {
+    const Conn conn = conns_[c];
+    auto peer = std::find_if(nodes_.begin(), nodes_.end(), [&](const Peer& p) { return p.fd == conn.fd; });
+    bool closed = false;
+    for (int i = 0; i < 256; ++i) {
+      const ssize_t n = ::recv(conn.fd, buffer.data(), buffer.size(), MSG_DONTWAIT);
+      if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+        closed = true;  // the node closed (or died): as a bye
+        break;
+      }
+      if (n < 0) break;
+      bus_datagram::Message m{};
+      if (!bus_datagram::Decode(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), m)) {
+        ++malformed_;
+        continue;
+      }
+      switch (m.type) {
+        case bus_datagram::Type::kHello: {
+          if (peer == nodes_.end()) {
+            if (nodes_.size() == nodes_.capacity()) break;  // full: the node times out and says so
+            if (conn.uid == kNoOwner || !Contains(config_.allowed_uids, conn.uid, own_uid)) {
+              ++refused_hellos_;  // no welcome: the node times out and says no daemon answered
+              break;
+            }
+            int node = 0;
+            try {
+              node = bus_.AddNode();
+            } catch (...) {
+              break;
+            }
+            nodes_.push_back(Peer{sockaddr_storage{}, 0, conn.fd, node, true, conn.uid});
+            peer = nodes_.end() - 1;
+          }
+          bus_datagram::Message w{};
+          w.type = bus_datagram::Type::kWelcome;
+          w.node = static_cast<std::uint8_t>(peer->node);
+          (void)::send(conn.fd, reply.data(), bus_datagram::Encode(w, reply), MSG_DONTWAIT | MSG_NOSIGNAL);
+          break;
+        }
+        case bus_datagram::Type::kFrame: {
+          if (peer == nodes_.end()) {
+            ++malformed_;
+            break;
+          }
+          const CanWriteStatus status = bus_.Submit(peer->node, m.frame);
+          if (status == CanWriteStatus::kOk) break;
+          bus_datagram::Message e{};
+          e.type = bus_datagram::Type::kFrame;
+          e.frame.error = true;
+          e.frame.len = 8;
+          if (status == CanWriteStatus::kBusOff) {
+            e.frame.error_class = proto::can::kErrBusOff;
+          } else {
+            e.frame.error_class = proto::can::kErrController;
+            e.frame.data[1] = proto::can::kCtrlTxOverflow;
+          }
+          (void)::send(conn.fd, reply.data(), bus_datagram::Encode(e, reply), MSG_DONTWAIT | MSG_NOSIGNAL);
+          break;
+        }
+        case bus_datagram::Type::kControl:
+          if (peer == nodes_.end() || !Contains(config_.controller_uids, peer->uid, own_uid)) {
+            ++refused_controls_;
+            break;
+          }
+          if (m.action == bus_datagram::Action::kInjectErrors) bus_.InjectErrors(static_cast<int>(m.argument));
+          if (m.action == bus_datagram::Action::kBusOff) bus_.ForceBusOff(static_cast<int>(m.argument));
+          if (m.action == bus_datagram::Action::kRestart) bus_.Restart(static_cast<int>(m.argument));
+          break;
+        case bus_datagram::Type::kBye:
+          if (peer != nodes_.end()) nodes_.erase(peer);
+          peer = nodes_.end();
+          break;
+        default:
+          ++malformed_;
+          break;
+      }
+    }
+    if (closed) {
+      peer = std::find_if(nodes_.begin(), nodes_.end(), [&](const Peer& p) { return p.fd == conn.fd; });
+      if (peer != nodes_.end()) nodes_.erase(peer);  // the bus node stays (idle)
+      ::close(conn.fd);
+      conns_.erase(conns_.begin() + static_cast<std::ptrdiff_t>(c));
+      continue;
+    }
+    ++c;
+  }
 }
 
 void CanBusServer::Forward() noexcept {
@@ -238,8 +479,12 @@ void CanBusServer::Forward() noexcept {
     while (bus_.Receive(node, m.frame)) {
       if (peer == nodes_.end()) continue;  // detached node: drain and drop
       const std::size_t size = bus_datagram::Encode(m, out);
-      ::sendto(socket_, out.data(), size, 0, reinterpret_cast<const sockaddr*>(&peer->address),  // NOLINT
-               sizeof(peer->address));
+      if (peer->fd >= 0) {
+        (void)::send(peer->fd, out.data(), size, MSG_DONTWAIT | MSG_NOSIGNAL);
+        continue;
+      }
+      ::sendto(socket_, out.data(), size, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&peer->address),  // NOLINT
+               peer->address_len);
     }
   }
 }
@@ -254,8 +499,9 @@ std::string CanBusServer::Describe() const {
   return fmt::format(
       "teleop-canbus {}:{}: {} node(s), {} frames, {} error frames, {} refused, {} rx overflows, {} malformed "
       "datagrams, {} hellos and {} control commands refused (not allowed), mean bus load {:.1f} % over {:.1f} s",
-      config_.bind_address, port_, nodes_.size(), s.frames_delivered, s.error_frames, s.tx_refused, s.rx_overflows,
-      malformed_.load(), refused_hellos_.load(), refused_controls_.load(),
+      unix_path_.empty() ? config_.bind_address : "unix", unix_path_.empty() ? std::to_string(port_) : unix_path_,
+      nodes_.size(), s.frames_delivered, s.error_frames, s.tx_refused, s.rx_overflows, malformed_.load(),
+      refused_hellos_.load(), refused_controls_.load(),
       elapsed_s > 0 ? 100.0 * static_cast<double>(s.busy_ns) * 1e-9 / elapsed_s : 0.0, elapsed_s);
 }
 

@@ -6,11 +6,13 @@
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <array>
 #include <cerrno>
 #include <chrono>
+#include <cstddef>
 #include <cstring>
 #include <utility>
 
@@ -24,7 +26,7 @@ namespace {
 bool SendMessage(int socket, const bus_datagram::Message& m) noexcept {
   std::array<std::uint8_t, bus_datagram::kMaxSize> out{};
   const std::size_t size = bus_datagram::Encode(m, out);
-  return size > 0 && ::send(socket, out.data(), size, 0) == static_cast<ssize_t>(size);
+  return size > 0 && ::send(socket, out.data(), size, MSG_NOSIGNAL) == static_cast<ssize_t>(size);
 }
 
 }  // namespace
@@ -35,18 +37,61 @@ UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double
     throw Error("emulated-can: " + std::to_string(options_.filters.size()) + " receive filters, at most " +
                 std::to_string(kMaxCanFilters));
   }
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(port);
-  if (::inet_pton(AF_INET, host.c_str(), &addr.sin_addr) != 1) {
-    throw Error("emulated-can: bus host '" + host + "' is not an IPv4 address (teleop-canbus listens on IPv4)");
-  }
-  socket_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (socket_ < 0) throw Error(std::string("emulated-can: socket: ") + std::strerror(errno));
-  if (::connect(socket_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) < 0) {  // NOLINT: sockets API
-    const std::string reason = std::strerror(errno);
-    ::close(socket_);
-    throw Error("emulated-can: connect to " + endpoint_ + ": " + reason);
+  const bool unix_mode = host.rfind("unix:", 0) == 0;
+  if (unix_mode) {
+    // A Unix-domain node: the socket file's permissions decide whether this process may send to the daemon at all
+    // (connect() fails with EACCES), and the daemon reads the uid from the kernel (docs/security.md).
+    endpoint_ = host;
+    const std::string path = host.substr(5);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    if (path.empty() || path.size() >= sizeof(addr.sun_path)) {
+      throw Error(
+          fmt::format("emulated-can: bus socket path '{}' must be 1..{} characters", path, sizeof(addr.sun_path) - 1));
+    }
+    std::memcpy(addr.sun_path, path.data(), path.size());
+    socket_ = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (socket_ < 0) throw Error(std::string("emulated-can: socket: ") + std::strerror(errno));
+    const auto* any = reinterpret_cast<const sockaddr*>(&addr);  // NOLINT: sockets API
+    int rc = ::connect(socket_, any, static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + path.size() + 1));
+    if (rc != 0 && errno == EINPROGRESS) {  // a full backlog on a non-blocking socket: wait, then ask how it went
+      pollfd pfd{socket_, POLLOUT, 0};
+      int error = ETIMEDOUT;
+      socklen_t len = sizeof error;
+      if (::poll(&pfd, 1, static_cast<int>(timeout_ms)) == 1) ::getsockopt(socket_, SOL_SOCKET, SO_ERROR, &error, &len);
+      errno = error;
+      rc = error == 0 ? 0 : -1;
+    }
+    if (rc != 0) {
+      const int e = errno;
+      ::close(socket_);
+      socket_ = -1;
+      if (e == EACCES || e == EPERM) {
+        throw Error(
+            fmt::format("emulated-can: not allowed to join the bus at {}: {} (the socket file's mode and "
+                        "group say who may; docs/security.md, \"What CAN trusts\")",
+                        endpoint_, std::strerror(e)));
+      }
+      throw Error(
+          fmt::format("emulated-can: no teleop-canbus at {}: {}: start it first (teleop-canbus --bind {}) or "
+                      "use transport udp",
+                      endpoint_, std::strerror(e), endpoint_));
+    }
+  } else {
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(port);
+    if (::inet_pton(AF_INET, host.c_str(), &addr.sin_addr) != 1) {
+      throw Error("emulated-can: bus host '" + host +
+                  "' is not an IPv4 address or unix:PATH (teleop-canbus listens on IPv4 or a Unix socket)");
+    }
+    socket_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (socket_ < 0) throw Error(std::string("emulated-can: socket: ") + std::strerror(errno));
+    if (::connect(socket_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) < 0) {  // NOLINT: sockets API
+      const std::string reason = std::strerror(errno);
+      ::close(socket_);
+      throw Error("emulated-can: connect to " + endpoint_ + ": " + reason);
+    }
   }
   (void)detail::EnableReceiveTimestamps(socket_);  // else the read time stands in for the receive time
   // Attach: hello until welcome, for up to timeout_ms.
@@ -60,7 +105,7 @@ UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double
     std::array<std::uint8_t, bus_datagram::kMaxSize> in{};
     for (;;) {
       const ssize_t n = ::recv(socket_, in.data(), in.size(), 0);
-      if (n < 0) break;
+      if (n <= 0) break;  // nothing, or (Unix mode) the daemon closed the connection
       bus_datagram::Message m{};
       if (bus_datagram::Decode(std::span<const std::uint8_t>(in.data(), static_cast<std::size_t>(n)), m) &&
           m.type == bus_datagram::Type::kWelcome) {
@@ -71,10 +116,11 @@ UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double
   }
   if (node_ < 0) {
     ::close(socket_);
-    throw Error(fmt::format(
-        "emulated-can: no teleop-canbus answered at {} within {:g} ms: start it first (teleop-canbus --port {}) "
-        "or use transport udp",
-        endpoint_, timeout_ms, port));
+    throw Error(
+        fmt::format("emulated-can: no teleop-canbus answered at {} within {:g} ms: start it first (teleop-canbus {}) "
+                    "or use transport udp{}",
+                    endpoint_, timeout_ms, unix_mode ? "--bind " + host : fmt::format("--port {}", port),
+                    unix_mode ? " (or it does not admit this user: --allow-uid)" : ""));
   }
 }
 
@@ -95,7 +141,7 @@ CanWriteStatus UdpCanBusPort::Write(const proto::can::CanFrame& frame) noexcept 
   std::array<std::uint8_t, bus_datagram::kMaxSize> out{};
   const std::size_t size = bus_datagram::Encode(m, out);
   if (size == 0) return CanWriteStatus::kError;
-  const ssize_t n = ::send(socket_, out.data(), size, 0);
+  const ssize_t n = ::send(socket_, out.data(), size, MSG_NOSIGNAL);  // Unix mode: EPIPE, never SIGPIPE
   if (n == static_cast<ssize_t>(size)) return CanWriteStatus::kOk;
   if (n < 0 && (errno == EAGAIN || errno == ENOBUFS)) return CanWriteStatus::kBufferFull;
   return CanWriteStatus::kError;  // e.g. ECONNREFUSED: the daemon is gone
@@ -106,7 +152,8 @@ bool UdpCanBusPort::Read(proto::can::CanFrame& frame) noexcept {
   for (;;) {
     std::int64_t received_ns = 0;
     const ssize_t n = detail::ReceiveStamped(socket_, in.data(), in.size(), received_ns);
-    if (n < 0) return false;  // EAGAIN, or ECONNREFUSED for an earlier send (the daemon is gone)
+    // EAGAIN, or ECONNREFUSED for an earlier send / 0 at end of connection (Unix mode): the daemon is gone.
+    if (n <= 0) return false;
     bus_datagram::Message m{};
     if (bus_datagram::Decode(std::span<const std::uint8_t>(in.data(), static_cast<std::size_t>(n)), m) &&
         m.type == bus_datagram::Type::kFrame && Accepts(options_, m.frame)) {

@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <ctime>
 #include <memory>
 #include <string>
 #include <vector>
@@ -12,18 +13,25 @@
 namespace teleop::transport {
 
 struct CanBusServerConfig {
+  /// An IPv4 address (UDP on `port`), or `unix:PATH`: a Unix-domain SOCK_SEQPACKET socket at PATH (docs/security.md,
+  /// "What CAN trusts"), created with `socket_mode` and `socket_gid`; the peer's uid comes from the kernel
+  /// (SO_PEERCRED of its connection), and a stale socket file is replaced, a live daemon's refused.
   std::string bind_address = "127.0.0.1";
-  std::uint16_t port = 47300;  ///< 0: any free port (tests).
+  std::uint16_t port = 47300;   ///< 0: any free port (tests). Not used with `unix:`.
+  unsigned socket_mode = 0600;  ///< `unix:` only: the socket file's permission bits (who may connect).
+  int socket_gid = -1;          ///< `unix:` only: the socket file's group (-1: the daemon's).
   EmulatedCanBusConfig bus{};
   int max_nodes = 8;
   /// When set: every frame the bus carries (and every error frame) is appended to this file in candump -L format,
   /// stamped with the wall clock, as interface `candump_interface` (canplayer/log2asc read it).
   std::string candump_log_path;
   std::string candump_interface = "emcan0";
-  /// Who may attach (docs/security.md, "What CAN trusts"). A datagram from a socket of this host is traced to its
-  /// owner through /proc/net/udp: a hello is answered only when that uid is in allowed_uids (empty: the daemon's own
-  /// effective user only). A source that is no socket of this host (another machine) is admitted only with
-  /// allow_remote, which defaults to on when the daemon binds a non-loopback address (the network is the bus).
+  /// Who may attach (docs/security.md, "What CAN trusts"). In UDP mode a datagram from a socket of this host is
+  /// traced to its owner through /proc/net/udp; in `unix:` mode the kernel names the sender (SO_PEERCRED) and
+  /// the socket file's mode and group decide who may send at all. A hello is answered only when that uid is in
+  /// allowed_uids (empty: the daemon's own effective user only). A source that is no socket of this host (another
+  /// machine) is admitted only with allow_remote, which defaults to on when the daemon binds a non-loopback address
+  /// (the network is the bus).
   std::vector<std::uint32_t> allowed_uids;
   /// Who may send control commands (bus-off, restart, error injection): attached nodes whose owner is in this list
   /// (empty: the daemon's own effective user only). Remote nodes never may.
@@ -49,6 +57,10 @@ class CanBusServer {
   void Run(const std::atomic<bool>& stop) noexcept;
 
   std::uint16_t port() const noexcept { return port_; }
+  /// The Unix socket's path (empty in UDP mode).
+  const std::string& unix_path() const noexcept { return unix_path_; }
+  /// True when start-up found a stale socket file (no daemon bound to it) at the path and replaced it.
+  bool replaced_stale_socket() const noexcept { return stale_replaced_; }
   const EmulatedCanBus& bus() const noexcept { return bus_; }
   int node_count() const noexcept;
   std::uint64_t malformed_datagrams() const noexcept { return malformed_.load(); }
@@ -62,14 +74,25 @@ class CanBusServer {
 
  private:
   struct Peer;
-  void HandleDatagram(std::size_t size, const void* source, unsigned source_len) noexcept;
+  struct Conn {
+    int fd = -1;
+    std::uint32_t uid = 0;  ///< SO_PEERCRED at accept.
+  };
+  void StepUnix(const timespec& timeout) noexcept;
+  void BindUdp();
+  void BindUnix();
+  void Close() noexcept;
   void Forward() noexcept;
 
   CanBusServerConfig config_;
   EmulatedCanBus bus_;
   int socket_ = -1;
   std::uint16_t port_ = 0;
+  std::string unix_path_;         ///< Non-empty: Unix-domain mode, the socket file (removed by the destructor).
+  std::uint64_t unix_inode_ = 0;  ///< The socket file's inode: removed only while it is still ours.
+  bool stale_replaced_ = false;
   std::vector<Peer> nodes_;
+  std::vector<Conn> conns_;  ///< Unix mode: accepted connections (attached or not yet).
   std::atomic<std::uint64_t> malformed_{0};
   std::atomic<std::uint64_t> refused_hellos_{0};
   std::atomic<std::uint64_t> refused_controls_{0};

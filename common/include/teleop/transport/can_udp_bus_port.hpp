@@ -9,7 +9,9 @@
 
 namespace teleop::transport {
 
-/// A node of the teleop-canbus daemon (transport "emulated-can"): frames go to the daemon over UDP and come back
+/// A node of the teleop-canbus daemon (transport "emulated-can"): frames go to the daemon over UDP (`host` an IPv4
+/// address) or a Unix-domain SOCK_SEQPACKET socket (`host` = `unix:PATH`, `port` unused; the socket file's
+/// permissions say who may join, the daemon reads the peer's uid from the kernel), and come back
 /// when the emulated bus has carried them. The constructor attaches (kHello/kWelcome) and throws teleop::Error with
 /// what to run when no daemon answers within `timeout_ms`. The daemon forwards every frame; `options` filters them
 /// here with SocketCAN's rules (Accepts), so a driver sees what it would see on a real interface.
