@@ -78,6 +78,12 @@ const char* EventKindName(node::Event::Kind kind) noexcept {
       return "engaged";
     case Kind::kDeviceWarning:
       return "device_warning";
+    case Kind::kClutchPressed:
+      return "clutch_pressed";
+    case Kind::kClutchReleased:
+      return "clutch_released";
+    case Kind::kReindexed:
+      return "reindexed";
   }
   return "unknown";
 }

@@ -91,6 +91,7 @@ struct TeleopNode::Impl {
   std::int64_t start_ns = 0;
   std::atomic<bool> stop_on_peer_shutdown{false};
   std::atomic<bool> stop_requested{false};
+  std::atomic<bool> command_clutch{false};  ///< TeleopNode::SetClutch (any thread) → the cycle.
   bool published = false;
 };
 
@@ -109,7 +110,7 @@ void TeleopNode::Impl::Configure() {
   pc.timeout_s = config.link.timeout_ms * 1e-3;
   pc.max_rtt_s = config.engagement.max_rtt_ms * 1e-3;
   peer = std::make_unique<PeerTracker>(pc, *link, events, clock);
-  coupling = std::make_unique<Coupling>(Coupling::Config{config, caps.measures_velocity}, events);
+  coupling = std::make_unique<Coupling>(Coupling::Config{config, caps.measures_velocity, caps.can_push()}, events);
   transmitter = std::make_unique<Transmitter>(config.role, dof, *link, clock);
   Recorder::Config rc;
   rc.dof = dof;
@@ -147,6 +148,7 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s, std::int64_t 
   const PeerView view = peer->Step(cycle, now_ns, t_s, loop.cycle_triggered());  // 2. link → the peer
   if (view.shutdown_started && stop_on_peer_shutdown.load(std::memory_order_relaxed)) loop.Stop();
   const std::int64_t law_start_ns = clock.Now();
+  coupling->SetCommandClutch(command_clutch.load(std::memory_order_relaxed));
   const Applied& applied = coupling->Step(sensed, view, cycle, t_s, period_s);           // 3. the command applied
   Actuate(applied, period_s);                                                            // 4. → device
   const std::uint8_t flags = transmitter->Send(sensed, view, applied, loop.stopping());  // 5. → peer
@@ -226,6 +228,20 @@ void TeleopNode::Step(std::uint64_t cycle, double period_s, std::int64_t now_ns)
 
 EngagementState TeleopNode::engagement() const noexcept {
   return impl_->coupling ? impl_->coupling->engagement().state() : EngagementState::kDisengaged;
+}
+
+void TeleopNode::SetClutch(bool pressed) noexcept { impl_->command_clutch.store(pressed, std::memory_order_relaxed); }
+
+bool TeleopNode::clutched() const noexcept { return impl_->coupling && impl_->coupling->state().clutch_sources != 0; }
+
+double TeleopNode::index_offset_m(int axis) const noexcept {
+  if (!impl_->coupling) return 0.0;
+  const DofVector& o = impl_->coupling->state().index_offset_m;
+  return axis >= 0 && axis < o.size() ? o[axis] : 0.0;
+}
+
+double TeleopNode::max_clutch_force_rate_N_per_s() const noexcept {
+  return impl_->coupling ? impl_->coupling->state().max_clutch_force_rate : 0.0;
 }
 
 void TeleopNode::Stop() noexcept {

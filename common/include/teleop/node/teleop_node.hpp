@@ -73,6 +73,15 @@ class TeleopNode {
   RunSummary Finish();
   /// Where the node is in coupling to its peer (after the last cycle).
   EngagementState engagement() const noexcept;
+  /// The command channel's clutch (docs/clutch.md): pressed until SetClutch(false).
+  /// Any thread; the next cycle reads it.
+  void SetClutch(bool pressed) noexcept;
+  /// Any clutch (the device's, the command's, the peer's) held in the last cycle.
+  bool clutched() const noexcept;
+  /// A master's re-index offset on `axis` (m, local frame): added to its position before the law and the wire.
+  double index_offset_m(int axis) const noexcept;
+  /// Largest |Δ coupling force| per second while clutched (bounded by engagement.max_force_rate_N_per_s).
+  double max_clutch_force_rate_N_per_s() const noexcept;
 
  private:
   struct Impl;
