@@ -6,16 +6,24 @@
 // the pair's offset at release.
 
 #include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <limits>
 #include <memory>
 #include <string>
 
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/device/loopback/loopback_plant.hpp"
+#include "teleop/node/command_server.hpp"
 #include "teleop/node/teleop_node.hpp"
 #include "teleop/transport/emulated_link.hpp"
 #include "test_utilities/limit_malloc.hpp"
@@ -54,7 +62,7 @@ safety: {fault_record_dir: ")" +
 )";
 }
 
-std::string SlaveConfig(const std::string& law_tail, const std::string& engagement) {
+std::string SlaveConfig(const std::string& law_tail, const std::string& engagement, const std::string& extra = "") {
   return R"(role: slave
 dof: 1
 rate_hz: 1000
@@ -68,7 +76,7 @@ device: {backend: loopback, loopback: {mass_kg: 0.036, damping_Ns_per_m: 0.49}}
 stability: {check: false}
 safety: {fault_record_dir: ")" +
          ::testing::TempDir() + R"("}
-)";
+)" + extra;
 }
 
 /// A link that drops everything sent while `cut` is set.
@@ -87,10 +95,11 @@ class CuttableLink final : public transport::Link {
 
 struct Rig {
   explicit Rig(const std::string& master_law = "", const std::string& slave_law = "",
-               const std::string& engagement = "max_force_rate_N_per_s: 100") {
+               const std::string& engagement = "max_force_rate_N_per_s: 100", const std::string& slave_extra = "") {
     medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
     const config::ProcessConfig mc = config::ParseProcessConfig(MasterConfig(master_law, engagement), "master.yaml");
-    const config::ProcessConfig sc = config::ParseProcessConfig(SlaveConfig(slave_law, engagement), "slave.yaml");
+    const config::ProcessConfig sc =
+        config::ParseProcessConfig(SlaveConfig(slave_law, engagement, slave_extra), "slave.yaml");
     auto md = device::MakeDevice(mc.device);
     auto sd = device::MakeDevice(sc.device);
     master_plant = dynamic_cast<device::LoopbackPlant*>(md.get());
@@ -303,6 +312,169 @@ TEST(NodeClutch, TheCycleAllocatesNothingThroughPressCutReleaseAndReindex) {
   EXPECT_EQ(counter.count(), 0u);
   EXPECT_EQ(rig.slave->engagement(), EngagementState::kEngaged);
   EXPECT_NE(rig.master->index_offset_m(0), 0.0);
+}
+
+// Run-time fixture stiffness (docs/clutch.md, "Run-time commands"): the slave's fixture of the cut tests.
+constexpr const char* kSlaveFixture =
+    "fixture: {stiffness_N_per_m: 2000, half_space: {axis: 0, offset_m: 0.05, direction: +1}}\n";
+
+TEST(NodeTune, AnAcceptedStiffnessChangeRampsOverTheConfiguredTime) {
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
+  rig.StepUntil(500);
+  ASSERT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 2000.0);
+  const TeleopNode::FixtureChange c = rig.slave->RequestFixtureStiffness(1000.0, 0.1);
+  std::printf("accepted: %s (limit %.0f N/m)\n", c.message.c_str(), c.limit_N_per_m);
+  ASSERT_TRUE(c.accepted) << c.message;
+  EXPECT_GT(c.limit_N_per_m, 1000.0) << "the predicted limit is above the accepted value";
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 2000.0) << "the cycle applies it, not the caller";
+  rig.StepUntil(550);  // 50 of the 100 ms ramp (the first cycle reads the mailbox and takes its first step)
+  EXPECT_NEAR(rig.slave->fixture_stiffness_N_per_m(), 1500.0, 10.0 + 1e-9) << "linear: 10 N/m per 1 ms cycle";
+  rig.StepUntil(700);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 1000.0);
+}
+
+TEST(NodeTune, AnUnstableStiffnessIsRefusedWithThePredictedLimit) {
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
+  rig.StepUntil(500);
+  const TeleopNode::FixtureChange c = rig.slave->RequestFixtureStiffness(1e8, 0.1);
+  std::printf("refused: %s\n", c.message.c_str());
+  EXPECT_FALSE(c.accepted);
+  EXPECT_GT(c.limit_N_per_m, 2000.0) << "the configured 2000 N/m passes";
+  EXPECT_LT(c.limit_N_per_m, 1e8);
+  rig.StepUntil(700);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 2000.0) << "unchanged";
+}
+
+TEST(NodeTune, AMalformedValueIsRefusedAndChangesNothing) {
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
+  rig.StepUntil(100);
+  for (const double k : {std::numeric_limits<double>::quiet_NaN(), -1.0, std::numeric_limits<double>::infinity()}) {
+    const TeleopNode::FixtureChange c = rig.slave->RequestFixtureStiffness(k, 0.1);
+    EXPECT_FALSE(c.accepted) << k;
+    EXPECT_NE(c.message.find("finite"), std::string::npos) << c.message;
+  }
+  // The master has no fixture plane: a stiffness there is refused, not silently ignored.
+  EXPECT_FALSE(rig.master->RequestFixtureStiffness(500.0, 0.1).accepted);
+  rig.StepUntil(200);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 2000.0);
+}
+
+TEST(NodeTune, TheCycleAllocatesNothingWhileAChangeRamps) {
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
+  rig.StepUntil(500);
+  ASSERT_TRUE(rig.slave->RequestFixtureStiffness(1000.0, 0.1).accepted);
+  test::AllocationCounter counter;
+  rig.StepUntil(700);
+  EXPECT_EQ(counter.count(), 0u);
+}
+
+// The command channel (docs/clutch.md, "Run-time commands"): a Unix socket served by its own thread.
+std::string SocketPath(const char* name) {
+  return (std::filesystem::path(::testing::TempDir()) / (std::string("teleop-") + name + ".sock")).string();
+}
+
+/// Connects, sends `line`, returns the reply ("connect failed: <errno>" when it cannot connect). Allocation-free
+/// after the path (used in a forked child).
+int SendLine(const char* path, const char* line, char* reply, std::size_t reply_size) {
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, path, sizeof(addr.sun_path) - 1);
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  if (fd < 0 || ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {  // NOLINT
+    const int e = errno;
+    if (fd >= 0) ::close(fd);
+    return -e;
+  }
+  (void)::send(fd, line, std::strlen(line), MSG_NOSIGNAL);
+  std::size_t got = 0;
+  for (ssize_t n = 0; got + 1 < reply_size && (n = ::recv(fd, reply + got, reply_size - 1 - got, 0)) > 0;)
+    got += static_cast<std::size_t>(n);
+  reply[got] = '\0';
+  ::close(fd);
+  return 0;
+}
+
+std::string Send(const std::string& path, const std::string& line) {
+  char reply[1024];
+  const int rc = SendLine(path.c_str(), line.c_str(), reply, sizeof(reply));
+  return rc == 0 ? std::string(reply) : "connect failed: " + std::string(std::strerror(-rc));
+}
+
+TEST(NodeCommand, ClutchAndAStiffnessChangeOverTheSocket) {
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
+  rig.StepUntil(1000);
+  const std::string path = SocketPath("slave");
+  CommandServer server(*rig.slave, CommandServer::Config{path, 0600, 0.1});
+  EXPECT_EQ((std::filesystem::status(path).permissions() & std::filesystem::perms::all),
+            std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+  EXPECT_EQ(Send(path, "clutch on\n"), "ok: clutch on\n");
+  rig.StepUntil(1010);
+  EXPECT_TRUE(rig.slave->clutched());
+  EXPECT_TRUE(rig.master->clutched()) << "the slave's command clutched the pair";
+  EXPECT_EQ(Send(path, "clutch off\n"), "ok: clutch off\n");
+  const std::string refused = Send(path, "fixture-stiffness 1e8\n");
+  EXPECT_EQ(refused.rfind("refused: ", 0), 0u) << refused;
+  EXPECT_NE(refused.find("predicted stability limit"), std::string::npos) << refused;
+  const std::string accepted = Send(path, "fixture-stiffness 1000 0.05\n");
+  EXPECT_EQ(accepted.rfind("ok: ", 0), 0u) << accepted;
+  rig.StepUntil(1100);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 1000.0);
+  EXPECT_FALSE(rig.slave->clutched());
+  EXPECT_EQ(server.commands(), 4u);
+}
+
+TEST(NodeCommand, AMalformedCommandIsAnErrorAndChangesNothing) {
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
+  rig.StepUntil(100);
+  const std::string path = SocketPath("malformed");
+  CommandServer server(*rig.slave, CommandServer::Config{path, 0600, 0.1});
+  for (const char* line : {"fixture-stiffness 12abc\n", "clutch maybe\n", "rm -rf /\n", "\n",
+                           "fixture-stiffness 1000 -1\n", "clutch on extra\n"}) {
+    const std::string reply = Send(path, line);
+    EXPECT_EQ(reply.rfind("error: ", 0), 0u) << line << " -> " << reply;
+  }
+  EXPECT_EQ(server.malformed(), 6u);
+  rig.StepUntil(200);
+  EXPECT_FALSE(rig.slave->clutched());
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 2000.0);
+}
+
+/// Forks a child that drops to uid/gid 65534 (nobody) and sends `line`; returns its exit status: 0 the reply began
+/// with "refused", 1 another reply, 2 the connection was refused by the file's permissions, 3 setresuid failed.
+int CommandAsNobody(const std::string& path, const char* line) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    if (::setresgid(65534, 65534, 65534) != 0 || ::setresuid(65534, 65534, 65534) != 0) ::_exit(3);
+    char reply[256];
+    const int rc = SendLine(path.c_str(), line, reply, sizeof(reply));
+    if (rc != 0) ::_exit(2);
+    ::_exit(std::strncmp(reply, "refused", 7) == 0 ? 0 : 1);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(NodeCommand, AUserTheSocketDoesNotAdmitCannotCommand) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to fork a process of another user (setresuid)";
+  Rig rig;
+  rig.StepUntil(100);
+  {
+    // The file's permissions (0600, owned by root): nobody cannot even connect.
+    const std::string path = SocketPath("private");
+    CommandServer server(*rig.slave, CommandServer::Config{path, 0600, 0.1});
+    EXPECT_EQ(CommandAsNobody(path, "clutch on\n"), 2);
+  }
+  {
+    // A socket the file lets everyone open: SO_PEERCRED still refuses the other user.
+    const std::string path = SocketPath("open");
+    CommandServer server(*rig.slave, CommandServer::Config{path, 0666, 0.1});
+    EXPECT_EQ(CommandAsNobody(path, "clutch on\n"), 0);
+    EXPECT_EQ(server.refused_peers(), 1u);
+    EXPECT_EQ(server.commands(), 0u);
+  }
+  rig.StepUntil(200);
+  EXPECT_FALSE(rig.slave->clutched());
 }
 
 }  // namespace

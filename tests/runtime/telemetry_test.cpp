@@ -83,7 +83,7 @@ TEST(TelemetryCsv, GoldenRow) {
             "0.125,0.25,4,4,1,0");
   r.rtt_s = std::numeric_limits<double>::quiet_NaN();
   const std::string row = TelemetryCsvRow(r, 1);
-  EXPECT_EQ(row, "7,0.007,2,0.25,-0.5,3,-1.5,-1.25,0,0.125,2,-4,0.001,1,9,nan,2.5e-05,3,3e-05,0.125,4,1")
+  EXPECT_EQ(row, "7,0.007,2,0.25,-0.5,3,-1.5,-1.25,0,0.125,2,-4,0.001,1,9,nan,2.5e-05,3,3e-05,0.125,4,1,0")
       << "NaN RTT written as nan";
 }
 

@@ -84,6 +84,10 @@ const char* EventKindName(node::Event::Kind kind) noexcept {
       return "clutch_released";
     case Kind::kReindexed:
       return "reindexed";
+    case Kind::kCommandAccepted:
+      return "command_accepted";
+    case Kind::kCommandRefused:
+      return "command_refused";
   }
   return "unknown";
 }

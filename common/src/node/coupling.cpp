@@ -61,6 +61,12 @@ const Applied& Coupling::Step(const Sensed& sensed, const PeerView& peer, std::u
                               double period_s) noexcept {
   Engage(sensed, peer, cycle, t_s);
   cycle_ = cycle;
+  if (ramping_) {
+    ramp_elapsed_s_ += period_s;
+    const double u = ramp_s_ > 0.0 ? std::min(ramp_elapsed_s_ / ramp_s_, 1.0) : 1.0;
+    law_.SetFixtureStiffness(ramp_from_N_per_m_ + u * (ramp_to_N_per_m_ - ramp_from_N_per_m_));
+    ramping_ = u < 1.0;
+  }
   PrepareInput(*sensed.reading, peer, t_s, period_s);
   applied_.law = law_.Step(input_, period_s);
   applied_.nonfinite = applied_.law.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput;

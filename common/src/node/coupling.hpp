@@ -88,6 +88,15 @@ class Coupling {
   Reaction reaction() const noexcept { return reaction_.reaction(); }
   /// The command channel's clutch (kClutchCommand), read by the next Step. Called on the cycle's thread.
   void SetCommandClutch(bool pressed) noexcept { command_clutch_ = pressed; }
+  /// Ramps the fixture's stiffness linearly to `target_N_per_m` over `ramp_s` from the next Step (a change the
+  /// stability check accepted). Called on the cycle's thread.
+  void RampFixtureStiffness(double target_N_per_m, double ramp_s) noexcept {
+    ramp_from_N_per_m_ = law_.fixture().config().stiffness_N_per_m;
+    ramp_to_N_per_m_ = target_N_per_m;
+    ramp_s_ = ramp_s > 0.0 ? ramp_s : 0.0;
+    ramp_elapsed_s_ = 0.0;
+    ramping_ = true;
+  }
 
  private:
   /// Which path chose the command.
@@ -115,6 +124,11 @@ class Coupling {
   State state_;
   bool command_clutch_ = false;
   std::uint64_t cycle_ = 0;
+  bool ramping_ = false;
+  double ramp_from_N_per_m_ = 0.0;
+  double ramp_to_N_per_m_ = 0.0;
+  double ramp_s_ = 0.0;
+  double ramp_elapsed_s_ = 0.0;
   bool clutch_blocked_ = false;  ///< The clutch is this cycle's blocker.
   bool clutch_path_ = false;     ///< ... and the clutch's own command applies (master, or a slave that can push).
   DofVector hold_N_;

@@ -91,6 +91,12 @@ void EventLog::Drain() {
       case Event::Kind::kReindexed:
         spdlog::info("cycle {}: re-indexed, offset up to {:.4f} m", e.cycle, e.value);
         break;
+      case Event::Kind::kCommandAccepted:
+        spdlog::info("cycle {}: command accepted: fixture stiffness {:.0f} N/m", e.cycle, e.value);
+        break;
+      case Event::Kind::kCommandRefused:
+        spdlog::warn("cycle {}: command refused (predicted limit {:.0f} N/m)", e.cycle, e.value);
+        break;
     }
     if (EventObserver* observer = observer_.load(std::memory_order_acquire)) observer->OnEvent(e);
   }
