@@ -423,6 +423,25 @@ TEST(NodeCommand, ClutchAndAStiffnessChangeOverTheSocket) {
   EXPECT_EQ(server.commands(), 4u);
 }
 
+TEST(NodeCommand, FixtureOffAndOnRampThroughTheCheck) {
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
+  rig.StepUntil(100);
+  const std::string path = SocketPath("onoff");
+  CommandServer server(*rig.slave, CommandServer::Config{path, 0600, 0.1});
+  const std::string off = Send(path, "fixture off 0.02\n");
+  EXPECT_EQ(off.rfind("ok: ", 0), 0u) << off;
+  rig.StepUntil(130);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 0.0);
+  const std::string on = Send(path, "fixture on 0.02\n");
+  EXPECT_EQ(on.rfind("ok: ", 0), 0u) << on;
+  rig.StepUntil(140);
+  EXPECT_GT(rig.slave->fixture_stiffness_N_per_m(), 0.0);
+  EXPECT_LT(rig.slave->fixture_stiffness_N_per_m(), 2000.0) << "ramping back";
+  rig.StepUntil(170);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 2000.0) << "the configured stiffness again";
+  EXPECT_EQ(Send(path, "fixture sideways\n").rfind("error: ", 0), 0u);
+}
+
 TEST(NodeCommand, AMalformedCommandIsAnErrorAndChangesNothing) {
   Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
   rig.StepUntil(100);

@@ -115,6 +115,14 @@ std::string CommandServer::Execute(const std::string& line) {
   if (verb == "clutch" && (a == "on" || a == "off") && b.empty()) {
     node_.SetClutch(a == "on");
     reply = "ok: clutch " + a;
+  } else if (verb == "fixture" && (a == "on" || a == "off") && extra.empty()) {
+    double ramp = config_.default_ramp_s;
+    if (!b.empty() && (!ParseNumber(b, ramp) || !std::isfinite(ramp) || ramp < 0.0)) {
+      reply = "error: usage: fixture on|off [ramp_s >= 0]";
+    } else {
+      const TeleopNode::FixtureChange c = node_.RequestFixtureEnabled(a == "on", ramp);
+      reply = (c.accepted ? "ok: " : "refused: ") + c.message;
+    }
   } else if (verb == "fixture-stiffness" && extra.empty()) {
     double k = 0.0;
     double ramp = config_.default_ramp_s;
@@ -125,7 +133,9 @@ std::string CommandServer::Execute(const std::string& line) {
       reply = (c.accepted ? "ok: " : "refused: ") + c.message;
     }
   } else {
-    reply = "error: unknown or malformed command (commands: clutch on|off, fixture-stiffness <N/m> [ramp_s])";
+    reply =
+        "error: unknown or malformed command (commands: clutch on|off, fixture on|off [ramp_s], fixture-stiffness "
+        "<N/m> [ramp_s])";
   }
   if (reply.rfind("error", 0) == 0) ++malformed_;
   spdlog::info("command '{}': {}", line.substr(0, kMaxLine), reply);

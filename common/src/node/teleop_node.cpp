@@ -106,6 +106,7 @@ struct TeleopNode::Impl {
   runtime::Mailbox<Tune> tune_box;
   std::mutex tune_mutex;
   std::uint64_t tune_id = 0;
+  double fixture_on_N_per_m = 0.0;  ///< What `fixture on` restores (tune_mutex).
   Tune tune_seen;
   bool published = false;
 };
@@ -126,6 +127,7 @@ void TeleopNode::Impl::Configure() {
   pc.max_rtt_s = config.engagement.max_rtt_ms * 1e-3;
   peer = std::make_unique<PeerTracker>(pc, *link, events, clock);
   coupling = std::make_unique<Coupling>(Coupling::Config{config, caps.measures_velocity, caps.can_push()}, events);
+  fixture_on_N_per_m = config.law.fixture.stiffness_N_per_m;
   transmitter = std::make_unique<Transmitter>(config.role, dof, *link, clock);
   Recorder::Config rc;
   rc.dof = dof;
@@ -296,9 +298,26 @@ TeleopNode::FixtureChange TeleopNode::RequestFixtureStiffness(double stiffness_N
   }
   tune.accepted = change.accepted;
   tune.limit_N_per_m = change.limit_N_per_m;
-  if (change.accepted) s.config.law.fixture.stiffness_N_per_m = stiffness_N_per_m;  // the next check's base
+  if (change.accepted) {
+    s.config.law.fixture.stiffness_N_per_m = stiffness_N_per_m;  // the next check's base
+    if (stiffness_N_per_m > 0.0) s.fixture_on_N_per_m = stiffness_N_per_m;
+  }
   s.tune_box.Write(tune);
   return change;
+}
+
+TeleopNode::FixtureChange TeleopNode::RequestFixtureEnabled(bool on, double ramp_s) {
+  double target = 0.0;
+  if (on) {
+    const std::lock_guard<std::mutex> lock(impl_->tune_mutex);
+    target = impl_->fixture_on_N_per_m;
+  }
+  if (on && target <= 0.0) {
+    FixtureChange change;
+    change.message = "no fixture stiffness to turn on (none configured or accepted yet)";
+    return change;
+  }
+  return RequestFixtureStiffness(target, ramp_s);
 }
 
 double TeleopNode::fixture_stiffness_N_per_m() const noexcept {

@@ -14,7 +14,8 @@ namespace teleop::node {
 /// `mode`, owned by this process's user) and SO_PEERCRED (the peer's uid must be this process's effective uid, or
 /// root). The stability check of a stiffness change runs on this thread, never the cycle's.
 ///
-/// Commands: `clutch on|off`, `fixture-stiffness <N/m> [ramp_s]`. Replies start with `ok`, `refused` or `error`.
+/// Commands: `clutch on|off`, `fixture on|off [ramp_s]`, `fixture-stiffness <N/m> [ramp_s]`. Replies start with `ok`,
+/// `refused` or `error`.
 class CommandServer {
  public:
   struct Config {

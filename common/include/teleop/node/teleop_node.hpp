@@ -97,6 +97,9 @@ class TeleopNode {
   /// cycle through a wait-free mailbox and ramps linearly over `ramp_s`; the cycle logs the outcome as an event
   /// (command_accepted with the stiffness, command_refused with the limit). Serialised between callers.
   FixtureChange RequestFixtureStiffness(double stiffness_N_per_m, double ramp_s);
+  /// Fixture off: ramps the stiffness to 0 (checked like any change: a pair unstable without its fixture is
+  /// refused). On: ramps back to the last accepted non-zero stiffness (the configured one at first), checked.
+  FixtureChange RequestFixtureEnabled(bool on, double ramp_s);
   /// The fixture stiffness the law uses now (N/m).
   double fixture_stiffness_N_per_m() const noexcept;
 
