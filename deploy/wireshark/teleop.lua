@@ -12,7 +12,7 @@
 -- as an expert error when wrong. Header checks mirror the decoder's DecodeStatus order: too short, bad magic, bad
 -- version, bad type, bad dof, bad length, bad CRC, non-finite, out of range (teleop.status names the first that fails).
 -- Field names: teleop.magic, .version, .type, .role, .flags (.flags.enabled, .fault, .peer_lost, .saturated,
--- .in_fixture, .shutdown, .reserved), .dof, .reserved, .payload_length, .seq, .sender_time_ns, .echo_time_ns,
+-- .in_fixture, .shutdown, .clutched, .reserved), .dof, .reserved, .payload_length, .seq, .sender_time_ns, .echo_time_ns,
 -- .echo_age_ns, .position, .velocity, .force (one per DOF, in order), .input_energy, .output_energy (energy block
 -- only, one per DOF), .crc, .crc.computed, .crc.status, .status.
 --
@@ -54,7 +54,8 @@ f.flag_peer_lost = ProtoField.bool("teleop.flags.peer_lost", "Peer lost", 8, nil
 f.flag_saturated = ProtoField.bool("teleop.flags.saturated", "Saturated", 8, nil, 0x08)
 f.flag_in_fixture = ProtoField.bool("teleop.flags.in_fixture", "In fixture", 8, nil, 0x10)
 f.flag_shutdown = ProtoField.bool("teleop.flags.shutdown", "Shutdown", 8, nil, 0x20)
-f.flag_reserved = ProtoField.uint8("teleop.flags.reserved", "Reserved bits", base.HEX, nil, 0xC0)
+f.flag_clutched = ProtoField.bool("teleop.flags.clutched", "Clutched", 8, nil, 0x40)
+f.flag_reserved = ProtoField.uint8("teleop.flags.reserved", "Reserved bits", base.HEX, nil, 0x80)
 f.dof = ProtoField.uint8("teleop.dof", "DOF", base.DEC)
 f.reserved = ProtoField.uint8("teleop.reserved", "Reserved", base.HEX)
 f.payload_length = ProtoField.uint16("teleop.payload_length", "Payload length", base.DEC)
@@ -120,7 +121,7 @@ local function finite(x) return x == x and x ~= math.huge and x ~= -math.huge en
 local function flag_names(flags)
   local names = {}
   local all = { { 0x01, "enabled" }, { 0x02, "fault" }, { 0x04, "peer-lost" }, { 0x08, "saturated" },
-    { 0x10, "in-fixture" }, { 0x20, "shutdown" } }
+    { 0x10, "in-fixture" }, { 0x20, "shutdown" }, { 0x40, "clutched" } }
   for _, e in ipairs(all) do
     if bit32.band(flags, e[1]) ~= 0 then names[#names + 1] = e[2] end
   end
@@ -163,6 +164,7 @@ local function dissect(tvb, pinfo, tree)
   ft:add(f.flag_saturated, tvb(7, 1))
   ft:add(f.flag_in_fixture, tvb(7, 1))
   ft:add(f.flag_shutdown, tvb(7, 1))
+  ft:add(f.flag_clutched, tvb(7, 1))
   ft:add(f.flag_reserved, tvb(7, 1))
   local dof = tvb(8, 1):uint()
   local it_dof = root:add(f.dof, tvb(8, 1))
@@ -241,7 +243,7 @@ local function dissect(tvb, pinfo, tree)
     root:add(f.crc_status, tvb(0, 0), 2):set_generated()
   end
   if status == "ok" and not values_ok then reject("non_finite", root, "NaN or infinity in a value") end
-  if status == "ok" and (not in_range or role > 1 or bit32.band(flags, 0xC0) ~= 0 or reserved ~= 0) then
+  if status == "ok" and (not in_range or role > 1 or bit32.band(flags, 0x80) ~= 0 or reserved ~= 0) then
     reject("out_of_range", it_role, "a value, the role, a flag bit or the reserved byte is out of range")
   end
   root:add(f.status, status):set_generated()

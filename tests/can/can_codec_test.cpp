@@ -144,7 +144,8 @@ TEST(CanCodec, RoundTripWithinHalfLsbAllDofBothFormats) {
         SampleMessage m{};
         m.sender = SenderRole::kSlave;
         m.dof = static_cast<std::uint8_t>(dof);
-        m.flags = static_cast<std::uint8_t>(rng() & kKnownFlags);
+        // The CAN Flags signal is 6 bits: kFlagClutched (bit 6) does not cross CAN (docs/clutch.md).
+        m.flags = static_cast<std::uint8_t>(rng() & kKnownFlags & 0x3F);
         m.sequence = static_cast<std::uint32_t>(i);
         for (int d = 0; d < dof; ++d) {
           const auto j = static_cast<std::size_t>(d);

@@ -503,9 +503,15 @@ TEST_F(MalformedTest, OutOfRangeHeaderFields) {
   FixCrc(role);
   ExpectStatus(role, DecodeStatus::kOutOfRange);
   Bytes flags = valid_;
-  flags[wire::kFlagsOffset] = 0x40;
+  flags[wire::kFlagsOffset] = 0x80;  // bit 7: reserved (bit 6 is kFlagClutched)
   FixCrc(flags);
   ExpectStatus(flags, DecodeStatus::kOutOfRange);
+  Bytes clutched = valid_;
+  clutched[wire::kFlagsOffset] = static_cast<std::uint8_t>(clutched[wire::kFlagsOffset] | kFlagClutched);
+  FixCrc(clutched);
+  SampleMessage decoded;
+  EXPECT_EQ(DecodeSample(clutched, decoded), DecodeStatus::kOk);
+  EXPECT_EQ(decoded.flags & kFlagClutched, kFlagClutched);
   Bytes reserved = valid_;
   reserved[wire::kReservedOffset] = 1;
   FixCrc(reserved);

@@ -68,7 +68,8 @@ TEST(TelemetryCsv, HeaderCarriesUnitsInColumnNames) {
             "cycle,time_s,dof,position_m_0,velocity_m_per_s_0,force_sensor_N_0,command_N_0,rendered_force_N_0,"
             "fixture_force_N_0,"
             "peer_position_m_0,peer_velocity_m_per_s_0,peer_force_N_0,fixture_penetration_m,law_status,flags,rtt_s,"
-            "compute_s,engagement,data_age_s,passivity_observed_J_0,passivity_damping_Ns_per_m_0,device_warnings");
+            "compute_s,engagement,data_age_s,passivity_observed_J_0,passivity_damping_Ns_per_m_0,device_warnings,"
+            "clutch");
   const std::string two = TelemetryCsvHeader(2);
   EXPECT_NE(two.find("position_m_0,position_m_1,velocity_m_per_s_0"), std::string::npos) << two;
 }
@@ -79,10 +80,10 @@ TEST(TelemetryCsv, GoldenRow) {
   EXPECT_EQ(TelemetryCsvRow(r, 2),
             "7,0.007,2,0.25,0.5,-0.5,-0.5,3,3,-1.5,-1.5,-1.25,-1.25,0,0,0.125,0.125,2,2,-4,-4,0.001,1,9,0.0015,2.5e-05,"
             "3,3e-05,"
-            "0.125,0.25,4,4,1");
+            "0.125,0.25,4,4,1,0");
   r.rtt_s = std::numeric_limits<double>::quiet_NaN();
   const std::string row = TelemetryCsvRow(r, 1);
-  EXPECT_EQ(row, "7,0.007,2,0.25,-0.5,3,-1.5,-1.25,0,0.125,2,-4,0.001,1,9,nan,2.5e-05,3,3e-05,0.125,4,1")
+  EXPECT_EQ(row, "7,0.007,2,0.25,-0.5,3,-1.5,-1.25,0,0.125,2,-4,0.001,1,9,nan,2.5e-05,3,3e-05,0.125,4,1,0")
       << "NaN RTT written as nan";
 }
 

@@ -59,4 +59,9 @@ void VelocityEstimator::Reset() noexcept {
   state_.primed = false;
 }
 
+void VelocityEstimator::Shift(const DofVector& offset_m) noexcept {
+  if (offset_m.size() != config_.dof || !AllFinite(offset_m) || !state_.primed) return;
+  state_.previous_position_m += offset_m;
+}
+
 }  // namespace teleop::control

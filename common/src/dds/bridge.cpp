@@ -78,6 +78,16 @@ const char* EventKindName(node::Event::Kind kind) noexcept {
       return "engaged";
     case Kind::kDeviceWarning:
       return "device_warning";
+    case Kind::kClutchPressed:
+      return "clutch_pressed";
+    case Kind::kClutchReleased:
+      return "clutch_released";
+    case Kind::kReindexed:
+      return "reindexed";
+    case Kind::kCommandAccepted:
+      return "command_accepted";
+    case Kind::kCommandRefused:
+      return "command_refused";
   }
   return "unknown";
 }

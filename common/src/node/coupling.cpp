@@ -22,6 +22,13 @@ control::PassivityController::Config PassivityConfigOf(const config::ProcessConf
   return pc;
 }
 
+/// The clutch's hold: the configured safety section with reaction hold.
+SafetyConfig HoldSafety(const SafetyConfig& safety) {
+  SafetyConfig s = safety;
+  s.reaction = Reaction::kHold;
+  return s;
+}
+
 }  // namespace
 
 Coupling::Coupling(const Config& config, EventLog& events)
@@ -31,10 +38,13 @@ Coupling::Coupling(const Config& config, EventLog& events)
       passivity_(PassivityConfigOf(config.process)),
       aligner_(config.process.engagement, config.process.dof),
       limiter_(config.process.dof),
-      reaction_(config.process.safety, config.process.law) {
+      reaction_(config.process.safety, config.process.law),
+      clutch_hold_(HoldSafety(config.process.safety), config.process.law) {
   const int dof = config.process.dof;
   state_.last_velocity = ZeroDof(dof);
   state_.last_reference_m = ZeroDof(dof);
+  state_.index_offset_m = ZeroDof(dof);
+  hold_N_ = ZeroDof(dof);
   for (DofVector* v : {&input_.position_m, &input_.velocity_m_per_s, &input_.peer_position_m,
                        &input_.peer_velocity_m_per_s, &input_.peer_force_N, &passivity_input_.peer_input_energy_J,
                        &zero_, &applied_.damping_Ns_per_m, &applied_.peer_local_m, &applied_.command.command_N,
@@ -50,6 +60,13 @@ Coupling::Coupling(const Config& config, EventLog& events)
 const Applied& Coupling::Step(const Sensed& sensed, const PeerView& peer, std::uint64_t cycle, double t_s,
                               double period_s) noexcept {
   Engage(sensed, peer, cycle, t_s);
+  cycle_ = cycle;
+  if (ramping_) {
+    ramp_elapsed_s_ += period_s;
+    const double u = ramp_s_ > 0.0 ? std::min(ramp_elapsed_s_ / ramp_s_, 1.0) : 1.0;
+    law_.SetFixtureStiffness(ramp_from_N_per_m_ + u * (ramp_to_N_per_m_ - ramp_from_N_per_m_));
+    ramping_ = u < 1.0;
+  }
   PrepareInput(*sensed.reading, peer, t_s, period_s);
   applied_.law = law_.Step(input_, period_s);
   applied_.nonfinite = applied_.law.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput;
@@ -69,21 +86,64 @@ const Applied& Coupling::Step(const Sensed& sensed, const PeerView& peer, std::u
   return applied_;
 }
 
-void Coupling::Engage(const Sensed& sensed, const PeerView& peer, std::uint64_t /*cycle*/, double t_s) noexcept {
-  applied_.transition = engagement_.Update(Blocker(sensed.local_faults, peer), state_.aligned_verdict, t_s);
+void Coupling::Engage(const Sensed& sensed, const PeerView& peer, std::uint64_t cycle, double t_s) noexcept {
+  // The clutch (docs/clutch.md): the lowest-precedence blocker, so a fault or a lost
+  // peer still chooses the reaction; the clutch's own command applies only when nothing else is wrong.
+  std::uint8_t sources = 0;
+  if (sensed.reading->clutch_pressed) sources |= kClutchDevice;
+  if (command_clutch_) sources |= kClutchCommand;
+  if (peer.have_peer && peer.fresh && (peer.sample->flags & proto::kFlagClutched) != 0) sources |= kClutchPeer;
+  if (sources != 0 && state_.clutch_sources == 0) {
+    ++state_.clutch_presses;
+    events_.Push({Event::Kind::kClutchPressed, cycle, static_cast<double>(sources)});
+  } else if (sources == 0 && state_.clutch_sources != 0) {
+    events_.Push({Event::Kind::kClutchReleased, cycle, 0.0});
+  }
+  state_.clutch_sources = sources;
+  const bool master = config_.process.role == Role::kMaster;
+  if (sources != 0 && master) state_.index_pending = true;
+  Outage blocker = Blocker(sensed.local_faults, peer);
+  if (blocker == Outage::kNone && sources != 0) blocker = Outage::kClutch;
+  clutch_blocked_ = blocker == Outage::kClutch;
+  clutch_path_ = clutch_blocked_ && (master || config_.can_push);
+  applied_.clutch_sources = sources;
+  // The master's flag also carries the peer's clutch and a pending re-index: the slave holds until the master's
+  // samples carry the re-indexed position. The slave's carries only its own (no latch between the two).
+  const std::uint8_t own = sources & static_cast<std::uint8_t>(kClutchDevice | kClutchCommand);
+  applied_.clutch_flag = master ? (sources != 0 || state_.index_pending) : own != 0;
+  applied_.transition = engagement_.Update(blocker, state_.aligned_verdict, t_s);
+}
+
+void Coupling::Reindex(const device::Reading& reading, std::uint64_t cycle) noexcept {
+  // Master, coupling resumes after a clutch: the offset that puts the (indexed) master where the slave is, in the
+  // master's frame (the slave's position · peer_position_scale). The slave's reference is then its own position;
+  // scaled axes stay scaled (the offset is added before the law and the wire, the motion keeps its scale).
+  state_.index_pending = false;
+  ++state_.reindexes;
+  const int dof = config_.process.dof;
+  double largest = 0.0;
+  for (int i = 0; i < dof; ++i) {
+    const double offset = applied_.peer_local_m[i] - reading.position_m[i];
+    hold_N_[i] = offset - state_.index_offset_m[i];  // the shift of the law's frame (hold_N_ as scratch)
+    state_.index_offset_m[i] = offset;
+    largest = std::max(largest, std::abs(offset));
+  }
+  law_.ShiftPosition(hold_N_);
+  input_.position_m = reading.position_m + state_.index_offset_m;
+  events_.Push({Event::Kind::kReindexed, cycle, largest});
 }
 
 Coupling::Path Coupling::PathOf(const Sensed& sensed) const noexcept {
   if (sensed.local_faults != device::kFaultNone) return Path::kDeviceFault;
   if (applied_.nonfinite) return Path::kNonFinite;
-  if (!engagement_.coupling()) return Path::kReaction;
+  if (!engagement_.coupling()) return clutch_path_ ? Path::kClutched : Path::kReaction;
   return engagement_.state() == EngagementState::kAligning ? Path::kAligning : Path::kEngaged;
 }
 
 void Coupling::PrepareInput(const device::Reading& reading, const PeerView& peer, double t_s,
                             double period_s) noexcept {
   const int dof = config_.process.dof;
-  input_.position_m = reading.position_m;
+  input_.position_m = reading.position_m + state_.index_offset_m;  // the offset is zero but on a re-indexed master
   input_.has_velocity = config_.measures_velocity;
   input_.velocity_m_per_s = reading.velocity_m_per_s;
   if (peer.have_peer) {
@@ -93,19 +153,37 @@ void Coupling::PrepareInput(const device::Reading& reading, const PeerView& peer
   }
   applied_.peer_local_m = config_.process.law.peer_position_scale * input_.peer_position_m;
   if (!engagement_.coupling()) {
+    if (clutch_path_) {
+      // Clutched: a slave holds where it is (the hold reaction); the master runs the law without a peer (its
+      // fixture stays), the coupling force fades at the bounded rate (ShapeClutched).
+      state_.reaction_latched = false;
+      if (config_.process.role == Role::kMaster) {
+        input_.peer_valid = false;
+        return;
+      }
+      if (!state_.clutch_latched) {
+        clutch_hold_.Latch(input_.position_m, state_.last_velocity, limiter_.last_N(), t_s);
+        state_.clutch_latched = true;
+      }
+      clutch_hold_.PrepareInput(input_, period_s);
+      return;
+    }
+    state_.clutch_latched = false;
     if (!state_.reaction_latched) {
-      reaction_.Latch(reading.position_m, state_.last_velocity, limiter_.last_N(), t_s);
+      reaction_.Latch(input_.position_m, state_.last_velocity, limiter_.last_N(), t_s);
       state_.reaction_latched = true;
     }
     reaction_.PrepareInput(input_, period_s);
     return;
   }
   state_.reaction_latched = false;
+  state_.clutch_latched = false;
   input_.peer_valid = true;
   if (applied_.transition.aligning_started) {
-    aligner_.Start(reading.position_m, t_s);
+    if (state_.index_pending) Reindex(reading, cycle_);
+    aligner_.Start(input_.position_m, t_s);
     state_.aligned_verdict = false;
-    state_.last_reference_m = reading.position_m;
+    state_.last_reference_m = input_.position_m;
   }
   if (engagement_.state() == EngagementState::kAligning) {
     Align(reading, t_s, period_s);
@@ -162,6 +240,9 @@ void Coupling::Shape(Path path, double t_s, double period_s) noexcept {
     case Path::kEngaged:
       cmd.command_N = out.command_N;
       break;
+    case Path::kClutched:
+      ShapeClutched(t_s, period_s);
+      break;
     case Path::kReaction: {
       applied_.safe = !reaction_.Command(out, t_s, cmd.command_N);
       const Reaction r = reaction_.reaction();
@@ -174,6 +255,25 @@ void Coupling::Shape(Path path, double t_s, double period_s) noexcept {
     cmd.command_N = zero_;
     cmd.fixture_force_N.setZero();
   }
+}
+
+void Coupling::ShapeClutched(double t_s, double period_s) noexcept {
+  // The coupling part moves to the clutch's target (slave: the hold's force; master: none) at the bounded force
+  // rate, so neither the press nor a release mid-fade steps the force; the fixture's share is never limited.
+  const control::ThreeChannelLaw::Output& out = applied_.law;
+  control::ThreeChannelLaw::Output& cmd = applied_.command;
+  if (config_.process.role == Role::kMaster) {
+    hold_N_.setZero();
+  } else {
+    (void)clutch_hold_.Command(out, t_s, hold_N_);  // hold never asks for the safe state
+    hold_N_ -= out.fixture_force_N;
+  }
+  const DofVector before = limiter_.last_N();
+  cmd.command_N =
+      limiter_.Limit(hold_N_, config_.process.engagement.max_force_rate_N_per_s, period_s) + out.fixture_force_N;
+  const double max_force_N = config_.process.law.max_force_N;
+  if (max_force_N > 0.0) cmd.command_N = cmd.command_N.cwiseMax(-max_force_N).cwiseMin(max_force_N);
+  state_.max_clutch_force_rate = std::max(state_.max_clutch_force_rate, MaxAbs(limiter_.last_N() - before) / period_s);
 }
 
 void Coupling::Passivate(Path path, const PeerView& peer, double period_s) noexcept {
@@ -213,6 +313,7 @@ void Coupling::Track(Path path, double period_s) noexcept {
       limiter_.Track(applied_N);
       break;
     case Path::kAligning:  // the limiter holds what it let through
+    case Path::kClutched:
     case Path::kNonFinite:
       break;
   }

@@ -35,8 +35,17 @@ struct Applied {
   Reaction reaction = Reaction::kZeroForce;                        ///< safety.reaction (what "not coupled" does).
   const control::PassivityController::State* passivity = nullptr;  ///< The port's energies after this step.
   control::PassivityMode passivity_mode = control::PassivityMode::kOff;
-  bool safe = false;       ///< Device::SetSafe instead of Write (device fault, brake).
-  bool nonfinite = false;  ///< The law saw NaN/inf.
+  bool safe = false;                ///< Device::SetSafe instead of Write (device fault, brake).
+  bool nonfinite = false;           ///< The law saw NaN/inf.
+  std::uint8_t clutch_sources = 0;  ///< ClutchSource bits pressed this cycle (0: not clutched).
+  bool clutch_flag = false;         ///< kFlagClutched of this cycle's sample (docs/clutch.md).
+};
+
+/// Who holds the clutch (bits of Applied::clutch_sources and of the clutch events' value).
+enum ClutchSource : std::uint8_t {
+  kClutchDevice = 1u << 0,   ///< device::Reading::clutch_pressed (a pedal or button of the backend).
+  kClutchPeer = 1u << 1,     ///< The peer's fresh sample carries kFlagClutched.
+  kClutchCommand = 1u << 2,  ///< The command channel (TeleopNode::SetClutch).
 };
 
 /// Engagement, aligner, force-rate limiter, safe reaction and time-domain passivity around the three-channel law:
@@ -47,6 +56,7 @@ class Coupling {
   struct Config {
     config::ProcessConfig process;  ///< law, engagement, safety, passivity, dof.
     bool measures_velocity = false;
+    bool can_push = false;  ///< The device renders active force: a clutched slave holds (else: its reaction).
   };
   /// What crosses from one cycle to the next.
   struct State {
@@ -57,6 +67,13 @@ class Coupling {
     double max_reference_step_m = 0.0;     ///< Largest one-cycle jump of the reference while (re)engaging.
     double max_aligning_force_rate = 0.0;  ///< Largest |Δ coupling force| / period aligning and at engagement.
     std::uint64_t passivity_peer_without_energy = 0;  ///< energy_exchange: peer samples without the block.
+    std::uint8_t clutch_sources = 0;                  ///< Of the previous cycle (press/release events on a change).
+    bool clutch_latched = false;                      ///< The clutch's hold latched its target at the press.
+    bool index_pending = false;          ///< Master: clutched since the last coupling; re-index at the next aligning.
+    DofVector index_offset_m;            ///< Master: added to the position before the law and the wire (local frame).
+    double max_clutch_force_rate = 0.0;  ///< Largest |Δ coupling force| / period while clutched (N/s).
+    std::uint64_t clutch_presses = 0;
+    std::uint64_t reindexes = 0;
   };
 
   Coupling(const Config& config, EventLog& events);
@@ -69,12 +86,25 @@ class Coupling {
   const control::ThreeChannelLaw& law() const noexcept { return law_; }
   const control::PassivityController& passivity() const noexcept { return passivity_; }
   Reaction reaction() const noexcept { return reaction_.reaction(); }
+  /// The command channel's clutch (kClutchCommand), read by the next Step. Called on the cycle's thread.
+  void SetCommandClutch(bool pressed) noexcept { command_clutch_ = pressed; }
+  /// Ramps the fixture's stiffness linearly to `target_N_per_m` over `ramp_s` from the next Step (a change the
+  /// stability check accepted). Called on the cycle's thread.
+  void RampFixtureStiffness(double target_N_per_m, double ramp_s) noexcept {
+    ramp_from_N_per_m_ = law_.fixture().config().stiffness_N_per_m;
+    ramp_to_N_per_m_ = target_N_per_m;
+    ramp_s_ = ramp_s > 0.0 ? ramp_s : 0.0;
+    ramp_elapsed_s_ = 0.0;
+    ramping_ = true;
+  }
 
  private:
   /// Which path chose the command.
-  enum class Path : std::uint8_t { kDeviceFault, kNonFinite, kAligning, kEngaged, kReaction };
+  enum class Path : std::uint8_t { kDeviceFault, kNonFinite, kAligning, kEngaged, kReaction, kClutched };
 
   void Engage(const Sensed& sensed, const PeerView& peer, std::uint64_t cycle, double t_s) noexcept;
+  void Reindex(const device::Reading& reading, std::uint64_t cycle) noexcept;
+  void ShapeClutched(double t_s, double period_s) noexcept;
   void PrepareInput(const device::Reading& reading, const PeerView& peer, double t_s, double period_s) noexcept;
   void Align(const device::Reading& reading, double t_s, double period_s) noexcept;
   void Shape(Path path, double t_s, double period_s) noexcept;
@@ -90,7 +120,18 @@ class Coupling {
   Aligner aligner_;
   ForceRateLimiter limiter_;  ///< The coupling part of the command while aligning; tracks it otherwise.
   SafeReaction reaction_;
+  SafeReaction clutch_hold_;  ///< A clutched slave's hold (safety.reaction = hold, whatever the configured one).
   State state_;
+  bool command_clutch_ = false;
+  std::uint64_t cycle_ = 0;
+  bool ramping_ = false;
+  double ramp_from_N_per_m_ = 0.0;
+  double ramp_to_N_per_m_ = 0.0;
+  double ramp_s_ = 0.0;
+  double ramp_elapsed_s_ = 0.0;
+  bool clutch_blocked_ = false;  ///< The clutch is this cycle's blocker.
+  bool clutch_path_ = false;     ///< ... and the clutch's own command applies (master, or a slave that can push).
+  DofVector hold_N_;
   // Preallocated values of this cycle.
   control::ThreeChannelLaw::Input input_;
   control::PassivityController::Input passivity_input_;

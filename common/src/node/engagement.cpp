@@ -41,6 +41,8 @@ const char* ToString(Outage outage) noexcept {
       return "new session";
     case Outage::kLatency:
       return "latency gate";
+    case Outage::kClutch:
+      return "clutch";
     case Outage::kCount:
       break;
   }

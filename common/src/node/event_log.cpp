@@ -81,6 +81,22 @@ void EventLog::Drain() {
                        static_cast<unsigned>(e.value));
         }
         break;
+      case Event::Kind::kClutchPressed:
+        spdlog::info("cycle {}: clutch pressed (sources 0x{:x}: 1 device, 2 peer, 4 command)", e.cycle,
+                     static_cast<unsigned>(e.value));
+        break;
+      case Event::Kind::kClutchReleased:
+        spdlog::info("cycle {}: clutch released", e.cycle);
+        break;
+      case Event::Kind::kReindexed:
+        spdlog::info("cycle {}: re-indexed, offset up to {:.4f} m", e.cycle, e.value);
+        break;
+      case Event::Kind::kCommandAccepted:
+        spdlog::info("cycle {}: command accepted: fixture stiffness {:.0f} N/m", e.cycle, e.value);
+        break;
+      case Event::Kind::kCommandRefused:
+        spdlog::warn("cycle {}: command refused (predicted limit {:.0f} N/m)", e.cycle, e.value);
+        break;
     }
     if (EventObserver* observer = observer_.load(std::memory_order_acquire)) observer->OnEvent(e);
   }

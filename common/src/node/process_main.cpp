@@ -12,12 +12,14 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 
 #include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
 #include "teleop/link/link_config.hpp"
+#include "teleop/node/command_server.hpp"
 #include "teleop/node/device_list.hpp"
 #include "teleop/node/exit_codes.hpp"
 #include "teleop/node/teleop_node.hpp"
@@ -89,6 +91,8 @@ int ProcessMain(int argc, char** argv, Role role) {
   std::string log_level = "info";
   bool allow_unstable = false;
   std::string key_file;
+  std::string command_socket;
+  double command_ramp_s = 0.5;
   app.add_option("-c,--config", config_path, "Process configuration (YAML); see docs/configuration.md")
       ->required()
       ->check(CLI::ExistingFile);
@@ -111,6 +115,10 @@ int ProcessMain(int argc, char** argv, Role role) {
   app.add_option("--key-file", key_file,
                  "Pre-shared key file for link.security.mode psk (overrides link.security.key_file; teleop-keygen "
                  "makes one)");
+  app.add_option("--command-socket", command_socket,
+                 "Serve run-time commands (teleop-ctl) on this Unix socket, mode 0600 (docs/clutch.md)");
+  app.add_option("--command-ramp-s", command_ramp_s, "Ramp of an accepted stiffness change that names none (s)")
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--allow-unstable", allow_unstable,
                "Start even when the fixture stiffness is above the predicted stability limit (experiments only; "
                "docs/stability.md)");
@@ -153,6 +161,11 @@ int ProcessMain(int argc, char** argv, Role role) {
     auto link = transport::MakeLink(config.link, transport::ToSender(role));
     TeleopNode node(config, std::move(device), std::move(link), TeleopNode::Unconfigured{});
     node.Configure();
+    // Before Activate: the server's thread must not inherit the loop's SCHED_FIFO (the check runs there).
+    std::unique_ptr<CommandServer> commands;
+    if (!command_socket.empty()) {
+      commands = std::make_unique<CommandServer>(node, CommandServer::Config{command_socket, 0600, command_ramp_s});
+    }
     node.Activate();  // real-time settings on this thread, checked, before the device is activated
 
     g_running_node.store(&node);

@@ -33,6 +33,7 @@ void Recorder::Step(const Sensed& sensed, const PeerView& peer, const Applied& a
   record.have_peer = peer.have_peer;
   record.peer_shutdown = peer.shutdown;
   record.peer_fresh = peer.fresh && !peer.link_faulted;
+  record.clutch = applied.clutch_sources;
   record.device_faults = sensed.reading->faults;
   record.device_warnings = sensed.reading->warnings;
   record.overruns = facts.overruns;
@@ -133,6 +134,7 @@ const runtime::TelemetryRecord& Recorder::Row(const Sensed& sensed, const PeerVi
       facts.data_age_ns >= 0 ? static_cast<double>(facts.data_age_ns) * 1e-9 : std::numeric_limits<double>::quiet_NaN();
   r.engagement = static_cast<int>(applied.engagement);
   r.device_warnings = reading.warnings;
+  r.clutch = applied.clutch_sources;
   return r;
 }
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <mutex>
 #include <string>
 
 #include "coupling.hpp"
@@ -12,10 +13,12 @@
 #include "recorder.hpp"
 #include "sinks.hpp"
 #include "teleop/config/render_check.hpp"
+#include "teleop/config/stability_check.hpp"
 #include "teleop/device/law_command.hpp"
 #include "teleop/error.hpp"
 #include "teleop/node/event_log.hpp"
 #include "teleop/node/reading_check.hpp"
+#include "teleop/runtime/mailbox.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
 #include "teleop/transport/impaired_link.hpp"
 #include "transmitter.hpp"
@@ -91,6 +94,20 @@ struct TeleopNode::Impl {
   std::int64_t start_ns = 0;
   std::atomic<bool> stop_on_peer_shutdown{false};
   std::atomic<bool> stop_requested{false};
+  std::atomic<bool> command_clutch{false};  ///< TeleopNode::SetClutch (any thread) → the cycle.
+  /// A checked fixture stiffness change (RequestFixtureStiffness, serialised by tune_mutex) → the cycle.
+  struct Tune {
+    std::uint64_t id = 0;
+    bool accepted = false;
+    double stiffness_N_per_m = 0.0;
+    double limit_N_per_m = 0.0;
+    double ramp_s = 0.0;
+  };
+  runtime::Mailbox<Tune> tune_box;
+  std::mutex tune_mutex;
+  std::uint64_t tune_id = 0;
+  double fixture_on_N_per_m = 0.0;  ///< What `fixture on` restores (tune_mutex).
+  Tune tune_seen;
   bool published = false;
 };
 
@@ -109,7 +126,8 @@ void TeleopNode::Impl::Configure() {
   pc.timeout_s = config.link.timeout_ms * 1e-3;
   pc.max_rtt_s = config.engagement.max_rtt_ms * 1e-3;
   peer = std::make_unique<PeerTracker>(pc, *link, events, clock);
-  coupling = std::make_unique<Coupling>(Coupling::Config{config, caps.measures_velocity}, events);
+  coupling = std::make_unique<Coupling>(Coupling::Config{config, caps.measures_velocity, caps.can_push()}, events);
+  fixture_on_N_per_m = config.law.fixture.stiffness_N_per_m;
   transmitter = std::make_unique<Transmitter>(config.role, dof, *link, clock);
   Recorder::Config rc;
   rc.dof = dof;
@@ -147,6 +165,12 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s, std::int64_t 
   const PeerView view = peer->Step(cycle, now_ns, t_s, loop.cycle_triggered());  // 2. link → the peer
   if (view.shutdown_started && stop_on_peer_shutdown.load(std::memory_order_relaxed)) loop.Stop();
   const std::int64_t law_start_ns = clock.Now();
+  coupling->SetCommandClutch(command_clutch.load(std::memory_order_relaxed));
+  if (tune_box.Read(tune_seen) && tune_seen.id != 0) {
+    if (tune_seen.accepted) coupling->RampFixtureStiffness(tune_seen.stiffness_N_per_m, tune_seen.ramp_s);
+    events.Push({tune_seen.accepted ? Event::Kind::kCommandAccepted : Event::Kind::kCommandRefused, cycle,
+                 tune_seen.accepted ? tune_seen.stiffness_N_per_m : tune_seen.limit_N_per_m});
+  }
   const Applied& applied = coupling->Step(sensed, view, cycle, t_s, period_s);           // 3. the command applied
   Actuate(applied, period_s);                                                            // 4. → device
   const std::uint8_t flags = transmitter->Send(sensed, view, applied, loop.stopping());  // 5. → peer
@@ -226,6 +250,78 @@ void TeleopNode::Step(std::uint64_t cycle, double period_s, std::int64_t now_ns)
 
 EngagementState TeleopNode::engagement() const noexcept {
   return impl_->coupling ? impl_->coupling->engagement().state() : EngagementState::kDisengaged;
+}
+
+void TeleopNode::SetClutch(bool pressed) noexcept { impl_->command_clutch.store(pressed, std::memory_order_relaxed); }
+
+bool TeleopNode::clutched() const noexcept { return impl_->coupling && impl_->coupling->state().clutch_sources != 0; }
+
+double TeleopNode::index_offset_m(int axis) const noexcept {
+  if (!impl_->coupling) return 0.0;
+  const DofVector& o = impl_->coupling->state().index_offset_m;
+  return axis >= 0 && axis < o.size() ? o[axis] : 0.0;
+}
+
+double TeleopNode::max_clutch_force_rate_N_per_s() const noexcept {
+  return impl_->coupling ? impl_->coupling->state().max_clutch_force_rate : 0.0;
+}
+
+TeleopNode::FixtureChange TeleopNode::RequestFixtureStiffness(double stiffness_N_per_m, double ramp_s) {
+  Impl& s = *impl_;
+  const std::lock_guard<std::mutex> lock(s.tune_mutex);  // the mailbox has one writer
+  FixtureChange change;
+  change.requested_N_per_m = stiffness_N_per_m;
+  Impl::Tune tune;
+  tune.id = ++s.tune_id;
+  tune.stiffness_N_per_m = stiffness_N_per_m;
+  tune.ramp_s = std::isfinite(ramp_s) && ramp_s > 0.0 ? ramp_s : 0.0;
+  if (!std::isfinite(stiffness_N_per_m) || stiffness_N_per_m < 0.0) {
+    change.message = "fixture stiffness must be finite and >= 0 N/m";
+  } else if (s.config.law.fixture.plane_count == 0 && stiffness_N_per_m > 0.0) {
+    change.message = "this process has no fixture plane";
+  } else {
+    config::ProcessConfig candidate = s.config;
+    candidate.law.fixture.stiffness_N_per_m = stiffness_N_per_m;
+    try {
+      const config::StabilityReport report = config::CheckProcessStability(candidate);
+      if (!report.applicable()) {
+        change.message = "the stability check does not apply: " + report.not_applicable;
+      } else {
+        change.limit_N_per_m = report.worst().limit.max_stable_stiffness_N_per_m;
+        change.accepted = report.stable();
+        change.message =
+            change.accepted ? config::DescribePass(candidate, report) : config::DescribeFailure(candidate, report);
+      }
+    } catch (const Error& e) {
+      change.message = e.what();
+    }
+  }
+  tune.accepted = change.accepted;
+  tune.limit_N_per_m = change.limit_N_per_m;
+  if (change.accepted) {
+    s.config.law.fixture.stiffness_N_per_m = stiffness_N_per_m;  // the next check's base
+    if (stiffness_N_per_m > 0.0) s.fixture_on_N_per_m = stiffness_N_per_m;
+  }
+  s.tune_box.Write(tune);
+  return change;
+}
+
+TeleopNode::FixtureChange TeleopNode::RequestFixtureEnabled(bool on, double ramp_s) {
+  double target = 0.0;
+  if (on) {
+    const std::lock_guard<std::mutex> lock(impl_->tune_mutex);
+    target = impl_->fixture_on_N_per_m;
+  }
+  if (on && target <= 0.0) {
+    FixtureChange change;
+    change.message = "no fixture stiffness to turn on (none configured or accepted yet)";
+    return change;
+  }
+  return RequestFixtureStiffness(target, ramp_s);
+}
+
+double TeleopNode::fixture_stiffness_N_per_m() const noexcept {
+  return impl_->coupling ? impl_->coupling->law().fixture().config().stiffness_N_per_m : 0.0;
 }
 
 void TeleopNode::Stop() noexcept {

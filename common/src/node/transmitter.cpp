@@ -30,6 +30,7 @@ std::uint8_t Transmitter::Send(const Sensed& sensed, const PeerView& peer, const
   if (law.status == control::ThreeChannelLaw::StepStatus::kSaturated) flags |= proto::kFlagSaturated;
   if (law.fixture_penetration_m > 0.0) flags |= proto::kFlagInFixture;
   if (stopping) flags |= proto::kFlagShutdown;
+  if (applied.clutch_flag) flags |= proto::kFlagClutched;
   out.flags = flags;
   if ((flags & proto::kFlagFault) != 0) {
     // The values are not to be used (the peer decouples on the flag), and a NaN or absurd reading would make the
@@ -38,7 +39,7 @@ std::uint8_t Transmitter::Send(const Sensed& sensed, const PeerView& peer, const
     out.velocity_m_per_s.fill(0.0);
     out.force_N.fill(0.0);
   } else {
-    CopyToWire(sensed.reading->position_m, out.position_m);
+    CopyToWire(applied.law_input->position_m, out.position_m);  // the reading + a re-indexed master's offset
     CopyToWire(law.velocity_m_per_s, out.velocity_m_per_s);
     CopyToWire(sensed.reading->force_N, out.force_N);
   }

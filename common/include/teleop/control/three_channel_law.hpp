@@ -93,6 +93,10 @@ class ThreeChannelLaw {
   [[nodiscard]] Output Step(const Input& input, double period_s) noexcept;
   /// Forgets the velocity history and zeroes the counters.
   void Reset() noexcept;
+  /// The local position's frame moved by `offset_m` (clutch re-index): the velocity estimate sees no jump.
+  void ShiftPosition(const DofVector& offset_m) noexcept { state_.velocity.Shift(offset_m); }
+  /// The fixture's stiffness at run time (ForbiddenRegionFixture::SetStiffness). Allocation-free.
+  void SetFixtureStiffness(double stiffness_N_per_m) noexcept { fixture_.SetStiffness(stiffness_N_per_m); }
 
   const Config& config() const noexcept { return config_; }
   const State& state() const noexcept { return state_; }

@@ -34,6 +34,9 @@ class VelocityEstimator {
   [[nodiscard]] const DofVector& Step(const DofVector& position_m, double period_s) noexcept;
   /// Forgets the history: the next sample primes the estimator again (velocity 0).
   void Reset() noexcept;
+  /// The position's frame moved by `offset_m` (a clutch re-index): the history moves with it, so the jump is not
+  /// seen as velocity. A vector of the wrong size or with NaN/inf is ignored. Allocation-free.
+  void Shift(const DofVector& offset_m) noexcept;
 
   /// The filter coefficient a for a period (1 when the filter is off).
   [[nodiscard]] double FilterCoefficient(double period_s) const noexcept;

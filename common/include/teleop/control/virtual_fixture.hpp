@@ -53,6 +53,13 @@ class ForbiddenRegionFixture {
   [[nodiscard]] Output Step(const DofVector& position_m) const noexcept;
 
   const Config& config() const noexcept { return config_; }
+  /// A run-time stiffness (a ramp step of a checked change, docs/clutch.md "Run-time commands"). Ignored when not
+  /// finite, negative, or positive without a plane. Allocation-free.
+  void SetStiffness(double stiffness_N_per_m) noexcept {
+    if (!(stiffness_N_per_m >= 0.0) || !(stiffness_N_per_m < 1e300)) return;
+    if (stiffness_N_per_m > 0.0 && config_.plane_count == 0) return;
+    config_.stiffness_N_per_m = stiffness_N_per_m;
+  }
 
  private:
   Config config_{};

@@ -107,6 +107,11 @@ struct Reading {
   DofVector rendered_force_N;
   std::uint32_t faults = kFaultNone;
   std::uint32_t warnings = kWarningNone;  ///< WarningBits; informational, the node records them and acts on none.
+  /// The operator's clutch (pedal or button) is pressed: the pair decouples and re-indexes on release
+  /// (docs/clutch.md). A backend without one leaves it false. A Modbus backend would map
+  /// a discrete input (function 0x02) to it; a CiA 402 drive bit 16+n of its digital inputs object 0x60FD (the
+  /// manufacturer-specific inputs, CiA 402-2 §"Digital inputs"), read in the same cycle as the position.
+  bool clutch_pressed = false;
 };
 
 /// The one interface every backend implements: loopback plant, hybrid motor–brake device, cobot, real drivers.

@@ -22,6 +22,7 @@ struct CycleRecord {
   bool have_peer = false;             ///< A sample of this session is held.
   bool peer_shutdown = false;         ///< The peer announced a clean stop.
   bool peer_fresh = false;            ///< Watchdog ok and the medium up.
+  std::uint8_t clutch = 0;            ///< Clutch sources held (node ClutchSource bits; 0: not clutched).
   std::uint32_t device_faults = 0;    ///< device::FaultBits the backend reported.
   std::uint32_t device_warnings = 0;  ///< device::WarningBits the backend reported.
   std::uint64_t overruns = 0;

@@ -29,6 +29,7 @@ enum class Outage : std::uint8_t {
   kPeerFault,       ///< The peer's sample carries the fault flag.
   kNewSession,      ///< The link started a new authenticated session (Link::session_epoch changed).
   kLatency,         ///< Latency gate: round trip above engagement.max_rtt_ms.
+  kClutch,          ///< This process's clutch, or the peer's (its sample's kFlagClutched), is pressed.
   kCount,
 };
 const char* ToString(Outage outage) noexcept;

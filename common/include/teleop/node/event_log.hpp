@@ -24,8 +24,13 @@ struct Event {
     kLatencyGate,   ///< value: the round trip (ms).
     kCouplingLost,  ///< value: the node::Outage.
     kAligning,
-    kEngaged,        ///< value: the longest aligning so far (s).
-    kDeviceWarning,  ///< The device's warning word changed; value: the new device::WarningBits (0: cleared).
+    kEngaged,          ///< value: the longest aligning so far (s).
+    kDeviceWarning,    ///< The device's warning word changed; value: the new device::WarningBits (0: cleared).
+    kClutchPressed,    ///< value: who pressed it (ClutchSource bits: 1 device, 2 peer, 4 command).
+    kClutchReleased,   ///< value: the sources still pressed (0: released).
+    kReindexed,        ///< The master re-indexed on release; value: the largest |offset| on an axis (m).
+    kCommandAccepted,  ///< A run-time fixture stiffness change the check accepted; value: the stiffness (N/m).
+    kCommandRefused,   ///< ... it refused; value: the predicted limit (N/m; 0: not analysed).
   };
   Kind kind = Kind::kPeerConnected;
   std::uint64_t cycle = 0;

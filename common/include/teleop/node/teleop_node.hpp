@@ -3,6 +3,7 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <string>
 
 #include "teleop/config/process_config.hpp"
 #include "teleop/control/three_channel_law.hpp"
@@ -73,6 +74,34 @@ class TeleopNode {
   RunSummary Finish();
   /// Where the node is in coupling to its peer (after the last cycle).
   EngagementState engagement() const noexcept;
+  /// The command channel's clutch (docs/clutch.md): pressed until SetClutch(false).
+  /// Any thread; the next cycle reads it.
+  void SetClutch(bool pressed) noexcept;
+  /// Any clutch (the device's, the command's, the peer's) held in the last cycle.
+  bool clutched() const noexcept;
+  /// A master's re-index offset on `axis` (m, local frame): added to its position before the law and the wire.
+  double index_offset_m(int axis) const noexcept;
+  /// Largest |Δ coupling force| per second while clutched (bounded by engagement.max_force_rate_N_per_s).
+  double max_clutch_force_rate_N_per_s() const noexcept;
+
+  /// A run-time change of this process's fixture stiffness and its verdict.
+  struct FixtureChange {
+    bool accepted = false;
+    double requested_N_per_m = 0.0;
+    double limit_N_per_m = 0.0;  ///< The predicted limit (analysis::StabilityLimit); 0 when not analysed.
+    std::string message;         ///< Why refused, or the check's pass line.
+  };
+  /// Runs the start-up stability check (config::CheckProcessStability) with `stiffness_N_per_m` on the CALLER's
+  /// thread (never the cycle's) and refuses an unstable value with the predicted limit, a value that is not finite
+  /// or negative, and any value when the check does not apply to this device. An accepted change is handed to the
+  /// cycle through a wait-free mailbox and ramps linearly over `ramp_s`; the cycle logs the outcome as an event
+  /// (command_accepted with the stiffness, command_refused with the limit). Serialised between callers.
+  FixtureChange RequestFixtureStiffness(double stiffness_N_per_m, double ramp_s);
+  /// Fixture off: ramps the stiffness to 0 (checked like any change: a pair unstable without its fixture is
+  /// refused). On: ramps back to the last accepted non-zero stiffness (the configured one at first), checked.
+  FixtureChange RequestFixtureEnabled(bool on, double ramp_s);
+  /// The fixture stiffness the law uses now (N/m).
+  double fixture_stiffness_N_per_m() const noexcept;
 
  private:
   struct Impl;

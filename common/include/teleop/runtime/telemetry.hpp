@@ -43,6 +43,7 @@ struct TelemetryRecord {
   /// Age of the peer sample the law used this cycle: cycle start - its (kernel) receive time; NaN when none.
   double data_age_s = std::numeric_limits<double>::quiet_NaN();
   std::uint32_t device_warnings = 0;  ///< device::WarningBits the backend reported this cycle (0: none).
+  int clutch = 0;  ///< Clutch sources held this cycle (node::ClutchSource bits: 1 device, 2 peer, 4 command; 0: none).
 };
 static_assert(std::is_trivially_copyable_v<TelemetryRecord>);
 

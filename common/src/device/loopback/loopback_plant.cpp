@@ -182,6 +182,7 @@ void LoopbackPlant::Read(Reading& out) noexcept {
   out.force_N = SensedForce();
   out.rendered_force_N = command_N_;  // an ideal actuator: what was held over the last period
   out.faults = pending_faults_;
+  out.clutch_pressed = clutch_pressed_;
   if (!AllFinite(out.position_m) || !AllFinite(out.velocity_m_per_s) || !AllFinite(out.force_N)) {
     out.faults |= kFaultNonFiniteSensor;
   }

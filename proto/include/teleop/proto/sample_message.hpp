@@ -34,9 +34,10 @@ enum StateFlags : std::uint8_t {
   kFlagSaturated = 1u << 3,  ///< Sender's actuator hit its force limit this cycle.
   kFlagInFixture = 1u << 4,  ///< Sender is inside its forbidden region.
   kFlagShutdown = 1u << 5,   ///< Sender is stopping cleanly; the peer should go safe without a fault.
+  kFlagClutched = 1u << 6,   ///< Sender's clutch is pressed: the pair decouples and re-indexes on release.
 };
 /// Every flag bit version 1 defines; a sample with any other bit set is rejected (kOutOfRange).
-inline constexpr std::uint8_t kKnownFlags = 0x3F;
+inline constexpr std::uint8_t kKnownFlags = 0x7F;
 
 /// Accepted ranges of the per-DOF values (docs/protocol.md, "Fields"). A translational DOF is in m, m/s, N; a
 /// rotational one in rad, rad/s, N·m with the same numeric limits. Anything outside is rejected (kOutOfRange):

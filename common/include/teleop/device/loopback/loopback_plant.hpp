@@ -69,6 +69,8 @@ class LoopbackPlant final : public Device {
   void SetDisturbance(const DofVector& force_N) noexcept;
   /// What the force sensor reads now (N): F_h with the operator enabled, else F_e.
   DofVector SensedForce() const noexcept;
+  /// The simulated operator presses (true) or releases the clutch pedal; Read reports it (Reading::clutch_pressed).
+  void SetClutch(bool pressed) noexcept { clutch_pressed_ = pressed; }
   /// The command currently held (N), after the plant's own checks.
   const DofVector& held_command_N() const noexcept { return command_N_; }
   const LoopbackPlantConfig& config() const noexcept { return config_; }
@@ -87,6 +89,7 @@ class LoopbackPlant final : public Device {
   DofVector command_N_;
   DofVector disturbance_N_;
   double time_s_ = 0.0;
+  bool clutch_pressed_ = false;
 
   double total_mass_kg_ = 0.0;
   double total_damping_Ns_per_m_ = 0.0;
