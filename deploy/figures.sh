@@ -46,12 +46,18 @@ cp "${work}/sweep-rate.png" "${out}/analyze-sweep-rate.png"
 cp "${work}/sweep-kp.png" "${out}/analyze-sweep-kp.png"
 
 # Every scenario with its defaults, in a directory of its own (each writes its PNG to the working directory).
+table_only=(hybrid-table)
 scenarios=$("${bin}/teleop-scenario" --help | sed -n 's/^  \([a-z][a-z-]*\)  .*/\1/p')
 for s in ${scenarios}; do
   mkdir -p "${work}/${s}"
   (cd "${work}/${s}" && "${bin}/teleop-scenario" "${s}" > run.log 2>&1) || { tail -20 "${work}/${s}/run.log"; exit 1; }
   pngs=("${work}/${s}"/*.png)
-  [[ -f "${pngs[0]}" ]] || { echo "teleop-scenario ${s} wrote no PNG" >&2; exit 1; }
+  if [[ ! -f "${pngs[0]}" ]]; then
+    # A scenario that only prints tables (hybrid-table: docs/hybrid.md) is named here; any other must draw.
+    [[ " ${table_only[*]} " == *" ${s} "* ]] && continue
+    echo "teleop-scenario ${s} wrote no PNG" >&2
+    exit 1
+  fi
   for p in "${pngs[@]}"; do cp "${p}" "${out}/scenario-$(basename "${p}" | tr '_' '-')"; done
 done
 
