@@ -108,7 +108,8 @@ TEST_F(TelemetryWriterTest, WritesHeaderAndOneRowPerPushedRecordInOrder) {
   std::stringstream row(lines[3]);
   std::vector<double> values;
   for (std::string cell; std::getline(row, cell, ',');) values.push_back(std::stod(cell));
-  ASSERT_EQ(values.size(), 3u + 9u * 2u + 7u + 2u * 2u + 2u);  // ..., device_warnings, clutch
+  // ..., device_warnings, clutch.
+  ASSERT_EQ(values.size(), 3u + 9u * 2u + 7u + 2u * 2u + 2u);
   EXPECT_EQ(values[0], 2.0);            // cycle
   EXPECT_DOUBLE_EQ(values[1], 0.002);   // time_s
   EXPECT_DOUBLE_EQ(values[4], 0.5);     // position_m_1
