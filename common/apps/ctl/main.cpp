@@ -9,10 +9,13 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <string>
 #include <vector>
 
-int main(int argc, char** argv) {
+namespace {
+
+int Run(int argc, char** argv) {
   CLI::App app{
       "teleop-ctl: a run-time command to teleop-master/teleop-slave (clutch on|off, fixture-stiffness <N/m> "
       "[ramp_s])"};
@@ -43,4 +46,15 @@ int main(int argc, char** argv) {
   ::close(fd);
   std::fputs(reply.c_str(), stdout);
   return reply.rfind("ok", 0) == 0 ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception& e) {  // an allocation failure; CLI11's own errors are handled in Run
+    std::fprintf(stderr, "teleop-ctl: %s\n", e.what());
+    return 2;
+  }
 }
