@@ -307,7 +307,9 @@ TEST(SecureSession, KeepsItsKeysInLockedMemoryExcludedFromCoreDumps) {
 #else
     constexpr bool kMlockWorks = true;
 #endif
-    if (kMlockWorks) EXPECT_GT(during.second, before.second) << "no new locked memory for the keys";
+    if (kMlockWorks) {
+      EXPECT_GT(during.second, before.second) << "no new locked memory for the keys";
+    }
   }
 }
 
