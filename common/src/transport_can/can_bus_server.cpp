@@ -97,6 +97,22 @@ std::uint32_t PeerUid(int fd) noexcept {
 
 constexpr std::size_t kMaxConnections = 64;  // connections before (or without) a hello; more are closed at once
 
+/// The error frame a node gets back for a frame the bus refused, as its controller would report it: bus-off, or a
+/// transmit overflow (the UDP and the Unix-socket paths send the same).
+bus_datagram::Message RefusalFrame(CanWriteStatus status) noexcept {
+  bus_datagram::Message e{};
+  e.type = bus_datagram::Type::kFrame;
+  e.frame.error = true;
+  e.frame.len = 8;
+  if (status == CanWriteStatus::kBusOff) {
+    e.frame.error_class = proto::can::kErrBusOff;
+  } else {
+    e.frame.error_class = proto::can::kErrController;
+    e.frame.data[1] = proto::can::kCtrlTxOverflow;
+  }
+  return e;
+}
+
 }  // namespace
 
 CanBusServer::CanBusServer(const CanBusServerConfig& config) : config_(config), bus_(config.bus) {
@@ -309,17 +325,7 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
         const CanWriteStatus status = bus_.Submit(peer->node, m.frame);
         if (status == CanWriteStatus::kOk) break;
         // Tell the node its frame was refused, as a controller error frame would.
-        bus_datagram::Message e{};
-        e.type = bus_datagram::Type::kFrame;
-        e.frame.error = true;
-        e.frame.len = 8;
-        if (status == CanWriteStatus::kBusOff) {
-          e.frame.error_class = proto::can::kErrBusOff;
-        } else {
-          e.frame.error_class = proto::can::kErrController;
-          e.frame.data[1] = proto::can::kCtrlTxOverflow;
-        }
-        const std::size_t size = bus_datagram::Encode(e, reply);
+        const std::size_t size = bus_datagram::Encode(RefusalFrame(status), reply);
         ::sendto(socket_, reply.data(), size, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&source),  // NOLINT
                  source_len);
         break;
@@ -412,17 +418,8 @@ void CanBusServer::StepUnix(const timespec& timeout) noexcept {
           }
           const CanWriteStatus status = bus_.Submit(peer->node, m.frame);
           if (status == CanWriteStatus::kOk) break;
-          bus_datagram::Message e{};
-          e.type = bus_datagram::Type::kFrame;
-          e.frame.error = true;
-          e.frame.len = 8;
-          if (status == CanWriteStatus::kBusOff) {
-            e.frame.error_class = proto::can::kErrBusOff;
-          } else {
-            e.frame.error_class = proto::can::kErrController;
-            e.frame.data[1] = proto::can::kCtrlTxOverflow;
-          }
-          (void)::send(conn.fd, reply.data(), bus_datagram::Encode(e, reply), MSG_DONTWAIT | MSG_NOSIGNAL);
+          (void)::send(conn.fd, reply.data(), bus_datagram::Encode(RefusalFrame(status), reply),
+                       MSG_DONTWAIT | MSG_NOSIGNAL);
           break;
         }
         case bus_datagram::Type::kControl:
