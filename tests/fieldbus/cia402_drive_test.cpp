@@ -19,15 +19,7 @@ namespace {
 
 using cia402::DriveState;
 using test::Cia402Rig;
-
-std::string ThrownBy(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(nothing thrown)";
-}
+using test::ThrownBy;
 
 TEST(Cia402Drive, BringsTheDriveToOperationEnabledInTorqueMode) {
   Cia402Rig rig;

@@ -17,6 +17,7 @@ namespace {
 
 using cia402::DriveState;
 using test::Cia402Rig;
+using test::ThrownBy;
 
 std::string Hex(const proto::can::CanFrame& f) {
   char buf[8];
@@ -36,15 +37,6 @@ std::string LastRpdo(const Cia402Rig& rig) {
     if (f.id == 0x201) last = Hex(f);
   }
   return last;
-}
-
-std::string ThrownBy(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(nothing thrown)";
 }
 
 TEST(Cia402Modes, VelocityModeMapsTheTargetVelocityAndTheDriveLoopFollowsIt) {

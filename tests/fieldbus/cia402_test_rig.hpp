@@ -6,10 +6,12 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "teleop/error.hpp"
 #include "teleop/fieldbus/cia402_drive.hpp"
 #include "teleop/fieldbus/simulated_cia402_drive.hpp"
 #include "teleop/transport/can_emulated_bus.hpp"
@@ -21,6 +23,16 @@ namespace teleop::fieldbus::test {
 inline constexpr std::uint64_t kSimStep_ns = 100'000;
 /// The log's time stamps start at 2026-12-01 00:00:00 UTC (can-utils take a time of 0 s for "no time yet").
 inline constexpr std::uint64_t kLogEpoch_ns = 1'796'083'200ULL * 1'000'000'000ULL;
+
+/// The message of the teleop::Error `f` throws, or "(nothing thrown)".
+inline std::string ThrownBy(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(nothing thrown)";
+}
 
 struct Cia402Rig {
   std::uint64_t now_ns = 0;
