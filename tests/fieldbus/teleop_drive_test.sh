@@ -34,7 +34,10 @@ sim=$!
 sim7=$!
 trap 'kill ${sim} ${sim7} ${bus} 2>/dev/null; wait 2>/dev/null' EXIT
 sleep 0.5
-d=("${bin}/teleop-drive" --bus-port "${port}")
+# Generous staleness and heartbeat timeouts: this runs beside the rest of the suite on two cores, where three
+# cycles of a 20 ms gap (the default ten cycles) happen; the stale and heartbeat stops are unit-tested in
+# cia402_drive_test.
+d=("${bin}/teleop-drive" --bus-port "${port}" --stale-ms 250 --heartbeat-timeout-ms 1000)
 check "scan finds nodes 3 and 5" 0 "^3 +pre-operational +0x00020192 0x00000A5A.*CiA 402 drive" -- "${d[@]}" scan --to 8 --timeout-ms 10
 check "scan reports the count" 0 "3 nodes found in 1..8" -- "${d[@]}" scan --to 8 --timeout-ms 10
 check "info: device name (segmented)" 0 "device name +teleop simulated CiA 402 drive" -- "${d[@]}" info 5

@@ -66,6 +66,8 @@ struct Options {
   double position_rad_per_count = 1.0 / 4096.0;
   double velocity_rad_per_s_per_unit = 1.0 / 4096.0;
   std::string eds_file;
+  double stale_ms = 0.0;  ///< 0: ten cycles, at least 10 ms
+  double heartbeat_timeout_ms = 200.0;
 };
 
 fb::CanPortConfig PortConfig(const Options& o) {
@@ -111,8 +113,8 @@ fb::Cia402DriveConfig DriveConfig(const Options& o, std::uint8_t node, fb::Cia40
   c.scaling.position_rad_per_count = o.position_rad_per_count;
   c.scaling.velocity_rad_per_s_per_unit = o.velocity_rad_per_s_per_unit;
   c.drive_heartbeat_period_ms = 50.0;
-  c.heartbeat_timeout_ms = 200.0;
-  c.stale_after_ms = std::max(10.0, 10.0 * o.period_ms);
+  c.heartbeat_timeout_ms = o.heartbeat_timeout_ms;
+  c.stale_after_ms = o.stale_ms > 0.0 ? o.stale_ms : std::max(10.0, 10.0 * o.period_ms);
   c.eds_file = o.eds_file;
   if (mode == fb::Cia402Mode::kCyclicSynchronousTorque) {
     c.max_torque_Nm = limit;
@@ -446,6 +448,13 @@ int Main(int argc, char** argv) {
   app.add_option("--position-per-count", o.position_rad_per_count, "rad per position unit")->capture_default_str();
   app.add_option("--velocity-per-unit", o.velocity_rad_per_s_per_unit, "rad/s per velocity unit")
       ->capture_default_str();
+  app.add_option("--stale-ms", o.stale_ms,
+                 "a TPDO older than this stops enable/jog/record (default: ten cycles, at least 10 ms)")
+      ->check(CLI::Range(1.0, 10000.0));
+  app.add_option("--heartbeat-timeout-ms", o.heartbeat_timeout_ms,
+                 "the drive's heartbeat (produced every 50 ms) missing this long stops enable/jog/record")
+      ->capture_default_str()
+      ->check(CLI::Range(60.0, 10000.0));
   app.add_option("--eds", o.eds_file, "the drive's EDS/DCF: checked before the drive is touched (enable, jog, record)");
 
   int from = 1, to = 127;
