@@ -10,11 +10,11 @@ namespace {
 // two agree signal by signal.
 constexpr std::array<SlotSignal, 6> kEvenSlot{{
     {SignalKind::kCounter, -1, 0, 4},
-    {SignalKind::kFlags, -1, 4, 6},
-    {SignalKind::kPosition, 0, 10, 14},
-    {SignalKind::kVelocity, 0, 24, 11},
-    {SignalKind::kForce, 0, 35, 12},
-    {SignalKind::kPosition, 1, 47, 14},
+    {SignalKind::kFlags, -1, 4, 7},
+    {SignalKind::kPosition, 0, 11, 14},
+    {SignalKind::kVelocity, 0, 25, 11},
+    {SignalKind::kForce, 0, 36, 12},
+    {SignalKind::kPosition, 1, 48, 14},
 }};
 constexpr std::array<SlotSignal, 6> kOddSlot{{
     {SignalKind::kCounter, -1, 0, 4},
@@ -75,11 +75,23 @@ int SlotCount(int dof) noexcept {
   return 2 * (last / 3) + (last % 3 == 0 ? 1 : 2);
 }
 
-int SlotLength(int slot, int dof) noexcept {
+namespace {
+
+int UsedEndBit(int slot, int dof) noexcept {
   int end_bit = 0;
   for (const SlotSignal& s : SlotSignals(slot)) {
     if (SignalUsed(slot, s, dof) && s.start_bit + s.length > end_bit) end_bit = s.start_bit + s.length;
   }
+  return end_bit;
+}
+
+}  // namespace
+
+int LayoutMarkerBit(int dof) noexcept { return UsedEndBit(0, dof); }
+
+int SlotLength(int slot, int dof) noexcept {
+  int end_bit = UsedEndBit(slot, dof);
+  if (slot == 0 && end_bit > 0) ++end_bit;  // the layout marker
   return (end_bit + 7) / 8;
 }
 

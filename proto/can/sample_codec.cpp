@@ -58,12 +58,16 @@ double FieldValue(const SampleMessage& m, SignalKind kind, int dof) noexcept {
   }
 }
 
+// The layout marker of slot 0 (frame_layout.hpp): always 1 in layout 2, 0 (reserved) in layout 1.
+std::uint64_t LayoutMarker(int dof) noexcept { return std::uint64_t{1} << LayoutMarkerBit(dof); }
+
 // Bits of `slot` that must be 0 for `dof` DOF: every bit of its `bytes` bytes not covered by a used signal.
 std::uint64_t ReservedMask(int slot, int dof, int bytes) noexcept {
   std::uint64_t used = 0;
   for (const SlotSignal& s : SlotSignals(slot)) {
     if (SignalUsed(slot, s, dof)) used |= FieldMask(s.length) << s.start_bit;
   }
+  if (slot == 0) used |= LayoutMarker(dof);
   return FieldMask(8 * bytes) & ~used;
 }
 
@@ -86,6 +90,7 @@ std::uint64_t EncodeSlot(const SampleMessage& m, int slot, int dof, EncodeResult
     }
     word |= (raw & FieldMask(s.length)) << s.start_bit;
   }
+  if (slot == 0) word |= LayoutMarker(dof);
   return word;
 }
 
@@ -161,6 +166,8 @@ const char* ToString(FrameStatus status) noexcept {
       return "non_finite";
     case FrameStatus::kCounterMismatch:
       return "counter_mismatch";
+    case FrameStatus::kOldLayout:
+      return "old_layout";
     case FrameStatus::kCount:
       break;
   }
@@ -214,8 +221,10 @@ FrameStatus CycleAssembler::PushClassic(const CanFrame& frame, SampleMessage& ou
     return FrameStatus::kUnknownId;
   }
   const int slot = static_cast<int>(frame.id - base_id_);
+  if (slot == 0 && format_.dof == 1 && frame.len == kLayout1OneDofSlotBytes) return FrameStatus::kOldLayout;
   if (frame.len != SlotLength(slot, format_.dof)) return FrameStatus::kBadLength;
   const std::uint64_t word = LoadLittleEndian(frame.data.data(), frame.len);
+  if (slot == 0 && (word & LayoutMarker(format_.dof)) == 0) return FrameStatus::kOldLayout;
   if ((word & reserved_mask_[static_cast<std::size_t>(slot)]) != 0) return FrameStatus::kReservedBits;
   const auto counter = static_cast<std::uint8_t>(word & FieldMask(kCounterBits));
   const auto bit = static_cast<std::uint8_t>(1u << slot);
@@ -266,7 +275,9 @@ FrameStatus CycleAssembler::PushClassic(const CanFrame& frame, SampleMessage& ou
 FrameStatus CycleAssembler::PushFd(const CanFrame& frame, SampleMessage& out) noexcept {
   if (frame.id != base_id_ + kFdIdOffset) return FrameStatus::kUnknownId;
   const std::size_t data_bytes = static_cast<std::size_t>(FdDataBytes(format_.dof));
+  if (format_.dof == 1 && frame.len == kLayout1OneDofSlotBytes) return FrameStatus::kOldLayout;
   if (frame.len != RoundUpToFdLength(data_bytes)) return FrameStatus::kBadLength;
+  if ((LoadLittleEndian(frame.data.data(), 8) & LayoutMarker(format_.dof)) == 0) return FrameStatus::kOldLayout;
   for (std::size_t i = data_bytes; i < frame.len; ++i) {
     if (frame.data[i] != 0) return FrameStatus::kReservedBits;
   }

@@ -50,7 +50,7 @@ TEST(CanBusLoad, ThreeDofClassicAtOneKilohertzIs54Percent) {
   EXPECT_EQ(b.frames_per_cycle, 2);
   EXPECT_EQ(b.data_bytes_per_cycle, 16);
   EXPECT_EQ(b.wire_bits_per_cycle, 270);      // 2 × (55 + 80)
-  EXPECT_EQ(b.payload_bits, 3 * 37 + 6 + 4);  // 121 bits → 16 bytes → 2 frames at least
+  EXPECT_EQ(b.payload_bits, 3 * 37 + 7 + 4);  // 122 bits → 16 bytes → 2 frames at least
   EXPECT_EQ(b.minimum_bits_per_cycle, 270);
   EXPECT_NEAR(b.overhead, 1.0, kTol);
   EXPECT_NEAR(b.load, 2 * 270e-6 * 1000.0, kTol);  // 0.54
@@ -60,7 +60,7 @@ TEST(CanBusLoad, FourDofClassicExceedsSeventyPercent) {
   const BusLoad b = ComputeBusLoad(Format(4), CanBitrates{1e6, 5e6}, 1000.0);
   EXPECT_EQ(b.wire_bits_per_cycle, 135 + 135 + 115);  // 8 + 8 + 6 bytes
   EXPECT_NEAR(b.load, 0.770, kTol);
-  // Minimum: 158 payload bits → 20 bytes → 3 frames: 3·55 + 10·20 = 365.
+  // Minimum: 159 payload bits → 20 bytes → 3 frames: 3·55 + 10·20 = 365.
   EXPECT_EQ(b.minimum_bits_per_cycle, 365);
   EXPECT_NEAR(b.overhead, 385.0 / 365.0, kTol);
   EXPECT_EQ(MaxDofWithinLoad(Format(1), CanBitrates{1e6, 5e6}, 1000.0, 0.70, 64), 3);
@@ -73,8 +73,21 @@ TEST(CanBusLoad, FourDofClassicExceedsSeventyPercent) {
 TEST(CanBusLoad, TwoDofOverheadAgainstMinimum) {
   const BusLoad b = ComputeBusLoad(Format(2), CanBitrates{}, 1000.0);
   EXPECT_EQ(b.wire_bits_per_cycle, 135 + 95);      // 8 + 4 bytes
-  EXPECT_EQ(b.minimum_bits_per_cycle, 110 + 110);  // 84 bits → 11 bytes in 2 frames
+  EXPECT_EQ(b.minimum_bits_per_cycle, 110 + 110);  // 85 bits → 11 bytes in 2 frames
   EXPECT_NEAR(b.overhead, 230.0 / 220.0, kTol);
+}
+
+// The layout marker makes the 1-DOF frame 7 bytes: 55 + 70 = 125 bits against the 6-byte minimum of its 48 payload
+// bits (115), the one DOF count whose frames the marker lengthens.
+TEST(CanBusLoad, OneDofClassicPaysOneByteForTheLayoutMarker) {
+  const BusLoad b = ComputeBusLoad(Format(1), CanBitrates{1e6, 5e6}, 1000.0);
+  EXPECT_EQ(b.frames_per_cycle, 1);
+  EXPECT_EQ(b.data_bytes_per_cycle, 7);
+  EXPECT_EQ(b.wire_bits_per_cycle, 125);
+  EXPECT_EQ(b.payload_bits, 37 + 7 + 4);
+  EXPECT_EQ(b.minimum_bits_per_cycle, 115);
+  EXPECT_NEAR(b.overhead, 125.0 / 115.0, kTol);
+  EXPECT_NEAR(b.load, 0.25, kTol);
 }
 
 TEST(CanBusLoad, FdThreeDofAtOneFiveMegabit) {

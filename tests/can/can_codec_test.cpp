@@ -2,6 +2,7 @@
 // and every kind of bad frame rejected by reason.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -54,17 +55,95 @@ TEST(CanCodec, GoldenClassicFramesThreeDof) {
   EXPECT_EQ(frames[1].id, 0x101u);
   EXPECT_FALSE(frames[0].fd);
   EXPECT_FALSE(frames[0].extended);
-  // Computed independently (Python, bit by bit from the table in frame_layout.hpp / proto/teleop.dbc).
-  EXPECT_EQ(Bytes(frames[0]), (std::vector<std::uint8_t>{0x15, 0xC9, 0x00, 0xFE, 0xB7, 0x84, 0xFF, 0x1F}));
+  // Computed independently (Python, bit by bit from the table in docs/can.md: layout 2, the layout marker bit 62).
+  EXPECT_EQ(Bytes(frames[0]), (std::vector<std::uint8_t>{0x15, 0x91, 0x01, 0xFC, 0x6F, 0x09, 0xFF, 0x7F}));
   EXPECT_EQ(Bytes(frames[1]), (std::vector<std::uint8_t>{0x15, 0x80, 0x00, 0xFC, 0xFF, 0x00, 0x10, 0x00}));
 }
 
-TEST(CanCodec, GoldenOneDofIsOneSixByteFrame) {
+TEST(CanCodec, GoldenOneDofIsOneSevenByteFrame) {
   SampleMessage m = GoldenSample();
   m.dof = 1;
   const auto frames = Encode(m, Format(1));
   ASSERT_EQ(frames.size(), 1u);
-  EXPECT_EQ(Bytes(frames[0]), (std::vector<std::uint8_t>{0x15, 0xC9, 0x00, 0xFE, 0xB7, 0x04}));
+  // 48 bits of signals, then the layout marker (bit 48): 7 bytes (layout 1 sent 6).
+  EXPECT_EQ(Bytes(frames[0]), (std::vector<std::uint8_t>{0x15, 0x91, 0x01, 0xFC, 0x6F, 0x09, 0x01}));
+}
+
+// kFlagClutched (bit 6) crosses CAN in the 7-bit Flags signal (bits 4..10), classic and FD, as over UDP.
+TEST(CanCodec, GoldenClutchedFramesCarryFlagBitSix) {
+  SampleMessage m = GoldenSample();
+  m.flags = kFlagEnabled | kFlagInFixture | kFlagClutched;  // 0x51
+  const auto frames = Encode(m, Format(3));
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_EQ(Bytes(frames[0]), (std::vector<std::uint8_t>{0x15, 0x95, 0x01, 0xFC, 0x6F, 0x09, 0xFF, 0x7F}));
+  EXPECT_EQ(Bytes(frames[1]), (std::vector<std::uint8_t>{0x15, 0x80, 0x00, 0xFC, 0xFF, 0x00, 0x10, 0x00}));
+  CycleAssembler rx(Format(3), SenderRole::kMaster);
+  SampleMessage out{};
+  ASSERT_EQ(rx.Push(frames[0], out), FrameStatus::kPending);
+  ASSERT_EQ(rx.Push(frames[1], out), FrameStatus::kComplete);
+  EXPECT_EQ(out.flags, kFlagEnabled | kFlagInFixture | kFlagClutched);
+
+  SampleMessage one = GoldenSample();
+  one.dof = 1;
+  one.flags = kFlagEnabled | kFlagClutched;  // 0x41
+  const auto one_frames = Encode(one, Format(1));
+  ASSERT_EQ(one_frames.size(), 1u);
+  EXPECT_EQ(Bytes(one_frames[0]), (std::vector<std::uint8_t>{0x15, 0x94, 0x01, 0xFC, 0x6F, 0x09, 0x01}));
+
+  m.sender = SenderRole::kSlave;
+  const auto fd = Encode(m, Format(3, true));
+  ASSERT_EQ(fd.size(), 1u);
+  EXPECT_EQ(Bytes(fd[0]), (std::vector<std::uint8_t>{0x15, 0x95, 0x01, 0xFC, 0x6F, 0x09, 0xFF, 0x7F, 0x15, 0x80, 0x00,
+                                                     0xFC, 0xFF, 0x00, 0x10, 0x00}));
+  CycleAssembler rx_fd(Format(3, true), SenderRole::kSlave);
+  ASSERT_EQ(rx_fd.Push(fd[0], out), FrameStatus::kComplete);
+  EXPECT_EQ(out.flags, kFlagEnabled | kFlagInFixture | kFlagClutched);
+}
+
+// Frames of CAN layout 1 (6-bit Flags, no layout marker; the golden bytes this test pinned before layout 2) are
+// refused as old_layout, never misread as shifted fields.
+TEST(CanRejection, Layout1FramesAreRefusedAsOldLayout) {
+  SampleMessage out{};
+  out.sequence = 777;
+  CycleAssembler rx3(Format(3), SenderRole::kMaster);
+  CanFrame slot0{};
+  slot0.id = 0x100;
+  slot0.len = 8;
+  const std::array<std::uint8_t, 8> old0{0x15, 0xC9, 0x00, 0xFE, 0xB7, 0x84, 0xFF, 0x1F};
+  std::copy(old0.begin(), old0.end(), slot0.data.begin());
+  CanFrame slot1{};
+  slot1.id = 0x101;
+  slot1.len = 8;
+  const std::array<std::uint8_t, 8> old1{0x15, 0x80, 0x00, 0xFC, 0xFF, 0x00, 0x10, 0x00};
+  std::copy(old1.begin(), old1.end(), slot1.data.begin());
+  EXPECT_EQ(rx3.Push(slot0, out), FrameStatus::kOldLayout);
+  EXPECT_EQ(rx3.Push(slot1, out), FrameStatus::kPending);  // slot 1 has no marker: its cycle never completes
+  EXPECT_EQ(out.sequence, 777u);
+
+  CycleAssembler rx1(Format(1), SenderRole::kMaster);
+  CanFrame one{};
+  one.id = 0x100;
+  one.len = 6;
+  const std::array<std::uint8_t, 6> old_one{0x15, 0xC9, 0x00, 0xFE, 0xB7, 0x04};
+  std::copy(old_one.begin(), old_one.end(), one.data.begin());
+  EXPECT_EQ(rx1.Push(one, out), FrameStatus::kOldLayout);
+
+  CycleAssembler rx_fd(Format(3, true), SenderRole::kSlave);
+  CanFrame fd{};
+  fd.id = 0x184;
+  fd.fd = true;
+  fd.brs = true;
+  fd.len = 16;
+  std::copy(old0.begin(), old0.end(), fd.data.begin());
+  std::copy(old1.begin(), old1.end(), fd.data.begin() + 8);
+  EXPECT_EQ(rx_fd.Push(fd, out), FrameStatus::kOldLayout);
+  CycleAssembler rx_fd1(Format(1, true), SenderRole::kSlave);
+  CanFrame fd1 = one;
+  fd1.id = 0x184;
+  fd1.fd = true;
+  EXPECT_EQ(rx_fd1.Push(fd1, out), FrameStatus::kOldLayout);
+  EXPECT_EQ(out.sequence, 777u);  // untouched
+  EXPECT_STREQ(ToString(FrameStatus::kOldLayout), "old_layout");
 }
 
 TEST(CanCodec, GoldenFdFrameIsTheSlotsConcatenated) {
@@ -75,14 +154,14 @@ TEST(CanCodec, GoldenFdFrameIsTheSlotsConcatenated) {
   EXPECT_EQ(frames[0].id, 0x184u);
   EXPECT_TRUE(frames[0].fd);
   EXPECT_TRUE(frames[0].brs);
-  EXPECT_EQ(Bytes(frames[0]), (std::vector<std::uint8_t>{0x15, 0xC9, 0x00, 0xFE, 0xB7, 0x84, 0xFF, 0x1F, 0x15, 0x80,
+  EXPECT_EQ(Bytes(frames[0]), (std::vector<std::uint8_t>{0x15, 0x91, 0x01, 0xFC, 0x6F, 0x09, 0xFF, 0x7F, 0x15, 0x80,
                                                          0x00, 0xFC, 0xFF, 0x00, 0x10, 0x00}));
 }
 
 TEST(CanCodec, SlotCountsAndLengthsPerDof) {
   const std::array<int, 6> slots{1, 2, 2, 3, 4, 4};
-  const std::array<std::vector<int>, 6> lengths{{{6}, {8, 4}, {8, 8}, {8, 8, 6}, {8, 8, 8, 4}, {8, 8, 8, 8}}};
-  const std::array<int, 6> fd_len{6, 12, 16, 24, 32, 32};
+  const std::array<std::vector<int>, 6> lengths{{{7}, {8, 4}, {8, 8}, {8, 8, 6}, {8, 8, 8, 4}, {8, 8, 8, 8}}};
+  const std::array<int, 6> fd_len{7, 12, 16, 24, 32, 32};
   for (int dof = 1; dof <= 6; ++dof) {
     const auto i = static_cast<std::size_t>(dof - 1);
     EXPECT_EQ(SlotCount(dof), slots[i]) << dof;
@@ -144,8 +223,7 @@ TEST(CanCodec, RoundTripWithinHalfLsbAllDofBothFormats) {
         SampleMessage m{};
         m.sender = SenderRole::kSlave;
         m.dof = static_cast<std::uint8_t>(dof);
-        // The CAN Flags signal is 6 bits: kFlagClutched (bit 6) does not cross CAN (docs/clutch.md).
-        m.flags = static_cast<std::uint8_t>(rng() & kKnownFlags & 0x3F);
+        m.flags = static_cast<std::uint8_t>(rng() & kKnownFlags);  // bits 0..6, kFlagClutched included
         m.sequence = static_cast<std::uint32_t>(i);
         for (int d = 0; d < dof; ++d) {
           const auto j = static_cast<std::size_t>(d);
@@ -291,8 +369,11 @@ TEST(CanRejection, EveryBadFrameHasItsReason) {
   CycleAssembler rx1(f1, SenderRole::kMaster);
   CanFrame reserved = Encode(one_dof, f1)[0];
   EXPECT_EQ(rx1.Push(reserved, out), FrameStatus::kComplete);
-  reserved.data[5] |= 0x80;  // bit 47: reserved for 1 DOF
+  reserved.data[6] |= 0x80;  // bit 55: reserved for 1 DOF (bits 49..55 after the marker)
   EXPECT_EQ(rx1.Push(reserved, out), FrameStatus::kReservedBits);
+  CanFrame unmarked = Encode(one_dof, f1)[0];
+  unmarked.data[6] = 0;  // the layout marker (bit 48) cleared: not layout 2
+  EXPECT_EQ(rx1.Push(unmarked, out), FrameStatus::kOldLayout);
 
   EXPECT_EQ(rx.Push(good[0], out), FrameStatus::kPending);
   EXPECT_EQ(rx.Push(good[0], out), FrameStatus::kDuplicateFrame);

@@ -79,33 +79,52 @@ std::map<std::uint32_t, DbcMessage> ParseDbc(const std::string& path) {
   return messages;
 }
 
-// What the codec's table says message `id` carries (6 DOF, the largest layout the DBC describes).
-std::vector<DbcSignal> ExpectedSignals(bool fd, const std::string& receiver) {
+// What the codec's table says slot `slot` carries (6 DOF, the largest layout the DBC describes): its signals, and
+// for slot 0 the layout marker (a 1-bit unsigned signal "Layout", always 1). FD: bit positions in the FD frame.
+std::vector<DbcSignal> SlotExpected(int slot, bool fd, const std::string& receiver) {
   std::vector<DbcSignal> out;
   const int dof = kMaxWireDof;
-  for (int slot = 0; slot < SlotCount(dof); ++slot) {
-    for (const SlotSignal& s : SlotSignals(slot)) {
-      if (!SignalUsed(slot, s, dof)) continue;
-      const FieldScaling& sc = ScalingOf(s.kind);
-      DbcSignal d;
-      d.name = sc.name;
-      if (s.dof_in_pair >= 0) {
-        d.name += std::to_string(GlobalDof(slot, s));
-      } else if (fd && s.kind == SignalKind::kCounter) {
-        d.name += "_S" + std::to_string(slot);
-      }
-      d.start_bit = s.start_bit + (fd ? 64 * slot : 0);
-      d.length = s.length;
-      d.intel = true;
-      d.is_signed = sc.is_signed;
-      d.factor = sc.lsb;
-      d.offset = 0;
-      d.max = sc.is_signed ? MaxAbsValue(sc) : static_cast<double>((1 << s.length) - 1);
-      d.min = sc.is_signed ? -d.max : 0.0;
-      d.unit = sc.unit;
-      d.receiver = receiver;
-      out.push_back(d);
+  for (const SlotSignal& s : SlotSignals(slot)) {
+    if (!SignalUsed(slot, s, dof)) continue;
+    const FieldScaling& sc = ScalingOf(s.kind);
+    DbcSignal d;
+    d.name = sc.name;
+    if (s.dof_in_pair >= 0) {
+      d.name += std::to_string(GlobalDof(slot, s));
+    } else if (fd && s.kind == SignalKind::kCounter) {
+      d.name += "_S" + std::to_string(slot);
     }
+    d.start_bit = s.start_bit + (fd ? 64 * slot : 0);
+    d.length = s.length;
+    d.intel = true;
+    d.is_signed = sc.is_signed;
+    d.factor = sc.lsb;
+    d.offset = 0;
+    d.max = sc.is_signed ? MaxAbsValue(sc) : static_cast<double>((1 << s.length) - 1);
+    d.min = sc.is_signed ? -d.max : 0.0;
+    d.unit = sc.unit;
+    d.receiver = receiver;
+    out.push_back(d);
+  }
+  if (slot == 0) {
+    DbcSignal marker;
+    marker.name = "Layout";
+    marker.start_bit = LayoutMarkerBit(dof);
+    marker.length = 1;
+    marker.intel = true;
+    marker.factor = 1;
+    marker.max = 1;
+    marker.receiver = receiver;
+    out.push_back(marker);
+  }
+  return out;
+}
+
+std::vector<DbcSignal> ExpectedSignals(bool fd, const std::string& receiver) {
+  std::vector<DbcSignal> out;
+  for (int slot = 0; slot < SlotCount(kMaxWireDof); ++slot) {
+    const std::vector<DbcSignal> signals = SlotExpected(slot, fd, receiver);
+    out.insert(out.end(), signals.begin(), signals.end());
   }
   return out;
 }
@@ -131,6 +150,14 @@ void ExpectSameSignals(const std::vector<DbcSignal>& dbc, const std::vector<DbcS
   }
 }
 
+// The DBC's VERSION names the layout the codec speaks (a tool user can tell a layout-1 DBC from this one).
+TEST(CanDbc, VersionIsTheCodecsLayoutVersion) {
+  std::ifstream in(TELEOP_DBC_PATH);
+  std::string first;
+  std::getline(in, first);
+  EXPECT_EQ(first, "VERSION \"teleop-can-" + std::to_string(kCanLayoutVersion) + "\"");
+}
+
 TEST(CanDbc, EveryMessageAndSignalMatchesTheCodecTable) {
   const auto messages = ParseDbc(TELEOP_DBC_PATH);
   const CanWireFormat defaults{};
@@ -140,23 +167,13 @@ TEST(CanDbc, EveryMessageAndSignalMatchesTheCodecTable) {
     const std::string sender = role == SenderRole::kMaster ? "MASTER" : "SLAVE";
     const std::string receiver = role == SenderRole::kMaster ? "SLAVE" : "MASTER";
     // Classic: the signals of slot k in message base + k.
-    const std::vector<DbcSignal> all = ExpectedSignals(false, receiver);
     for (int slot = 0; slot < kMaxSlots; ++slot) {
       const auto it = messages.find(base + static_cast<std::uint32_t>(slot));
       ASSERT_NE(it, messages.end()) << base + slot;
       EXPECT_EQ(it->second.dlc, 8);
       EXPECT_EQ(it->second.sender, sender);
       EXPECT_EQ(it->second.frame_format, 0);
-      std::vector<DbcSignal> expected;
-      std::size_t index = 0;
-      for (int k = 0; k < kMaxSlots; ++k) {
-        for (const SlotSignal& s : SlotSignals(k)) {
-          if (!SignalUsed(k, s, kMaxWireDof)) continue;
-          if (k == slot) expected.push_back(all[index]);
-          ++index;
-        }
-      }
-      ExpectSameSignals(it->second.signals, expected, it->second.name);
+      ExpectSameSignals(it->second.signals, SlotExpected(slot, false, receiver), it->second.name);
     }
     const auto fd = messages.find(base + kFdIdOffset);
     ASSERT_NE(fd, messages.end());
@@ -186,7 +203,7 @@ TEST(CanDbc, CodecFramesDecodeThroughTheDbc) {
   SampleMessage m{};
   m.sender = SenderRole::kSlave;
   m.dof = 6;
-  m.flags = kFlagFault | kFlagShutdown;
+  m.flags = kFlagFault | kFlagShutdown | kFlagClutched;
   m.sequence = 11;
   for (std::size_t j = 0; j < 6; ++j) {
     m.position_m[j] = u(rng);
@@ -211,7 +228,9 @@ TEST(CanDbc, CodecFramesDecodeThroughTheDbc) {
         if (stem == "Counter") {
           EXPECT_EQ(v, 11.0) << s.name;
         } else if (stem == "Flags") {
-          EXPECT_EQ(v, static_cast<double>(kFlagFault | kFlagShutdown));
+          EXPECT_EQ(v, static_cast<double>(kFlagFault | kFlagShutdown | kFlagClutched));
+        } else if (stem == "Layout") {
+          EXPECT_EQ(v, 1.0) << "the layout marker of layout " << kCanLayoutVersion;
         } else {
           const auto j = static_cast<std::size_t>(std::stoi(s.name.substr(stem.size())));
           const double expected = stem == "Position"   ? m.position_m[j]
@@ -222,7 +241,7 @@ TEST(CanDbc, CodecFramesDecodeThroughTheDbc) {
         ++checked;
       }
     }
-    EXPECT_EQ(checked, 4 + 1 + 18) << "fd " << fd;  // 4 counters, flags, 6 DOF × 3
+    EXPECT_EQ(checked, 4 + 1 + 1 + 18) << "fd " << fd;  // 4 counters, flags, the layout marker, 6 DOF × 3
   }
 }
 

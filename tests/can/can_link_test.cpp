@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -183,6 +184,42 @@ TEST(CanLink, EveryBadInputIsCountedByReasonAndNeverApplied) {
   EXPECT_EQ(rig.slave.counters().rejected_by_reason[static_cast<std::size_t>(DecodeStatus::kNonFinite)], 1u);
   ExpectBalanced(rig.slave.counters());
   EXPECT_NE(rig.slave.Summary().find("partial cycles 1"), std::string::npos) << rig.slave.Summary();
+}
+
+// A peer of an older build sends CAN layout 1 (6-bit Flags, no layout marker): its cycles are refused, counted as
+// bad_version (the UDP sample's reason for another protocol version) and named old_layout in the summary.
+TEST(CanLink, APeerOfTheOldLayoutIsRefusedAsBadVersion) {
+  for (const int dof : {1, 3}) {
+    SCOPED_TRACE(dof);
+    Rig rig(Format(dof));
+    proto::SampleMessage out{};
+    out.sequence = 0xDEAD;
+    // The 3-DOF cycle of CAN layout 1 (the golden frames of the previous layout), and the 1-DOF one (6 bytes).
+    CanFrame slot0{};
+    slot0.id = 0x100;
+    slot0.len = dof == 1 ? 6 : 8;
+    const std::array<std::uint8_t, 8> old0{0x15, 0xC9, 0x00, 0xFE, 0xB7, 0x84, 0xFF, 0x1F};
+    std::copy(old0.begin(), old0.begin() + slot0.len, slot0.data.begin());
+    if (dof == 1) slot0.data[5] = 0x04;
+    CanFrame slot1{};
+    slot1.id = 0x101;
+    slot1.len = 8;
+    const std::array<std::uint8_t, 8> old1{0x15, 0x80, 0x00, 0xFC, 0xFF, 0x00, 0x10, 0x00};
+    std::copy(old1.begin(), old1.end(), slot1.data.begin());
+    for (int cycle = 0; cycle < 5; ++cycle) {
+      rig.Rogue(slot0);
+      if (dof == 3) rig.Rogue(slot1);
+      rig.clock.now_ns += kPeriod_ns;
+      EXPECT_FALSE(rig.slave.Poll(out));
+    }
+    EXPECT_EQ(out.sequence, 0xDEADu) << "never applied";
+    EXPECT_EQ(rig.slave.counters().accepted, 0u);
+    EXPECT_EQ(rig.slave.counters().rejected_by_reason[static_cast<std::size_t>(DecodeStatus::kBadVersion)], 5u);
+    EXPECT_EQ(rig.slave.can_counters().frames_by_status[static_cast<std::size_t>(proto::can::FrameStatus::kOldLayout)],
+              5u);
+    EXPECT_NE(rig.slave.Summary().find("old_layout 5"), std::string::npos) << rig.slave.Summary();
+    ExpectBalanced(rig.slave.counters());
+  }
 }
 
 TEST(CanLink, ErrorFramesAreCountedAndBusOffIsALinkFault) {

@@ -142,14 +142,15 @@ TEST(StabilityCheck, TriggeredOverCanCountsTheFramesOnTheBus) {
   c.link.transport = "emulated-can";
   c.dof = 1;
   c.link.can.dof = 1;
-  // 1 DOF, classic 1 Mbit/s, 11-bit: one 6-byte frame, 55 + 10·6 = 115 bits = 115 µs; the slave's is the same.
-  EXPECT_NEAR(TriggeredDataAge_s(c), kTriggeredDataAge_s + 2 * 115e-6, 1e-9);
-  EXPECT_NEAR(*StabilityModel(c, 0).slave_peer_delay_fraction, (kTriggeredDataAge_s + 230e-6) * 1000.0, 1e-6);
+  // 1 DOF, classic 1 Mbit/s, 11-bit: one 7-byte frame (CAN layout 2), 55 + 10·7 = 125 bits = 125 µs; the slave's is
+  // the same.
+  EXPECT_NEAR(TriggeredDataAge_s(c), kTriggeredDataAge_s + 2 * 125e-6, 1e-9);
+  EXPECT_NEAR(*StabilityModel(c, 0).slave_peer_delay_fraction, (kTriggeredDataAge_s + 250e-6) * 1000.0, 1e-6);
   const double can_limit = CheckProcessStability(c).axes[0].limit.max_stable_stiffness_N_per_m;
   EXPECT_LT(can_limit, udp_limit) << "the frames' time makes the slave's data older than over UDP";
-  // 250 kbit/s: 460 µs per frame, so the data age 100 + 920 µs is a whole period at 1 kHz: the fraction saturates.
+  // 250 kbit/s: 500 µs per frame, so the data age 100 + 1000 µs is over a period at 1 kHz: the fraction saturates.
   c.link.can.nominal_bitrate_bit_per_s = 250'000.0;
-  EXPECT_NEAR(TriggeredDataAge_s(c), kTriggeredDataAge_s + 2 * 460e-6, 1e-9);
+  EXPECT_NEAR(TriggeredDataAge_s(c), kTriggeredDataAge_s + 2 * 500e-6, 1e-9);
   EXPECT_DOUBLE_EQ(*StabilityModel(c, 0).slave_peer_delay_fraction, 1.0);
   // 6 DOF on CAN FD 1/5 Mbit/s: one 32-byte frame of 34 nominal + 358 data bits (docs/can.md): 105.6 µs each way.
   c.link.can.nominal_bitrate_bit_per_s = 1'000'000.0;

@@ -3,6 +3,7 @@
 // loop-side call allocates nothing. Bounded waits; nothing is timed.
 #include "teleop/dds/bridge.hpp"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -10,6 +11,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <functional>
+#include <map>
+#include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -77,8 +81,14 @@ BridgeSample Sample(std::uint64_t cycle, double time_s, std::uint64_t accepted, 
 
 TEST(Bridge, StateEventsAndSummaryArriveWithTheirFigures) {
   std::string event_seen;
+  std::mutex traces_mutex;
+  std::map<std::uint64_t, std::optional<bool>> clutched_by_cycle;  // the dashboard's trace of each State
   Supervisor::Observer observer;
   observer.on_event = [&](const ProcessView&, const std::string& kind, std::uint64_t, double) { event_seen = kind; };
+  observer.on_state = [&](const ProcessView&, const StateTrace& t) {
+    const std::lock_guard<std::mutex> lock(traces_mutex);
+    clutched_by_cycle[t.cycle] = t.clutched;
+  };
   Supervisor supervisor({TestDomain(), 1.0}, observer);
   Bridge bridge(TestConfig("bridge_test_a"), Role::kSlave, 1000.0);
   EXPECT_EQ(bridge.decimation(), 50U);  // 1000 Hz loop, 20 Hz state
@@ -98,6 +108,7 @@ TEST(Bridge, StateEventsAndSummaryArriveWithTheirFigures) {
   b.device_faults = 0x4;
   b.engagement = Engagement::kFault;
   b.watchdog_trips = 2;
+  b.record.clutch = 2 | 4;  // the peer's flag and the command channel
   ASSERT_TRUE(bridge.PushState(b));
   ASSERT_TRUE(WaitFor(supervisor, "bridge_test_a", "slave", [](const ProcessView& v) { return v.cycle == 1050; }));
   const ProcessView v = supervisor.Snapshot(runtime::MonotonicNowNs()).front();
@@ -113,6 +124,15 @@ TEST(Bridge, StateEventsAndSummaryArriveWithTheirFigures) {
   EXPECT_EQ(v.packets_lost, 12U);
   EXPECT_EQ(v.packets_accepted, 1038U);
   EXPECT_DOUBLE_EQ(v.tracking_error_m, 0.0002);
+  EXPECT_EQ(v.clutch, 6U) << "the State's clutch sources";
+  EXPECT_THAT(FormatTable({v}), ::testing::HasSubstr("peer+command"));
+  {
+    const std::lock_guard<std::mutex> lock(traces_mutex);
+    ASSERT_EQ(clutched_by_cycle.count(1000), 1U);
+    ASSERT_EQ(clutched_by_cycle.count(1050), 1U);
+    EXPECT_EQ(clutched_by_cycle[1000], std::optional<bool>(false)) << "released: the dashboard shows released";
+    EXPECT_EQ(clutched_by_cycle[1050], std::optional<bool>(true)) << "clutched: the dashboard shows clutched";
+  }
 
   bridge.OnEvent({node::Event::Kind::kPeerLost, 1049, 0.0});
   ASSERT_TRUE(

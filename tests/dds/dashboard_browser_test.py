@@ -8,6 +8,9 @@ chromium-driver) opens it. Checks:
   - the traces advance: every plot (position, force, fixture penetration, data age, round trip) is drawn by dygraphs
     and its x range moves on with the supervisor's clock, new State samples keep arriving, and the master's position
     trace moves (the sine);
+  - the clutch: `teleop-ctl clutch on` on the master's command socket shows both sides clutched (the master by its
+    command, the slave by the peer's flag) and the pair no longer coupled; `clutch off` shows both released and
+    coupled again (the State's `clutch` field, docs/dds.md);
   - cutting the pair (SIGKILL of the slave, no goodbye on DDS) changes the state shown within a bound: the master's
     engagement becomes peer_lost, the slave's status stale, and the slave's data-age trace grows past the stale limit;
   - the browser logged no script error.
@@ -22,6 +25,7 @@ import re
 import shutil
 import signal
 import socket
+import subprocess
 import sys
 import tempfile
 import time
@@ -109,7 +113,7 @@ for (const [name, g] of Object.entries(d.graphs)) {
                   canvas: g.graphDiv.querySelectorAll('canvas').length};
 }
 const badge = (role) => { const b = document.getElementById('badge-' + role);
-  return {engagement: b.dataset.engagement, status: b.dataset.status, text: b.textContent.replace(/\\s+/g, ' ')}; };
+  return {engagement: b.dataset.engagement, status: b.dataset.status, clutch: b.dataset.clutch || '', text: b.textContent.replace(/\\s+/g, ' ')}; };
 const rows = [...document.querySelectorAll('#processes tbody tr')].map(
   (tr) => [...tr.querySelectorAll('td')].map((td) => td.textContent));
 return {pair: d.pair, states: d.statesReceived, processes: d.processesReceived, graphs: graphs,
@@ -125,6 +129,7 @@ def main():
     ap.add_argument("--master", required=True)
     ap.add_argument("--slave", required=True)
     ap.add_argument("--supervise", required=True)
+    ap.add_argument("--ctl", required=True)
     ap.add_argument("--configs", required=True)
     ap.add_argument("--workdir", required=True)
     args = ap.parse_args()
@@ -153,7 +158,7 @@ def main():
             write_config(os.path.join(args.configs, f"{role}.yaml"), cfg, ports, domain, pair, role)
             cmd = [args.slave if role == "slave" else args.master, "--config", cfg]
             if role == "master":
-                cmd += ["--duration", str(MASTER_DURATION_S)]
+                cmd += ["--duration", str(MASTER_DURATION_S), "--command-socket", os.path.join(work, "master.sock")]
             spawn(role, cmd)
         print(f"domain {domain}, pair {pair}, dashboard {base}/")
 
@@ -175,7 +180,7 @@ def main():
             print(f"SKIPPED: {why}")
             return SKIP
         try:
-            return browse(driver, procs, base, pair, work)
+            return browse(driver, procs, base, pair, work, args.ctl)
         except Failure:
             for log in procs.logs:
                 log.flush()
@@ -186,7 +191,7 @@ def main():
             driver.quit()
 
 
-def browse(driver, procs, base, pair, work):
+def browse(driver, procs, base, pair, work, ctl):
     driver.set_page_load_timeout(15)
     driver.get(f"{base}/?pair={pair}")
 
@@ -224,6 +229,35 @@ def browse(driver, procs, base, pair, work):
           f"{len(xs)} points)")
     rtts = second["graphs"]["rtt"]["columns"]["master"]
     check(rtts and all(0 < v < 50 for v in rtts), f"round trips plotted ({min(rtts):.3f}..{max(rtts):.3f} ms)")
+
+    def command(line):
+        out = subprocess.run([ctl, "--socket", os.path.join(work, "master.sock")] + line.split(),
+                             capture_output=True, text=True, timeout=10)
+        check(out.returncode == 0 and out.stdout.startswith("ok"),
+              f"teleop-ctl {line}: exit {out.returncode}, {out.stdout.strip()} {out.stderr.strip()}")
+
+    check(second["master"]["clutch"] == "released" and second["slave"]["clutch"] == "released",
+          f"both badges show the clutch released ({second['master']['clutch']!r}, {second['slave']['clutch']!r})")
+    command("clutch on")
+
+    def clutched():
+        s = state()
+        ok = all(s[r]["clutch"] == "clutched" and s[r]["engagement"] != "coupled" for r in ("master", "slave"))
+        return s if ok else None
+    on = wait_until(clutched, 5, "both sides shown clutched and not coupled", interval_s=0.1)
+    print(f"  clutch on shown: master '{on['master']['text'].strip()}', slave '{on['slave']['text'].strip()}'")
+    shot = os.path.join(work, "dashboard_clutched.png")
+    driver.save_screenshot(shot)
+    print(f"  screenshot (clutched): {shot}")
+    command("clutch off")
+
+    def released():
+        s = state()
+        ok = all(s[r]["clutch"] == "released" and s[r]["engagement"] == "coupled" for r in ("master", "slave"))
+        return s if ok else None
+    wait_until(released, 10, "both sides shown released and coupled again (re-indexed through aligning)",
+               interval_s=0.1)
+    second = state()
 
     t_cut = second["tNow"]
     procs["slave"].send_signal(signal.SIGKILL)

@@ -71,6 +71,18 @@ TEST(ProcessView, TableShowsTheFiguresInTheirUnits) {
   EXPECT_THAT(table, HasSubstr("0x2"));
   EXPECT_THAT(table, HasSubstr(" 1.200 "));  // mm
   EXPECT_THAT(table, HasSubstr("peer_connected"));
+  EXPECT_THAT(table, HasSubstr("CLUTCH"));
+  v.clutch = 1 | 4;  // the device's pedal and the command channel
+  EXPECT_THAT(FormatTable({v}), HasSubstr(" device+command "));
+}
+
+TEST(ProcessView, ClutchTextNamesTheSources) {
+  EXPECT_EQ(ClutchText(0), "-");
+  EXPECT_EQ(ClutchText(1), "device");
+  EXPECT_EQ(ClutchText(2), "peer");
+  EXPECT_EQ(ClutchText(4), "command");
+  EXPECT_EQ(ClutchText(7), "device+peer+command");
+  EXPECT_EQ(ClutchText(0x12), "peer+other");
 }
 
 TEST(ProcessView, JsonLinesWriteNullForUnknownNumbersAndEscapeText) {
@@ -85,7 +97,7 @@ TEST(ProcessView, JsonLinesWriteNullForUnknownNumbersAndEscapeText) {
   EXPECT_THAT(line, HasSubstr("\"loss_fraction\":0.0125"));
   EXPECT_THAT(line, HasSubstr("\"rate_hz\":1000,\"achieved_rate_hz\":999.5,"));
   EXPECT_THAT(line, HasSubstr("\"packets_lost\":3,"));
-  EXPECT_THAT(line, HasSubstr("\"engagement\":\"coupled\","));
+  EXPECT_THAT(line, HasSubstr("\"engagement\":\"coupled\",\"clutch\":0,"));
   EXPECT_THAT(line, HasSubstr("\"last_event\":\"\"}"));
   EXPECT_EQ(line.find('\n'), std::string::npos);
   EXPECT_EQ(JsonString("a\"b\\c\nd\x01"), "\"a\\\"b\\\\c\\nd\\u0001\"");
@@ -101,6 +113,8 @@ TEST(ProcessView, CsvRowMatchesTheHeader) {
   v.rtt_ms = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(count(CsvRow(v, 1.0)), count(CsvHeader()));
   EXPECT_THAT(CsvRow(v, 1.0), HasSubstr(",3,"));  // packets_lost
+  v.clutch = 2;
+  EXPECT_THAT(CsvRow(v, 1.0), HasSubstr(",coupled,2,"));  // engagement, clutch
 }
 
 }  // namespace

@@ -68,7 +68,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   SampleMessage sent{};
   sent.sender = peer;
   sent.dof = static_cast<std::uint8_t>(format.dof);
-  sent.flags = static_cast<std::uint8_t>(data[size - 1] & kKnownFlags & 0x3F);  // the 6-bit CAN Flags signal
+  sent.flags = static_cast<std::uint8_t>(data[size - 1] & kKnownFlags);  // the 7-bit CAN Flags signal (layout 2)
   sent.sequence = static_cast<std::uint32_t>(size);
   for (int d = 0; d < format.dof; ++d) {
     const auto byte = [&](std::size_t k) {

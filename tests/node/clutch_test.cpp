@@ -1,5 +1,6 @@
 // Clutch and indexing (docs/clutch.md) between two TeleopNodes with loopback plants, joined by an emulated link
-// and stepped in lock-step on a simulated clock: deterministic. The master's operator pushes it sinusoidally; the
+// (UDP's EmulatedLink, or CanLinks on the in-process EmulatedCanBus, classic or FD) and stepped in lock-step on a
+// simulated clock: deterministic. The master's operator pushes it sinusoidally; the
 // operator presses the clutch pedal (LoopbackPlant::SetClutch) or the command channel does (TeleopNode::SetClutch).
 // The bounds: engagement.max_force_rate_N_per_s (100 N/s below) on the coupling force at press and release, the
 // slave within 1 mm of where the clutch caught it (the cut tests' excursion target), the re-index offset equal to
@@ -25,6 +26,8 @@
 #include "teleop/device/loopback/loopback_plant.hpp"
 #include "teleop/node/command_server.hpp"
 #include "teleop/node/teleop_node.hpp"
+#include "teleop/transport/can_emulated_bus.hpp"
+#include "teleop/transport/can_link.hpp"
 #include "teleop/transport/emulated_link.hpp"
 #include "test_utilities/limit_malloc.hpp"
 
@@ -93,10 +96,14 @@ class CuttableLink final : public transport::Link {
   const bool* cut_;
 };
 
+/// What joins the pair: the emulated UDP link, or a CanLink on each side of one in-process CAN bus (1 Mbit/s; the
+/// 1-DOF cycle is one 7-byte frame, 125 bits: each side's sample reaches the other's next cycle).
+enum class Medium { kUdp, kCan, kCanFd };
+
 struct Rig {
   explicit Rig(const std::string& master_law = "", const std::string& slave_law = "",
-               const std::string& engagement = "max_force_rate_N_per_s: 100", const std::string& slave_extra = "") {
-    medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
+               const std::string& engagement = "max_force_rate_N_per_s: 100", const std::string& slave_extra = "",
+               Medium medium_kind = Medium::kUdp) {
     const config::ProcessConfig mc = config::ParseProcessConfig(MasterConfig(master_law, engagement), "master.yaml");
     const config::ProcessConfig sc =
         config::ParseProcessConfig(SlaveConfig(slave_law, engagement, slave_extra), "slave.yaml");
@@ -104,10 +111,30 @@ struct Rig {
     auto sd = device::MakeDevice(sc.device);
     master_plant = dynamic_cast<device::LoopbackPlant*>(md.get());
     slave_plant = dynamic_cast<device::LoopbackPlant*>(sd.get());
-    auto ml = std::make_unique<CuttableLink>(
-        std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kMaster), &cut);
-    auto sl = std::make_unique<CuttableLink>(
-        std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kSlave), &cut);
+    std::unique_ptr<transport::Link> master_link;
+    std::unique_ptr<transport::Link> slave_link;
+    if (medium_kind == Medium::kUdp) {
+      medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
+      master_link = std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kMaster);
+      slave_link = std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kSlave);
+    } else {
+      proto::can::CanWireFormat format{};
+      format.dof = 1;
+      format.fd = medium_kind == Medium::kCanFd;
+      bus =
+          std::make_unique<transport::EmulatedCanBus>(transport::EmulatedCanBusConfig{}, [this] { return bus_now_ns; });
+      auto mcan =
+          std::make_unique<transport::CanLink>(format, proto::SenderRole::kMaster, bus->MakePort(bus->AddNode()));
+      auto scan =
+          std::make_unique<transport::CanLink>(format, proto::SenderRole::kSlave, bus->MakePort(bus->AddNode()));
+      master_can = mcan.get();
+      slave_can = scan.get();
+      link_delay_cycles = 1;
+      master_link = std::move(mcan);
+      slave_link = std::move(scan);
+    }
+    auto ml = std::make_unique<CuttableLink>(std::move(master_link), &cut);
+    auto sl = std::make_unique<CuttableLink>(std::move(slave_link), &cut);
     master = std::make_unique<TeleopNode>(mc, std::move(md), std::move(ml));
     slave = std::make_unique<TeleopNode>(sc, std::move(sd), std::move(sl));
   }
@@ -118,7 +145,8 @@ struct Rig {
     const std::int64_t now_ns = 1'000'000'000 + static_cast<std::int64_t>(cycle) * 1'000'000;
     master->Step(cycle, kPeriod_s, now_ns);
     slave->Step(cycle, kPeriod_s, now_ns);
-    medium->Advance(kPeriod_s);
+    if (medium) medium->Advance(kPeriod_s);
+    bus_now_ns += 1'000'000;
     ++cycle;
     if (watch) {
       master_step_N = std::max(master_step_N, std::abs(master_plant->held_command_N()[0] - fm));
@@ -135,7 +163,14 @@ struct Rig {
   bool watch = false;
   double master_step_N = 0.0;
   double slave_step_N = 0.0;
-  std::shared_ptr<transport::EmulatedMedium> medium;
+  std::shared_ptr<transport::EmulatedMedium> medium;  ///< Medium::kUdp
+  std::uint64_t bus_now_ns = 0;                       ///< The CAN bus's clock (Medium::kCan, kCanFd).
+  /// Cycles a sample takes to reach the peer: 0 on the emulated UDP link (no delay configured), 1 on the CAN bus
+  /// (a frame is on the wire for 125 µs, so it is read in the peer's next cycle).
+  std::uint64_t link_delay_cycles = 0;
+  std::unique_ptr<transport::EmulatedCanBus> bus;  ///< Declared before the nodes: outlives their ports.
+  transport::CanLink* master_can = nullptr;        ///< Owned by the master node (through the CuttableLink).
+  transport::CanLink* slave_can = nullptr;
   device::LoopbackPlant* master_plant = nullptr;
   device::LoopbackPlant* slave_plant = nullptr;
   std::unique_ptr<TeleopNode> master;
@@ -170,6 +205,7 @@ ClutchResult RunClutch(Rig& rig, int hold_ms, int cut_ms = 0, double master_scal
   const double m_press = rig.master_x();
   rig.watch = true;
   rig.master_plant->SetClutch(true);
+  const std::uint64_t press_cycle = rig.cycle;
   const std::uint64_t release = rig.cycle + static_cast<std::uint64_t>(hold_ms);
   const std::uint64_t cut_from = rig.cycle + 100;
   const std::uint64_t cut_to = cut_from + static_cast<std::uint64_t>(cut_ms);
@@ -178,7 +214,9 @@ ClutchResult RunClutch(Rig& rig, int hold_ms, int cut_ms = 0, double master_scal
     rig.Step();
     r.slave_clutched = r.slave_clutched || rig.slave->clutched();
     r.slave_excursion_m = std::max(r.slave_excursion_m, std::abs(rig.slave_x() - x_press));
-    EXPECT_NE(rig.slave->engagement(), EngagementState::kEngaged) << "cycle " << rig.cycle;
+    if (rig.cycle > press_cycle + rig.link_delay_cycles) {  // the press has reached the slave
+      EXPECT_NE(rig.slave->engagement(), EngagementState::kEngaged) << "cycle " << rig.cycle;
+    }
   }
   r.master_travel_m = std::abs(rig.master_x() - m_press);
   r.offset_at_release_m = rig.slave_x() * master_scale - rig.master_x();
@@ -294,6 +332,44 @@ TEST(NodeClutch, TheSlavesCommandClutchesThePair) {
   EXPECT_EQ(rig.master->engagement(), EngagementState::kEngaged);
   EXPECT_EQ(rig.slave->engagement(), EngagementState::kEngaged);
   EXPECT_NEAR(rig.master->index_offset_m(0), offset, 0.3e-3);
+}
+
+// Over CAN (layout 2, docs/can.md): kFlagClutched crosses in the 7-bit Flags signal, so the master's pedal makes
+// the slave hold and the release re-indexes the pair, as over UDP; classic and FD.
+TEST(NodeClutchCan, APressOnTheMasterHoldsTheSlaveAndTheReleaseReindexes) {
+  for (const Medium m : {Medium::kCan, Medium::kCanFd}) {
+    SCOPED_TRACE(m == Medium::kCan ? "classic CAN" : "CAN FD");
+    Rig rig("", "", "max_force_rate_N_per_s: 100", "", m);
+    const ClutchResult r = RunClutch(rig, 600);
+    EXPECT_TRUE(r.slave_clutched) << "the clutch flag crossed the CAN link";
+    EXPECT_GT(r.master_travel_m, 3e-3);
+    EXPECT_LE(r.slave_excursion_m, kMaxExcursion_m) << "the slave holds while clutched";
+    EXPECT_GT(std::abs(r.index_offset_m), 3e-3);
+    EXPECT_NEAR(r.index_offset_m, r.offset_at_release_m, 0.2e-3);
+    EXPECT_TRUE(r.reengaged);
+    EXPECT_EQ(rig.slave_can->counters().rejected, 0U) << rig.slave_can->Summary();
+    EXPECT_EQ(rig.master_can->counters().rejected, 0U) << rig.master_can->Summary();
+  }
+}
+
+TEST(NodeClutchCan, TheSlavesCommandClutchesThePair) {
+  for (const Medium m : {Medium::kCan, Medium::kCanFd}) {
+    SCOPED_TRACE(m == Medium::kCan ? "classic CAN" : "CAN FD");
+    Rig rig("", "", "max_force_rate_N_per_s: 100", "", m);
+    rig.StepUntil(1000);
+    ASSERT_EQ(rig.master->engagement(), EngagementState::kEngaged);
+    rig.slave->SetClutch(true);
+    rig.StepUntil(1005);
+    EXPECT_TRUE(rig.master->clutched()) << "the slave's flag reached the master over CAN";
+    EXPECT_NE(rig.master->engagement(), EngagementState::kEngaged);
+    rig.StepUntil(1600);
+    const double offset = rig.slave_x() - rig.master_x();
+    rig.slave->SetClutch(false);
+    rig.StepUntil(3000);
+    EXPECT_EQ(rig.master->engagement(), EngagementState::kEngaged);
+    EXPECT_EQ(rig.slave->engagement(), EngagementState::kEngaged);
+    EXPECT_NEAR(rig.master->index_offset_m(0), offset, 0.3e-3);
+  }
 }
 
 TEST(NodeClutch, TheCycleAllocatesNothingThroughPressCutReleaseAndReindex) {

@@ -174,6 +174,7 @@ void Bridge::Impl::WriteState(const BridgeSample& s) {
   CopyArray(r.peer_position_m, msg.peer_position_m);
   msg.fixture_penetration_m = r.fixture_penetration_m;
   msg.tracking_error_m = s.tracking_error_m;
+  msg.clutch = static_cast<uint8_t>(r.clutch & 0xFF);
   if (state_writer.Write(&msg)) {
     states_published.fetch_add(1, std::memory_order_relaxed);
   } else {

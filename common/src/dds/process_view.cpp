@@ -28,6 +28,20 @@ std::string Faults(const ProcessView& v) {
 
 }  // namespace
 
+std::string ClutchText(std::uint8_t clutch) {
+  if (clutch == 0) return "-";
+  std::string out;
+  const auto add = [&out](const char* name) {
+    if (!out.empty()) out += '+';
+    out += name;
+  };
+  if ((clutch & 1U) != 0) add("device");
+  if ((clutch & 2U) != 0) add("peer");
+  if ((clutch & 4U) != 0) add("command");
+  if ((clutch & ~7U) != 0) add("other");
+  return out;
+}
+
 const char* ToString(ProcessView::Status status) noexcept {
   switch (status) {
     case ProcessView::Status::kDiscovered:
@@ -59,30 +73,30 @@ ProcessView::Status StatusOf(const ProcessView& view, std::int64_t now_ns, doubl
 
 std::string FormatTable(const std::vector<ProcessView>& views) {
   fmt::memory_buffer out;
-  constexpr const char* kRow = "{:<16} {:<6} {:<10} {:>6} {:>8} {:>7} {:>7} {:>8} {:<13} {:>6} {:>6} {:>9} {}\n";
+  constexpr const char* kRow = "{:<16} {:<6} {:<10} {:>6} {:>8} {:>7} {:>7} {:>8} {:<13} {:<12} {:>6} {:>6} {:>9} {}\n";
   fmt::format_to(std::back_inserter(out), fmt::runtime(kRow), "PAIR", "ROLE", "STATUS", "AGE_S", "RATE_HZ", "LOSS_%",
-                 "LOST", "RTT_MS", "ENGAGEMENT", "FAULTS", "TRIPS", "TRACK_MM", "LAST_EVENT");
+                 "LOST", "RTT_MS", "ENGAGEMENT", "CLUTCH", "FAULTS", "TRIPS", "TRACK_MM", "LAST_EVENT");
   for (const ProcessView& v : views) {
     fmt::format_to(std::back_inserter(out), fmt::runtime(kRow), v.pair, v.role, ToString(v.status),
                    Cell(v.age_s, "{:.1f}"), Cell(v.achieved_rate_hz, "{:.0f}"), Cell(v.loss_fraction * 100.0, "{:.2f}"),
-                   v.packets_lost, Cell(v.rtt_ms, "{:.3f}"), v.have_state ? ToString(v.engagement) : "-", Faults(v),
-                   v.watchdog_trips, Cell(v.tracking_error_m * 1e3, "{:.3f}"),
-                   v.last_event.empty() ? "-" : v.last_event);
+                   v.packets_lost, Cell(v.rtt_ms, "{:.3f}"), v.have_state ? ToString(v.engagement) : "-",
+                   v.have_state ? ClutchText(v.clutch) : "-", Faults(v), v.watchdog_trips,
+                   Cell(v.tracking_error_m * 1e3, "{:.3f}"), v.last_event.empty() ? "-" : v.last_event);
   }
   return fmt::to_string(out);
 }
 
 std::string CsvHeader() {
   return "t_s,pair,role,status,age_s,cycle,time_s,rate_hz,achieved_rate_hz,loss_fraction,packets_accepted,packets_lost,"
-         "packets_rejected,rtt_ms,engagement,device_faults,overruns,watchdog_trips,tracking_error_m,"
+         "packets_rejected,rtt_ms,engagement,clutch,device_faults,overruns,watchdog_trips,tracking_error_m,"
          "fixture_penetration_m,states_received,events_received,last_event";
 }
 
 std::string CsvRow(const ProcessView& v, double t_s) {
-  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", t_s, v.pair, v.role,
+  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", t_s, v.pair, v.role,
                      ToString(v.status), CsvNumber(v.age_s), v.cycle, v.time_s, v.rate_hz,
                      CsvNumber(v.achieved_rate_hz), CsvNumber(v.loss_fraction), v.packets_accepted, v.packets_lost,
-                     v.packets_rejected, CsvNumber(v.rtt_ms), v.have_state ? ToString(v.engagement) : "",
+                     v.packets_rejected, CsvNumber(v.rtt_ms), v.have_state ? ToString(v.engagement) : "", v.clutch,
                      v.device_faults, v.overruns, v.watchdog_trips, CsvNumber(v.tracking_error_m),
                      CsvNumber(v.fixture_penetration_m), v.states_received, v.events_received, v.last_event);
 }
@@ -92,13 +106,13 @@ std::string JsonStateLine(const ProcessView& v, double t_s) {
       "{{\"type\":\"state\",\"t_s\":{},\"pair\":{},\"role\":{},\"status\":\"{}\",\"age_s\":{},\"cycle\":{},"
       "\"time_s\":{},\"rate_hz\":{},\"achieved_rate_hz\":{},\"loss_fraction\":{},\"packets_accepted\":{},\"packets_"
       "lost\":{},"
-      "\"packets_rejected\":{},\"rtt_ms\":{},\"engagement\":\"{}\",\"device_faults\":{},\"overruns\":{},"
+      "\"packets_rejected\":{},\"rtt_ms\":{},\"engagement\":\"{}\",\"clutch\":{},\"device_faults\":{},\"overruns\":{},"
       "\"watchdog_trips\":{},\"tracking_error_m\":{},\"fixture_penetration_m\":{},\"states_received\":{},"
       "\"events_received\":{},\"last_event\":{}}}",
       JsonNumber(t_s), JsonString(v.pair), JsonString(v.role), ToString(v.status), JsonNumber(v.age_s), v.cycle,
       JsonNumber(v.time_s), JsonNumber(v.rate_hz), JsonNumber(v.achieved_rate_hz), JsonNumber(v.loss_fraction),
       v.packets_accepted, v.packets_lost, v.packets_rejected, JsonNumber(v.rtt_ms),
-      v.have_state ? ToString(v.engagement) : "", v.device_faults, v.overruns, v.watchdog_trips,
+      v.have_state ? ToString(v.engagement) : "", v.clutch, v.device_faults, v.overruns, v.watchdog_trips,
       JsonNumber(v.tracking_error_m), JsonNumber(v.fixture_penetration_m), v.states_received, v.events_received,
       JsonString(v.last_event));
 }

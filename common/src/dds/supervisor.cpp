@@ -60,6 +60,7 @@ StateTrace TraceOf(const teleop_msgs_msg_dds__State_& s, const ProcessView& v) {
   t.fixture_penetration_m = s.fixture_penetration_m;
   t.tracking_error_m = s.tracking_error_m;
   t.rtt_ms = s.rtt_ms;
+  t.clutched = s.clutch != 0;
   return t;
 }
 
@@ -182,6 +183,7 @@ void Supervisor::Impl::TakeStates(ProcessView& v, dds_entity_t reader) {
     v.packets_rejected = s.packets_rejected;
     v.tracking_error_m = s.tracking_error_m;
     v.fixture_penetration_m = s.fixture_penetration_m;
+    v.clutch = s.clutch;
     if (observer.on_state) observer.on_state(v, TraceOf(s, v));
   });
   dds_subscription_matched_status_t matched{};

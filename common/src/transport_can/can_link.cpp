@@ -40,6 +40,8 @@ DecodeStatus ReasonOf(FrameStatus status) noexcept {
       return DecodeStatus::kBadCrc;
     case FrameStatus::kNonFinite:
       return DecodeStatus::kNonFinite;
+    case FrameStatus::kOldLayout:
+      return DecodeStatus::kBadVersion;  // the peer runs CAN layout 1 (an older build)
     default:
       return DecodeStatus::kOutOfRange;  // reserved bits, duplicate frame
   }

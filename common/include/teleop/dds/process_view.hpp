@@ -45,6 +45,7 @@ struct ProcessView {
   std::uint64_t packets_rejected = 0;
   double tracking_error_m = 0.0;
   double fixture_penetration_m = 0.0;
+  std::uint8_t clutch = 0;  ///< Clutch sources held (1 device, 2 peer, 4 command channel; 0: released).
 
   // Events.
   std::uint64_t events_received = 0;
@@ -76,6 +77,9 @@ double StaleLimit_s(const ProcessView& view, double stale_after_s) noexcept;
 /// The status of `view` at supervisor time `now_ns`: finished (summary), gone (writer left), stale (no State
 /// within StaleLimit_s), live, or discovered (no State yet).
 ProcessView::Status StatusOf(const ProcessView& view, std::int64_t now_ns, double stale_after_s) noexcept;
+
+/// The clutch column: "-" when released, else the sources held joined by '+' ("device", "peer", "command").
+std::string ClutchText(std::uint8_t clutch);
 
 /// The live terminal table: one header line and one line per process, fixed-width columns.
 std::string FormatTable(const std::vector<ProcessView>& views);

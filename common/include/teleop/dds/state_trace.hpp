@@ -30,8 +30,8 @@ struct StateTrace {
   double fixture_penetration_m = 0.0;
   double tracking_error_m = 0.0;
   double rtt_ms = 0.0;  ///< NaN when unknown.
-  /// The clutch (issue 22, part 1): true while clutched. Not in the State message yet: stays empty, and the
-  /// dashboard shows a clutch field only for samples that have one.
+  /// The clutch: true while any source holds it (State `clutch` ≠ 0). Dds::Supervisor always fills it; a trace
+  /// without one (a test's) leaves it empty, and the dashboard then shows no clutch field.
   std::optional<bool> clutched;
 };
 

@@ -231,9 +231,10 @@
       badge.dataset.engagement = KNOWN_ENGAGEMENT.indexOf(engagement) >= 0 ? engagement : '';
       badge.dataset.status = KNOWN_STATUS.indexOf(status) >= 0 ? status : '';
       const clutch = badge.querySelector('.clutch');
-      // The clutch field exists only in States that carry it (issue 22, part 1): shown as soon as one does.
+      // The State's clutch ("clutched" / "released"; teleop-supervise sends it for every State it has).
       clutch.hidden = !(s && typeof s.clutch === 'string');
       if (!clutch.hidden) clutch.querySelector('.clutch-state').textContent = s.clutch;
+      badge.dataset.clutch = clutch.hidden ? '' : s.clutch;
     }
   }
 

@@ -19,8 +19,8 @@ struct EncodeResult {
 };
 
 /// Splits one sample into the frames of its cycle (see frame_layout.hpp). The counter is sequence mod 16, the
-/// identifiers are those of message.sender. message.dof must equal format.dof. Flag bits above bit 5 and the time
-/// stamps are not carried. Pure, no allocation.
+/// identifiers are those of message.sender. message.dof must equal format.dof. Flag bits 0..6 are carried (bit 6
+/// kFlagClutched); bit 7 (reserved) and the time stamps are not. Pure, no allocation.
 [[nodiscard]] EncodeResult EncodeCycle(const SampleMessage& message, const CanWireFormat& format,
                                        std::span<CanFrame> out) noexcept;
 
@@ -39,6 +39,8 @@ enum class FrameStatus : std::uint8_t {
   kDuplicateFrame,   ///< This slot of this cycle was already received.
   kNonFinite,        ///< The completed cycle carries a "not a number" code: dropped.
   kCounterMismatch,  ///< The slots of one FD frame carry different counters.
+  kOldLayout,        ///< A frame of CAN layout 1 (before kFlagClutched crossed CAN): slot 0 without the layout
+                     ///< marker, or a 1-DOF slot 0 of layout 1's 6 bytes. The peer runs an older build.
   kCount,
 };
 const char* ToString(FrameStatus status) noexcept;
