@@ -113,7 +113,8 @@ for (const [name, g] of Object.entries(d.graphs)) {
                   canvas: g.graphDiv.querySelectorAll('canvas').length};
 }
 const badge = (role) => { const b = document.getElementById('badge-' + role);
-  return {engagement: b.dataset.engagement, status: b.dataset.status, clutch: b.dataset.clutch || '', text: b.textContent.replace(/\\s+/g, ' ')}; };
+  return {engagement: b.dataset.engagement, status: b.dataset.status, clutch: b.dataset.clutch || '',
+          text: b.textContent.replace(/\\s+/g, ' ')}; };
 const rows = [...document.querySelectorAll('#processes tbody tr')].map(
   (tr) => [...tr.querySelectorAll('td')].map((td) => td.textContent));
 return {pair: d.pair, states: d.statesReceived, processes: d.processesReceived, graphs: graphs,
@@ -209,7 +210,8 @@ def browse(driver, procs, base, pair, work, ctl):
           f"the page chose pair {pair} (?pair=) and its WebSocket is live")
     table = {(row[0], row[1]): row for row in first["table"]}
     check(all((pair, r) in table and table[(pair, r)][2] == "live" and table[(pair, r)][3] == "coupled"
-              for r in ("master", "slave")), "the process table lists master and slave, live and coupled")
+              and table[(pair, r)][4] == "-" for r in ("master", "slave")),
+          "the process table lists master and slave, live, coupled and not clutched")
     for name in PLOTS:
         check(first["graphs"][name]["canvas"] > 0, f"the {name} plot is a dygraphs canvas")
     shot = os.path.join(work, "dashboard_coupled.png")
@@ -242,9 +244,13 @@ def browse(driver, procs, base, pair, work, ctl):
 
     def clutched():
         s = state()
+        rows = {(row[0], row[1]): row for row in s["table"]}
         ok = all(s[r]["clutch"] == "clutched" and s[r]["engagement"] != "coupled" for r in ("master", "slave"))
+        clutch_column = {r: rows.get((pair, r), [""] * 5)[4] for r in ("master", "slave")}
+        ok = ok and clutch_column == {"master": "command", "slave": "peer"}
         return s if ok else None
-    on = wait_until(clutched, 5, "both sides shown clutched and not coupled", interval_s=0.1)
+    on = wait_until(clutched, 5, "both sides shown clutched and not coupled; the table's clutch column: master "
+                    "'command', slave 'peer'", interval_s=0.1)
     print(f"  clutch on shown: master '{on['master']['text'].strip()}', slave '{on['slave']['text'].strip()}'")
     shot = os.path.join(work, "dashboard_clutched.png")
     driver.save_screenshot(shot)

@@ -151,6 +151,7 @@ TEST(DashboardMessages, ProcessesEscapeEveryTextFromDds) {
   v.rtt_ms = std::numeric_limits<double>::quiet_NaN();
   v.last_event = "<b>x</b>\xff";
   v.stop_reason = "\"quoted\"\n";
+  v.clutch = 4;  // the command channel
   teleop::dds::ProcessView waiting;
   waiting.pair = "rig2";
   waiting.role = "master";
@@ -164,6 +165,7 @@ TEST(DashboardMessages, ProcessesEscapeEveryTextFromDds) {
   const pt::ptree& a = list.begin()->second;
   EXPECT_EQ(a.get<std::string>("status"), "stale");
   EXPECT_EQ(a.get<std::string>("engagement"), "peer_lost");
+  EXPECT_EQ(a.get<std::string>("clutch"), "command");
   EXPECT_DOUBLE_EQ(a.get<double>("age_s"), 1.5);
   EXPECT_EQ(a.get<std::string>("rtt_ms"), "null");
   EXPECT_EQ(a.get<std::string>("last_event"), "<b>x</b>\xef\xbf\xbd");
@@ -171,6 +173,7 @@ TEST(DashboardMessages, ProcessesEscapeEveryTextFromDds) {
   const pt::ptree& b = std::next(list.begin())->second;
   EXPECT_EQ(b.get<std::string>("status"), "discovered");
   EXPECT_EQ(b.get<std::string>("engagement"), "null") << "no engagement before the first State";
+  EXPECT_EQ(b.get<std::string>("clutch"), "null") << "no clutch before the first State";
   EXPECT_EQ(b.get<std::string>("age_s"), "null");
 }
 

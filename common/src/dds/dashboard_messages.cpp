@@ -130,11 +130,13 @@ std::string EncodeProcesses(const std::vector<ProcessView>& views, double t_s) {
     const bool state = v.have_state;
     const auto known = [state](double x) { return state ? x : std::nan(""); };
     out += fmt::format(
-        R"({{"pair":{},"role":{},"status":{},"engagement":{},"age_s":{},"cycle":{},"time_s":{},"rate_hz":{},)"
+        R"({{"pair":{},"role":{},"status":{},"engagement":{},"clutch":{},"age_s":{},"cycle":{},"time_s":{},)"
+        R"("rate_hz":{},)"
         R"("achieved_rate_hz":{},"loss_fraction":{},"rtt_ms":{},"device_faults":{},"watchdog_trips":{},)"
         R"("packets_lost":{},"tracking_error_m":{},"fixture_penetration_m":{},"last_event":{},"stop_reason":{}}})",
         DashboardJsonString(v.pair), DashboardJsonString(v.role), DashboardJsonString(ToString(v.status)),
-        state ? DashboardJsonString(ToString(v.engagement)) : std::string("null"), Num(v.age_s), v.cycle,
+        state ? DashboardJsonString(ToString(v.engagement)) : std::string("null"),
+        state ? DashboardJsonString(ClutchText(v.clutch)) : std::string("null"), Num(v.age_s), v.cycle,
         Num(known(v.time_s)), Num(known(v.rate_hz)), Num(known(v.achieved_rate_hz)), Num(known(v.loss_fraction)),
         Num(known(v.rtt_ms)), v.device_faults, v.watchdog_trips, v.packets_lost, Num(known(v.tracking_error_m)),
         Num(known(v.fixture_penetration_m)), DashboardJsonString(v.last_event), DashboardJsonString(v.stop_reason));

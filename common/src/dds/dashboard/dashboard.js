@@ -201,6 +201,7 @@
       cell(tr, p.role);
       cell(tr, p.status, statusClass(p.status));
       cell(tr, p.engagement === null ? '-' : p.engagement, engagementClass(p.engagement));
+      cell(tr, typeof p.clutch === 'string' ? p.clutch : '-');  // "-" or the sources held ("device+command")
       cell(tr, fixed(p.age_s, 1), 'num');
       cell(tr, fixed(p.achieved_rate_hz, 0), 'num');
       cell(tr, p.loss_fraction === null ? '-' : (100 * p.loss_fraction).toFixed(2), 'num');
