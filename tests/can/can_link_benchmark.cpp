@@ -71,7 +71,7 @@ void PrintTriggered(const proto::can::CanBitrates& rates) {
 void PrintBudget() {
   const proto::can::CanBitrates rates{1e6, 5e6};
   std::printf("CAN budget at 1000 Hz, bilateral (both directions), worst-case bit stuffing, 11-bit IDs\n");
-  std::printf("minimum = cheapest frames of the same kind holding the payload bits (dof*37 + 6 flags + 4 counter)\n");
+  std::printf("minimum = cheapest frames of the same kind holding the payload bits (dof*37 + 7 flags + 4 counter)\n");
   std::printf("%-8s %4s %7s %8s %10s %10s %9s %8s\n", "bus", "dof", "frames", "bytes", "wire_bits", "min_bits",
               "overhead", "load_%");
   for (const bool fd : {false, true}) {

@@ -26,6 +26,7 @@ Exit status 0 when everything holds, 1 with one line per violation otherwise. Py
 """
 
 import argparse
+import copy
 import json
 import math
 import re
@@ -104,6 +105,19 @@ def used_signals(message, dof, slots):
     return out
 
 
+def place_layout_marker(signals):
+    """The DBC describes 6 DOF, where the layout marker (signal Layout, CAN layout 2) sits at bit 62 of slot 0; for
+    fewer DOF it follows slot 0's last used signal (docs/can.md, "Layout version"): move it there."""
+    out = [s for s in signals if s.name != "Layout"]
+    for marker in (s for s in signals if s.name == "Layout"):
+        slot_base = 64 * (marker.start // 64)
+        end = max(s.start + s.length for s in out if slot_base <= s.start < slot_base + 64)
+        moved = copy.copy(marker)
+        moved.start = end
+        out.append(moved)
+    return out
+
+
 class Layout:
     """What one direction sends per cycle, derived from the DBC for a DOF count and frame format."""
 
@@ -112,12 +126,12 @@ class Layout:
         self.fd = fd
         self.frames = {}  # id -> (slot index, used signals, expected length)
         for slot, message in enumerate(mine):
-            signals = used_signals(message, dof, slots=99)
+            signals = place_layout_marker(used_signals(message, dof, slots=99))
             if not fd and not any(s.dof is not None for s in signals):
                 continue  # a classic slot with no DOF of ours is not sent
             if fd:
                 slots = 1 + max(s.start // 64 for s in signals if s.dof is not None)
-                signals = used_signals(message, dof, slots)
+                signals = place_layout_marker(used_signals(message, dof, slots))
                 end = (max(s.start + s.length for s in signals) + 7) // 8
                 length = next(n for n in FD_LENGTHS if n >= end)
             else:
@@ -193,6 +207,9 @@ def check_frame(frame, layout, violations):
         if s.name.startswith("Counter"):
             counters.add(raw)
             continue
+        if s.name == "Layout" and raw != 1:
+            violations.append(f"{where}: layout marker 0 (a frame of CAN layout 1, an older build)")
+            return None
         if s.nan_code is not None and raw == s.nan_code:
             violations.append(f"{where}: {s.name} carries the NaN code")
             continue

@@ -30,6 +30,8 @@ def encode(layout, frame_id, counter, values, flags=1):
             raw = counter
         elif s.name == "Flags":
             raw = flags
+        elif s.name == "Layout":
+            raw = 1
         else:
             raw = round((values(s) - s.offset) / s.factor)
         word |= (raw & ((1 << s.length) - 1)) << s.start
@@ -107,8 +109,8 @@ class CaptureCheckTest(unittest.TestCase):
         messages = checker.parse_dbc(DBC)
         # (dof, fd) -> frame lengths of one direction: the table of tests/can/can_codec_test.cpp (SlotLength,
         # FdDataBytes rounded to an FD length), here derived from the DBC alone.
-        classic = [[6], [8, 4], [8, 8], [8, 8, 6], [8, 8, 8, 4], [8, 8, 8, 8]]
-        fd_lengths = [6, 12, 16, 24, 32, 32]
+        classic = [[7], [8, 4], [8, 8], [8, 8, 6], [8, 8, 8, 4], [8, 8, 8, 8]]
+        fd_lengths = [7, 12, 16, 24, 32, 32]
         expected = {}
         for dof in range(1, 7):
             expected[(dof, False)] = classic[dof - 1]
@@ -120,11 +122,11 @@ class CaptureCheckTest(unittest.TestCase):
     def test_golden_frames_of_the_cpp_codec_decode_to_their_sample(self):
         # Bytes from tests/can/can_codec_test.cpp (GoldenClassicFramesThreeDof, GoldenFdFrameIsTheSlotsConcatenated).
         messages = checker.parse_dbc(DBC)
-        slot0 = bytes([0x15, 0xC9, 0x00, 0xFE, 0xB7, 0x84, 0xFF, 0x1F])
+        slot0 = bytes([0x15, 0x91, 0x01, 0xFC, 0x6F, 0x09, 0xFF, 0x7F])
         slot1 = bytes([0x15, 0x80, 0x00, 0xFC, 0xFF, 0x00, 0x10, 0x00])
         expected = {"Counter": 5, "Counter_S0": 5, "Counter_S1": 5, "Flags": 0x11, "Position0": 0.001,
                     "Position1": -0.00002, "Position2": 0.16382, "Velocity0": -0.004, "Velocity1": 0.002,
-                    "Velocity2": 0.0, "Force0": 1.5, "Force1": -20.47, "Force2": 0.01}
+                    "Velocity2": 0.0, "Force0": 1.5, "Force1": -20.47, "Force2": 0.01, "Layout": 1}
         cases = [(checker.Layout(messages, "MASTER", 3, False), 0x100, slot0, False),
                  (checker.Layout(messages, "MASTER", 3, False), 0x101, slot1, False),
                  (checker.Layout(messages, "SLAVE", 3, True), 0x184, slot0 + slot1, True)]
@@ -154,10 +156,19 @@ class CaptureCheckTest(unittest.TestCase):
         self.assert_violation(report, "length 7, the DBC layout needs 8")
 
     def test_reserved_bit_is_named(self):
-        lines = capture(1, False, spoil=lambda d, n, i, data: data[:5] + bytes([data[5] | 0x80]) if n == 7 else None)
+        # 1 DOF: bits 49..55 after the layout marker (bit 48) are reserved.
+        lines = capture(1, False, spoil=lambda d, n, i, data: data[:6] + bytes([data[6] | 0x80]) if n == 7 else None)
         status, report = self.run_checker(lines, 1, False)
         self.assertEqual(status, 1)
         self.assert_violation(report, "reserved bits set")
+
+    def test_a_layout_1_frame_is_named(self):
+        # Slot 0 without the layout marker (bit 62 for 3 DOF): what a build of CAN layout 1 sends there.
+        def unmark(direction, n, frame_id, data):
+            return data[:7] + bytes([data[7] & ~0x40]) if (direction, n, frame_id) == ("MASTER", 20, 0x100) else None
+        status, report = self.run_checker(capture(3, False, spoil=unmark), 3, False)
+        self.assertEqual(status, 1)
+        self.assert_violation(report, "layout marker 0")
 
     def test_lost_cycle_is_counted(self):
         status, report = self.run_checker(capture(3, True, skip_cycle=30), 3, True)
@@ -168,7 +179,7 @@ class CaptureCheckTest(unittest.TestCase):
     def test_nan_code_is_named(self):
         def nan_position0(direction, n, frame_id, data):
             if direction == "MASTER" and n == 12:
-                word = int.from_bytes(data, "little") & ~(0x3FFF << 10) | (0x2000 << 10)  # -8192 = NaN
+                word = int.from_bytes(data, "little") & ~(0x3FFF << 11) | (0x2000 << 11)  # -8192 = NaN
                 return word.to_bytes(len(data), "little")
             return None
         status, report = self.run_checker(capture(1, False, spoil=nan_position0), 1, False)
