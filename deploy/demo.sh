@@ -50,7 +50,7 @@ if [[ "${1:-}" == "--device" && "${2:-}" == "hybrid" ]]; then
   echo "==== loopback slave ===="; cat "${out}/hybrid-slave.log"
   # Columns by name (the header of the telemetry CSV, runtime/telemetry.cpp), never by number: the CSV grew
   # rendered_force_N_* columns once and a numbered plot silently showed them as the fixture share.
-  # The script is kept beside the PNG (deploy/figures.sh checks its ranges: tests/deploy/figure_ranges.py).
+  # The script is kept beside the PNG (deploy/figures.sh checks its ranges and key: tests/deploy/figure_check.py).
   # Each process's time_s starts at its own start, the slave's about 0.3 s before the master's: the slave's trace is
   # put on the master's clock by the difference of the times at which each first reports engaged (3), which the two
   # reach within a round trip of each other.

@@ -24,8 +24,8 @@ work="${TELEOP_BUILD}/figures"
 rm -rf "${work}"
 mkdir -p "${work}"
 rm -f "${out}"/*.png
-# Each gnuplot figure's script, "<figure> <script>" a line: tests/deploy/figure_ranges.py checks that no panel's data
-# reach outside its axes. (deploy/teleop-plot draws with matplotlib, autoscaled.)
+# Each gnuplot figure's script, "<figure> <script>" a line: tests/deploy/figure_check.py checks that no panel's data
+# reach outside its axes or lie under its key. (deploy/teleop-plot draws with matplotlib, autoscaled.)
 scripts="${work}/gnuplot-scripts.txt"
 : > "${scripts}"
 
