@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates every figure of the gallery docs/figures.md into docs/figures/ (or --out DIR): the demo's PNGs
 # (deploy/demo.sh: deploy/teleop-plot of both processes, the hybrid and cobot device demos), `teleop-analyze sweep`
-# and every `teleop-scenario` scenario with its defaults. About 50 s on 2 cores.
+# and every `teleop-scenario` scenario with its defaults. About 60 s on 2 cores.
 #   ./deploy/figures.sh                 into docs/figures/
 #   ./deploy/figures.sh --out /tmp/fig  elsewhere (tests/deploy/figures_test.py)
 set -euo pipefail
