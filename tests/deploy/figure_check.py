@@ -1,15 +1,19 @@
 #!/usr/bin/env python3
-"""Can a reader read a gnuplot figure? Two checks per plot of a script (each panel of a multiplot):
+"""Can a reader read a gnuplot figure? Three checks per plot of a script (each panel of a multiplot):
 
 - Ranges: the axis ranges gnuplot drew (GPVAL_X_MIN ... GPVAL_Y_MAX) must hold the extent of the data it was given.
   The script is run a second time with every `set xrange/yrange [...]` replaced by autoscaling, where
   GPVAL_DATA_X_MIN ... GPVAL_DATA_Y_MAX are the extent of every curve, point and arrow tip. A panel whose data reach
   outside its axes is clipped and fails, unless the script says so on a line before the plot:
   `# ranges: y clipped (reason)` (the figure itself must tell the reader, for example in a key entry).
-- Key: the key must not cover the data. The panel is drawn three times with the same axes: as the script draws it (A),
-  with `unset key` (B) and with its ranges fixed to A's and nothing plotted (C), all three without the grid. A key outside the axes moves them
-  (A's plot area differs from B's): it covers nothing. A key inside them is where A and B differ; the data are where
-  B and C differ; the key fails when more than 0.2 % of its box (at least 20 pixels) is data.
+- Key: the key must not cover the data. The panel is drawn three times with the same axes and without the grid: as
+  the script draws it (A), with `unset key` (B) and with its ranges fixed to A's and nothing plotted (C). A key
+  outside the axes moves them (A's plot area differs from B's): it covers nothing. A key inside them is where A and B
+  differ; the data are where B and C differ; the key fails when more than 0.2 % of its box (at least 20 pixels) is
+  data.
+- Text: a key must not sit on an axis label, a tick label or a title (gnuplot draws a key below the axes over the x
+  label unless the bottom margin leaves room): the figure is drawn again with the keys' text white, then with the
+  labels white (one result, "text", for the whole figure).
 
   figure_check.py SCRIPT.gp [...]    prints one line per panel and exits 1 when one fails
 
@@ -59,7 +63,8 @@ def statements(text):
 
 def instrumented(stmts, output, mode, fixed=None):
     """The script for one pass. mode: 'drawn' as is, 'autoscale' with its ranges autoscaled, 'nokey' with every key
-    off, 'empty' with each plot replaced by nothing on the axes in fixed (the ranges pass 'drawn' reported)."""
+    off, 'empty' with each plot replaced by nothing on the axes in fixed (the ranges pass 'drawn' reported),
+    'keytext' with the keys' text white, 'labeltext' with the axis labels, tick labels and titles white."""
     lines, clipped, pending, n = ["set print '-'"], [], "", 0
     for s in stmts:
         if s.startswith("#"):
@@ -75,6 +80,11 @@ def instrumented(stmts, output, mode, fixed=None):
             lines.append("unset grid")  # where a key sits, gnuplot leaves out the grid: that is neither key nor data
             if mode in ("nokey", "empty"):
                 lines.append("unset key")
+            if mode == "keytext":
+                lines.append("set key textcolor rgb 'white'")
+            if mode == "labeltext":
+                lines.append("set xlabel textcolor rgb 'white'; set ylabel textcolor rgb 'white'; "
+                             "set tics textcolor rgb 'white'; set title textcolor rgb 'white'")
             if mode == "empty":
                 x0, x1, y0, y1 = fixed[n][:4]
                 lines.append(f"set xrange [{x0!r}:{x1!r}]; set yrange [{y0!r}:{y1!r}]")
@@ -119,11 +129,38 @@ def key_cover(a, b, c, area):
     return int(data.size), int(data.sum())
 
 
+def text_clash(a, k, t, drawn, keytext, labeltext):
+    """('text', message, ok): does a key sit on an axis label, a tick label or a title? Whitening text keeps the layout,
+    so the key's text is where a and k differ, the labels where a and t differ. Each line of key text (a band of rows)
+    spans the columns from its first to its last entry; a label within 4 pixels above or below that band and inside
+    those columns is under or against the key (an opaque key box hides it, or the key's line runs into it)."""
+    import numpy
+    same = [r[8:12] for r in drawn]
+    if [r[8:12] for r in keytext] != same or [r[8:12] for r in labeltext] != same:
+        return ("text", "key and label text not checked: whitening the text moved the axes", False)
+    key = numpy.any(a != k, axis=2)
+    label = numpy.any(a != t, axis=2)
+    rows = numpy.nonzero(key.any(axis=1))[0]
+    bands, clash = [], 0
+    for r in rows:
+        if bands and r - bands[-1][1] <= 2:
+            bands[-1][1] = r
+        else:
+            bands.append([r, r])
+    for r0, r1 in bands:
+        cols = numpy.nonzero(key[r0:r1 + 1].any(axis=0))[0]
+        clash += int(label[max(0, r0 - 4):r1 + 5, cols.min():cols.max() + 1].sum())
+    ok = clash == 0
+    return ("text", f"key text in {len(bands)} bands of rows, {clash} label pixels against them"
+            + ("" if ok else " KEY ON A LABEL"), ok)
+
+
 def check_script(script):
     """A list of (panel, message, ok) for each plot of the script."""
     stmts = statements(open(script).read())
     with tempfile.TemporaryDirectory() as tmp:
-        png = {m: os.path.join(tmp, f"{m}.png") for m in ("drawn", "autoscale", "nokey", "empty")}
+        png = {m: os.path.join(tmp, f"{m}.png") for m in ("drawn", "autoscale", "nokey", "empty", "keytext",
+                                                           "labeltext")}
         drawn_text, clipped = instrumented(stmts, png["drawn"], "drawn")
         drawn = run(script, drawn_text)
         data = run(script, instrumented(stmts, png["autoscale"], "autoscale")[0])
@@ -132,8 +169,10 @@ def check_script(script):
         if not drawn or not len(drawn) == len(data) == len(nokey) == len(empty):
             return [(0, f"plots: {len(drawn)} drawn, {len(data)} autoscaled, {len(nokey)} without keys, "
                         f"{len(empty)} empty: cannot compare", False)]
+        keytext = run(script, instrumented(stmts, png["keytext"], "keytext")[0])
+        labeltext = run(script, instrumented(stmts, png["labeltext"], "labeltext")[0])
         a, b, c = pixels(png["drawn"]), pixels(png["nokey"]), pixels(png["empty"])
-        results = []
+        results = [text_clash(a, pixels(png["keytext"]), pixels(png["labeltext"]), drawn, keytext, labeltext)]
         for i, (axes, extent, bare, blank, allowed) in enumerate(zip(drawn, data, nokey, empty, clipped), start=1):
             msgs, ok = [], True
             for k, axis in enumerate("xy"):
@@ -157,7 +196,8 @@ def check_script(script):
                     ok = False
                 else:
                     bad = covered > max(KEY_MIN_PIXELS, KEY_SHARE * box)
-                    msgs.append(f"key inside: {covered} of its {box} pixels over data" + (" COVERS DATA" if bad else ""))
+                    msgs.append(f"key inside: {covered} of its {box} pixels over data"
+                                + (" COVERS DATA" if bad else ""))
                     ok = ok and not bad
             results.append((i, "; ".join(msgs), ok))
         return results

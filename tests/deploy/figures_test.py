@@ -64,10 +64,11 @@ def main():
               f"{name}: {w} x {h}, {distinct} distinct byte values (the commonest {100 * top:.0f} %), "
               f"{size // 1024} KiB")
     # Every gnuplot figure (all but deploy/teleop-plot's, which matplotlib autoscales and whose legends are placed
-    # outside the axes) shows all of its data and keeps its key off the data (figure_check.py): each panel's axis
-    # ranges hold the extent gnuplot finds with autoscaling, unless the script declares a clipped axis, and a key
-    # inside the axes has (almost) no data pixels under it. The old figures failed both: cobot-wall (x 0..250 mm of a
-    # 500 mm run, arrow tips above y = 30) and hybrid-friction (291 data pixels under the forces key).
+    # outside the axes) shows all of its data and keeps its key off the data and the labels (figure_check.py): each
+    # panel's axis ranges hold the extent gnuplot finds with autoscaling, unless the script declares a clipped axis; a
+    # key inside the axes has (almost) no data pixels under it; no key's text sits on an axis label, tick label or
+    # title. The old figures failed all three: cobot-wall (x 0..250 mm of a 500 mm run, arrow tips above y = 30),
+    # hybrid-friction (291 data pixels under the forces key), cobot-caster (its key box over 'x (mm)').
     manifest = [line.split() for line in open(os.path.join(build, "figures", "gnuplot-scripts.txt")) if line.strip()]
     drawn_by_gnuplot = sorted(n for n in written if not re.match(r"demo-(master|slave)-", n))
     check(sorted(n for n, _ in manifest) == drawn_by_gnuplot,
@@ -76,7 +77,8 @@ def main():
         panels = figure_check.check_script(script)
         for panel, msg, ok in panels:
             print(f"  {name} plot {panel}: {msg}")
-        check(panels and all(ok for _, _, ok in panels), f"{name}: every panel shows all of its data, its key off them")
+        check(panels and all(ok for _, _, ok in panels),
+              f"{name}: every panel shows all of its data, its key off them and off the labels")
     committed = os.path.join(ROOT, "docs", "figures")
     have = sorted(f for f in os.listdir(committed) if f.endswith(".png"))
     check(have == written, "docs/figures/ holds the same figures (rerun ./deploy/figures.sh after a change)")
