@@ -50,7 +50,20 @@ if [[ "${1:-}" == "--device" && "${2:-}" == "hybrid" ]]; then
   echo "==== loopback slave ===="; cat "${out}/hybrid-slave.log"
   # Columns by name (the header of the telemetry CSV, runtime/telemetry.cpp), never by number: the CSV grew
   # rendered_force_N_* columns once and a numbered plot silently showed them as the fixture share.
-  gnuplot -e "master='${out}/hybrid-master.csv'; slave='${out}/hybrid-slave.csv'; png='${out}/demo-hybrid.png'" - <<'GNUPLOT'
+  # The script is kept beside the PNG (deploy/figures.sh checks its ranges and key: tests/deploy/figure_check.py).
+  # Each process's time_s starts at its own start, the slave's about 0.3 s before the master's: the slave's trace is
+  # put on the master's clock by the difference of the times at which each first reports engaged (3), which the two
+  # reach within a round trip of each other.
+  engaged_at() {
+    awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next }
+             $col["engagement"] == 3 { print $col["time_s"]; exit }' "$1"
+  }
+  shift_s=$(awk -v m="$(engaged_at "${out}/hybrid-master.csv")" -v s="$(engaged_at "${out}/hybrid-slave.csv")" \
+    'BEGIN { print (m == "" || s == "") ? 0 : s - m }')
+  {
+    echo "master='${out}/hybrid-master.csv'; slave='${out}/hybrid-slave.csv'; png='${out}/demo-hybrid.png'"
+    echo "slave_shift=${shift_s}"
+    cat <<'GNUPLOT'
 set terminal pngcairo size 1000,650 noenhanced font ",10"
 set output png
 set datafile separator ','
@@ -60,18 +73,22 @@ set grid
 set key outside right top vertical reverse Left
 set lmargin 10
 set rmargin 42
+# The master's run (3 s); the slave's rows from before the master started (negative on the master clock) are left out.
 set xrange [0:3]
-set ylabel 'mm'
-plot master using 'time_s':(1e3*column('position_m_1')) with lines title 'master y', \
-     slave using 'time_s':(1e3*column('position_m_1')) with lines title 'slave y', \
-     30 with lines dt 2 title 'master fixture'
-set ylabel 'N'
+set ylabel 'position y (mm)'
+plot master using 'time_s':(1e3*column('position_m_1')) with lines lw 4 lc rgb '#9ad0f5' title 'master y', \
+     slave using (column('time_s') >= slave_shift ? column('time_s') - slave_shift : 1/0):(1e3*column('position_m_1')) \
+       with lines lw 1 lc rgb '#0072b2' title 'slave y (on the master clock)', \
+     30 with lines dt 2 lc rgb 'red' title 'master fixture'
+set ylabel 'force y (N)'
 set xlabel 't (s)'
-plot master using 'time_s':'command_N_1' with lines title 'master command y (law + FRVF)', \
-     master using 'time_s':'rendered_force_N_1' with lines title 'rendered y (motors + brakes)', \
-     master using 'time_s':'fixture_force_N_1' with lines title 'fixture share y'
+plot master using 'time_s':'command_N_1' with lines lw 3 lc rgb '#9ad0f5' title 'master command y (law + FRVF)', \
+     master using 'time_s':'rendered_force_N_1' with lines lc rgb '#0072b2' title 'rendered y (motors + brakes)', \
+     master using 'time_s':'fixture_force_N_1' with lines dt 2 lc rgb 'red' title 'fixture share y'
 unset multiplot
 GNUPLOT
+  } > "${out}/demo-hybrid.gp"
+  gnuplot "${out}/demo-hybrid.gp"
   echo "[demo] hybrid plot: ${out}/demo-hybrid.png"
   exit $(( hybrid_rc != 0 ))
 fi
@@ -102,7 +119,9 @@ if [[ "${1:-}" == "--device" && "${2:-}" == "cobot" ]]; then
   wait "${cobot_slave_pid}" || slave_rc=$?
   echo "==== master ===="; cat "${out}/master.log"
   echo "==== slave ====";  cat "${out}/slave.log"
-  gnuplot -e "master='${out}/master.csv'; slave='${out}/slave.csv'; png='${out}/demo-cobot.png'" - <<'GNUPLOT'
+  {
+    echo "master='${out}/master.csv'; slave='${out}/slave.csv'; png='${out}/demo-cobot.png'"
+    cat <<'GNUPLOT'
 set datafile separator ","
 set terminal pngcairo size 1000,800 noenhanced font ",10"
 set output png
@@ -110,12 +129,16 @@ set title "teleop demo --device cobot: cobot master (steered walls) with the loo
 set xlabel "x (mm)"; set ylabel "y (mm)"; set grid; set key bottom left; set size ratio -1
 set arrow from graph 0, first 80 to graph 1, first 80 nohead lw 3 lc rgb "red"
 set arrow from first 500, graph 0 to first 500, graph 1 nohead lw 3 dt 2 lc rgb "black"
-set label "master fixture y > 80 mm (steered wall)" at graph 0.02, first 88 tc rgb "red"
-set label "slave wall x = 500 mm" at first 505, graph 0.9 tc rgb "black"
+# The labels in empty space: under the fixture line where the master runs along it, left of the slave wall where the
+# trajectories run down its right side.
+set label "master fixture y > 80 mm (steered wall)" at first 160, first 62 tc rgb "red"
+set label "slave wall x = 500 mm" at first 490, first -250 right tc rgb "black"
 plot master using (1e3*column("position_m_0")):(1e3*column("position_m_1")) with lines lw 2 title "cobot master", \
      slave using (1e3*column("position_m_0")):(1e3*column("position_m_1")) with lines lw 1 title "slave", \
      master every 250 using (1e3*column("position_m_0")):(1e3*column("position_m_1")):(2*column("force_sensor_N_0")):(2*column("force_sensor_N_1")) with vectors head filled lc rgb "dark-green" title "operator force (2 mm/N)"
 GNUPLOT
+  } > "${out}/demo-cobot.gp"
+  gnuplot "${out}/demo-cobot.gp"
   echo "[demo] telemetry: ${out}/master.csv ${out}/slave.csv"
   echo "[demo] plot:      ${out}/demo-cobot.png"
   exit $(( master_rc != 0 || slave_rc != 0 ))

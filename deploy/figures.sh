@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates every figure of the gallery docs/figures.md into docs/figures/ (or --out DIR): the demo's PNGs
 # (deploy/demo.sh: deploy/teleop-plot of both processes, the hybrid and cobot device demos), `teleop-analyze sweep`
-# and every `teleop-scenario` scenario with its defaults. About 30 s on 2 cores.
+# and every `teleop-scenario` scenario with its defaults. About 60 s on 2 cores.
 #   ./deploy/figures.sh                 into docs/figures/
 #   ./deploy/figures.sh --out /tmp/fig  elsewhere (tests/deploy/figures_test.py)
 set -euo pipefail
@@ -24,6 +24,10 @@ work="${TELEOP_BUILD}/figures"
 rm -rf "${work}"
 mkdir -p "${work}"
 rm -f "${out}"/*.png
+# Each gnuplot figure's script, "<figure> <script>" a line: tests/deploy/figure_check.py checks that no panel's data
+# reach outside its axes or lie under its key. (deploy/teleop-plot draws with matplotlib, autoscaled.)
+scripts="${work}/gnuplot-scripts.txt"
+: > "${scripts}"
 
 # The demo (loopback plant, UDP, 1 kHz): deploy/teleop-plot's seven views of each process.
 "${TELEOP_ROOT}/deploy/demo.sh" > "${work}/demo.log" 2>&1 || { tail -40 "${work}/demo.log"; exit 1; }
@@ -33,9 +37,11 @@ done
 "${TELEOP_ROOT}/deploy/demo.sh" --device hybrid > "${work}/demo-hybrid.log" 2>&1 ||
   { tail -40 "${work}/demo-hybrid.log"; exit 1; }
 cp "${TELEOP_BUILD}/demo/demo-hybrid.png" "${out}/demo-hybrid.png"
+echo "demo-hybrid.png ${TELEOP_BUILD}/demo/demo-hybrid.gp" >> "${scripts}"
 "${TELEOP_ROOT}/deploy/demo.sh" --device cobot > "${work}/demo-cobot.log" 2>&1 ||
   { tail -40 "${work}/demo-cobot.log"; exit 1; }
 cp "${TELEOP_BUILD}/demo-cobot/demo-cobot.png" "${out}/demo-cobot.png"
+echo "demo-cobot.png ${TELEOP_BUILD}/demo-cobot/demo-cobot.gp" >> "${scripts}"
 
 # The stability analysis (docs/stability.md): the master fixture's limit against the rate and against K_p.
 "${bin}/teleop-analyze" sweep --side master --variable rate --values 250,500,1000,2000,4000 \
@@ -44,6 +50,8 @@ cp "${TELEOP_BUILD}/demo-cobot/demo-cobot.png" "${out}/demo-cobot.png"
   --output "${work}/sweep-kp" > "${work}/sweep-kp.log"
 cp "${work}/sweep-rate.png" "${out}/analyze-sweep-rate.png"
 cp "${work}/sweep-kp.png" "${out}/analyze-sweep-kp.png"
+echo "analyze-sweep-rate.png ${work}/sweep-rate.png.gp" >> "${scripts}"
+echo "analyze-sweep-kp.png ${work}/sweep-kp.png.gp" >> "${scripts}"
 
 # Every scenario with its defaults, in a directory of its own (each writes its PNG to the working directory).
 table_only=(hybrid-table)
@@ -58,7 +66,11 @@ for s in ${scenarios}; do
     echo "teleop-scenario ${s} wrote no PNG" >&2
     exit 1
   fi
-  for p in "${pngs[@]}"; do cp "${p}" "${out}/scenario-$(basename "${p}" | tr '_' '-')"; done
+  for p in "${pngs[@]}"; do
+    name="scenario-$(basename "${p}" | tr '_' '-')"
+    cp "${p}" "${out}/${name}"
+    echo "${name} ${p%.png}.gp" >> "${scripts}"
+  done
 done
 
 count=$(ls "${out}"/*.png | wc -l)

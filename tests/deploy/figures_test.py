@@ -3,8 +3,10 @@
 shows must be produced and be a real plot, and the gallery must show every figure the command writes. A PNG is
 "non-trivial" when it decodes (signature, IHDR, zlib-compressed IDAT), is at least 400 x 300 pixels and 5 KB, and its
 pixel rows hold at least 4 distinct byte values with no one value over 99 % of them (a blank or one-colour image
-fails both; a gnuplot palette image of a plot has about 10 values, an RGB one 256). The committed
-docs/figures/ must hold the same names and stay under 2 MB.
+fails both; a gnuplot palette image of a plot has about 10 values, an RGB one 256). Every gnuplot
+figure must show all of its data and keep its key off them (figure_check.py: each panel's axis ranges against the
+extent autoscaling finds; the pixels a key inside the axes covers against those the data draw). The
+committed docs/figures/ must hold the same names and stay under 2 MB.
 """
 import os
 import re
@@ -15,6 +17,9 @@ import zlib
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 from teleop_process import Failure, check, run_test  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import figure_check  # noqa: E402
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
 
@@ -58,6 +63,22 @@ def main():
         check(w >= 400 and h >= 300 and distinct >= 4 and top < 0.99 and size > 5000,
               f"{name}: {w} x {h}, {distinct} distinct byte values (the commonest {100 * top:.0f} %), "
               f"{size // 1024} KiB")
+    # Every gnuplot figure (all but deploy/teleop-plot's, which matplotlib autoscales and whose legends are placed
+    # outside the axes) shows all of its data and keeps its key off the data and the labels (figure_check.py): each
+    # panel's axis ranges hold the extent gnuplot finds with autoscaling, unless the script declares a clipped axis; a
+    # key inside the axes has (almost) no data pixels under it; no key's text sits on an axis label, tick label or
+    # title. The old figures failed all three: cobot-wall (x 0..250 mm of a 500 mm run, arrow tips above y = 30),
+    # hybrid-friction (291 data pixels under the forces key), cobot-caster (its key box over 'x (mm)').
+    manifest = [line.split() for line in open(os.path.join(build, "figures", "gnuplot-scripts.txt")) if line.strip()]
+    drawn_by_gnuplot = sorted(n for n in written if not re.match(r"demo-(master|slave)-", n))
+    check(sorted(n for n, _ in manifest) == drawn_by_gnuplot,
+          f"deploy/figures.sh names the gnuplot script of each of the {len(drawn_by_gnuplot)} gnuplot figures")
+    for name, script in manifest:
+        panels = figure_check.check_script(script)
+        for panel, msg, ok in panels:
+            print(f"  {name} plot {panel}: {msg}")
+        check(panels and all(ok for _, _, ok in panels),
+              f"{name}: every panel shows all of its data, its key off them and off the labels")
     committed = os.path.join(ROOT, "docs", "figures")
     have = sorted(f for f in os.listdir(committed) if f.endswith(".png"))
     check(have == written, "docs/figures/ holds the same figures (rerun ./deploy/figures.sh after a change)")

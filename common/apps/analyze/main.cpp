@@ -224,11 +224,14 @@ void Plot(const std::string& csv, const std::string& png, SweepVariable variable
     const char* xlabel = variable == SweepVariable::kRateHz ? "sampling rate (Hz)"
                          : variable == SweepVariable::kKp   ? "K_p (N/m)"
                                                             : "K_d (N s/m)";
-    // The key below the plot, never over the curves (a K_p sweep rises and falls); cairo for legible text.
+    // The key below the plot, never over the curves (a K_p sweep rises and falls), one entry a line so that its
+    // samples stay inside the canvas, with a bottom margin that holds the tick labels, the x label and the key (else
+    // gnuplot draws the key against the x label); the end points clear of the left and right axes; cairo for text.
     gp << "set terminal pngcairo size 800,600 font ',11'\nset output '" << png << "'\nset datafile separator ','\n"
        << "set title '" << title << "' noenhanced\nset xlabel '" << xlabel
-       << "'\nset ylabel 'maximum stable fixture stiffness (N/m)'\nset key outside bottom center horizontal\n"
-       << "set yrange [0:*]\nset grid\n"
+       << "'\nset ylabel 'maximum stable fixture stiffness (N/m)'\nset key outside bottom center vertical\nset bmargin "
+          "6\n"
+       << "set yrange [0:*]\nset offsets graph 0.03, graph 0.03, 0, 0\nset grid\n"
        << "plot '" << csv << "' skip 1 using 1:2 with linespoints title 'eigenvalue limit (worst operator)', '" << csv
        << "' skip 1 using 1:3 with linespoints title 'passivity bound (Colgate-Schenkel)'\n";
   }

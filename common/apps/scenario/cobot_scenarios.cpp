@@ -112,6 +112,12 @@ std::string TrajectoryPlot(const std::string& png, const std::string& title,
   gp << "set terminal png size 900,700\nset output '" << png << "'\nset datafile separator ','\n"
      << "set title '" << title << "' noenhanced\nset xlabel 'x (mm)'\nset ylabel 'y (mm)'\nset grid\nset key " << key
      << " box opaque\nset clip two\n";
+  if (key == "below") {
+    // gnuplot puts a key below the axes over the x label unless the bottom margin leaves room for both: one line for
+    // the tick labels, one for the x label, one per key entry (an upper bound) and the box.
+    const std::size_t entries = runs.size() + 1 + (wall_csv.empty() ? 0 : 1);
+    gp << "set bmargin " << 4 + entries << "\n";
+  }
   if (equal_axes) gp << "set size ratio -1\n";
   gp << "plot ";
   bool first = true;
@@ -439,7 +445,7 @@ int RunWall(const WallOptions& o) {
     const std::string other_csv = o.common.output + "_overlay_" + (overlay ? "off" : "on") + ".csv";
     const StrikeResult other = strike(!overlay, other_csv);
     const std::string wall_csv = o.common.output + "_constraint.csv";
-    WriteConstraintCsv(wall_csv, Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true), -0.02, 0.35);
+    WriteConstraintCsv(wall_csv, Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true), 0.0, 0.5);
     std::ostringstream title;
     title << "cobot-wall (" << o.vehicle << "): max penetration " << std::setprecision(3) << r.max_penetration_m * 1e3
           << " mm with overlay " << o.overlay << ", " << other.max_penetration_m * 1e3 << " mm with it "
@@ -448,7 +454,9 @@ int RunWall(const WallOptions& o) {
         o.common.output + ".png", title.str(),
         {{csv, std::string("overlay ") + o.overlay}, {other_csv, std::string("overlay ") + (overlay ? "off" : "on")}},
         wall_csv, 2.0, 30, false, "inside bottom right");
-    script = "set xrange [0:250]\nset yrange [-160:30]\nset xtics 25\nset ytics 20\n" + script;
+    // The whole run (0 to 500 mm along the wall) and the tips of the force arrows (up to about 41 mm with the
+    // overlay off) inside the axes; the key in the empty lower-right corner.
+    script = "set xrange [0:500]\nset yrange [-160:50]\nset xtics 50\nset ytics 20\n" + script;
     RunGnuplot(o.common.output + ".gp", script);
   }
   if (o.common.json) {
@@ -897,7 +905,8 @@ int RunSlip(const SlipOptions& o) {
        << "' skip 1 using 1:2 with lines lw 2 lc rgb 'blue' title 'push into the wall', '" << csv_path
        << "' skip 1 using 1:3 with lines lw 2 lc rgb 'red' title 'lateral load on the wheel', " << limit_N
        << " with lines lw 2 dt 2 lc rgb 'black' title 'traction limit mu N'\n"
-       << "set ylabel 'penetration p (mm)'\nset yrange [-5:60]\nplot '" << csv_path
+       << "set ylabel 'penetration p (mm)'\nset yrange [-5:60]\n"
+       << "# ranges: y clipped (the wheel slides and the penetration runs away; the key says so)\nplot '" << csv_path
        << "' skip 1 using 1:($5*1000) with lines lw 2 lc rgb 'red' title 'penetration into the wall (clipped at 60 "
           "mm)', '"
        << csv_path << "' skip 1 using 1:($6*50) with steps lw 2 lc rgb 'gray' title 'sliding (50 = yes)'\n"

@@ -83,10 +83,12 @@ int RunFme(const FmeOptions& o) {
   }
   if (!o.no_plot) {
     std::ostringstream gp;
-    gp << "set terminal png size 1100,520\nset output '" << o.output << ".png'\nset datafile separator ','\n"
+    // Two equal-axis maps of a 400 x 250 mm workspace side by side: a canvas of about that shape leaves no blank bands
+    // above and below them; the colour-bar label is offset clear of its tick labels.
+    gp << "set terminal png size 1100,420\nset output '" << o.output << ".png'\nset datafile separator ','\n"
        << "set multiplot layout 1,2\nset size ratio -1\nset xlabel 'x (mm)'\nset ylabel 'y (mm)'\n"
-       << "set cblabel 'N'\nset xrange [-200:200]\nset yrange [80:330]\n"
-       << "set title 'motors: min force in any direction (FME), ellipses 1 N = 0.1 mm' noenhanced\n"
+       << "set cblabel 'min force (N)' offset 1.5,0\nset xrange [-200:200]\nset yrange [80:330]\n"
+       << "set title 'motors: min force in any direction (FME), ellipses: 1 N = 0.1 mm' noenhanced\n"
        << "plot '" << csv << "' skip 1 using 1:2:($3>0?$4:1/0) with image notitle, '" << ellipses
        << "' skip 1 using 1:2 with lines lc rgb 'black' notitle\n"
        << "set title 'brakes: min force in any direction (FME)' noenhanced\n"
@@ -169,26 +171,37 @@ void PrintMetrics(const hy::ContactMetrics& m, bool json, bool friction, const s
 void PlotContact(const std::string& prefix, const std::string& title, bool friction) {
   const std::string csv = prefix + ".csv";
   std::ostringstream gp;
-  gp << "set terminal png size 1200,800\nset output '" << prefix << ".png'\nset datafile separator ','\n"
-     << "set multiplot layout 2,2 title '" << title << "' noenhanced\nset grid\nset xlabel 't (s)'\n";
+  // Each panel's key sits below its axes (the bottom margin is set so that gnuplot does not draw the key over the
+  // x label), the y ranges are autoscaled to every curve, and curves that share a panel have distinct colours.
+  gp << "set terminal png size 1200,900\nset output '" << prefix << ".png'\nset datafile separator ','\n"
+     << "set multiplot layout 2,2 title '" << title << "' noenhanced\nset grid\nset xlabel 't (s)'\n"
+     << "set key outside below horizontal\nset bmargin 6\n";
   if (friction) {
-    gp << "set ylabel 'mm'\nset title 'position'\nplot '" << csv << "' skip 1 using 1:2 w l t 'x (along surface)', '"
-       << csv << "' skip 1 using 1:6 w l t 'depth'\n"
-       << "set ylabel 'mm/s'\nset title 'velocity'\nplot '" << csv << "' skip 1 using 1:4 w l t 'v_x'\n"
-       << "set ylabel 'N'\nset title 'forces'\nplot '" << csv << "' skip 1 using 1:10 w l t 'hand normal', '" << csv
-       << "' skip 1 using 1:11 w l t 'hand tangential', '" << csv << "' skip 1 using 1:($4>0?$12:-$12) w l t "
-       << "'friction shown', '" << csv << "' skip 1 using 1:13 w l dt 2 t 'mu F_N'\n"
+    gp << "set ylabel 'position (mm)'\nset title 'position'\nplot '" << csv
+       << "' skip 1 using 1:2 w l lc rgb '#9400d3' t 'x (along surface)', '" << csv
+       << "' skip 1 using 1:6 w l lc rgb '#009e73' t 'depth'\n"
+       << "set ylabel 'velocity (mm/s)'\nset title 'velocity'\nplot '" << csv
+       << "' skip 1 using 1:4 w l lc rgb '#9400d3' t 'v_x'\n"
+       << "set ylabel 'force (N)'\nset title 'forces'\nplot '" << csv
+       << "' skip 1 using 1:10 w l lc rgb '#9400d3' t 'hand normal', '" << csv
+       << "' skip 1 using 1:11 w l lc rgb '#009e73' t 'hand tangential', '" << csv
+       << "' skip 1 using 1:($4>0?$12:-$12) w l lc rgb '#e51e10' t 'friction shown', '" << csv
+       << "' skip 1 using 1:13 w l dt 2 lc rgb 'black' t 'mu F_N'\n"
        << "set xlabel 'hand tangential force (N)'\nset ylabel 'friction shown (N)'\nset title 'friction vs "
-       << "external force (Fig. 10(b))'\nplot '" << csv << "' skip 1 using 11:12 w l notitle\nunset multiplot\n";
+       << "external force (Fig. 10(b))'\nplot '" << csv << "' skip 1 using 11:12 w l lc rgb '#9400d3' notitle\n"
+       << "unset multiplot\n";
   } else {
-    gp << "set ylabel 'mm'\nset title 'position (depth into the wall)'\nplot '" << csv
-       << "' skip 1 using 1:6 w l t 'depth', 0 w l dt 2 lc rgb 'gray' t 'surface'\n"
-       << "set ylabel 'mm/s'\nset title 'velocity'\nplot '" << csv << "' skip 1 using 1:5 w l t 'v_y'\n"
-       << "set ylabel 'N'\nset title 'force'\nplot '" << csv << "' skip 1 using 1:7 w l t 'wall (rendered)', '" << csv
-       << "' skip 1 using 1:8 w l t 'motors', '" << csv << "' skip 1 using 1:9 w l t 'brakes', '" << csv
-       << "' skip 1 using 1:10 w l t 'hand'\n"
-       << "set xlabel 'depth (mm)'\nset ylabel 'N'\nset title 'force vs position'\nplot '" << csv
-       << "' skip 1 using 6:7 w l t 'wall (rendered)'\nunset multiplot\n";
+    gp << "set ylabel 'depth (mm)'\nset title 'position (depth into the wall)'\nplot '" << csv
+       << "' skip 1 using 1:6 w l lc rgb '#9400d3' t 'depth', 0 w l dt 2 lc rgb 'gray' t 'surface'\n"
+       << "set ylabel 'velocity (mm/s)'\nset title 'velocity'\nplot '" << csv
+       << "' skip 1 using 1:5 w l lc rgb '#9400d3' t 'v_y'\n"
+       << "set ylabel 'force (N)'\nset title 'force'\nplot '" << csv
+       << "' skip 1 using 1:7 w l lw 2 lc rgb '#9400d3' t 'wall (rendered)', '" << csv
+       << "' skip 1 using 1:8 w l lc rgb '#0072b2' t 'motors', '" << csv
+       << "' skip 1 using 1:9 w l lc rgb '#e51e10' t 'brakes', '" << csv
+       << "' skip 1 using 1:10 w l lc rgb '#e69f00' t 'hand'\n"
+       << "set xlabel 'depth (mm)'\nset ylabel 'force (N)'\nset title 'force vs position'\nplot '" << csv
+       << "' skip 1 using 6:7 w l lc rgb '#9400d3' t 'wall (rendered)'\nunset multiplot\n";
   }
   RunGnuplot(prefix + ".gp", gp.str());
 }
