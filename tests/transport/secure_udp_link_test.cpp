@@ -33,6 +33,8 @@ namespace {
 
 namespace asio = boost::asio;
 using asio::ip::udp;
+using link::LinkConfig;
+using link::MakeLink;
 using proto::SenderRole;
 using test::MakeSample;
 
