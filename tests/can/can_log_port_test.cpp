@@ -47,7 +47,7 @@ CanFrame Frame(std::uint32_t id, std::uint8_t first) {
 }
 
 TEST(CandumpLogPort, WritesWhatTheNodeSentAndReadInOrder) {
-  const test::ScopedTempDir dir("can-log-port");
+  const teleop::test::ScopedTempDir dir("can-log-port");
   const std::string path = dir.File("can_log_port.log");
   std::uint64_t logged = 0;
   {
@@ -82,7 +82,7 @@ TEST(CandumpLogPort, WritesWhatTheNodeSentAndReadInOrder) {
 }
 
 TEST(CandumpLogPort, AFullRingDropsAndCountsNeverBlocks) {
-  const test::ScopedTempDir dir("can-log-port");
+  const teleop::test::ScopedTempDir dir("can-log-port");
   const std::string path = dir.File("can_log_port_full.log");
   std::uint64_t logged = 0;
   constexpr int kFrames = 20000;

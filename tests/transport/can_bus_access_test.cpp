@@ -134,7 +134,7 @@ TEST(CanBusAccess, RemoteNodesOnlyWhereTheNetworkIsTheBus) {
 struct TempDir {
   TempDir() { ::chmod(dir.path().c_str(), 0755); }
   std::string Socket() const { return dir.File("canbus.sock"); }
-  test::ScopedTempDir dir{"canbus"};
+  teleop::test::ScopedTempDir dir{"canbus"};
 };
 
 CanBusServerConfig UnixConfig(const TempDir& dir, unsigned mode) {

@@ -35,7 +35,7 @@ using S = SecureReceiveStatus;
 
 constexpr std::uint64_t kPeriod_ns = 1'000'000;  // 1 kHz
 
-using test::ScopedTempDir;
+using teleop::test::ScopedTempDir;
 
 void WriteFile(const std::string& path, const std::string& content, mode_t mode) {
   std::ofstream(path) << content;

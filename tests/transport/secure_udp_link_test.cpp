@@ -41,7 +41,7 @@ using test::MakeSample;
 // A directory with one fresh key file, removed afterwards.
 struct KeyDir {
   KeyDir() { WriteNewKeyFile(key); }
-  test::ScopedTempDir dir{"secure-link"};
+  teleop::test::ScopedTempDir dir{"secure-link"};
   std::string key = dir.File("teleop.key");
 };
 
