@@ -76,8 +76,7 @@ std::string SecurityText(const RunSummary& s) {
 }
 
 // The JSON: one table per record, its keys in output order. A field of the summary is written here once, by its key
-// and its value; FormatSummaryJson lays the tables out. (FormatSummaryText is the human view: it phrases a
-// selection of these values, in units a reader expects, mm and ms.)
+// and its value; FormatSummaryJson lays the tables out.
 
 std::string Json(std::uint64_t v) { return fmt::format("{}", v); }
 std::string Json(std::uint32_t v) { return fmt::format("{}", v); }
@@ -244,91 +243,151 @@ constexpr auto kSummaryFields = std::to_array<SummaryField>({
     {"fault_records_skipped", [](const S& s) { return Json(s.fault_records_skipped); }, kEnd},
 });
 
+// The text: one line per label (a label may give no line, or one per fault), in reading order. It phrases a selection
+// of the values above in the units a reader expects (mm, ms).
+using Lines = std::vector<std::string>;
+struct TextLine {
+  std::string_view label;
+  Lines (*content)(const RunSummary&);
+};
+
+constexpr auto kTextLines = std::to_array<TextLine>({
+    {"cycles",
+     [](const S& s) {
+       return Lines{fmt::format("{} in {:.3f} s ({:.1f} Hz achieved, {:.0f} Hz configured), overruns {}", s.cycles,
+                                s.duration_s, s.achieved_rate_hz, s.rate_hz, s.overruns)};
+     }},
+    {"period jitter",
+     [](const S& s) {
+       return Lines{fmt::format("p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us", s.jitter_us.p50, s.jitter_us.p99,
+                                s.jitter_us.max)};
+     }},
+    {"compute time",
+     [](const S& s) {
+       return Lines{fmt::format("p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us", s.compute_us.p50, s.compute_us.p99,
+                                s.compute_us.max)};
+     }},
+    {"packets",
+     [](const S& s) {
+       const auto& l = s.link;
+       return Lines{fmt::format(
+           "sent {}, received {}, accepted {}, lost {}, reordered {}, duplicates {}, rejected {}, send errors {}",
+           l.sent, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors)};
+     }},
+    {"security", [](const S& s) { return Lines{SecurityText(s)}; }},
+    {"link detail", [](const S& s) { return s.link_detail.empty() ? Lines{} : Lines{s.link_detail}; }},
+    {"link emulation",
+     [](const S& s) {
+       return s.link_emulation ? Lines{transport::FormatImpairmentCounters(*s.link_emulation)} : Lines{};
+     }},
+    {"link faults",
+     [](const S& s) {
+       return s.link_fault_cycles > 0 ? Lines{fmt::format("medium down in {} cycles", s.link_fault_cycles)} : Lines{};
+     }},
+    {"round trip",
+     [](const S& s) {
+       if (s.rtt_ms.count == 0) return Lines{"not measured (no echo from the peer; CAN frames carry no timestamps)"};
+       return Lines{fmt::format("p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms ({} samples)", s.rtt_ms.p50, s.rtt_ms.p99,
+                                s.rtt_ms.max, s.rtt_ms.count)};
+     }},
+    {"data age",
+     [](const S& s) {
+       if (s.data_age_us.count == 0) return Lines{};
+       const auto& c = s.data_age_cycles;
+       return Lines{fmt::format(
+           "p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us since receive; p50 {:.1f} us since the peer sent; in cycles "
+           "0/1/2/3+: {}/{}/{}/{}",
+           s.data_age_us.p50, s.data_age_us.p99, s.data_age_us.max, s.data_age_sender_us.p50, c[0], c[1], c[2], c[3])};
+     }},
+    {"sync",
+     [](const S& s) {
+       if (s.triggered_cycles + s.trigger_timeouts == 0) return Lines{s.sync};
+       return Lines{fmt::format("{}, {} cycles triggered by the peer's sample, {} timeouts ({} while coupled)", s.sync,
+                                s.triggered_cycles, s.trigger_timeouts, s.trigger_timeouts_coupled)};
+     }},
+    {"real-time",
+     [](const S& s) {
+       if (!s.realtime_settings_applied) return Lines{"NOT APPLIED: running without real-time settings (realtime.*)"};
+       return Lines{fmt::format("SCHED_FIFO, memory locked{}", s.cpu_dma_latency_held ? ", cpu_dma_latency held" : "")};
+     }},
+    {"peer",
+     [](const S& s) {
+       return Lines{fmt::format("fresh in {} cycles, watchdog trips {}", s.cycles_with_peer, s.watchdog_trips)};
+     }},
+    {"tracking error",
+     [](const S& s) {
+       return Lines{
+           fmt::format("rms {:.3f} mm, max {:.3f} mm", s.tracking_error_rms_m * 1e3, s.tracking_error_max_m * 1e3)};
+     }},
+    {"fixture",
+     [](const S& s) { return Lines{fmt::format("max penetration {:.3f} mm", s.fixture_max_penetration_m * 1e3)}; }},
+    {"faults",
+     [](const S& s) {
+       return Lines{fmt::format("device fault cycles {}, non-finite inputs {}, saturated cycles {}",
+                                s.device_fault_cycles, s.nonfinite_inputs, s.saturated_cycles)};
+     }},
+    {"passivity",
+     [](const S& s) {
+       std::string line =
+           fmt::format("{}: controller acted in {} cycles, dissipated {:.6g} J, observed energy min {:.6g} J",
+                       s.passivity_mode, s.passivity_cycles, s.passivity_dissipated_J, s.passivity_min_observed_J);
+       if (s.passivity_peer_without_energy > 0) {
+         line += fmt::format(", {} peer samples without energy", s.passivity_peer_without_energy);
+       }
+       return Lines{line};
+     }},
+    {"telemetry",
+     [](const S& s) { return Lines{fmt::format("{} records, {} dropped", s.telemetry_records, s.telemetry_dropped)}; }},
+    {"device warnings",
+     [](const S& s) {
+       const auto& w = s.device_warnings;
+       return Lines{
+           fmt::format("{} changes, set in {} cycles, seen 0x{:x}, last 0x{:x}", w.changes, w.cycles, w.seen, w.last)};
+     }},
+    {"engagement",
+     [](const S& s) {
+       const auto& e = s.engagement;
+       return Lines{fmt::format(
+           "engaged {} times ({} cycles), coupling lost {} times, now {}; aligning mean {:.1f} ms, max {:.1f} ms; max "
+           "re-engagement step {:.4f} mm, max aligning force rate {:.1f} N/s",
+           e.times_engaged, e.engaged_cycles, e.couplings_lost, e.final_state, e.aligning_mean_s * 1e3,
+           e.aligning_max_s * 1e3, e.max_reference_step_m * 1e3, e.max_aligning_force_rate_N_per_s)};
+     }},
+    {"safe state",
+     [](const S& s) {
+       const auto& e = s.engagement;
+       return Lines{
+           fmt::format("reaction '{}'; latency gate trips {}, new sessions {}; readings refused: {} non-finite, {} out "
+                       "of range, {} "
+                       "encoder jumps",
+                       e.reaction, e.latency_gate_trips, e.new_sessions, e.nonfinite_readings, e.out_of_range_readings,
+                       e.encoder_jumps)};
+     }},
+    {"fault",
+     [](const S& s) {
+       Lines lines;
+       for (const FaultReport& f : s.faults) {
+         lines.push_back(
+             fmt::format("{} at cycle {} (t = {:.3f} s, peer sample {:.1f} ms old){}: {}; record {}", ToString(f.kind),
+                         f.cycle, f.time_s, f.peer_sample_age_s * 1e3,
+                         f.device_faults != 0 ? fmt::format(" bits 0x{:x}", f.device_faults) : std::string(),
+                         f.reaction, f.file.empty() ? std::string("not written") : f.file));
+       }
+       return lines;
+     }},
+    {"fault records",
+     [](const S& s) {
+       if (s.fault_records_skipped == 0) return Lines{};
+       return Lines{fmt::format("{} not written (writer busy or safety.max_fault_records)", s.fault_records_skipped)};
+     }},
+});
+
 }  // namespace
 
 std::string FormatSummaryText(const RunSummary& s) {
-  const auto& l = s.link;
-  std::string out;
-  out += fmt::format("teleop-{} summary ({})\n", ToString(s.role), s.stop_reason);
-  out += fmt::format("  cycles            {} in {:.3f} s ({:.1f} Hz achieved, {:.0f} Hz configured), overruns {}\n",
-                     s.cycles, s.duration_s, s.achieved_rate_hz, s.rate_hz, s.overruns);
-  out += fmt::format("  period jitter     p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us\n", s.jitter_us.p50,
-                     s.jitter_us.p99, s.jitter_us.max);
-  out += fmt::format("  compute time      p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us\n", s.compute_us.p50,
-                     s.compute_us.p99, s.compute_us.max);
-  out += fmt::format(
-      "  packets           sent {}, received {}, accepted {}, lost {}, reordered {}, duplicates {}, "
-      "rejected {}, send errors {}\n",
-      l.sent, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors);
-  out += fmt::format("  security          {}\n", SecurityText(s));
-  if (!s.link_detail.empty()) out += fmt::format("  link detail       {}\n", s.link_detail);
-  if (s.link_emulation) {
-    out += fmt::format("  link emulation    {}\n", transport::FormatImpairmentCounters(*s.link_emulation));
-  }
-  if (s.link_fault_cycles > 0)
-    out += fmt::format("  link faults       medium down in {} cycles\n", s.link_fault_cycles);
-  if (s.rtt_ms.count > 0) {
-    out += fmt::format("  round trip        p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms ({} samples)\n", s.rtt_ms.p50,
-                       s.rtt_ms.p99, s.rtt_ms.max, s.rtt_ms.count);
-  } else {
-    out += "  round trip        not measured (no echo from the peer; CAN frames carry no timestamps)\n";
-  }
-  if (s.data_age_us.count > 0) {
-    const auto& c = s.data_age_cycles;
-    out += fmt::format(
-        "  data age          p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us since receive; p50 {:.1f} us since the peer "
-        "sent; in cycles 0/1/2/3+: {}/{}/{}/{}\n",
-        s.data_age_us.p50, s.data_age_us.p99, s.data_age_us.max, s.data_age_sender_us.p50, c[0], c[1], c[2], c[3]);
-  }
-  out += fmt::format("  sync              {}", s.sync);
-  if (s.triggered_cycles + s.trigger_timeouts > 0) {
-    out += fmt::format(", {} cycles triggered by the peer's sample, {} timeouts ({} while coupled)", s.triggered_cycles,
-                       s.trigger_timeouts, s.trigger_timeouts_coupled);
-  }
-  out += "\n";
-  out += s.realtime_settings_applied
-             ? fmt::format("  real-time         SCHED_FIFO, memory locked{}\n",
-                           s.cpu_dma_latency_held ? ", cpu_dma_latency held" : "")
-             : std::string("  real-time         NOT APPLIED: running without real-time settings (realtime.*)\n");
-  out +=
-      fmt::format("  peer              fresh in {} cycles, watchdog trips {}\n", s.cycles_with_peer, s.watchdog_trips);
-  out += fmt::format("  tracking error    rms {:.3f} mm, max {:.3f} mm\n", s.tracking_error_rms_m * 1e3,
-                     s.tracking_error_max_m * 1e3);
-  out += fmt::format("  fixture           max penetration {:.3f} mm\n", s.fixture_max_penetration_m * 1e3);
-  out += fmt::format("  faults            device fault cycles {}, non-finite inputs {}, saturated cycles {}\n",
-                     s.device_fault_cycles, s.nonfinite_inputs, s.saturated_cycles);
-  out += fmt::format(
-      "  passivity         {}: controller acted in {} cycles, dissipated {:.6g} J, observed energy min "
-      "{:.6g} J",
-      s.passivity_mode, s.passivity_cycles, s.passivity_dissipated_J, s.passivity_min_observed_J);
-  if (s.passivity_peer_without_energy > 0) {
-    out += fmt::format(", {} peer samples without energy", s.passivity_peer_without_energy);
-  }
-  out += "\n";
-  out += fmt::format("  telemetry         {} records, {} dropped\n", s.telemetry_records, s.telemetry_dropped);
-  const auto& w = s.device_warnings;
-  out += fmt::format("  device warnings   {} changes, set in {} cycles, seen 0x{:x}, last 0x{:x}\n", w.changes,
-                     w.cycles, w.seen, w.last);
-  const auto& e = s.engagement;
-  out += fmt::format(
-      "  engagement        engaged {} times ({} cycles), coupling lost {} times, now {}; aligning mean {:.1f} ms, "
-      "max {:.1f} ms; max re-engagement step {:.4f} mm, max aligning force rate {:.1f} N/s\n",
-      e.times_engaged, e.engaged_cycles, e.couplings_lost, e.final_state, e.aligning_mean_s * 1e3,
-      e.aligning_max_s * 1e3, e.max_reference_step_m * 1e3, e.max_aligning_force_rate_N_per_s);
-  out += fmt::format(
-      "  safe state        reaction '{}'; latency gate trips {}, new sessions {}; readings refused: "
-      "{} non-finite, {} out of range, {} encoder jumps\n",
-      e.reaction, e.latency_gate_trips, e.new_sessions, e.nonfinite_readings, e.out_of_range_readings, e.encoder_jumps);
-  for (const FaultReport& f : s.faults) {
-    out +=
-        fmt::format("  fault             {} at cycle {} (t = {:.3f} s, peer sample {:.1f} ms old){}: {}; record {}\n",
-                    ToString(f.kind), f.cycle, f.time_s, f.peer_sample_age_s * 1e3,
-                    f.device_faults != 0 ? fmt::format(" bits 0x{:x}", f.device_faults) : std::string(), f.reaction,
-                    f.file.empty() ? std::string("not written") : f.file);
-  }
-  if (s.fault_records_skipped > 0) {
-    out += fmt::format("  fault records     {} not written (writer busy or safety.max_fault_records)\n",
-                       s.fault_records_skipped);
+  std::string out = fmt::format("teleop-{} summary ({})\n", ToString(s.role), s.stop_reason);
+  for (const TextLine& line : kTextLines) {
+    for (const std::string& content : line.content(s)) out += fmt::format("  {:<18}{}\n", line.label, content);
   }
   return out;
 }
