@@ -72,7 +72,7 @@ generate_ninja() {
   # The config loader (fuzz_config) reaches every section reader and every device backend's reader, and through
   # them most of the library: the folders of teleop::config's dependencies, whole (the linker keeps what is used).
   local config_sources=() backends=() d
-  for d in config control analysis device fieldbus transport transport_can runtime; do
+  for d in config control analysis device fieldbus transport runtime; do
     while IFS= read -r s; do config_sources+=("${s#"${ROOT}"/}"); done < <(find "${ROOT}/common/src/${d}" -name '*.cpp' | sort)
   done
   for d in "${ROOT}"/common/src/device/*/; do

@@ -3,16 +3,15 @@
 #include "teleop/transport/can_log_port.hpp"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <deque>
-#include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
 
 #include "teleop/error.hpp"
 #include "teleop/transport/can_log.hpp"
+#include "test_utilities/temp_dir.hpp"
 
 namespace teleop::transport {
 namespace {
@@ -47,12 +46,9 @@ CanFrame Frame(std::uint32_t id, std::uint8_t first) {
   return f;
 }
 
-std::string TempPath(const char* name) {
-  return (std::filesystem::temp_directory_path() / (std::string("teleop_") + name + std::to_string(getpid()))).string();
-}
-
 TEST(CandumpLogPort, WritesWhatTheNodeSentAndReadInOrder) {
-  const std::string path = TempPath("can_log_port.log");
+  const teleop::test::ScopedTempDir dir("can-log-port");
+  const std::string path = dir.File("can_log_port.log");
   std::uint64_t logged = 0;
   {
     CandumpLogPort port(std::make_unique<FakePort>(std::deque<CanFrame>{Frame(0x180, 1), Frame(0x181, 2)}), path,
@@ -83,11 +79,11 @@ TEST(CandumpLogPort, WritesWhatTheNodeSentAndReadInOrder) {
   EXPECT_EQ(ids.size(), logged);
   EXPECT_EQ(ids, (std::vector<std::uint32_t>{0x100, 0x180, 0x181, 0x100}));
   EXPECT_EQ(firsts, (std::vector<std::uint8_t>{10, 1, 2, 12}));
-  std::filesystem::remove(path);
 }
 
 TEST(CandumpLogPort, AFullRingDropsAndCountsNeverBlocks) {
-  const std::string path = TempPath("can_log_port_full.log");
+  const teleop::test::ScopedTempDir dir("can-log-port");
+  const std::string path = dir.File("can_log_port_full.log");
   std::uint64_t logged = 0;
   constexpr int kFrames = 20000;
   {
@@ -101,7 +97,6 @@ TEST(CandumpLogPort, AFullRingDropsAndCountsNeverBlocks) {
   std::uint64_t lines = 0;
   for (std::string line; std::getline(file, line);) ++lines;
   EXPECT_EQ(lines, logged);  // every logged frame is in the file, the dropped ones are not
-  std::filesystem::remove(path);
 }
 
 TEST(CandumpLogPort, AnUnwritablePathIsRefusedAtConstruction) {

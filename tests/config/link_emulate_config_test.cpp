@@ -62,14 +62,14 @@ TEST(LinkEmulateConfig, AbsentOrDisabledMeansThePlainLink) {
   ProcessConfig off = ParseProcessConfig(Config("    enabled: false\n    delay_ms: 5\n"), "test.yaml");
   EXPECT_FALSE(off.link.emulate.enabled);
   off.link.udp.bind_port = 0;  // any free port
-  const auto link = transport::MakeLink(off.link, proto::SenderRole::kSlave);
+  const auto link = link::MakeLink(off.link, proto::SenderRole::kSlave);
   EXPECT_EQ(transport::EmulationCountersOf(*link), nullptr);
 }
 
 TEST(LinkEmulateConfig, MakeLinkWrapsTheConfiguredTransport) {
   ProcessConfig c = ParseProcessConfig(Config("    delay_ms: 5\n    loss_probability: 0.1\n"), "test.yaml");
   c.link.udp.bind_port = 0;  // any free port
-  const auto link = transport::MakeLink(c.link, proto::SenderRole::kSlave);
+  const auto link = link::MakeLink(c.link, proto::SenderRole::kSlave);
   ASSERT_NE(transport::EmulationCountersOf(*link), nullptr);
   EXPECT_THAT(link->Describe(), HasSubstr("udp"));
   EXPECT_THAT(link->Describe(), HasSubstr("emulate (receive side: delay 5.000 ms, loss 0.100, seed 1)"));

@@ -10,7 +10,7 @@
 #include <cstdlib>
 #include <thread>
 
-#include "teleop/fieldbus/can_port.hpp"
+#include "teleop/fieldbus/can_port_config.hpp"
 #include "teleop/fieldbus/cia402_drive.hpp"
 #include "teleop/fieldbus/simulated_cia402_drive.hpp"
 #include "teleop/transport/can_socket_port.hpp"

@@ -165,11 +165,8 @@ std::string ModbusTestServer::Control(const std::string& command) {
 }
 
 PtyPair::PtyPair() {
-  char tmpl[] = "/tmp/teleop-modbus-pty-XXXXXX";
-  if (mkdtemp(tmpl) == nullptr) throw std::runtime_error("mkdtemp failed");
-  dir_ = tmpl;
-  server_ = dir_ + "/server";
-  client_ = dir_ + "/client";
+  server_ = dir_.File("server");
+  client_ = dir_.File("client");
   socat_ = std::make_unique<ChildProcess>(
       std::vector<std::string>{TELEOP_SOCAT, "pty,raw,echo=0,link=" + server_, "pty,raw,echo=0,link=" + client_});
   for (int i = 0; i < 1000; ++i) {
@@ -177,14 +174,11 @@ PtyPair::PtyPair() {
     if (lstat(server_.c_str(), &st) == 0 && lstat(client_.c_str(), &st) == 0) return;
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
-  throw std::runtime_error("socat made no pty pair in " + dir_);
+  throw std::runtime_error("socat made no pty pair in " + dir_.path().string());
 }
 
 PtyPair::~PtyPair() {
-  socat_->Kill();
-  unlink(server_.c_str());
-  unlink(client_.c_str());
-  rmdir(dir_.c_str());
+  socat_->Kill();  // then dir_ removes the links socat left
 }
 
 std::string RunCommand(const std::vector<std::string>& argv, double timeout_s, int* exit_code) {

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "test_utilities/temp_dir.hpp"
+
 namespace teleop::test {
 
 /// A child process started with posix_spawn; its stdout is a pipe. Killed (SIGTERM, then SIGKILL) on destruction.
@@ -68,7 +70,7 @@ class PtyPair {
   const std::string& client_end() const noexcept { return client_; }
 
  private:
-  std::string dir_;
+  ScopedTempDir dir_{"modbus-pty"};  ///< Removed last, after socat is gone.
   std::string server_;
   std::string client_;
   std::unique_ptr<ChildProcess> socat_;

@@ -1,11 +1,13 @@
 #pragma once
 
-// A fresh directory for one test's files, under GoogleTest's TempDir(), removed with its content at the end.
+// A fresh directory for one test's (or benchmark's) files, removed with its content at the end. Under $TEST_TMPDIR
+// when set (as GoogleTest's TempDir()), else the system's temporary directory ($TMPDIR, else /tmp). Header-only and
+// without GoogleTest, so that benchmarks and test servers use it too.
 
-#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -14,11 +16,10 @@ namespace teleop::test {
 
 class ScopedTempDir {
  public:
-  /// `<TempDir>/teleop-<name>-<pid>-<n>`, created empty (a leftover of the same name is removed first).
+  /// `<root>/teleop-<name>-<pid>-<n>`, created empty (a leftover of the same name is removed first).
   explicit ScopedTempDir(const std::string& name) {
     static std::atomic<int> counter{0};
-    path_ = std::filesystem::path(::testing::TempDir()) /
-            ("teleop-" + name + "-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+    path_ = Root() / ("teleop-" + name + "-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
     std::error_code ec;
     std::filesystem::remove_all(path_, ec);
     std::filesystem::create_directories(path_);
@@ -35,6 +36,12 @@ class ScopedTempDir {
   std::string File(const std::string& file) const { return (path_ / file).string(); }
 
  private:
+  static std::filesystem::path Root() {
+    const char* test_tmpdir = std::getenv("TEST_TMPDIR");
+    if (test_tmpdir != nullptr && *test_tmpdir != '\0') return test_tmpdir;
+    return std::filesystem::temp_directory_path();
+  }
+
   std::filesystem::path path_;
 };
 

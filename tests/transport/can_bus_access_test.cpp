@@ -26,6 +26,7 @@
 #include "teleop/transport/can_bus_datagram.hpp"
 #include "teleop/transport/can_bus_server.hpp"
 #include "teleop/transport/can_udp_bus_port.hpp"
+#include "test_utilities/temp_dir.hpp"
 
 namespace teleop::transport {
 namespace {
@@ -131,18 +132,9 @@ TEST(CanBusAccess, RemoteNodesOnlyWhereTheNetworkIsTheBus) {
 
 // A fresh directory others may enter (mode 0755: the socket file's own mode is then what decides), removed after.
 struct TempDir {
-  TempDir() {
-    std::string pattern = (std::filesystem::temp_directory_path() / "teleop-canbus-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw Error("mkdtemp");
-    path = pattern;
-    ::chmod(path.c_str(), 0755);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path, ignored);
-  }
-  std::string Socket() const { return path + "/canbus.sock"; }
-  std::string path;
+  TempDir() { ::chmod(dir.path().c_str(), 0755); }
+  std::string Socket() const { return dir.File("canbus.sock"); }
+  teleop::test::ScopedTempDir dir{"canbus"};
 };
 
 CanBusServerConfig UnixConfig(const TempDir& dir, unsigned mode) {

@@ -2,10 +2,8 @@
 // and SequenceTracker.
 // Prints ns per iteration; not a test.
 #include <benchmark/benchmark.h>
-#include <stdlib.h>
 
 #include <chrono>
-#include <filesystem>
 #include <memory>
 #include <string>
 #include <thread>
@@ -14,6 +12,7 @@
 #include "teleop/transport/impaired_link.hpp"
 #include "teleop/transport/secure_key_file.hpp"
 #include "teleop/transport/udp_link.hpp"
+#include "test_utilities/temp_dir.hpp"
 
 namespace {
 
@@ -53,9 +52,8 @@ BENCHMARK(BM_UdpSendPoll)->Arg(1)->Arg(6);
 // plausibility) + classify. The difference to BM_UdpSendPoll is what authentication adds per datagram at the link.
 void BM_SecureUdpSendPoll(benchmark::State& state) {
   const int dof = static_cast<int>(state.range(0));
-  char dir_pattern[] = "/tmp/teleop-link-benchmark-XXXXXX";
-  const std::string dir = mkdtemp(dir_pattern);
-  const std::string key = dir + "/teleop.key";
+  const teleop::test::ScopedTempDir dir("link-benchmark");
+  const std::string key = dir.File("teleop.key");
   teleop::transport::WriteNewKeyFile(key);
   auto config = [&](SenderRole expected_peer) {
     teleop::transport::UdpLinkConfig c;
@@ -70,7 +68,6 @@ void BM_SecureUdpSendPoll(benchmark::State& state) {
   };
   teleop::transport::UdpLink master(config(SenderRole::kSlave));
   teleop::transport::UdpLink slave(config(SenderRole::kMaster));
-  std::filesystem::remove_all(dir);
   master.SetPeer("127.0.0.1", slave.local_port());
   slave.SetPeer("127.0.0.1", master.local_port());
   SampleMessage m = Sample(SenderRole::kMaster, dof);

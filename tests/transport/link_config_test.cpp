@@ -17,6 +17,8 @@
 namespace teleop::transport {
 namespace {
 
+using link::LinkConfig;
+using link::MakeLink;
 using proto::SenderRole;
 
 // Two free ports, found by binding throw-away links (the kernel hands out distinct ephemeral ports).

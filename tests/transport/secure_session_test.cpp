@@ -23,6 +23,7 @@
 #include "teleop/proto/codec.hpp"
 #include "teleop/proto/secure_message.hpp"
 #include "test_utilities/limit_malloc.hpp"
+#include "test_utilities/temp_dir.hpp"
 
 namespace teleop::transport {
 namespace {
@@ -34,25 +35,7 @@ using S = SecureReceiveStatus;
 
 constexpr std::uint64_t kPeriod_ns = 1'000'000;  // 1 kHz
 
-// A private scratch directory per test, removed afterwards.
-class TempDir {
- public:
-  TempDir() {
-    std::string pattern = (fs::temp_directory_path() / "teleop_secure_XXXXXX").string();
-    path_ = ::mkdtemp(pattern.data());
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  std::string File(const std::string& name) const { return (fs::path(path_) / name).string(); }
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
+using teleop::test::ScopedTempDir;
 
 void WriteFile(const std::string& path, const std::string& content, mode_t mode) {
   std::ofstream(path) << content;
@@ -152,7 +135,7 @@ void ExpectOnly(const SecureCounters& c, std::initializer_list<std::pair<S, std:
 // Key file
 
 TEST(SecureKeyFile, LoadsAPrivateHexKey) {
-  TempDir dir;
+  ScopedTempDir dir("secure");
   const std::string path = dir.File("psk");
   WriteFile(path, "  000102030405060708090a0b0c0d0e0f101112131415161718191A1B1C1D1E1F\n", 0600);
   const PreSharedKey key = LoadPreSharedKey(path);
@@ -162,7 +145,7 @@ TEST(SecureKeyFile, LoadsAPrivateHexKey) {
 }
 
 TEST(SecureKeyFile, RefusesGroupOrOtherPermissions) {
-  TempDir dir;
+  ScopedTempDir dir("secure");
   const std::string path = dir.File("psk");
   WriteFile(path, std::string(64, 'a') + "\n", 0600);
   for (const mode_t mode : {0640, 0604, 0644, 0620, 0602, 0610, 0601, 0660}) {
@@ -179,7 +162,7 @@ TEST(SecureKeyFile, RefusesGroupOrOtherPermissions) {
 }
 
 TEST(SecureKeyFile, RefusesBadContentMissingFilesAndDirectories) {
-  TempDir dir;
+  ScopedTempDir dir("secure");
   const std::string path = dir.File("psk");
   for (const std::string& content :
        {std::string(63, 'a'), std::string(65, 'a'), std::string(62, 'a') + "zz", std::string(64, '0'),
@@ -208,7 +191,7 @@ void ExpectRefused(const std::string& key_file, std::initializer_list<const char
 }
 
 TEST(SecureKeyFile, RefusesASymbolicLinkEvenToAGoodKey) {
-  TempDir dir;
+  ScopedTempDir dir("secure");
   const std::string target = dir.File("psk");
   WriteFile(target, kHexKey, 0600);
   const std::string link = dir.File("link");
@@ -218,7 +201,7 @@ TEST(SecureKeyFile, RefusesASymbolicLinkEvenToAGoodKey) {
 }
 
 TEST(SecureKeyFile, RefusesAFifoWithoutHanging) {
-  TempDir dir;
+  ScopedTempDir dir("secure");
   const std::string fifo = dir.File("fifo");
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   // Without O_NONBLOCK the open would wait for a writer forever; the test would hang, not fail.
@@ -227,7 +210,7 @@ TEST(SecureKeyFile, RefusesAFifoWithoutHanging) {
 
 TEST(SecureKeyFile, RefusesAFileOwnedByAnotherUser) {
   if (::geteuid() != 0) GTEST_SKIP() << "needs root to give a file to another user";
-  TempDir dir;
+  ScopedTempDir dir("secure");
   const std::string path = dir.File("psk");
   WriteFile(path, kHexKey, 0600);
   ASSERT_EQ(::chown(path.c_str(), 65534, 65534), 0);  // nobody
@@ -251,7 +234,7 @@ class CredentialDirectory : public ::testing::Test {
       ::unsetenv("CREDENTIALS_DIRECTORY");
     }
   }
-  TempDir dir_;
+  ScopedTempDir dir_{"secure"};
   std::string saved_;
   bool had_ = false;
 };
@@ -259,9 +242,9 @@ class CredentialDirectory : public ::testing::Test {
 TEST_F(CredentialDirectory, ACredentialIsReadFromTheDirectorySystemdNames) {
   WriteFile(dir_.File("teleop.key"), kHexKey, 0400);
   ASSERT_EQ(::setenv("CREDENTIALS_DIRECTORY", dir_.path().c_str(), 1), 0);
-  EXPECT_EQ(ResolveKeyPath("credential:teleop.key"), dir_.path() + "/teleop.key");
+  EXPECT_EQ(ResolveKeyPath("credential:teleop.key"), dir_.File("teleop.key"));
   // The fallback: a config's key_file whose file name is a credential of the unit reads the credential.
-  EXPECT_EQ(ResolveKeyPath("/etc/teleop/teleop.key"), dir_.path() + "/teleop.key");
+  EXPECT_EQ(ResolveKeyPath("/etc/teleop/teleop.key"), dir_.File("teleop.key"));
   EXPECT_EQ(ResolveKeyPath("/etc/teleop/other.key"), "/etc/teleop/other.key") << "no such credential: the path";
   EXPECT_EQ(LoadPreSharedKey("/nonexistent/teleop.key").bytes()[0], 0x00);
   const PreSharedKey key = LoadPreSharedKey("credential:teleop.key");
@@ -314,7 +297,7 @@ TEST(SecureSession, KeepsItsKeysInLockedMemoryExcludedFromCoreDumps) {
 }
 
 TEST(SecureKeyFile, WritesAFreshPrivateKeyAndNeverOverwrites) {
-  TempDir dir;
+  ScopedTempDir dir("secure");
   const std::string path = dir.File("psk");
   const mode_t old_mask = ::umask(0);  // the file must still come out 0600
   WriteNewKeyFile(path);

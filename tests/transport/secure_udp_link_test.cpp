@@ -14,7 +14,6 @@
 #pragma GCC diagnostic pop
 #include <chrono>
 #include <cstdint>
-#include <filesystem>
 #include <memory>
 #include <string>
 #include <thread>
@@ -26,6 +25,7 @@
 #include "teleop/transport/secure_key_file.hpp"
 #include "teleop/transport/udp_link.hpp"
 #include "test_utilities/limit_malloc.hpp"
+#include "test_utilities/temp_dir.hpp"
 #include "transport/link_test_helpers.hpp"
 
 namespace teleop::transport {
@@ -33,20 +33,16 @@ namespace {
 
 namespace asio = boost::asio;
 using asio::ip::udp;
+using link::LinkConfig;
+using link::MakeLink;
 using proto::SenderRole;
 using test::MakeSample;
 
 // A directory with one fresh key file, removed afterwards.
 struct KeyDir {
-  KeyDir() {
-    char pattern[] = "/tmp/teleop-secure-link-XXXXXX";
-    dir = mkdtemp(pattern);
-    key = dir + "/teleop.key";
-    WriteNewKeyFile(key);
-  }
-  ~KeyDir() { std::filesystem::remove_all(dir); }
-  std::string dir;
-  std::string key;
+  KeyDir() { WriteNewKeyFile(key); }
+  teleop::test::ScopedTempDir dir{"secure-link"};
+  std::string key = dir.File("teleop.key");
 };
 
 UdpLinkConfig SecureConfig(SenderRole expected_peer, const std::string& key, int dof = 3) {
@@ -253,7 +249,7 @@ TEST(SecureUdpLink, KeyFileProblemsAreSetUpErrorsWithTheFix) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("chmod 600 " + keys.key));
   }
   try {
-    UdpLink link(SecureConfig(SenderRole::kSlave, keys.dir + "/missing.key"));
+    UdpLink link(SecureConfig(SenderRole::kSlave, keys.dir.File("missing.key")));
     FAIL() << "a missing key was accepted";
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("teleop-keygen"));

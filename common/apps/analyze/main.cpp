@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <limits>
@@ -22,13 +23,9 @@
 #include "teleop/analysis/human_bounds.hpp"
 #include "teleop/analysis/limit_sweep.hpp"
 #include "teleop/analysis/stability_limit.hpp"
-#include "teleop/error.hpp"
-#ifdef TELEOP_ANALYZE_HAS_CONFIG
-#include <filesystem>
-
 #include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
-#endif
+#include "teleop/error.hpp"
 
 namespace {
 
@@ -266,7 +263,6 @@ int RunSweep(const SystemOptions& o, const SweepOptions& w) {
   return 0;
 }
 
-#ifdef TELEOP_ANALYZE_HAS_CONFIG
 /// Analyses the process's own fixture exactly as the process does at start-up (config::CheckProcessStability, with
 /// the config's `stability:` section). Flags given on the command line override that section: the peer's gains
 /// (--kps/--kds/--kvs for a master config, --kpm/--kdm/--kvm for a slave config), either device, the peer's fixture
@@ -312,7 +308,6 @@ int RunCheck(const SystemOptions& o, const CLI::App& app, const std::string& con
   }
   return report.stable() ? 0 : kExitUnstable;
 }
-#endif
 
 }  // namespace
 
@@ -351,12 +346,7 @@ static int Run(int argc, char** argv) {
     if (*max) return RunMaxStiffness(max_options);
     if (*sweep_app) return RunSweep(sweep_options, sweep);
     if (*check) {
-#ifdef TELEOP_ANALYZE_HAS_CONFIG
       return RunCheck(check_options, *check, config_path);
-#else
-      std::cerr << "teleop-analyze: check needs the config library (teleop::config), not built here\n";
-      return kExitBadInput;
-#endif
     }
   } catch (const teleop::Error& e) {
     std::cerr << "teleop-analyze: error: " << e.what() << "\n";

@@ -32,7 +32,7 @@
 #include <vector>
 
 #include "teleop/error.hpp"
-#include "teleop/fieldbus/can_port.hpp"
+#include "teleop/fieldbus/can_port_config.hpp"
 #include "teleop/fieldbus/canopen_sdo.hpp"
 #include "teleop/fieldbus/canopen_sdo_client.hpp"
 #include "teleop/fieldbus/cia402_drive.hpp"

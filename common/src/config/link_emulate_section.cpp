@@ -37,7 +37,7 @@ void ParseOutages(const Field& f, std::vector<transport::Outage>& outages) {
 
 }  // namespace
 
-void ParseLinkEmulate(const Field& f, double rate_hz, transport::LinkConfig::Emulation& emulate) {
+void ParseLinkEmulate(const Field& f, double rate_hz, link::LinkConfig::Emulation& emulate) {
   const Map map(f, {"enabled", "seed", "delay_ms", "jitter_ms", "loss_probability", "burst", "duplicate_probability",
                     "reorder_probability", "corrupt_probability", "bandwidth_bit_per_s", "queue_ms", "outages"});
   transport::ImpairmentConfig& c = emulate.impairments;

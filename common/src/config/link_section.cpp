@@ -107,7 +107,7 @@ void ParseCan(const Field& f, bool emulated, transport::CanLinkConfig& can) {
 
 }  // namespace
 
-void ParseLink(const Field& f, Role role, double rate_hz, int dof, transport::LinkConfig& link) {
+void ParseLink(const Field& f, Role role, double rate_hz, int dof, link::LinkConfig& link) {
   const Map map(f, {"transport", "bind", "peer", "timeout_ms", "accept_only_peer_address", "receive_buffer_bytes",
                     "busy_poll_us", "can", "emulate", "security"});
   if (auto v = map.Optional("transport")) {

@@ -6,7 +6,7 @@
 
 namespace teleop::config::sections {
 
-void ParsePassivity(const Field& f, int dof, const transport::LinkConfig& link,
+void ParsePassivity(const Field& f, int dof, const link::LinkConfig& link,
                     control::PassivityController::Config& passivity) {
   const Map map(f, {"mode", "max_damping_Ns_per_m"});
   if (auto v = map.Optional("mode")) {

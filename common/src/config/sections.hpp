@@ -12,9 +12,9 @@
 
 namespace teleop::config::sections {
 
-void ParseLink(const Field& f, Role role, double rate_hz, int dof, transport::LinkConfig& link);
+void ParseLink(const Field& f, Role role, double rate_hz, int dof, link::LinkConfig& link);
 /// `link.emulate` (link_emulate_section.cpp).
-void ParseLinkEmulate(const Field& f, double rate_hz, transport::LinkConfig::Emulation& emulate);
+void ParseLinkEmulate(const Field& f, double rate_hz, link::LinkConfig::Emulation& emulate);
 /// `link.security` (security_section.cpp), required: a config without it is refused with how to make a key.
 void ParseSecurity(const Map& link, const std::string& transport, int dof, transport::LinkSecurityConfig& security);
 void ParseLaw(const Field& f, double rate_hz, control::ThreeChannelLaw::Config& law);
@@ -24,7 +24,7 @@ void ParseDevice(const Field& f, Role role, int dof, device::DeviceConfig& devic
 void ParseTelemetry(const Field& f, TelemetryConfig& telemetry);
 void ParseStability(const Field& f, int dof, StabilityConfig& stability);
 /// `passivity:` (read after `link:`: energy_exchange is refused over CAN).
-void ParsePassivity(const Field& f, int dof, const transport::LinkConfig& link,
+void ParsePassivity(const Field& f, int dof, const link::LinkConfig& link,
                     control::PassivityController::Config& passivity);
 void ParseEngagement(const Field& f, node::EngagementConfig& engagement);
 /// `safety:`; `role` decides the allowed reactions (the default is set before, by DefaultReaction).

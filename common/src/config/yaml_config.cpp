@@ -56,7 +56,7 @@ void ParseRealtime(const Field& f, runtime::PeriodicLoopConfig& loop) {
 }
 
 // Phase-locked cycles (docs/configuration.md, `sync`).
-void ParseSync(const Field& f, const transport::LinkConfig& link, runtime::PeriodicLoopConfig& loop) {
+void ParseSync(const Field& f, const link::LinkConfig& link, runtime::PeriodicLoopConfig& loop) {
   const Map map(f, {"mode", "timeout_margin_us", "spin_us"});
   if (auto v = map.Optional("mode")) {
     const std::string mode = v->AsString();

@@ -11,8 +11,17 @@
 #include "teleop/transport/can_link.hpp"
 #include "teleop/transport/impaired_link.hpp"
 
-namespace teleop::transport {
+namespace teleop::link {
 namespace {
+
+using transport::CanLinkConfig;
+using transport::CanMedium;
+using transport::ImpairedLink;
+using transport::ImpairmentConfig;
+using transport::Link;
+using transport::LinkSecurityMode;
+using transport::UdpLink;
+using transport::UdpLinkConfig;
 
 using Factory = std::unique_ptr<Link> (*)(const LinkConfig&, proto::SenderRole);
 
@@ -30,13 +39,13 @@ std::unique_ptr<Link> MakeUdp(const LinkConfig& config, proto::SenderRole local_
 std::unique_ptr<Link> MakeCan(const LinkConfig& config, proto::SenderRole local_role, CanMedium medium) {
   if (config.security.mode != LinkSecurityMode::kInsecure) {
     throw Error(std::string("link '") + (medium == CanMedium::kSocketCan ? "can" : "emulated-can") +
-                "': link.security.mode " + ToString(config.security.mode) +
+                "': link.security.mode " + transport::ToString(config.security.mode) +
                 " is not available on CAN (a 16-byte tag does not fit the frames; docs/security.md, \"CAN\"); on a "
                 "closed bus set link.security.mode: insecure, or use transport udp");
   }
   CanLinkConfig can = config.can;
   can.medium = medium;
-  return MakeCanLink(can, local_role, config.rate_hz);
+  return transport::MakeCanLink(can, local_role, config.rate_hz);
 }
 
 std::unique_ptr<Link> MakeSocketCan(const LinkConfig& config, proto::SenderRole local_role) {
@@ -92,4 +101,4 @@ std::unique_ptr<Link> MakeLink(const LinkConfig& config, proto::SenderRole local
   throw Error("link: unknown transport '" + config.transport + "'; known transports: " + known);
 }
 
-}  // namespace teleop::transport
+}  // namespace teleop::link

@@ -158,7 +158,7 @@ int ProcessMain(int argc, char** argv, Role role) {
     if (!StabilityAllowsStart(config, allow_unstable)) return kExitConfigError;
 
     auto device = device::MakeDevice(config.device);
-    auto link = transport::MakeLink(config.link, transport::ToSender(role));
+    auto link = link::MakeLink(config.link, link::ToSender(role));
     TeleopNode node(config, std::move(device), std::move(link), TeleopNode::Unconfigured{});
     node.Configure();
     // Before Activate: the server's thread must not inherit the loop's SCHED_FIFO (the check runs there).

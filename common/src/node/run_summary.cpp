@@ -2,8 +2,13 @@
 
 #include <fmt/format.h>
 
+#include <array>
 #include <cmath>
+#include <cstddef>
+#include <cstdint>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "teleop/json_text.hpp"
 
@@ -22,11 +27,6 @@ namespace {
 
 // JSON has no NaN/inf: write null for them.
 std::string Num(double v) { return std::isfinite(v) ? fmt::format("{:.9g}", v) : std::string("null"); }
-
-std::string DistJson(const Distribution& d) {
-  return fmt::format(R"({{"count": {}, "p50": {}, "p99": {}, "max": {}}})", d.count, Num(d.p50), Num(d.p99),
-                     Num(d.max));
-}
 
 std::string RejectedJson(const transport::LinkCounters& c) {
   std::string out = "{";
@@ -75,187 +75,333 @@ std::string SecurityText(const RunSummary& s) {
   return out;
 }
 
+// The JSON: one table per record, its keys in output order. A field of the summary is written here once, by its key
+// and its value; FormatSummaryJson lays the tables out.
+
+std::string Json(std::uint64_t v) { return fmt::format("{}", v); }
+std::string Json(std::uint32_t v) { return fmt::format("{}", v); }
+std::string Json(double v) { return Num(v); }
+std::string Json(bool v) { return v ? "true" : "false"; }
+std::string Json(const std::string& v) { return JsonString(v); }
+
+/// One key of a JSON object and how its value is written from the record R. `line_end`: the summary's top level
+/// breaks the line after this field.
+template <class R>
+struct Field {
+  std::string_view key;
+  std::string (*json)(const R&);
+  bool line_end = false;
+};
+using SummaryField = Field<RunSummary>;
+
+template <class R, std::size_t N>
+std::string Object(const std::array<Field<R>, N>& fields, const R& record) {
+  std::string out = "{";
+  for (const Field<R>& f : fields)
+    out += fmt::format(R"({}"{}": {})", out.size() > 1 ? ", " : "", f.key, f.json(record));
+  return out + "}";
+}
+
+using D = Distribution;
+constexpr auto kDistributionFields = std::to_array<Field<D>>({
+    {"count", [](const D& d) { return Json(d.count); }},
+    {"p50", [](const D& d) { return Json(d.p50); }},
+    {"p99", [](const D& d) { return Json(d.p99); }},
+    {"max", [](const D& d) { return Json(d.max); }},
+});
+std::string Json(const Distribution& d) { return Object(kDistributionFields, d); }
+
+using S = RunSummary;
+constexpr auto kPacketFields = std::to_array<Field<S>>({
+    {"sent", [](const S& s) { return Json(s.link.sent); }},
+    {"send_errors", [](const S& s) { return Json(s.link.send_errors); }},
+    {"received", [](const S& s) { return Json(s.link.received); }},
+    {"accepted", [](const S& s) { return Json(s.link.accepted); }},
+    {"lost", [](const S& s) { return Json(s.link.lost); }},
+    {"reordered", [](const S& s) { return Json(s.link.reordered); }},
+    {"duplicates", [](const S& s) { return Json(s.link.duplicates); }},
+    {"rejected", [](const S& s) { return Json(s.link.rejected); }},
+    {"wrong_sender", [](const S& s) { return Json(s.link.wrong_sender); }},
+    {"superseded", [](const S& s) { return Json(s.link.superseded); }},
+    {"bus_errors", [](const S& s) { return Json(s.link.bus_errors); }},
+    {"rejected_by_reason", [](const S& s) { return RejectedJson(s.link); }},
+});
+
+constexpr auto kSecurityFields = std::to_array<Field<S>>({
+    {"mode", [](const S& s) { return Json(s.link_security); }},
+    {"sessions", [](const S& s) { return Json(s.link.sessions); }},
+    {"handshakes_started", [](const S& s) { return Json(s.link.handshakes_started); }},
+    {"handshake_messages", [](const S& s) { return Json(s.link.handshake_messages); }},
+    {"send_no_session", [](const S& s) { return Json(s.link.send_no_session); }},
+    {"rejected_by_reason", [](const S& s) { return SecureRejectedJson(s.link); }},
+});
+
+constexpr auto kPassivityFields = std::to_array<Field<S>>({
+    {"mode", [](const S& s) { return Json(s.passivity_mode); }},
+    {"cycles", [](const S& s) { return Json(s.passivity_cycles); }},
+    {"dissipated_J", [](const S& s) { return Json(s.passivity_dissipated_J); }},
+    {"min_observed_J", [](const S& s) { return Json(s.passivity_min_observed_J); }},
+    {"peer_without_energy", [](const S& s) { return Json(s.passivity_peer_without_energy); }},
+});
+
+using W = DeviceWarningSummary;
+constexpr auto kDeviceWarningFields = std::to_array<Field<W>>({
+    {"changes", [](const W& w) { return Json(w.changes); }},
+    {"cycles", [](const W& w) { return Json(w.cycles); }},
+    {"seen", [](const W& w) { return Json(w.seen); }},
+    {"last", [](const W& w) { return Json(w.last); }},
+});
+
+using E = EngagementSummary;
+constexpr auto kEngagementFields = std::to_array<Field<E>>({
+    {"reaction", [](const E& e) { return Json(e.reaction); }},
+    {"final_state", [](const E& e) { return Json(e.final_state); }},
+    {"times_engaged", [](const E& e) { return Json(e.times_engaged); }},
+    {"couplings_lost", [](const E& e) { return Json(e.couplings_lost); }},
+    {"engaged_cycles", [](const E& e) { return Json(e.engaged_cycles); }},
+    {"aligning_mean_s", [](const E& e) { return Json(e.aligning_mean_s); }},
+    {"aligning_max_s", [](const E& e) { return Json(e.aligning_max_s); }},
+    {"max_reengagement_step_m", [](const E& e) { return Json(e.max_reference_step_m); }},
+    {"max_aligning_force_rate_N_per_s", [](const E& e) { return Json(e.max_aligning_force_rate_N_per_s); }},
+    {"latency_gate_trips", [](const E& e) { return Json(e.latency_gate_trips); }},
+    {"new_sessions", [](const E& e) { return Json(e.new_sessions); }},
+    {"encoder_jumps", [](const E& e) { return Json(e.encoder_jumps); }},
+    {"out_of_range_readings", [](const E& e) { return Json(e.out_of_range_readings); }},
+    {"nonfinite_readings", [](const E& e) { return Json(e.nonfinite_readings); }},
+});
+
+using F = FaultReport;
+constexpr auto kFaultFields = std::to_array<Field<F>>({
+    {"kind", [](const F& f) { return Json(std::string(ToString(f.kind))); }},
+    {"cycle", [](const F& f) { return Json(f.cycle); }},
+    {"time_s", [](const F& f) { return Json(f.time_s); }},
+    {"reaction", [](const F& f) { return Json(f.reaction); }},
+    {"peer_sample_age_s", [](const F& f) { return Json(f.peer_sample_age_s); }},
+    {"device_faults", [](const F& f) { return Json(f.device_faults); }},
+    {"record", [](const F& f) { return Json(f.file); }},
+});
+
+// One fault per line.
+std::string FaultsJson(const std::vector<FaultReport>& faults) {
+  std::string out = "[";
+  for (const FaultReport& f : faults) out += (out.size() == 1 ? "\n    " : ",\n    ") + Object(kFaultFields, f);
+  return out + (faults.empty() ? "]" : "\n  ]");
+}
+
+std::string DataAgeCyclesJson(const std::array<std::uint64_t, 4>& cycles) {
+  std::string out = "[";
+  for (const std::uint64_t c : cycles) out += (out.size() > 1 ? ", " : "") + Json(c);
+  return out + "]";
+}
+
+constexpr bool kEnd = true;  // the line ends after this field
+constexpr auto kSummaryFields = std::to_array<SummaryField>({
+    {"role", [](const S& s) { return Json(std::string(ToString(s.role))); }, kEnd},
+    {"stop_reason", [](const S& s) { return Json(s.stop_reason); }, kEnd},
+    {"rate_hz", [](const S& s) { return Json(s.rate_hz); }},
+    {"duration_s", [](const S& s) { return Json(s.duration_s); }},
+    {"cycles", [](const S& s) { return Json(s.cycles); }},
+    {"achieved_rate_hz", [](const S& s) { return Json(s.achieved_rate_hz); }},
+    {"overruns", [](const S& s) { return Json(s.overruns); }, kEnd},
+    {"period_us", [](const S& s) { return Json(s.period_us); }},
+    {"jitter_us", [](const S& s) { return Json(s.jitter_us); }},
+    {"compute_us", [](const S& s) { return Json(s.compute_us); }, kEnd},
+    {"packets", [](const S& s) { return Object(kPacketFields, s); }, kEnd},
+    {"security", [](const S& s) { return Object(kSecurityFields, s); }, kEnd},
+    {"link_detail", [](const S& s) { return Json(s.link_detail); }},
+    {"link_fault_cycles", [](const S& s) { return Json(s.link_fault_cycles); }, kEnd},
+    {"link_emulation",
+     [](const S& s) {
+       return s.link_emulation ? transport::ImpairmentCountersJson(*s.link_emulation) : std::string("null");
+     },
+     kEnd},
+    {"rtt_ms", [](const S& s) { return Json(s.rtt_ms); }, kEnd},
+    {"sync", [](const S& s) { return Json(s.sync); }},
+    {"triggered_cycles", [](const S& s) { return Json(s.triggered_cycles); }},
+    {"trigger_timeouts", [](const S& s) { return Json(s.trigger_timeouts); }},
+    {"trigger_timeouts_coupled", [](const S& s) { return Json(s.trigger_timeouts_coupled); }, kEnd},
+    {"data_age_us", [](const S& s) { return Json(s.data_age_us); }},
+    {"data_age_sender_us", [](const S& s) { return Json(s.data_age_sender_us); }},
+    {"data_age_cycles", [](const S& s) { return DataAgeCyclesJson(s.data_age_cycles); }, kEnd},
+    {"realtime_settings_applied", [](const S& s) { return Json(s.realtime_settings_applied); }},
+    {"cpu_dma_latency_held", [](const S& s) { return Json(s.cpu_dma_latency_held); }, kEnd},
+    {"cycles_with_peer", [](const S& s) { return Json(s.cycles_with_peer); }},
+    {"watchdog_trips", [](const S& s) { return Json(s.watchdog_trips); }},
+    {"device_fault_cycles", [](const S& s) { return Json(s.device_fault_cycles); }},
+    {"nonfinite_inputs", [](const S& s) { return Json(s.nonfinite_inputs); }},
+    {"saturated_cycles", [](const S& s) { return Json(s.saturated_cycles); }},
+    {"dof_mismatches", [](const S& s) { return Json(s.dof_mismatches); }, kEnd},
+    {"tracking_error_rms_m", [](const S& s) { return Json(s.tracking_error_rms_m); }},
+    {"tracking_error_max_m", [](const S& s) { return Json(s.tracking_error_max_m); }},
+    {"fixture_max_penetration_m", [](const S& s) { return Json(s.fixture_max_penetration_m); }, kEnd},
+    {"passivity", [](const S& s) { return Object(kPassivityFields, s); }, kEnd},
+    {"telemetry_records", [](const S& s) { return Json(s.telemetry_records); }},
+    {"telemetry_dropped", [](const S& s) { return Json(s.telemetry_dropped); }, kEnd},
+    {"device_warnings", [](const S& s) { return Object(kDeviceWarningFields, s.device_warnings); }, kEnd},
+    {"engagement", [](const S& s) { return Object(kEngagementFields, s.engagement); }, kEnd},
+    {"faults", [](const S& s) { return FaultsJson(s.faults); }, kEnd},
+    {"fault_records_skipped", [](const S& s) { return Json(s.fault_records_skipped); }, kEnd},
+});
+
+// The text: one line per label (a label may give no line, or one per fault), in reading order. It phrases a selection
+// of the values above in the units a reader expects (mm, ms).
+using Lines = std::vector<std::string>;
+struct TextLine {
+  std::string_view label;
+  Lines (*content)(const RunSummary&);
+};
+
+constexpr auto kTextLines = std::to_array<TextLine>({
+    {"cycles",
+     [](const S& s) {
+       return Lines{fmt::format("{} in {:.3f} s ({:.1f} Hz achieved, {:.0f} Hz configured), overruns {}", s.cycles,
+                                s.duration_s, s.achieved_rate_hz, s.rate_hz, s.overruns)};
+     }},
+    {"period jitter",
+     [](const S& s) {
+       return Lines{fmt::format("p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us", s.jitter_us.p50, s.jitter_us.p99,
+                                s.jitter_us.max)};
+     }},
+    {"compute time",
+     [](const S& s) {
+       return Lines{fmt::format("p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us", s.compute_us.p50, s.compute_us.p99,
+                                s.compute_us.max)};
+     }},
+    {"packets",
+     [](const S& s) {
+       const auto& l = s.link;
+       return Lines{fmt::format(
+           "sent {}, received {}, accepted {}, lost {}, reordered {}, duplicates {}, rejected {}, send errors {}",
+           l.sent, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors)};
+     }},
+    {"security", [](const S& s) { return Lines{SecurityText(s)}; }},
+    {"link detail", [](const S& s) { return s.link_detail.empty() ? Lines{} : Lines{s.link_detail}; }},
+    {"link emulation",
+     [](const S& s) {
+       return s.link_emulation ? Lines{transport::FormatImpairmentCounters(*s.link_emulation)} : Lines{};
+     }},
+    {"link faults",
+     [](const S& s) {
+       return s.link_fault_cycles > 0 ? Lines{fmt::format("medium down in {} cycles", s.link_fault_cycles)} : Lines{};
+     }},
+    {"round trip",
+     [](const S& s) {
+       if (s.rtt_ms.count == 0) return Lines{"not measured (no echo from the peer; CAN frames carry no timestamps)"};
+       return Lines{fmt::format("p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms ({} samples)", s.rtt_ms.p50, s.rtt_ms.p99,
+                                s.rtt_ms.max, s.rtt_ms.count)};
+     }},
+    {"data age",
+     [](const S& s) {
+       if (s.data_age_us.count == 0) return Lines{};
+       const auto& c = s.data_age_cycles;
+       return Lines{fmt::format(
+           "p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us since receive; p50 {:.1f} us since the peer sent; in cycles "
+           "0/1/2/3+: {}/{}/{}/{}",
+           s.data_age_us.p50, s.data_age_us.p99, s.data_age_us.max, s.data_age_sender_us.p50, c[0], c[1], c[2], c[3])};
+     }},
+    {"sync",
+     [](const S& s) {
+       if (s.triggered_cycles + s.trigger_timeouts == 0) return Lines{s.sync};
+       return Lines{fmt::format("{}, {} cycles triggered by the peer's sample, {} timeouts ({} while coupled)", s.sync,
+                                s.triggered_cycles, s.trigger_timeouts, s.trigger_timeouts_coupled)};
+     }},
+    {"real-time",
+     [](const S& s) {
+       if (!s.realtime_settings_applied) return Lines{"NOT APPLIED: running without real-time settings (realtime.*)"};
+       return Lines{fmt::format("SCHED_FIFO, memory locked{}", s.cpu_dma_latency_held ? ", cpu_dma_latency held" : "")};
+     }},
+    {"peer",
+     [](const S& s) {
+       return Lines{fmt::format("fresh in {} cycles, watchdog trips {}", s.cycles_with_peer, s.watchdog_trips)};
+     }},
+    {"tracking error",
+     [](const S& s) {
+       return Lines{
+           fmt::format("rms {:.3f} mm, max {:.3f} mm", s.tracking_error_rms_m * 1e3, s.tracking_error_max_m * 1e3)};
+     }},
+    {"fixture",
+     [](const S& s) { return Lines{fmt::format("max penetration {:.3f} mm", s.fixture_max_penetration_m * 1e3)}; }},
+    {"faults",
+     [](const S& s) {
+       return Lines{fmt::format("device fault cycles {}, non-finite inputs {}, saturated cycles {}",
+                                s.device_fault_cycles, s.nonfinite_inputs, s.saturated_cycles)};
+     }},
+    {"passivity",
+     [](const S& s) {
+       std::string line =
+           fmt::format("{}: controller acted in {} cycles, dissipated {:.6g} J, observed energy min {:.6g} J",
+                       s.passivity_mode, s.passivity_cycles, s.passivity_dissipated_J, s.passivity_min_observed_J);
+       if (s.passivity_peer_without_energy > 0) {
+         line += fmt::format(", {} peer samples without energy", s.passivity_peer_without_energy);
+       }
+       return Lines{line};
+     }},
+    {"telemetry",
+     [](const S& s) { return Lines{fmt::format("{} records, {} dropped", s.telemetry_records, s.telemetry_dropped)}; }},
+    {"device warnings",
+     [](const S& s) {
+       const auto& w = s.device_warnings;
+       return Lines{
+           fmt::format("{} changes, set in {} cycles, seen 0x{:x}, last 0x{:x}", w.changes, w.cycles, w.seen, w.last)};
+     }},
+    {"engagement",
+     [](const S& s) {
+       const auto& e = s.engagement;
+       return Lines{fmt::format(
+           "engaged {} times ({} cycles), coupling lost {} times, now {}; aligning mean {:.1f} ms, max {:.1f} ms; max "
+           "re-engagement step {:.4f} mm, max aligning force rate {:.1f} N/s",
+           e.times_engaged, e.engaged_cycles, e.couplings_lost, e.final_state, e.aligning_mean_s * 1e3,
+           e.aligning_max_s * 1e3, e.max_reference_step_m * 1e3, e.max_aligning_force_rate_N_per_s)};
+     }},
+    {"safe state",
+     [](const S& s) {
+       const auto& e = s.engagement;
+       return Lines{
+           fmt::format("reaction '{}'; latency gate trips {}, new sessions {}; readings refused: {} non-finite, {} out "
+                       "of range, {} "
+                       "encoder jumps",
+                       e.reaction, e.latency_gate_trips, e.new_sessions, e.nonfinite_readings, e.out_of_range_readings,
+                       e.encoder_jumps)};
+     }},
+    {"fault",
+     [](const S& s) {
+       Lines lines;
+       for (const FaultReport& f : s.faults) {
+         lines.push_back(
+             fmt::format("{} at cycle {} (t = {:.3f} s, peer sample {:.1f} ms old){}: {}; record {}", ToString(f.kind),
+                         f.cycle, f.time_s, f.peer_sample_age_s * 1e3,
+                         f.device_faults != 0 ? fmt::format(" bits 0x{:x}", f.device_faults) : std::string(),
+                         f.reaction, f.file.empty() ? std::string("not written") : f.file));
+       }
+       return lines;
+     }},
+    {"fault records",
+     [](const S& s) {
+       if (s.fault_records_skipped == 0) return Lines{};
+       return Lines{fmt::format("{} not written (writer busy or safety.max_fault_records)", s.fault_records_skipped)};
+     }},
+});
+
 }  // namespace
 
 std::string FormatSummaryText(const RunSummary& s) {
-  const auto& l = s.link;
-  std::string out;
-  out += fmt::format("teleop-{} summary ({})\n", ToString(s.role), s.stop_reason);
-  out += fmt::format("  cycles            {} in {:.3f} s ({:.1f} Hz achieved, {:.0f} Hz configured), overruns {}\n",
-                     s.cycles, s.duration_s, s.achieved_rate_hz, s.rate_hz, s.overruns);
-  out += fmt::format("  period jitter     p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us\n", s.jitter_us.p50,
-                     s.jitter_us.p99, s.jitter_us.max);
-  out += fmt::format("  compute time      p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us\n", s.compute_us.p50,
-                     s.compute_us.p99, s.compute_us.max);
-  out += fmt::format(
-      "  packets           sent {}, received {}, accepted {}, lost {}, reordered {}, duplicates {}, "
-      "rejected {}, send errors {}\n",
-      l.sent, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors);
-  out += fmt::format("  security          {}\n", SecurityText(s));
-  if (!s.link_detail.empty()) out += fmt::format("  link detail       {}\n", s.link_detail);
-  if (s.link_emulation) {
-    out += fmt::format("  link emulation    {}\n", transport::FormatImpairmentCounters(*s.link_emulation));
-  }
-  if (s.link_fault_cycles > 0)
-    out += fmt::format("  link faults       medium down in {} cycles\n", s.link_fault_cycles);
-  if (s.rtt_ms.count > 0) {
-    out += fmt::format("  round trip        p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms ({} samples)\n", s.rtt_ms.p50,
-                       s.rtt_ms.p99, s.rtt_ms.max, s.rtt_ms.count);
-  } else {
-    out += "  round trip        not measured (no echo from the peer; CAN frames carry no timestamps)\n";
-  }
-  if (s.data_age_us.count > 0) {
-    const auto& c = s.data_age_cycles;
-    out += fmt::format(
-        "  data age          p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us since receive; p50 {:.1f} us since the peer "
-        "sent; in cycles 0/1/2/3+: {}/{}/{}/{}\n",
-        s.data_age_us.p50, s.data_age_us.p99, s.data_age_us.max, s.data_age_sender_us.p50, c[0], c[1], c[2], c[3]);
-  }
-  out += fmt::format("  sync              {}", s.sync);
-  if (s.triggered_cycles + s.trigger_timeouts > 0) {
-    out += fmt::format(", {} cycles triggered by the peer's sample, {} timeouts ({} while coupled)", s.triggered_cycles,
-                       s.trigger_timeouts, s.trigger_timeouts_coupled);
-  }
-  out += "\n";
-  out += s.realtime_settings_applied
-             ? fmt::format("  real-time         SCHED_FIFO, memory locked{}\n",
-                           s.cpu_dma_latency_held ? ", cpu_dma_latency held" : "")
-             : std::string("  real-time         NOT APPLIED: running without real-time settings (realtime.*)\n");
-  out +=
-      fmt::format("  peer              fresh in {} cycles, watchdog trips {}\n", s.cycles_with_peer, s.watchdog_trips);
-  out += fmt::format("  tracking error    rms {:.3f} mm, max {:.3f} mm\n", s.tracking_error_rms_m * 1e3,
-                     s.tracking_error_max_m * 1e3);
-  out += fmt::format("  fixture           max penetration {:.3f} mm\n", s.fixture_max_penetration_m * 1e3);
-  out += fmt::format("  faults            device fault cycles {}, non-finite inputs {}, saturated cycles {}\n",
-                     s.device_fault_cycles, s.nonfinite_inputs, s.saturated_cycles);
-  out += fmt::format(
-      "  passivity         {}: controller acted in {} cycles, dissipated {:.6g} J, observed energy min "
-      "{:.6g} J",
-      s.passivity_mode, s.passivity_cycles, s.passivity_dissipated_J, s.passivity_min_observed_J);
-  if (s.passivity_peer_without_energy > 0) {
-    out += fmt::format(", {} peer samples without energy", s.passivity_peer_without_energy);
-  }
-  out += "\n";
-  out += fmt::format("  telemetry         {} records, {} dropped\n", s.telemetry_records, s.telemetry_dropped);
-  const auto& w = s.device_warnings;
-  out += fmt::format("  device warnings   {} changes, set in {} cycles, seen 0x{:x}, last 0x{:x}\n", w.changes,
-                     w.cycles, w.seen, w.last);
-  const auto& e = s.engagement;
-  out += fmt::format(
-      "  engagement        engaged {} times ({} cycles), coupling lost {} times, now {}; aligning mean {:.1f} ms, "
-      "max {:.1f} ms; max re-engagement step {:.4f} mm, max aligning force rate {:.1f} N/s\n",
-      e.times_engaged, e.engaged_cycles, e.couplings_lost, e.final_state, e.aligning_mean_s * 1e3,
-      e.aligning_max_s * 1e3, e.max_reference_step_m * 1e3, e.max_aligning_force_rate_N_per_s);
-  out += fmt::format(
-      "  safe state        reaction '{}'; latency gate trips {}, new sessions {}; readings refused: "
-      "{} non-finite, {} out of range, {} encoder jumps\n",
-      e.reaction, e.latency_gate_trips, e.new_sessions, e.nonfinite_readings, e.out_of_range_readings, e.encoder_jumps);
-  for (const FaultReport& f : s.faults) {
-    out +=
-        fmt::format("  fault             {} at cycle {} (t = {:.3f} s, peer sample {:.1f} ms old){}: {}; record {}\n",
-                    ToString(f.kind), f.cycle, f.time_s, f.peer_sample_age_s * 1e3,
-                    f.device_faults != 0 ? fmt::format(" bits 0x{:x}", f.device_faults) : std::string(), f.reaction,
-                    f.file.empty() ? std::string("not written") : f.file);
-  }
-  if (s.fault_records_skipped > 0) {
-    out += fmt::format("  fault records     {} not written (writer busy or safety.max_fault_records)\n",
-                       s.fault_records_skipped);
+  std::string out = fmt::format("teleop-{} summary ({})\n", ToString(s.role), s.stop_reason);
+  for (const TextLine& line : kTextLines) {
+    for (const std::string& content : line.content(s)) out += fmt::format("  {:<18}{}\n", line.label, content);
   }
   return out;
 }
 
 std::string FormatSummaryJson(const RunSummary& s) {
-  const auto& l = s.link;
   std::string out = "{\n";
-  out += fmt::format(R"(  "role": {},)"
-                     "\n",
-                     JsonString(ToString(s.role)));
-  out += fmt::format(R"(  "stop_reason": {},)"
-                     "\n",
-                     JsonString(s.stop_reason));
-  out += fmt::format(R"(  "rate_hz": {}, "duration_s": {}, "cycles": {}, "achieved_rate_hz": {}, "overruns": {},)"
-                     "\n",
-                     Num(s.rate_hz), Num(s.duration_s), s.cycles, Num(s.achieved_rate_hz), s.overruns);
-  out += fmt::format(R"(  "period_us": {}, "jitter_us": {}, "compute_us": {},)"
-                     "\n",
-                     DistJson(s.period_us), DistJson(s.jitter_us), DistJson(s.compute_us));
-  out += fmt::format(R"(  "packets": {{"sent": {}, "send_errors": {}, "received": {}, "accepted": {}, "lost": {}, )"
-                     R"("reordered": {}, "duplicates": {}, "rejected": {}, "wrong_sender": {}, "superseded": {}, )"
-                     R"("bus_errors": {}, "rejected_by_reason": {}}},)"
-                     "\n",
-                     l.sent, l.send_errors, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected,
-                     l.wrong_sender, l.superseded, l.bus_errors, RejectedJson(l));
-  out +=
-      fmt::format(R"(  "security": {{"mode": {}, "sessions": {}, "handshakes_started": {}, "handshake_messages": {}, )"
-                  R"("send_no_session": {}, "rejected_by_reason": {}}},)"
-                  "\n",
-                  JsonString(s.link_security), l.sessions, l.handshakes_started, l.handshake_messages,
-                  l.send_no_session, SecureRejectedJson(l));
-  out += fmt::format(R"(  "link_detail": {}, "link_fault_cycles": {},)"
-                     "\n",
-                     JsonString(s.link_detail), s.link_fault_cycles);
-  out += fmt::format(R"(  "link_emulation": {},)"
-                     "\n",
-                     s.link_emulation ? transport::ImpairmentCountersJson(*s.link_emulation) : std::string("null"));
-  out += fmt::format(R"(  "rtt_ms": {},)"
-                     "\n",
-                     DistJson(s.rtt_ms));
-  out += fmt::format(R"(  "sync": {}, "triggered_cycles": {}, "trigger_timeouts": {}, "trigger_timeouts_coupled": {},)"
-                     "\n",
-                     JsonString(s.sync), s.triggered_cycles, s.trigger_timeouts, s.trigger_timeouts_coupled);
-  out += fmt::format(R"(  "data_age_us": {}, "data_age_sender_us": {}, "data_age_cycles": [{}, {}, {}, {}],)"
-                     "\n",
-                     DistJson(s.data_age_us), DistJson(s.data_age_sender_us), s.data_age_cycles[0],
-                     s.data_age_cycles[1], s.data_age_cycles[2], s.data_age_cycles[3]);
-  out += fmt::format(R"(  "realtime_settings_applied": {}, "cpu_dma_latency_held": {},)"
-                     "\n",
-                     s.realtime_settings_applied, s.cpu_dma_latency_held);
-  out += fmt::format(R"(  "cycles_with_peer": {}, "watchdog_trips": {}, "device_fault_cycles": {}, )"
-                     R"("nonfinite_inputs": {}, "saturated_cycles": {}, "dof_mismatches": {},)"
-                     "\n",
-                     s.cycles_with_peer, s.watchdog_trips, s.device_fault_cycles, s.nonfinite_inputs,
-                     s.saturated_cycles, s.dof_mismatches);
-  out += fmt::format(R"(  "tracking_error_rms_m": {}, "tracking_error_max_m": {}, "fixture_max_penetration_m": {},)"
-                     "\n",
-                     Num(s.tracking_error_rms_m), Num(s.tracking_error_max_m), Num(s.fixture_max_penetration_m));
-  out += fmt::format(R"(  "passivity": {{"mode": {}, "cycles": {}, "dissipated_J": {}, "min_observed_J": {}, )"
-                     R"("peer_without_energy": {}}},)"
-                     "\n",
-                     JsonString(s.passivity_mode), s.passivity_cycles, Num(s.passivity_dissipated_J),
-                     Num(s.passivity_min_observed_J), s.passivity_peer_without_energy);
-  out += fmt::format(R"(  "telemetry_records": {}, "telemetry_dropped": {},)"
-                     "\n",
-                     s.telemetry_records, s.telemetry_dropped);
-  out +=
-      fmt::format(R"(  "device_warnings": {{"changes": {}, "cycles": {}, "seen": {}, "last": {}}},)"
-                  "\n",
-                  s.device_warnings.changes, s.device_warnings.cycles, s.device_warnings.seen, s.device_warnings.last);
-  const auto& e = s.engagement;
-  out += fmt::format(
-      R"(  "engagement": {{"reaction": {}, "final_state": {}, "times_engaged": {}, "couplings_lost": {}, )"
-      R"("engaged_cycles": {}, "aligning_mean_s": {}, "aligning_max_s": {}, "max_reengagement_step_m": {}, )"
-      R"("max_aligning_force_rate_N_per_s": {}, "latency_gate_trips": {}, "new_sessions": {}, "encoder_jumps": {}, )"
-      R"("out_of_range_readings": {}, "nonfinite_readings": {}}},)"
-      "\n",
-      JsonString(e.reaction), JsonString(e.final_state), e.times_engaged, e.couplings_lost, e.engaged_cycles,
-      Num(e.aligning_mean_s), Num(e.aligning_max_s), Num(e.max_reference_step_m),
-      Num(e.max_aligning_force_rate_N_per_s), e.latency_gate_trips, e.new_sessions, e.encoder_jumps,
-      e.out_of_range_readings, e.nonfinite_readings);
-  out += R"(  "faults": [)";
-  for (std::size_t i = 0; i < s.faults.size(); ++i) {
-    const FaultReport& f = s.faults[i];
-    out += fmt::format(R"({}{{"kind": {}, "cycle": {}, "time_s": {}, "reaction": {}, "peer_sample_age_s": {}, )"
-                       R"("device_faults": {}, "record": {}}})",
-                       i == 0 ? "\n    " : ",\n    ", JsonString(ToString(f.kind)), f.cycle, Num(f.time_s),
-                       JsonString(f.reaction), Num(f.peer_sample_age_s), f.device_faults, JsonString(f.file));
+  bool line_start = true;
+  for (std::size_t i = 0; i < kSummaryFields.size(); ++i) {
+    const SummaryField& f = kSummaryFields[i];
+    out += fmt::format(R"({}"{}": {})", line_start ? "  " : ", ", f.key, f.json(s));
+    line_start = f.line_end;
+    if (f.line_end) out += i + 1 < kSummaryFields.size() ? ",\n" : "\n";
   }
-  out += fmt::format(R"({}],)"
-                     "\n",
-                     s.faults.empty() ? "" : "\n  ");
-  out += fmt::format(R"(  "fault_records_skipped": {})"
-                     "\n}}\n",
-                     s.fault_records_skipped);
-  return out;
+  return out + "}\n";
 }
 
 }  // namespace teleop::node

@@ -14,7 +14,7 @@ void CopyToWire(const DofVector& v, std::array<double, proto::kMaxWireDof>& out)
 
 Transmitter::Transmitter(Role role, int dof, transport::Link& link, const NodeClock& clock)
     : link_(link), clock_(clock) {
-  state_.outgoing.sender = transport::ToSender(role);
+  state_.outgoing.sender = link::ToSender(role);
   state_.outgoing.dof = static_cast<std::uint8_t>(dof);
 }
 

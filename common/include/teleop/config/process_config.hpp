@@ -62,7 +62,7 @@ struct ProcessConfig {
   Role role = Role::kMaster;
   int dof = 1;
   runtime::PeriodicLoopConfig loop{};
-  transport::LinkConfig link{};
+  link::LinkConfig link{};
   device::DeviceConfig device{};
   control::ThreeChannelLaw::Config law{};
   TelemetryConfig telemetry{};

@@ -10,26 +10,27 @@
 #include "teleop/transport/udp_link.hpp"
 #include "teleop/types.hpp"
 
-// library teleop::link (common/src/link/link_config.cpp): the one place that knows every transport.
-namespace teleop::transport {
+// library teleop::link (common/src/link/link_config.cpp): the one place that knows every transport, above them in
+// its own namespace.
+namespace teleop::link {
 
 /// Per-process link selection. `transport` is "udp", "can" (SocketCAN) or "emulated-can" (the teleop-canbus daemon,
 /// for hosts without CAN).
 struct LinkConfig {
   std::string transport = "udp";
-  UdpLinkConfig udp{};
-  CanLinkConfig can{};       ///< Used by "can" and "emulated-can"; its dof is the process's dof.
-  double rate_hz = 1000.0;   ///< The loop rate, for the CAN bus-load budget (set from the process config).
-  double timeout_ms = 50.0;  ///< Watchdog: no accepted sample for this long → peer lost → safe state.
+  transport::UdpLinkConfig udp{};
+  transport::CanLinkConfig can{};  ///< Used by "can" and "emulated-can"; its dof is the process's dof.
+  double rate_hz = 1000.0;         ///< The loop rate, for the CAN bus-load budget (set from the process config).
+  double timeout_ms = 50.0;        ///< Watchdog: no accepted sample for this long → peer lost → safe state.
   /// `link.emulate` (docs/link-emulation.md): when enabled, the opened link is wrapped in an ImpairedLink that
   /// impairs what this process receives.
   struct Emulation {
     bool enabled = false;
-    ImpairmentConfig impairments{};
+    transport::ImpairmentConfig impairments{};
     std::uint64_t seed = 1;
   } emulate{};
   /// `link.security` (docs/security.md): psk on UDP; CAN accepts only insecure (no room for a tag per frame).
-  LinkSecurityConfig security{};
+  transport::LinkSecurityConfig security{};
 };
 
 /// The wire's name for a process of role `role` (the one mapping from teleop::Role to proto::SenderRole).
@@ -39,6 +40,6 @@ constexpr proto::SenderRole ToSender(Role role) noexcept {
 
 /// Opens the configured link for a process of role `local_role`, wrapped in the emulated network when
 /// `emulate.enabled`. Throws teleop::Error on failure.
-std::unique_ptr<Link> MakeLink(const LinkConfig& config, proto::SenderRole local_role);
+std::unique_ptr<transport::Link> MakeLink(const LinkConfig& config, proto::SenderRole local_role);
 
-}  // namespace teleop::transport
+}  // namespace teleop::link

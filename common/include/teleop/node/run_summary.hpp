@@ -49,7 +49,8 @@ struct DeviceWarningSummary {
   std::uint32_t seen = 0;     ///< Every bit seen during the run (OR).
 };
 
-/// What a process prints at the end of a run and writes with --summary-json. The field names are the JSON keys.
+/// What a process prints at the end of a run and writes with --summary-json. The JSON keys, in order, are the tables
+/// in run_summary.cpp (one line per field; mostly the field names here).
 struct RunSummary {
   Role role = Role::kMaster;
   double rate_hz = 0.0;     ///< Configured.

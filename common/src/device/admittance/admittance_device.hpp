@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "teleop/device/device.hpp"
-#include "teleop/fieldbus/can_port.hpp"
+#include "teleop/fieldbus/can_port_config.hpp"
 #include "teleop/fieldbus/canopen_sync_producer.hpp"
 #include "teleop/fieldbus/cia402_drive.hpp"
 #include "teleop/types.hpp"

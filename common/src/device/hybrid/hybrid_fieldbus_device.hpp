@@ -11,7 +11,7 @@
 #include "device/hybrid/motor_brake_allocation.hpp"
 #include "teleop/device/device.hpp"
 #include "teleop/fieldbus/can_force_sensor.hpp"
-#include "teleop/fieldbus/can_port.hpp"
+#include "teleop/fieldbus/can_port_config.hpp"
 #include "teleop/fieldbus/canopen_sync_producer.hpp"
 #include "teleop/fieldbus/cia402_drive.hpp"
 #include "teleop/fieldbus/modbus_io_thread.hpp"

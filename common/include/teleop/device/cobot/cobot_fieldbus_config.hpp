@@ -2,7 +2,7 @@
 
 #include "teleop/device/cobot/cobot_sensor_node.hpp"
 #include "teleop/device/cobot/cobot_steering_drive.hpp"
-#include "teleop/fieldbus/can_port.hpp"
+#include "teleop/fieldbus/can_port_config.hpp"
 
 namespace teleop::device::cobot {
 

@@ -4,7 +4,7 @@
 
 #include <utility>
 
-#include "../transport/sample_intake.hpp"
+#include "../sample_intake.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::transport {

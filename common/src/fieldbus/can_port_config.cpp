@@ -1,4 +1,4 @@
-#include "teleop/fieldbus/can_port.hpp"
+#include "teleop/fieldbus/can_port_config.hpp"
 
 #include "teleop/error.hpp"
 #include "teleop/transport/can_socket_port.hpp"

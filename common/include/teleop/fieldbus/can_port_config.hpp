@@ -1,5 +1,8 @@
 #pragma once
 
+// A driver's CAN port from its config section: CanPortConfig and OpenCanPort (the port's interface, CanPort, is
+// teleop/transport/can_port.hpp).
+
 #include <cstdint>
 #include <memory>
 #include <string>
