@@ -534,6 +534,48 @@ TEST(NodeTune, AnUnboundedPlaneMoveWouldStepTheForce) {
   EXPECT_GT(m.max_excess_N, 1.0);
 }
 
+TEST(NodeTune, ANormalTurnsAlongTheGreatCircleAtTheBoundedRate) {
+  // A 2-DOF slave alone (no peer: its reaction runs, the law and the fixture still step): the wall's normal turns
+  // from +x to +y at fixture.max_normal_rate_rad_per_s 0.5: 0.5 mrad per 1 ms cycle, π/2 in 3.14 s. The move changes
+  // the axes the normal has a component on, so the check ran (with the fixture on both).
+  const std::string text = R"(role: slave
+dof: 2
+rate_hz: 1000
+link: {security: {mode: insecure}, bind: "127.0.0.1:47004", peer: "127.0.0.1:47003", timeout_ms: 50}
+law: {kp_N_per_m: 600, kd_Ns_per_m: 2, max_force_N: 10, velocity_filter_hz: 200}
+fixture: {stiffness_N_per_m: 2000, planes: [{normal: [1, 0], offset_m: 0.02}], max_normal_rate_rad_per_s: 0.5}
+device: {backend: loopback, loopback: {mass_kg: 0.036, damping_Ns_per_m: 0.49}}
+stability: {check: false}
+safety: {fault_record_dir: ")" +
+                           ::testing::TempDir() + "\"}\n";
+  const config::ProcessConfig cfg = config::ParseProcessConfig(text, "slave2.yaml");
+  auto medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
+  TeleopNode node(cfg, device::MakeDevice(cfg.device),
+                  std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kSlave));
+  DofVector y = ZeroDof(2);
+  y[1] = 1.0;
+  const TeleopNode::FixtureChange c = node.RequestFixturePlane(y, 0.02, 0.0);
+  std::printf("turn: %s\n", c.message.c_str());
+  ASSERT_TRUE(c.accepted) << c.message;
+  EXPECT_GT(c.limit_N_per_m, 0.0) << "the check ran";
+  std::uint64_t reached = 0;
+  double worst_norm_error = 0.0;
+  for (std::uint64_t k = 0; k < 4000; ++k) {
+    node.Step(k, kPeriod_s, 1'000'000'000 + static_cast<std::int64_t>(k) * 1'000'000);
+    const control::FixturePlane p = node.fixture_plane(0);
+    worst_norm_error = std::max(worst_norm_error, std::abs(p.normal.norm() - 1.0));
+    if (reached == 0 && p.normal == y) reached = k + 1;
+  }
+  std::printf("normal: largest step %.4g rad/cycle, reached after %llu cycles, |n| within %.2g of 1\n",
+              node.max_plane_normal_step_rad(), static_cast<unsigned long long>(reached), worst_norm_error);
+  EXPECT_LE(node.max_plane_normal_step_rad(), 0.5 * kPeriod_s * (1.0 + 1e-6));
+  EXPECT_GE(node.max_plane_normal_step_rad(), 0.5 * kPeriod_s * (1.0 - 1e-6));
+  EXPECT_NEAR(static_cast<double>(reached), (M_PI / 2.0) / (0.5 * kPeriod_s), 1.5);
+  EXPECT_LT(worst_norm_error, 1e-12);
+  EXPECT_DOUBLE_EQ(node.fixture_plane(0).offset_m, 0.02);
+  EXPECT_DOUBLE_EQ(node.max_plane_offset_step_m(), 0.0);
+}
+
 TEST(NodeTune, ABadPlaneIsRefusedAndChangesNothing) {
   RecordingSink::Seen seen;
   Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture, &seen);
