@@ -7,7 +7,6 @@
 #include <sys/un.h>
 #include <unistd.h>
 
-#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -170,15 +169,14 @@ std::string CommandServer::Execute(const std::string& line) {
     }
   } else if (verb == "fixture-plane" && n >= 3) {
     // <offset_m> <n_1> .. <n_dof> [rate_m_per_s]: the normal has as many numbers as the process has DOF.
-    const int dof = static_cast<int>(node_.fixture_plane(0).normal.size());  // 0: no plane (the node refuses)
-    const std::size_t numbers = n - 2;                                       // after the offset
-    const bool with_rate = dof > 0 && numbers == static_cast<std::size_t>(dof) + 1;
+    const int dof = node_.dof();
+    const std::size_t numbers = n - 2;  // after the offset
+    const bool with_rate = numbers == static_cast<std::size_t>(dof) + 1;
     const std::size_t normal_size = with_rate ? numbers - 1 : numbers;
     double offset = 0.0;
     double rate = 0.0;
-    DofVector normal = ZeroDof(static_cast<int>(std::min<std::size_t>(normal_size, kMaxDof)));
-    bool ok = ParseNumber(t[1], offset) && normal_size <= static_cast<std::size_t>(kMaxDof) &&
-              (dof == 0 || normal_size == static_cast<std::size_t>(dof));
+    DofVector normal = ZeroDof(dof);
+    bool ok = ParseNumber(t[1], offset) && normal_size == static_cast<std::size_t>(dof);
     for (std::size_t i = 0; ok && i < normal_size; ++i) ok = ParseNumber(t[2 + i], normal[static_cast<int>(i)]);
     if (ok && with_rate) ok = ParseNumber(t[n - 1], rate) && rate > 0.0;
     if (!ok) {

@@ -528,6 +528,8 @@ std::uint64_t TeleopNode::command_events_dropped() const noexcept {
   return impl_->command_events_dropped.load(std::memory_order_relaxed);
 }
 
+int TeleopNode::dof() const noexcept { return impl_->config.dof; }
+
 control::FixturePlane TeleopNode::fixture_plane(int index) const noexcept {
   if (!impl_->coupling) return {};
   const control::ForbiddenRegionFixture::Config& f = impl_->coupling->law().fixture().config();

@@ -122,7 +122,10 @@ class TeleopNode {
   void RecordCommandEvent(Event::Kind kind, double value) noexcept;
   /// Command outcomes not handed to the cycle because its ring was full.
   std::uint64_t command_events_dropped() const noexcept;
-  /// The fixture plane the law uses now (after the last cycle); a default plane when `index` is not configured.
+  /// The process's DOF (the config's; any thread).
+  int dof() const noexcept;
+  /// The fixture plane the law uses now (after the last cycle; on the cycle's thread or between Step()s); a default
+  /// plane when `index` is not configured.
   control::FixturePlane fixture_plane(int index) const noexcept;
   /// Largest one-cycle change of a moved plane's offset (m) and normal (rad) so far.
   double max_plane_offset_step_m() const noexcept;
