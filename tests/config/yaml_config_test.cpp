@@ -96,6 +96,20 @@ TEST(YamlConfig, ExplicitPlanes) {
   EXPECT_EQ(c.law.fixture.planes[1].offset_m, 0.03);
 }
 
+TEST(YamlConfig, FixturePlaneMoveRates) {
+  const std::string base =
+      std::string(kBase) + "fixture:\n  stiffness_N_per_m: 1500\n  half_space: {axis: 0, offset_m: 0}\n";
+  const ProcessConfig defaults = ParseProcessConfig(base, "test.yaml");
+  EXPECT_EQ(defaults.law.fixture.max_offset_rate_m_per_s, 0.01) << "docs/configuration.md's default";
+  EXPECT_EQ(defaults.law.fixture.max_normal_rate_rad_per_s, 0.1);
+  const ProcessConfig c =
+      ParseProcessConfig(base + "  max_offset_rate_m_per_s: 0.02\n  max_normal_rate_rad_per_s: 0.5\n", "test.yaml");
+  EXPECT_EQ(c.law.fixture.max_offset_rate_m_per_s, 0.02);
+  EXPECT_EQ(c.law.fixture.max_normal_rate_rad_per_s, 0.5);
+  ExpectError(base + "  max_offset_rate_m_per_s: 0e0\n", "0e0", "fixture.max_offset_rate_m_per_s", "> 0");
+  ExpectError(base + "  max_normal_rate_rad_per_s: -1.5\n", "-1.5", "fixture.max_normal_rate_rad_per_s", "> 0");
+}
+
 TEST(YamlConfig, ExampleMasterConfigParses) {
   const ProcessConfig c = LoadProcessConfig(TELEOP_CONFIG_DIR "/master.yaml");
   EXPECT_EQ(c.role, Role::kMaster);

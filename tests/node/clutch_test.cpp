@@ -19,7 +19,9 @@
 #include <filesystem>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <vector>
 
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/device/device_registry.hpp"
@@ -100,10 +102,51 @@ class CuttableLink final : public transport::Link {
 /// 1-DOF cycle is one 7-byte frame, 125 bits: each side's sample reaches the other's next cycle).
 enum class Medium { kUdp, kCan, kCanFd };
 
+/// What reaches a sink of the slave: every event (on the event log's thread) and each cycle's fixture force and
+/// position on axis 0 (preallocated for 10 s at 1 kHz).
+class RecordingSink final : public CycleSink {
+ public:
+  struct Seen {
+    std::mutex mutex;
+    std::vector<Event> events;
+    std::vector<double> fixture_force_N;
+    std::vector<double> position_m;
+    std::size_t Count(Event::Kind kind) {
+      const std::lock_guard<std::mutex> lock(mutex);
+      return static_cast<std::size_t>(
+          std::count_if(events.begin(), events.end(), [kind](const Event& e) { return e.kind == kind; }));
+    }
+    Event Last(Event::Kind kind) {
+      const std::lock_guard<std::mutex> lock(mutex);
+      Event found{};
+      for (const Event& e : events) {
+        if (e.kind == kind) found = e;
+      }
+      return found;
+    }
+  };
+  explicit RecordingSink(Seen& seen) : seen_(seen) {
+    seen_.fixture_force_N.reserve(10000);
+    seen_.position_m.reserve(10000);
+  }
+  void OnCycle(const CycleRecord& record) noexcept override {
+    if (seen_.position_m.size() == seen_.position_m.capacity()) return;
+    seen_.fixture_force_N.push_back(record.telemetry->fixture_force_N[0]);
+    seen_.position_m.push_back(record.telemetry->position_m[0]);
+  }
+  void OnEvent(const Event& event) noexcept override {
+    const std::lock_guard<std::mutex> lock(seen_.mutex);
+    seen_.events.push_back(event);
+  }
+
+ private:
+  Seen& seen_;
+};
+
 struct Rig {
   explicit Rig(const std::string& master_law = "", const std::string& slave_law = "",
                const std::string& engagement = "max_force_rate_N_per_s: 100", const std::string& slave_extra = "",
-               Medium medium_kind = Medium::kUdp) {
+               Medium medium_kind = Medium::kUdp, RecordingSink::Seen* slave_seen = nullptr) {
     const config::ProcessConfig mc = config::ParseProcessConfig(MasterConfig(master_law, engagement), "master.yaml");
     const config::ProcessConfig sc =
         config::ParseProcessConfig(SlaveConfig(slave_law, engagement, slave_extra), "slave.yaml");
@@ -136,7 +179,14 @@ struct Rig {
     auto ml = std::make_unique<CuttableLink>(std::move(master_link), &cut);
     auto sl = std::make_unique<CuttableLink>(std::move(slave_link), &cut);
     master = std::make_unique<TeleopNode>(mc, std::move(md), std::move(ml));
-    slave = std::make_unique<TeleopNode>(sc, std::move(sd), std::move(sl));
+    if (slave_seen == nullptr) {
+      slave = std::make_unique<TeleopNode>(sc, std::move(sd), std::move(sl));
+      return;
+    }
+    slave = std::make_unique<TeleopNode>(sc, std::move(sd), std::move(sl), TeleopNode::Unconfigured{});
+    slave->AddSink(std::make_unique<RecordingSink>(*slave_seen));
+    slave->Configure();
+    slave->Activate();
   }
   /// One cycle; records the largest one-cycle change of either plant's command.
   void Step() {
@@ -444,6 +494,212 @@ TEST(NodeTune, TheCycleAllocatesNothingWhileAChangeRamps) {
   EXPECT_EQ(counter.count(), 0u);
 }
 
+TEST(NodeTune, AnAcceptedGainChangeRampsAndIsAnEvent) {
+  RecordingSink::Seen seen;
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture, Medium::kUdp, &seen);
+  rig.StepUntil(500);
+  const TeleopNode::FixtureChange c = rig.slave->RequestGain(GainName::kKp, -1, 300.0, 0.1);
+  std::printf("gain accepted: %s\n", c.message.c_str());
+  ASSERT_TRUE(c.accepted) << c.message;
+  EXPECT_GT(c.limit_N_per_m, 2000.0) << "the fixture's 2000 N/m stays below the limit with K_p 300";
+  EXPECT_DOUBLE_EQ(rig.slave->gain(GainName::kKp, 0), 600.0) << "the cycle applies it, not the caller";
+  rig.StepUntil(550);  // 50 of the 100 ms ramp
+  EXPECT_NEAR(rig.slave->gain(GainName::kKp, 0), 450.0, 3.0 + 1e-9) << "linear: 3 N/m per 1 ms cycle";
+  rig.StepUntil(700);
+  EXPECT_DOUBLE_EQ(rig.slave->gain(GainName::kKp, 0), 300.0);
+  EXPECT_DOUBLE_EQ(rig.slave->gain(GainName::kKd, 0), 2.0) << "the other gains stay";
+  EXPECT_EQ(rig.slave->engagement(), EngagementState::kEngaged);
+  (void)rig.slave->Finish();
+  ASSERT_EQ(seen.Count(Event::Kind::kGainAccepted), 1u);
+  EXPECT_DOUBLE_EQ(seen.Last(Event::Kind::kGainAccepted).value, 300.0);
+  EXPECT_EQ(seen.Last(Event::Kind::kGainAccepted).detail, GainDetail(GainName::kKp, -1));
+}
+
+TEST(NodeTune, AnUnstableGainIsRefusedWithThePredictedLimit) {
+  RecordingSink::Seen seen;
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture, Medium::kUdp, &seen);
+  rig.StepUntil(500);
+  const TeleopNode::FixtureChange c = rig.slave->RequestGain(GainName::kKp, 0, 3000.0, 0.1);
+  std::printf("gain refused: %s (limit %.0f N/m)\n", c.message.c_str(), c.limit_N_per_m);
+  EXPECT_FALSE(c.accepted);
+  // With K_p 600 the limit is 4120 N/m (NodeTune.AnUnstableStiffness...); with 3000 it falls below the 2000 N/m.
+  EXPECT_GT(c.limit_N_per_m, 0.0) << "the coupling alone stays stable";
+  EXPECT_LT(c.limit_N_per_m, 2000.0) << "with K_p 3000 the fixture's 2000 N/m is above the predicted limit";
+  EXPECT_NE(c.message.find("predicted stability limit"), std::string::npos) << c.message;
+  // Malformed values are refused before the check.
+  EXPECT_FALSE(rig.slave->RequestGain(GainName::kKd, -1, -1.0, 0.1).accepted);
+  EXPECT_FALSE(rig.slave->RequestGain(GainName::kKv, -1, std::numeric_limits<double>::quiet_NaN(), 0.1).accepted);
+  EXPECT_FALSE(rig.slave->RequestGain(GainName::kKp, 3, 100.0, 0.1).accepted) << "1 DOF: no axis 3";
+  EXPECT_FALSE(rig.slave->RequestGain(GainName::kKf, -1, 0.5, 0.1).accepted) << "eq. 9 has no K_f";
+  rig.StepUntil(700);
+  EXPECT_DOUBLE_EQ(rig.slave->gain(GainName::kKp, 0), 600.0) << "unchanged";
+  (void)rig.slave->Finish();
+  ASSERT_EQ(seen.Count(Event::Kind::kGainRefused), 5u);
+  EXPECT_EQ(seen.Count(Event::Kind::kGainAccepted), 0u);
+}
+
+// A plane move (fixture-plane): the slave's wall at 50 mm moves onto the slave, to 2 mm inside its position, at the
+// configured 20 mm/s. Eq. 7: F = K·d with d = x - offset, so per cycle |ΔF| <= K·(|Δoffset| + |Δx|) <= K·(v·T +
+// |Δx|): 2000·0.02·0.001 = 0.04 N from the plane plus what the slave's own motion adds.
+constexpr double kPlaneRate_m_per_s = 0.02;
+constexpr double kPlaneK_N_per_m = 2000.0;
+
+struct PlaneMove {
+  double max_offset_step_m = 0.0;  ///< The node's largest one-cycle offset change.
+  double max_force_step_N = 0.0;   ///< Largest |ΔF_fixture| in a cycle (telemetry).
+  double max_excess_N = -1e9;      ///< Largest |ΔF| - K·(v·T + |Δx|) over the cycles (<= 0: the bound held).
+  double target_m = 0.0;
+  double final_offset_m = 0.0;
+  double slew_s = 0.0;  ///< Until the plane reached the target.
+};
+
+PlaneMove MovePlaneOntoTheSlave(const std::string& rate) {
+  RecordingSink::Seen seen;
+  const std::string fixture =
+      "fixture: {stiffness_N_per_m: 2000, half_space: {axis: 0, offset_m: 0.05, direction: "
+      "+1}, max_offset_rate_m_per_s: " +
+      rate + "}\n";
+  Rig rig("", "", "max_force_rate_N_per_s: 100", fixture, Medium::kUdp, &seen);
+  PlaneMove m;
+  rig.StepUntil(500);
+  m.target_m = rig.slave_x() - 0.002;
+  const TeleopNode::FixtureChange c = rig.slave->RequestFixturePlane(DofVector::Constant(1, 1.0), m.target_m, 0.0);
+  std::printf("plane: %s\n", c.message.c_str());
+  EXPECT_TRUE(c.accepted) << c.message;
+  const std::size_t from = seen.position_m.size();
+  for (std::uint64_t end = rig.cycle + 4000; rig.cycle < end;) {
+    rig.Step();
+    if (m.slew_s == 0.0 && rig.slave->fixture_plane(0).offset_m == m.target_m)
+      m.slew_s = static_cast<double>(rig.cycle - 500) * kPeriod_s;
+  }
+  m.max_offset_step_m = rig.slave->max_plane_offset_step_m();
+  m.final_offset_m = rig.slave->fixture_plane(0).offset_m;
+  (void)rig.slave->Finish();
+  for (std::size_t k = std::max<std::size_t>(from, 1); k < seen.position_m.size(); ++k) {  // from: the first moved
+    const double step = std::abs(seen.fixture_force_N[k] - seen.fixture_force_N[k - 1]);
+    const double bound =
+        kPlaneK_N_per_m * (kPlaneRate_m_per_s * kPeriod_s + std::abs(seen.position_m[k] - seen.position_m[k - 1]));
+    m.max_force_step_N = std::max(m.max_force_step_N, step);
+    m.max_excess_N = std::max(m.max_excess_N, step - bound);
+  }
+  EXPECT_EQ(seen.Count(Event::Kind::kPlaneAccepted), 1u);
+  std::printf(
+      "plane move at %s m/s: largest offset step %.3g m/cycle, largest fixture force step %.4f N/cycle, "
+      "bound excess %.3g N, slew %.3f s\n",
+      rate.c_str(), m.max_offset_step_m, m.max_force_step_N, m.max_excess_N, m.slew_s);
+  return m;
+}
+
+TEST(NodeTune, APlaneMoveSlewsAtTheBoundedRate) {
+  const PlaneMove m = MovePlaneOntoTheSlave("0.02");
+  EXPECT_DOUBLE_EQ(m.final_offset_m, m.target_m);
+  EXPECT_LE(m.max_offset_step_m, kPlaneRate_m_per_s * kPeriod_s * (1.0 + 1e-9));
+  EXPECT_GE(m.max_offset_step_m, kPlaneRate_m_per_s * kPeriod_s * (1.0 - 1e-9)) << "it slews at the bound";
+  // ~48 mm at 20 mm/s: the slew takes distance / rate (to a cycle).
+  EXPECT_NEAR(m.slew_s, (0.05 - m.target_m) / kPlaneRate_m_per_s, 2.0 * kPeriod_s);
+  EXPECT_LE(m.max_excess_N, 1e-9) << "eq. 7's bound K·(v·T + |Δx|) held every cycle";
+  EXPECT_GT(m.max_force_step_N, 0.0) << "the plane reached the slave";
+}
+
+TEST(NodeTune, AnUnboundedPlaneMoveWouldStepTheForce) {
+  // The same move with a rate that bounds nothing jumps in one cycle: the fixture force steps by K·2 mm = 4 N, which
+  // the bounded rate above prevents (the test above can fail).
+  const PlaneMove m = MovePlaneOntoTheSlave("1000");
+  EXPECT_GT(m.max_force_step_N, 10.0 * kPlaneK_N_per_m * kPlaneRate_m_per_s * kPeriod_s);
+  EXPECT_GT(m.max_excess_N, 1.0);
+}
+
+TEST(NodeTune, ANormalTurnsAlongTheGreatCircleAtTheBoundedRate) {
+  // A 2-DOF slave alone (no peer: its reaction runs, the law and the fixture still step): the wall's normal turns
+  // from +x to +y at fixture.max_normal_rate_rad_per_s 0.5: 0.5 mrad per 1 ms cycle, π/2 in 3.14 s. The move changes
+  // the axes the normal has a component on, so the check ran (with the fixture on both).
+  const std::string text = R"(role: slave
+dof: 2
+rate_hz: 1000
+link: {security: {mode: insecure}, bind: "127.0.0.1:47004", peer: "127.0.0.1:47003", timeout_ms: 50}
+law: {kp_N_per_m: 600, kd_Ns_per_m: 2, max_force_N: 10, velocity_filter_hz: 200}
+fixture: {stiffness_N_per_m: 2000, planes: [{normal: [1, 0], offset_m: 0.02}], max_normal_rate_rad_per_s: 0.5}
+device: {backend: loopback, loopback: {mass_kg: 0.036, damping_Ns_per_m: 0.49}}
+stability: {check: false}
+safety: {fault_record_dir: ")" +
+                           ::testing::TempDir() + "\"}\n";
+  const config::ProcessConfig cfg = config::ParseProcessConfig(text, "slave2.yaml");
+  auto medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
+  TeleopNode node(cfg, device::MakeDevice(cfg.device),
+                  std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kSlave));
+  DofVector y = ZeroDof(2);
+  y[1] = 1.0;
+  const TeleopNode::FixtureChange c = node.RequestFixturePlane(y, 0.02, 0.0);
+  std::printf("turn: %s\n", c.message.c_str());
+  ASSERT_TRUE(c.accepted) << c.message;
+  EXPECT_GT(c.limit_N_per_m, 0.0) << "the check ran";
+  std::uint64_t reached = 0;
+  double worst_norm_error = 0.0;
+  for (std::uint64_t k = 0; k < 4000; ++k) {
+    node.Step(k, kPeriod_s, 1'000'000'000 + static_cast<std::int64_t>(k) * 1'000'000);
+    const control::FixturePlane p = node.fixture_plane(0);
+    worst_norm_error = std::max(worst_norm_error, std::abs(p.normal.norm() - 1.0));
+    if (reached == 0 && p.normal == y) reached = k + 1;
+  }
+  std::printf("normal: largest step %.4g rad/cycle, reached after %llu cycles, |n| within %.2g of 1\n",
+              node.max_plane_normal_step_rad(), static_cast<unsigned long long>(reached), worst_norm_error);
+  EXPECT_LE(node.max_plane_normal_step_rad(), 0.5 * kPeriod_s * (1.0 + 1e-6));
+  EXPECT_GE(node.max_plane_normal_step_rad(), 0.5 * kPeriod_s * (1.0 - 1e-6));
+  EXPECT_NEAR(static_cast<double>(reached), (M_PI / 2.0) / (0.5 * kPeriod_s), 1.5);
+  EXPECT_LT(worst_norm_error, 1e-12);
+  EXPECT_DOUBLE_EQ(node.fixture_plane(0).offset_m, 0.02);
+  EXPECT_DOUBLE_EQ(node.max_plane_offset_step_m(), 0.0);
+}
+
+TEST(NodeTune, ABadPlaneIsRefusedAndChangesNothing) {
+  RecordingSink::Seen seen;
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture, Medium::kUdp, &seen);
+  rig.StepUntil(100);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const DofVector one = DofVector::Constant(1, 1.0);
+  const struct {
+    DofVector normal;
+    double offset_m;
+    double rate;
+    const char* why;
+  } bad[] = {
+      {DofVector::Constant(1, 0.0), 0.04, 0.0, "zero"},
+      {DofVector::Constant(1, nan), 0.04, 0.0, "finite"},
+      {one, nan, 0.0, "finite"},
+      {one, std::numeric_limits<double>::infinity(), 0.0, "finite"},
+      {one, 0.04, 0.5, "max_offset_rate"},
+      {DofVector::Constant(1, -1.0), 0.04, 0.0, "cannot turn"},
+      {DofVector::Constant(2, 1.0), 0.04, 0.0, "dof"},
+  };
+  for (const auto& b : bad) {
+    const TeleopNode::FixtureChange c = rig.slave->RequestFixturePlane(b.normal, b.offset_m, b.rate);
+    EXPECT_FALSE(c.accepted) << b.why;
+    EXPECT_NE(c.message.find(b.why), std::string::npos) << c.message;
+  }
+  EXPECT_FALSE(rig.master->RequestFixturePlane(one, 0.04, 0.0).accepted) << "the master has no fixture plane";
+  const TeleopNode::FixtureChange scaled = rig.slave->RequestFixturePlane(DofVector::Constant(1, 5.0), 0.05, 0.0);
+  EXPECT_TRUE(scaled.accepted) << "a normal is normalised: " << scaled.message;
+  rig.StepUntil(200);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_plane(0).offset_m, 0.05);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_plane(0).normal[0], 1.0);
+  (void)rig.slave->Finish();
+  EXPECT_EQ(seen.Count(Event::Kind::kPlaneRefused), 7u);
+  EXPECT_EQ(seen.Count(Event::Kind::kPlaneAccepted), 1u);
+}
+
+TEST(NodeTune, TheCycleAllocatesNothingWhileGainsRampAndAPlaneSlews) {
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
+  rig.StepUntil(500);
+  ASSERT_TRUE(rig.slave->RequestGain(GainName::kKd, -1, 1.5, 0.1).accepted);
+  ASSERT_TRUE(rig.slave->RequestFixturePlane(DofVector::Constant(1, 1.0), 0.049, 0.0).accepted);
+  rig.slave->RecordCommandEvent(Event::Kind::kCommandMalformed, 0.0);
+  test::AllocationCounter counter;
+  rig.StepUntil(700);
+  EXPECT_EQ(counter.count(), 0u);
+  EXPECT_DOUBLE_EQ(rig.slave->gain(GainName::kKd, 0), 1.5);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_plane(0).offset_m, 0.049);
+}
+
 // The command channel (docs/clutch.md, "Run-time commands"): a Unix socket served by its own thread.
 std::string SocketPath(const char* name) {
   return (std::filesystem::path(::testing::TempDir()) / (std::string("teleop-") + name + ".sock")).string();
@@ -534,6 +790,43 @@ TEST(NodeCommand, AMalformedCommandIsAnErrorAndChangesNothing) {
   EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 2000.0);
 }
 
+TEST(NodeCommand, GainsAndPlanesOverTheSocketAndEveryCommandIsAnEvent) {
+  RecordingSink::Seen seen;
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture, Medium::kUdp, &seen);
+  rig.StepUntil(100);
+  const std::string path = SocketPath("events");
+  {
+    CommandServer server(*rig.slave, CommandServer::Config{path, 0600, 0.02});
+    const std::string gain = Send(path, "gain kp_N_per_m 500\n");
+    EXPECT_EQ(gain.rfind("ok: gain kp_N_per_m 500: ", 0), 0u) << gain;
+    EXPECT_EQ(Send(path, "gain kp_N_per_m:0 20000 0.1\n").rfind("refused: ", 0), 0u);
+    EXPECT_EQ(Send(path, "gain kf 0.5\n").rfind("refused: ", 0), 0u) << "the slave has no K_f";
+    const std::string plane = Send(path, "fixture-plane 0.049 1\n");
+    EXPECT_EQ(plane.rfind("ok: fixture plane 0 to offset 0.049 m", 0), 0u) << plane;
+    EXPECT_EQ(Send(path, "fixture-plane 0.048 1 0.005\n").rfind("ok: ", 0), 0u) << "a slower rate";
+    EXPECT_EQ(Send(path, "fixture-plane 0.04 0\n").rfind("refused: ", 0), 0u) << "a zero normal";
+    EXPECT_EQ(Send(path, "fixture-plane nan 1\n").rfind("refused: ", 0), 0u) << "not finite";
+    EXPECT_EQ(Send(path, "clutch on\n"), "ok: clutch on\n");
+    EXPECT_EQ(Send(path, "clutch off\n"), "ok: clutch off\n");
+    for (const char* line : {"gain kq 1\n", "gain kp_N_per_m:7 1\n", "gain kp_N_per_m 1 2 3\n",
+                             "fixture-plane 0.04 1 0.01 9\n", "fixture-plane 0.04\n", "fixture-plane 0.04 1 -1\n"}) {
+      EXPECT_EQ(Send(path, line).rfind("error: ", 0), 0u) << line;
+    }
+    EXPECT_EQ(server.malformed(), 6u);
+  }
+  rig.StepUntil(700);  // the second move: 1 mm more at 5 mm/s
+  EXPECT_DOUBLE_EQ(rig.slave->gain(GainName::kKp, 0), 500.0);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_plane(0).offset_m, 0.048);
+  (void)rig.slave->Finish();
+  EXPECT_EQ(seen.Count(Event::Kind::kGainAccepted), 1u);
+  EXPECT_EQ(seen.Count(Event::Kind::kGainRefused), 2u);
+  EXPECT_EQ(seen.Count(Event::Kind::kPlaneAccepted), 2u);
+  EXPECT_EQ(seen.Count(Event::Kind::kPlaneRefused), 2u);
+  EXPECT_EQ(seen.Count(Event::Kind::kClutchCommanded), 2u);
+  EXPECT_EQ(seen.Count(Event::Kind::kCommandMalformed), 6u) << "each malformed command is an event";
+  EXPECT_EQ(rig.slave->command_events_dropped(), 0u);
+}
+
 /// Forks a child that drops to uid/gid 65534 (nobody) and sends `line`; returns its exit status: 0 the reply began
 /// with "refused", 1 another reply, 2 the connection was refused by the file's permissions, 3 setresuid failed.
 int CommandAsNobody(const std::string& path, const char* line) {
@@ -552,7 +845,8 @@ int CommandAsNobody(const std::string& path, const char* line) {
 
 TEST(NodeCommand, AUserTheSocketDoesNotAdmitCannotCommand) {
   if (::geteuid() != 0) GTEST_SKIP() << "needs root to fork a process of another user (setresuid)";
-  Rig rig;
+  RecordingSink::Seen seen;
+  Rig rig("", "", "max_force_rate_N_per_s: 100", "", Medium::kUdp, &seen);
   rig.StepUntil(100);
   {
     // The file's permissions (0600, owned by root): nobody cannot even connect.
@@ -570,6 +864,10 @@ TEST(NodeCommand, AUserTheSocketDoesNotAdmitCannotCommand) {
   }
   rig.StepUntil(200);
   EXPECT_FALSE(rig.slave->clutched());
+  (void)rig.slave->Finish();
+  ASSERT_EQ(seen.Count(Event::Kind::kCommandPeerRefused), 1u) << "the refused peer is an event";
+  EXPECT_DOUBLE_EQ(seen.Last(Event::Kind::kCommandPeerRefused).value, 65534.0) << "its uid";
+  EXPECT_EQ(seen.Count(Event::Kind::kClutchCommanded), 0u);
 }
 
 }  // namespace

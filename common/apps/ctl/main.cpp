@@ -17,8 +17,9 @@ namespace {
 
 int Run(int argc, char** argv) {
   CLI::App app{
-      "teleop-ctl: a run-time command to teleop-master/teleop-slave (clutch on|off, fixture-stiffness <N/m> "
-      "[ramp_s])"};
+      "teleop-ctl: a run-time command to teleop-master/teleop-slave (docs/clutch.md): clutch on|off, fixture "
+      "on|off [ramp_s], fixture-stiffness <N/m> [ramp_s], fixture-plane <offset_m> <normal: dof numbers> "
+      "[rate_m_per_s], gain kp_N_per_m|kd_Ns_per_m|kv_Ns_per_m|kf[:<axis>] <value> [ramp_s]"};
   std::string path;
   std::vector<std::string> words;
   app.add_option("--socket", path, "the process's command socket")->required();

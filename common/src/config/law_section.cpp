@@ -35,9 +35,12 @@ void ParseLaw(const Field& f, double rate_hz, control::ThreeChannelLaw::Config& 
 
 void ParseFixture(const Field& f, int dof, control::ForbiddenRegionFixture::Config& fixture) {
   using control::ForbiddenRegionFixture;
-  const Map map(f, {"stiffness_N_per_m", "planes", "half_space"});
+  const Map map(f,
+                {"stiffness_N_per_m", "planes", "half_space", "max_offset_rate_m_per_s", "max_normal_rate_rad_per_s"});
   fixture.dof = dof;
   fixture.stiffness_N_per_m = NonNegative(map.Required("stiffness_N_per_m"), "N/m");
+  if (auto v = map.Optional("max_offset_rate_m_per_s")) fixture.max_offset_rate_m_per_s = Positive(*v, "m/s");
+  if (auto v = map.Optional("max_normal_rate_rad_per_s")) fixture.max_normal_rate_rad_per_s = Positive(*v, "rad/s");
   const auto planes = map.Optional("planes");
   const auto half_space = map.Optional("half_space");
   if (planes && half_space) half_space->Fail("give either 'planes' or 'half_space', not both");

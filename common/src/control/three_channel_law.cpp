@@ -68,6 +68,18 @@ ThreeChannelLaw::ThreeChannelLaw(const Config& config)
       fixture_(config_.fixture),
       state_{VelocityEstimator({config_.dof, config_.velocity_filter_hz})} {}
 
+void ThreeChannelLaw::SetGains(const DofVector& kp_N_per_m, const DofVector& kd_Ns_per_m, const DofVector& kv_Ns_per_m,
+                               const DofVector& kf) noexcept {
+  const int dof = config_.dof;
+  const auto gain_ok = [dof](const DofVector& g) { return SizedAndFinite(g, dof) && (g.array() >= 0.0).all(); };
+  if (!gain_ok(kp_N_per_m) || !gain_ok(kd_Ns_per_m) || !gain_ok(kv_Ns_per_m) || !SizedAndFinite(kf, dof)) return;
+  if (config_.role == Role::kSlave && !kf.isZero(0.0)) return;
+  config_.kp_N_per_m = kp_N_per_m;
+  config_.kd_Ns_per_m = kd_Ns_per_m;
+  config_.kv_Ns_per_m = kv_Ns_per_m;
+  config_.kf = kf;
+}
+
 ThreeChannelLaw::Config ThreeChannelLaw::ZeroGains(Role role, int dof) {
   if (dof < 1 || dof > kMaxDof) Fail("dof " + std::to_string(dof) + " is out of range");
   Config config;

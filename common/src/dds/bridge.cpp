@@ -88,6 +88,20 @@ const char* EventKindName(node::Event::Kind kind) noexcept {
       return "command_accepted";
     case Kind::kCommandRefused:
       return "command_refused";
+    case Kind::kCommandMalformed:
+      return "command_malformed";
+    case Kind::kCommandPeerRefused:
+      return "command_peer_refused";
+    case Kind::kClutchCommanded:
+      return "clutch_commanded";
+    case Kind::kGainAccepted:
+      return "gain_accepted";
+    case Kind::kGainRefused:
+      return "gain_refused";
+    case Kind::kPlaneAccepted:
+      return "plane_accepted";
+    case Kind::kPlaneRefused:
+      return "plane_refused";
   }
   return "unknown";
 }

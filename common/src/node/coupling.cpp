@@ -1,6 +1,7 @@
 #include "coupling.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace teleop::node {
 
@@ -55,18 +56,101 @@ Coupling::Coupling(const Config& config, EventLog& events)
   applied_.passivity = &passivity_.state();
   applied_.passivity_mode = passivity_.config().mode;
   applied_.reaction = reaction_.reaction();
+  for (int g = 0; g < 4; ++g) gains_from_[g] = gains_to_[g] = gains_now_[g] = ZeroDof(dof);
+  slew_normal_ = plane_normal_ = ZeroDof(dof);
 }
 
-const Applied& Coupling::Step(const Sensed& sensed, const PeerView& peer, std::uint64_t cycle, double t_s,
-                              double period_s) noexcept {
-  Engage(sensed, peer, cycle, t_s);
-  cycle_ = cycle;
+void Coupling::RampGains(const DofVector& kp_N_per_m, const DofVector& kd_Ns_per_m, const DofVector& kv_Ns_per_m,
+                         const DofVector& kf, double ramp_s) noexcept {
+  const control::ThreeChannelLaw::Config& c = law_.config();
+  gains_from_[0] = c.kp_N_per_m;
+  gains_from_[1] = c.kd_Ns_per_m;
+  gains_from_[2] = c.kv_Ns_per_m;
+  gains_from_[3] = c.kf;
+  gains_to_[0] = kp_N_per_m;
+  gains_to_[1] = kd_Ns_per_m;
+  gains_to_[2] = kv_Ns_per_m;
+  gains_to_[3] = kf;
+  gains_ramp_s_ = ramp_s > 0.0 ? ramp_s : 0.0;
+  gains_elapsed_s_ = 0.0;
+  gains_ramping_ = true;
+}
+
+void Coupling::MovePlane(int index, const DofVector& normal, double offset_m, double offset_rate_m_per_s,
+                         double normal_rate_rad_per_s) noexcept {
+  if (index < 0 || index >= law_.fixture().config().plane_count || normal.size() != config_.process.dof) return;
+  slew_plane_ = index;
+  slew_normal_ = normal;
+  slew_offset_m_ = offset_m;
+  slew_offset_rate_ = offset_rate_m_per_s;
+  slew_normal_rate_ = normal_rate_rad_per_s;
+  slewing_ = true;
+}
+
+void Coupling::StepRamps(double period_s) noexcept {
   if (ramping_) {
     ramp_elapsed_s_ += period_s;
     const double u = ramp_s_ > 0.0 ? std::min(ramp_elapsed_s_ / ramp_s_, 1.0) : 1.0;
     law_.SetFixtureStiffness(ramp_from_N_per_m_ + u * (ramp_to_N_per_m_ - ramp_from_N_per_m_));
     ramping_ = u < 1.0;
   }
+  if (gains_ramping_) {
+    gains_elapsed_s_ += period_s;
+    const double u = gains_ramp_s_ > 0.0 ? std::min(gains_elapsed_s_ / gains_ramp_s_, 1.0) : 1.0;
+    for (int g = 0; g < 4; ++g) gains_now_[g] = gains_from_[g] + u * (gains_to_[g] - gains_from_[g]);
+    if (u >= 1.0) {
+      for (int g = 0; g < 4; ++g) gains_now_[g] = gains_to_[g];  // exactly the target at the end
+    }
+    law_.SetGains(gains_now_[0], gains_now_[1], gains_now_[2], gains_now_[3]);
+    gains_ramping_ = u < 1.0;
+  }
+  if (slewing_) StepPlane(period_s);
+}
+
+void Coupling::StepPlane(double period_s) noexcept {
+  // Offset: toward the target by at most rate · period. Normal: along the great circle from the current normal to
+  // the target by at most rate · period (rad). With a still device the fixture force K·d·n then changes per cycle by
+  // at most K·period·(offset rate + normal rate·(|x| + d)) (eq. 7: F = K·d, d = n·x - offset).
+  const control::FixturePlane& now = law_.fixture().config().planes[static_cast<std::size_t>(slew_plane_)];
+  const double max_offset_step = slew_offset_rate_ * period_s;
+  const double offset_step = std::clamp(slew_offset_m_ - now.offset_m, -max_offset_step, max_offset_step);
+  const double offset =
+      std::abs(slew_offset_m_ - now.offset_m) <= max_offset_step ? slew_offset_m_ : now.offset_m + offset_step;
+  const double max_angle = slew_normal_rate_ * period_s;
+  const double cosine = std::clamp(now.normal.dot(slew_normal_), -1.0, 1.0);
+  const double angle = std::acos(cosine);
+  bool normal_done = true;
+  if (angle <= max_angle) {
+    plane_normal_ = slew_normal_;
+  } else {
+    // The unit direction in the plane of the two normals, orthogonal to the current one; for an opposite target
+    // (no such plane) the axis along which the current normal is smallest, made orthogonal.
+    plane_normal_ = slew_normal_ - cosine * now.normal;
+    if (plane_normal_.norm() < 1e-9) {
+      int axis = 0;
+      now.normal.cwiseAbs().minCoeff(&axis);
+      plane_normal_.setZero();
+      plane_normal_[axis] = 1.0;
+      plane_normal_ -= now.normal.dot(plane_normal_) * now.normal;
+    }
+    if (plane_normal_.norm() < 1e-9) plane_normal_ = slew_normal_;  // 1 DOF (refused by the node before)
+    plane_normal_ /= plane_normal_.norm();
+    plane_normal_ = std::cos(max_angle) * now.normal + std::sin(max_angle) * plane_normal_;
+    plane_normal_ /= plane_normal_.norm();
+    normal_done = false;
+  }
+  max_plane_offset_step_m_ = std::max(max_plane_offset_step_m_, std::abs(offset - now.offset_m));
+  max_plane_normal_step_rad_ =
+      std::max(max_plane_normal_step_rad_, std::acos(std::clamp(plane_normal_.dot(now.normal), -1.0, 1.0)));
+  law_.SetFixturePlane(slew_plane_, plane_normal_, offset);
+  slewing_ = !(normal_done && offset == slew_offset_m_);
+}
+
+const Applied& Coupling::Step(const Sensed& sensed, const PeerView& peer, std::uint64_t cycle, double t_s,
+                              double period_s) noexcept {
+  Engage(sensed, peer, cycle, t_s);
+  cycle_ = cycle;
+  StepRamps(period_s);
   PrepareInput(*sensed.reading, peer, t_s, period_s);
   applied_.law = law_.Step(input_, period_s);
   applied_.nonfinite = applied_.law.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput;

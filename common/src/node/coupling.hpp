@@ -97,6 +97,19 @@ class Coupling {
     ramp_elapsed_s_ = 0.0;
     ramping_ = true;
   }
+  /// Ramps the law's gains linearly from what they are to these over `ramp_s` from the next Step (a change the
+  /// stability check accepted). Called on the cycle's thread.
+  void RampGains(const DofVector& kp_N_per_m, const DofVector& kd_Ns_per_m, const DofVector& kv_Ns_per_m,
+                 const DofVector& kf, double ramp_s) noexcept;
+  /// Slews fixture plane `index` toward (`normal`, unit; `offset_m`) from the next Step: the offset by at most
+  /// `offset_rate_m_per_s` · period, the normal (along the great circle) by at most `normal_rate_rad_per_s` · period
+  /// per cycle. A later move replaces the target. Called on the cycle's thread.
+  void MovePlane(int index, const DofVector& normal, double offset_m, double offset_rate_m_per_s,
+                 double normal_rate_rad_per_s) noexcept;
+  /// Largest one-cycle change of a moved plane's offset (m) and normal (rad) so far.
+  double max_plane_offset_step_m() const noexcept { return max_plane_offset_step_m_; }
+  double max_plane_normal_step_rad() const noexcept { return max_plane_normal_step_rad_; }
+  bool plane_slewing() const noexcept { return slewing_; }
 
  private:
   /// Which path chose the command.
@@ -111,6 +124,8 @@ class Coupling {
   void Passivate(Path path, const PeerView& peer, double period_s) noexcept;
   void Track(Path path, double period_s) noexcept;
   Path PathOf(const Sensed& sensed) const noexcept;
+  void StepRamps(double period_s) noexcept;
+  void StepPlane(double period_s) noexcept;
 
   Config config_;
   EventLog& events_;
@@ -129,6 +144,21 @@ class Coupling {
   double ramp_to_N_per_m_ = 0.0;
   double ramp_s_ = 0.0;
   double ramp_elapsed_s_ = 0.0;
+  bool gains_ramping_ = false;
+  double gains_ramp_s_ = 0.0;
+  double gains_elapsed_s_ = 0.0;
+  DofVector gains_from_[4];  ///< kp, kd, kv, kf at the start of the ramp.
+  DofVector gains_to_[4];
+  DofVector gains_now_[4];
+  bool slewing_ = false;
+  int slew_plane_ = 0;
+  DofVector slew_normal_;  ///< The target (unit).
+  double slew_offset_m_ = 0.0;
+  double slew_offset_rate_ = 0.0;
+  double slew_normal_rate_ = 0.0;
+  DofVector plane_normal_;  ///< Scratch of this cycle's slew step.
+  double max_plane_offset_step_m_ = 0.0;
+  double max_plane_normal_step_rad_ = 0.0;
   bool clutch_blocked_ = false;  ///< The clutch is this cycle's blocker.
   bool clutch_path_ = false;     ///< ... and the clutch's own command applies (master, or a slave that can push).
   DofVector hold_N_;

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <string>
 
 #include "teleop/node/engagement.hpp"
 
@@ -96,6 +97,34 @@ void EventLog::Drain() {
         break;
       case Event::Kind::kCommandRefused:
         spdlog::warn("cycle {}: command refused (predicted limit {:.0f} N/m)", e.cycle, e.value);
+        break;
+      case Event::Kind::kCommandMalformed:
+        spdlog::warn("cycle {}: command malformed (nothing changed)", e.cycle);
+        break;
+      case Event::Kind::kCommandPeerRefused:
+        spdlog::warn("cycle {}: command refused: peer uid {:.0f} is not admitted", e.cycle, e.value);
+        break;
+      case Event::Kind::kClutchCommanded:
+        spdlog::info("cycle {}: command: clutch {}", e.cycle, e.value != 0.0 ? "on" : "off");
+        break;
+      case Event::Kind::kGainAccepted:
+      case Event::Kind::kGainRefused: {
+        const unsigned axis = e.detail % 16u;
+        const char* name = ToString(static_cast<GainName>(e.detail / 16u));
+        if (e.kind == Event::Kind::kGainAccepted) {
+          spdlog::info("cycle {}: command accepted: gain {} axis {} = {}", e.cycle, name,
+                       axis == kAllAxes ? std::string("all") : std::to_string(axis), e.value);
+        } else {
+          spdlog::warn("cycle {}: command refused: gain {} axis {} (predicted fixture limit {:.0f} N/m)", e.cycle, name,
+                       axis == kAllAxes ? std::string("all") : std::to_string(axis), e.value);
+        }
+        break;
+      }
+      case Event::Kind::kPlaneAccepted:
+        spdlog::info("cycle {}: command accepted: fixture plane to offset {:.4f} m (slewing)", e.cycle, e.value);
+        break;
+      case Event::Kind::kPlaneRefused:
+        spdlog::warn("cycle {}: command refused: fixture plane", e.cycle);
         break;
     }
     if (EventObserver* observer = observer_.load(std::memory_order_acquire)) observer->OnEvent(e);

@@ -97,6 +97,14 @@ class ThreeChannelLaw {
   void ShiftPosition(const DofVector& offset_m) noexcept { state_.velocity.Shift(offset_m); }
   /// The fixture's stiffness at run time (ForbiddenRegionFixture::SetStiffness). Allocation-free.
   void SetFixtureStiffness(double stiffness_N_per_m) noexcept { fixture_.SetStiffness(stiffness_N_per_m); }
+  /// A fixture plane at run time (ForbiddenRegionFixture::SetPlane). Allocation-free.
+  void SetFixturePlane(int index, const DofVector& normal, double offset_m) noexcept {
+    fixture_.SetPlane(index, normal, offset_m);
+  }
+  /// The gains at run time (a ramp step of a checked change). Ignored, all four, unless each has dof entries, all
+  /// finite, K_p, K_d, K_v >= 0, and K_f zero on the slave (the constructor's rules). Allocation-free.
+  void SetGains(const DofVector& kp_N_per_m, const DofVector& kd_Ns_per_m, const DofVector& kv_Ns_per_m,
+                const DofVector& kf) noexcept;
 
   const Config& config() const noexcept { return config_; }
   const State& state() const noexcept { return state_; }

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 
 #include "teleop/types.hpp"
 
@@ -29,6 +30,10 @@ class ForbiddenRegionFixture {
     double stiffness_N_per_m = 0.0;  ///< K_iVF; 0 disables the fixture.
     int plane_count = 0;
     std::array<FixturePlane, kMaxPlanes> planes{};
+    /// Run-time plane moves (docs/clutch.md, "Run-time commands"): the node slews a moved plane's offset at most
+    /// this fast (m/s) and its normal at most `max_normal_rate_rad_per_s`; the fixture itself does not use them.
+    double max_offset_rate_m_per_s = 0.01;
+    double max_normal_rate_rad_per_s = 0.1;
   };
 
   struct Output {
@@ -59,6 +64,17 @@ class ForbiddenRegionFixture {
     if (!(stiffness_N_per_m >= 0.0) || !(stiffness_N_per_m < 1e300)) return;
     if (stiffness_N_per_m > 0.0 && config_.plane_count == 0) return;
     config_.stiffness_N_per_m = stiffness_N_per_m;
+  }
+  /// A run-time plane (a slew step of a plane move). Ignored unless `index` names a configured plane and `normal`
+  /// is finite, of the fixture's dof and of unit length (within 1e-6), and `offset_m` finite. Allocation-free.
+  void SetPlane(int index, const DofVector& normal, double offset_m) noexcept {
+    if (index < 0 || index >= config_.plane_count || normal.size() != config_.dof || !normal.allFinite() ||
+        !(std::abs(normal.norm() - 1.0) < 1e-6) || !std::isfinite(offset_m)) {
+      return;
+    }
+    FixturePlane& plane = config_.planes[static_cast<std::size_t>(index)];
+    plane.normal = normal;
+    plane.offset_m = offset_m;
   }
 
  private:

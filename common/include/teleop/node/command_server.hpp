@@ -12,10 +12,12 @@ namespace teleop::node {
 /// The local command channel (docs/clutch.md, "Run-time commands"): a Unix stream socket served by its own thread,
 /// one command line per connection, one reply line. Who may command: the socket file's permissions (created with
 /// `mode`, owned by this process's user) and SO_PEERCRED (the peer's uid must be this process's effective uid, or
-/// root). The stability check of a stiffness change runs on this thread, never the cycle's.
+/// root). The stability check of a stiffness or gain change runs on this thread, never the cycle's.
 ///
-/// Commands: `clutch on|off`, `fixture on|off [ramp_s]`, `fixture-stiffness <N/m> [ramp_s]`. Replies start with `ok`,
-/// `refused` or `error`.
+/// Commands: `clutch on|off`, `fixture on|off [ramp_s]`, `fixture-stiffness <N/m> [ramp_s]`, `fixture-plane
+/// <offset_m> <normal: dof numbers> [rate_m_per_s]`, `gain <name>[:<axis>] <value> [ramp_s]` (names as in the
+/// config's law section). Replies start with `ok`, `refused` or `error`. Every command and its outcome is an event
+/// (a malformed command and a refused peer too: TeleopNode::RecordCommandEvent).
 class CommandServer {
  public:
   struct Config {

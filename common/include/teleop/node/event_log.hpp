@@ -31,11 +31,42 @@ struct Event {
     kReindexed,        ///< The master re-indexed on release; value: the largest |offset| on an axis (m).
     kCommandAccepted,  ///< A run-time fixture stiffness change the check accepted; value: the stiffness (N/m).
     kCommandRefused,   ///< ... it refused; value: the predicted limit (N/m; 0: not analysed).
+    // The command channel's other outcomes (docs/clutch.md, "Run-time commands"); `detail` says which command.
+    kCommandMalformed,    ///< A command that did not parse; nothing changed. value: 0.
+    kCommandPeerRefused,  ///< A peer SO_PEERCRED did not admit; value: its uid.
+    kClutchCommanded,     ///< `clutch on|off`; value: 1 on, 0 off.
+    kGainAccepted,        ///< A law gain change the check accepted; value: the gain; detail: GainDetail.
+    kGainRefused,         ///< ... refused; value: the predicted fixture limit with it (N/m; 0: not analysed).
+    kPlaneAccepted,       ///< A fixture plane move accepted; value: the target offset (m).
+    kPlaneRefused,        ///< ... refused; value: 0.
   };
   Kind kind = Kind::kPeerConnected;
   std::uint64_t cycle = 0;
-  double value = 0.0;  ///< Kind-specific: fault bits, overrun count, ...
+  double value = 0.0;        ///< Kind-specific: fault bits, overrun count, ...
+  std::uint16_t detail = 0;  ///< Kind-specific (the gain events: GainDetail); not on DDS.
 };
+
+/// Which law gain a gain event names: `detail` = gain index · 16 + axis (axis 15: every axis).
+enum class GainName : std::uint8_t { kKp, kKd, kKv, kKf };
+inline constexpr std::uint16_t kAllAxes = 15;
+inline std::uint16_t GainDetail(GainName name, int axis) noexcept {
+  return static_cast<std::uint16_t>(static_cast<unsigned>(name) * 16u +
+                                    (axis < 0 ? kAllAxes : static_cast<unsigned>(axis)));
+}
+/// The config key of a gain: kp_N_per_m, kd_Ns_per_m, kv_Ns_per_m, kf.
+inline const char* ToString(GainName name) noexcept {
+  switch (name) {
+    case GainName::kKp:
+      return "kp_N_per_m";
+    case GainName::kKd:
+      return "kd_Ns_per_m";
+    case GainName::kKv:
+      return "kv_Ns_per_m";
+    case GainName::kKf:
+      return "kf";
+  }
+  return "?";
+}
 
 /// Sees every event on the log's thread, after it is logged (the DDS bridge, docs/dds.md). Never called from the
 /// real-time cycle; must not block for long.

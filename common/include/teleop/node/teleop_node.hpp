@@ -84,7 +84,7 @@ class TeleopNode {
   /// Largest |Δ coupling force| per second while clutched (bounded by engagement.max_force_rate_N_per_s).
   double max_clutch_force_rate_N_per_s() const noexcept;
 
-  /// A run-time change of this process's fixture stiffness and its verdict.
+  /// A run-time change (fixture stiffness, gain, plane) and its verdict.
   struct FixtureChange {
     bool accepted = false;
     double requested_N_per_m = 0.0;
@@ -94,7 +94,7 @@ class TeleopNode {
   /// Runs the start-up stability check (config::CheckProcessStability) with `stiffness_N_per_m` on the CALLER's
   /// thread (never the cycle's) and refuses an unstable value with the predicted limit, a value that is not finite
   /// or negative, and any value when the check does not apply to this device. An accepted change is handed to the
-  /// cycle through a wait-free mailbox and ramps linearly over `ramp_s`; the cycle logs the outcome as an event
+  /// cycle through a wait-free ring (SPSC) and ramps linearly over `ramp_s`; the cycle logs the outcome as an event
   /// (command_accepted with the stiffness, command_refused with the limit). Serialised between callers.
   FixtureChange RequestFixtureStiffness(double stiffness_N_per_m, double ramp_s);
   /// Fixture off: ramps the stiffness to 0 (checked like any change: a pair unstable without its fixture is
@@ -102,6 +102,36 @@ class TeleopNode {
   FixtureChange RequestFixtureEnabled(bool on, double ramp_s);
   /// The fixture stiffness the law uses now (N/m).
   double fixture_stiffness_N_per_m() const noexcept;
+
+  /// A run-time change of one law gain (`axis` -1: every axis), checked like a stiffness change: the stability check
+  /// with the changed gain (the peer keeps the gains the start-up check assumed for it) and the render check
+  /// (config::RequireRenderable) on the CALLER's thread; an unstable one is refused with the predicted fixture limit
+  /// under the changed gain. A value that is not finite, negative (K_p, K_d, K_v), a K_f on the slave or an axis out
+  /// of range is refused. An accepted change ramps linearly over `ramp_s`. Events: gain_accepted / gain_refused.
+  FixtureChange RequestGain(GainName name, int axis, double value, double ramp_s);
+  /// Moves fixture plane 0 to (`normal`, normalised; `offset_m`) at a bounded rate: the cycle slews the offset at
+  /// `rate_m_per_s` (<= 0: fixture.max_offset_rate_m_per_s; above it: refused) and the normal at
+  /// fixture.max_normal_rate_rad_per_s scaled by the same fraction. Refused: no fixture plane, a normal of the wrong
+  /// size, zero or not finite, a non-finite offset, a 1-DOF normal that flips sign. A move that changes which axes the
+  /// normal has a component on runs the stability check first (the plane's position does not enter it, eq. 7).
+  /// Events: plane_accepted / plane_refused.
+  FixtureChange RequestFixturePlane(const DofVector& normal, double offset_m, double rate_m_per_s);
+  /// An outcome of the command channel that changes nothing (a malformed command, a refused peer, a clutch
+  /// command) as an event: handed to the cycle with the changes, which logs it (DDS events topic too). Any thread;
+  /// when the hand-over ring (64) is full the event is dropped and counted.
+  void RecordCommandEvent(Event::Kind kind, double value) noexcept;
+  /// Command outcomes not handed to the cycle because its ring was full.
+  std::uint64_t command_events_dropped() const noexcept;
+  /// The process's DOF (the config's; any thread).
+  int dof() const noexcept;
+  /// The fixture plane the law uses now (after the last cycle; on the cycle's thread or between Step()s); a default
+  /// plane when `index` is not configured.
+  control::FixturePlane fixture_plane(int index) const noexcept;
+  /// Largest one-cycle change of a moved plane's offset (m) and normal (rad) so far.
+  double max_plane_offset_step_m() const noexcept;
+  double max_plane_normal_step_rad() const noexcept;
+  /// A gain the law uses now.
+  double gain(GainName name, int axis) const noexcept;
 
  private:
   struct Impl;
