@@ -9,6 +9,7 @@
 #include "admittance_device.hpp"
 #include "teleop/config/yaml_reader.hpp"
 #include "teleop/device/device_registry.hpp"
+#include "teleop/fieldbus/can_port_yaml.hpp"
 
 namespace teleop::device {
 namespace {
@@ -17,43 +18,6 @@ using config::Field;
 using config::Map;
 using config::NonNegative;
 using config::Positive;
-
-void ReadCan(const Field& f, fieldbus::CanPortConfig& can) {
-  const Map map(f, {"medium", "interface", "bus", "connect_timeout_ms"});
-  if (auto v = map.Optional("medium")) {
-    const std::string medium = v->AsString();
-    if (medium == "socketcan") {
-      can.medium = transport::CanMedium::kSocketCan;
-    } else if (medium == "emulated") {
-      can.medium = transport::CanMedium::kEmulatedBus;
-    } else {
-      v->Fail("must be socketcan (a SocketCAN interface) or emulated (the teleop-canbus daemon), got '" + medium + "'");
-    }
-  }
-  const bool emulated = can.medium == transport::CanMedium::kEmulatedBus;
-  if (auto v = map.Optional("interface")) {
-    if (emulated) v->Fail("only for medium socketcan");
-    can.interface_name = v->AsString();
-    if (can.interface_name.empty() || can.interface_name.size() > 15) {
-      v->Fail("must be a network interface name of 1..15 characters (e.g. can0), got '" + can.interface_name + "'");
-    }
-  } else if (!emulated) {
-    map.Required("interface");
-  }
-  if (auto v = map.Optional("bus")) {
-    if (!emulated) v->Fail("only for medium emulated (the teleop-canbus daemon's address)");
-    const std::string text = v->AsString();
-    const std::size_t colon = text.rfind(':');
-    const std::string port = colon == std::string::npos ? "" : text.substr(colon + 1);
-    if (colon == std::string::npos || colon == 0 || port.empty() || port.size() > 5 ||
-        port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) < 1 || std::stoi(port) > 65535) {
-      v->Fail("must be \"IPv4:PORT\" like \"127.0.0.1:47300\", got '" + text + "'");
-    }
-    can.emulated_bus_host = text.substr(0, colon);
-    can.emulated_bus_port = static_cast<std::uint16_t>(std::stoi(port));
-  }
-  if (auto v = map.Optional("connect_timeout_ms")) can.connect_timeout_ms = Positive(*v, "ms");
-}
 
 AdmittanceAxisConfig ReadDrive(const Field& f) {
   const Map map(f, {"node_id", "transmission_m_per_rad", "rated_torque_Nm", "position_rad_per_count",
@@ -109,7 +73,7 @@ AdmittanceConfig ReadAdmittance(const Field& f, int dof) {
   if (auto v = map.Optional("tracking_error_cycles")) {
     c.tracking_error_cycles = config::IntInRange(*v, 1, 100000);
   }
-  ReadCan(map.Required("can"), c.can);
+  fieldbus::ReadCanPortSection(map.Required("can"), c.can);
   const Field drives = map.Required("drives");
   const std::vector<Field> items = drives.AsList();
   if (static_cast<int>(items.size()) != dof) {
@@ -188,23 +152,26 @@ DeviceBackend AdmittanceBackend() {
       {"tracking_error_cycles",
        "consecutive cycles beyond max_tracking_error_m that fault the pair, 1..100000; default 10"},
       {"can", "the drives' bus"},
-      {"can.medium", "socketcan (default) or emulated (the teleop-canbus daemon)"},
-      {"can.interface", "SocketCAN interface (can0, vcan0, ...); required for socketcan"},
-      {"can.bus", "teleop-canbus address IPv4:PORT (emulated only); default 127.0.0.1:47300"},
-      {"can.connect_timeout_ms", "how long to wait for teleop-canbus (ms), > 0; default 1000"},
-      {"drives", "one drive per DOF, in axis order"},
-      {"drives[].node_id", "CANopen node-ID 1..127"},
-      {"drives[].transmission_m_per_rad", "axis metres per joint radian, > 0; default 1"},
-      {"drives[].rated_torque_Nm", "0x6076 (N·m), > 0; default 1"},
-      {"drives[].position_rad_per_count", "rad per position unit, > 0; default 1/4096"},
-      {"drives[].velocity_rad_per_s_per_unit", "rad/s per velocity unit, > 0; default 1/4096"},
-      {"drives[].direction", "1 or -1 (the drive's positive direction against the axis')"},
-      {"drives[].max_torque_Nm", "0x6072, the drive loops' torque limit (N·m), > 0; default 0.5"},
-      {"drives[].heartbeat_period_ms", "the drive's heartbeat (0x1017) (ms); default 50"},
-      {"drives[].heartbeat_timeout_ms", "the host's consumer timeout (ms), > the period; default 150"},
-      {"drives[].stale_after_ms", "TPDO data older than this is a fault (ms), > 0; default 10"},
-      {"drives[].eds", "the drive's EDS/DCF: checked at configure (docs/cia402.md, EDS)"},
   };
+  for (const fieldbus::CanPortKey& key : fieldbus::kCanPortKeys) {
+    b.keys.push_back({std::string("can.") + key.key, key.description});
+  }
+  b.keys.insert(b.keys.end(),
+                {
+                    {"drives", "one drive per DOF, in axis order"},
+                    {"drives[].node_id", "CANopen node-ID 1..127"},
+                    {"drives[].transmission_m_per_rad", "axis metres per joint radian, > 0; default 1"},
+                    {"drives[].rated_torque_Nm", "0x6076 (N·m), > 0; default 1"},
+                    {"drives[].position_rad_per_count", "rad per position unit, > 0; default 1/4096"},
+                    {"drives[].velocity_rad_per_s_per_unit", "rad/s per velocity unit, > 0; default 1/4096"},
+                    {"drives[].direction", "1 or -1 (the drive's positive direction against the axis')"},
+                    {"drives[].max_torque_Nm", "0x6072, the drive loops' torque limit (N·m), > 0; default 0.5"},
+                    {"drives[].heartbeat_period_ms", "the drive's heartbeat (0x1017) (ms); default 50"},
+                    {"drives[].heartbeat_timeout_ms", "the host's consumer timeout (ms), > the period; default 150"},
+                    {"drives[].stale_after_ms", "TPDO data older than this is a fault (ms), > 0; default 10"},
+                    {"drives[].eds", "the drive's EDS/DCF: checked at configure (docs/cia402.md, EDS)"},
+                });
+
   b.section_required = true;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
     return ReadAdmittance(*section, context.dof);

@@ -8,6 +8,7 @@
 #include "cobot_backend_private.hpp"
 #include "teleop/config/yaml_reader.hpp"
 #include "teleop/error.hpp"
+#include "teleop/fieldbus/can_port_yaml.hpp"
 
 namespace teleop::device::cobot {
 namespace {
@@ -53,43 +54,6 @@ void ReadBicycle(const Field& f, CobotBackendConfig& c) {
   if (auto v = map.Optional("heading_bandwidth_per_s")) {
     c.bicycle_caster.heading_bandwidth_per_s = config::InRange(*v, 0.1, 20.0, "rad/s");
   }
-}
-
-void ReadCanPort(const Field& f, fieldbus::CanPortConfig& can) {
-  const Map map(f, {"medium", "interface", "bus", "connect_timeout_ms"});
-  if (auto v = map.Optional("medium")) {
-    const std::string medium = v->AsString();
-    if (medium == "socketcan") {
-      can.medium = transport::CanMedium::kSocketCan;
-    } else if (medium == "emulated") {
-      can.medium = transport::CanMedium::kEmulatedBus;
-    } else {
-      v->Fail("must be socketcan (a SocketCAN interface) or emulated (the teleop-canbus daemon), got '" + medium + "'");
-    }
-  }
-  const bool emulated = can.medium == transport::CanMedium::kEmulatedBus;
-  if (auto v = map.Optional("interface")) {
-    if (emulated) v->Fail("only for medium socketcan");
-    can.interface_name = v->AsString();
-    if (can.interface_name.empty() || can.interface_name.size() > 15) {
-      v->Fail("must be a network interface name of 1..15 characters (e.g. can0), got '" + can.interface_name + "'");
-    }
-  } else if (!emulated) {
-    map.Required("interface");
-  }
-  if (auto v = map.Optional("bus")) {
-    if (!emulated) v->Fail("only for medium emulated (the teleop-canbus daemon's address)");
-    const std::string text = v->AsString();
-    const std::size_t colon = text.rfind(':');
-    const std::string port = colon == std::string::npos ? "" : text.substr(colon + 1);
-    if (colon == std::string::npos || colon == 0 || port.empty() || port.size() > 5 ||
-        port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) < 1 || std::stoi(port) > 65535) {
-      v->Fail("must be \"IPv4:PORT\" like \"127.0.0.1:47300\", got '" + text + "'");
-    }
-    can.emulated_bus_host = text.substr(0, colon);
-    can.emulated_bus_port = static_cast<std::uint16_t>(std::stoi(port));
-  }
-  if (auto v = map.Optional("connect_timeout_ms")) can.connect_timeout_ms = Positive(*v, "ms");
 }
 
 std::uint8_t ReadNodeId(const Field& f) { return static_cast<std::uint8_t>(config::IntInRange(f, 1, 127)); }
@@ -172,7 +136,7 @@ void ReadSensors(const Field& f, CobotFieldbusConfig& c) {
 void ReadFieldbus(const Field& f, CobotBackendConfig& c) {
   const Map map(f, {"can", "cycle_period_ms", "steering", "sensors", "first_frames_timeout_ms"});
   CobotFieldbusConfig& b = c.fieldbus;
-  ReadCanPort(map.Required("can"), b.can);
+  fieldbus::ReadCanPortSection(map.Required("can"), b.can);
   if (auto v = map.Optional("cycle_period_ms")) {
     b.steering.drive.cycle_period_s = config::InRange(*v, 0.125, 100.0, "ms") * 1e-3;
   }
