@@ -1,7 +1,5 @@
 // The `loopback` backend: the simulated plant of Abbott & Okamura §4.1 (docs/configuration.md, `device.loopback`).
 
-#include "teleop/device/loopback/loopback_backend.hpp"
-
 #include <yaml-cpp/yaml.h>
 
 #include <memory>
@@ -10,6 +8,7 @@
 #include "loopback_keys.hpp"
 #include "teleop/config/key_table.hpp"
 #include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/loopback.hpp"
 
 namespace teleop::device {
 namespace {
