@@ -11,10 +11,11 @@ namespace teleop::config {
 enum class KeyType : std::uint8_t {
   kNumber,    ///< One number.
   kDofValue,  ///< One number for every DOF, or a list of exactly `dof` numbers (ReadDofVector).
+  kInteger,   ///< A whole number in [low, high] (range kInRange).
 };
 
 /// The range a key's value must lie in (the reader's check and the docs' "range" column).
-enum class KeyRange : std::uint8_t { kFinite, kPositive, kNonNegative };
+enum class KeyRange : std::uint8_t { kFinite, kPositive, kNonNegative, kInRange /* [low, high] */ };
 
 /// One key of a config section, written once: its reader (ReadNumber, ReadDofValue), its line in `--list-devices`
 /// (DescribeKey) and its row in docs/configuration.md (KeyTableRow; tests/config/configuration_docs_test.cpp checks
@@ -28,6 +29,8 @@ struct KeySpec {
   bool required = false;
   double default_value = 0.0;  ///< When not required and absent.
   const char* meaning = "";    ///< One sentence for the docs and `--list-devices`.
+  double low = 0.0;            ///< kInRange: the smallest value allowed.
+  double high = 0.0;           ///< kInRange: the largest value allowed.
 };
 
 }  // namespace teleop::config

@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "admittance_device.hpp"
+#include "admittance_keys.hpp"
 #include "teleop/config/yaml_reader.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/fieldbus/can_port_yaml.hpp"
@@ -51,28 +52,23 @@ AdmittanceConfig ReadAdmittance(const Field& f, int dof) {
                     "max_tracking_error_m", "tracking_error_cycles", "can", "drives"});
   AdmittanceConfig c;
   c.dof = dof;
-  c.virtual_mass_kg =
-      config::ReadDofVector(map.Required("virtual_mass_kg"), dof, [](const Field& x) { return Positive(x, "kg"); });
-  c.virtual_damping_Ns_per_m = config::ReadDofVector(map.Required("virtual_damping_Ns_per_m"), dof,
-                                                     [](const Field& x) { return NonNegative(x, "N·s/m"); });
+  namespace keys = admittance_keys;
+  c.virtual_mass_kg = config::ReadDofValue(map, keys::kVirtualMass, dof);
+  c.virtual_damping_Ns_per_m = config::ReadDofValue(map, keys::kVirtualDamping, dof);
   if (auto v = map.Optional("mode")) {
     const std::string mode = v->AsString();
     if (!fieldbus::ParseCia402Mode(mode, c.mode) || c.mode == fieldbus::Cia402Mode::kCyclicSynchronousTorque) {
       v->Fail("must be position or velocity (the drives follow the virtual mass), got '" + mode + "'");
     }
   }
-  if (auto v = map.Optional("max_force_N")) c.max_force_N = Positive(*v, "N");
-  if (auto v = map.Optional("max_velocity_m_per_s")) c.max_velocity_m_per_s = Positive(*v, "m/s");
-  if (auto v = map.Optional("position_loop_bandwidth_rad_per_s")) {
-    c.position_loop_bandwidth_rad_per_s = Positive(*v, "rad/s");
-  }
-  if (auto v = map.Optional("bandwidth_ratio")) c.bandwidth_ratio = config::InRange(*v, 1.0, 1000.0, "");
-  if (auto v = map.Optional("max_stiffness_N_per_m")) c.max_stiffness_N_per_m = NonNegative(*v, "N/m");
-  if (auto v = map.Optional("cycle_period_ms")) c.cycle_period_s = Positive(*v, "ms") * 1e-3;
-  if (auto v = map.Optional("max_tracking_error_m")) c.max_tracking_error_m = Positive(*v, "m");
-  if (auto v = map.Optional("tracking_error_cycles")) {
-    c.tracking_error_cycles = config::IntInRange(*v, 1, 100000);
-  }
+  c.max_force_N = config::ReadNumber(map, keys::kMaxForce);
+  c.max_velocity_m_per_s = config::ReadNumber(map, keys::kMaxVelocity);
+  c.position_loop_bandwidth_rad_per_s = config::ReadNumber(map, keys::kPositionLoopBandwidth);
+  c.bandwidth_ratio = config::ReadNumber(map, keys::kBandwidthRatio);
+  c.max_stiffness_N_per_m = config::ReadNumber(map, keys::kMaxStiffness);
+  c.cycle_period_s = config::ReadNumber(map, keys::kCyclePeriod) * 1e-3;
+  c.max_tracking_error_m = config::ReadNumber(map, keys::kMaxTrackingError);
+  c.tracking_error_cycles = config::ReadInteger(map, keys::kTrackingErrorCycles);
   fieldbus::ReadCanPortSection(map.Required("can"), c.can);
   const Field drives = map.Required("drives");
   const std::vector<Field> items = drives.AsList();
@@ -135,22 +131,7 @@ DeviceBackend AdmittanceBackend() {
   b.nominal.measures_velocity = true;
   b.nominal.measures_force = false;
   b.keys = {
-      {"virtual_mass_kg", "m_v per axis (kg), > 0: one number or one per DOF"},
-      {"virtual_damping_Ns_per_m", "b_v per axis (N·s/m), >= 0: one number or one per DOF"},
       {"mode", "position (CiA 402 mode 8, default) or velocity (9): the target the drives take"},
-      {"max_force_N", "the law's force is clamped to it (N), > 0; default 50"},
-      {"max_velocity_m_per_s", "the virtual mass's speed limit (m/s), > 0; default 0.5"},
-      {"position_loop_bandwidth_rad_per_s",
-       "the drives' position-loop bandwidth (rad/s): the stability model's "
-       "assumption is checked against it; unset: the check is not applicable"},
-      {"bandwidth_ratio", "how much faster than b_v/m_v and sqrt(K/m_v) the loop must be, 1..1000; default 10"},
-      {"max_stiffness_N_per_m", "K, the stiffest spring the slave meets (coupling kp + fixture), N/m, >= 0; default 0"},
-      {"cycle_period_ms", "the drives' cycle (0x1006) (ms), > 0; default 1"},
-      {"max_tracking_error_m",
-       "the largest |drive's measured position - virtual position two cycles earlier| (m), > 0; default "
-       "2 (v_max/loop bandwidth + v_max T), at least 1 mm"},
-      {"tracking_error_cycles",
-       "consecutive cycles beyond max_tracking_error_m that fault the pair, 1..100000; default 10"},
       {"can", "the drives' bus"},
   };
   for (const fieldbus::CanPortKey& key : fieldbus::kCanPortKeys) {
@@ -172,6 +153,9 @@ DeviceBackend AdmittanceBackend() {
                     {"drives[].eds", "the drive's EDS/DCF: checked at configure (docs/cia402.md, EDS)"},
                 });
 
+  // The keys with a value come from the key table (admittance_keys.hpp), written once.
+  b.key_table.assign(admittance_keys::kAll.begin(), admittance_keys::kAll.end());
+  for (const config::KeySpec& spec : b.key_table) b.keys.push_back({spec.key, config::DescribeKey(spec)});
   b.section_required = true;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
     return ReadAdmittance(*section, context.dof);
