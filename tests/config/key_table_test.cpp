@@ -64,7 +64,7 @@ TEST(KeyTable, ListDevicesShowsEveryKeyOfEveryBackendsTable) {
       EXPECT_NE(own.find(line), std::string::npos) << name << ": --list-devices lacks" << line << "in\n" << own;
     }
   }
-  EXPECT_GE(tables, 3) << "loopback, admittance and hybrid have a key table";
+  EXPECT_GE(tables, 4) << "loopback, admittance, hybrid and cobot each have a key table";
   EXPECT_EQ(listing.find("\n    warp_factor: "), std::string::npos) << "the check can fail";
 }
 

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "cobot_backend_private.hpp"
+#include "cobot_keys.hpp"
 #include "teleop/device/cobot/cobot_fieldbus_device.hpp"
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/can_port_yaml.hpp"
@@ -23,54 +24,20 @@ DeviceBackend CobotBackend() {
   b.nominal = CobotCapabilities(2, 0.0);
   b.keys = {
       {"kind", "unicycle (dof 2, default) or bicycle (dof 3; walls on the plate's reference point)"},
-      {"cart_mass_kg", "moving mass (kg), > 0; default 10"},
-      {"rolling_damping_Ns_per_m", "rolling resistance (N·s/m), >= 0; default 20"},
-      {"steering_inertia_kgm2", "wheel assembly about the steering axis (kg·m²), > 0; default 0.002"},
-      {"steering_damping_Nms_per_rad", "steering friction b (N·m·s/rad), >= 0; default 0.004"},
-      {"max_steering_torque_Nm", "steering motor limit (N·m), > 0; default 2"},
-      {"cornering_stiffness_N_per_rad", "wheel slip model C (N/rad), >= 0, 0 = no slip; default 500"},
-      {"brake_max_force_N", "wheel brake (N), >= 0, 0 = none; default 0"},
-      {"friction_coefficient",
-       "tire μ: the floor carries at most μ·N across the wheel, then it slides; >= 0, "
-       "0 = no limit; default 0 (unicycle)"},
-      {"normal_load_N", "N of the friction limit (N), >= 0, 0 = cart_mass_kg·g; default 0"},
-      {"wheel_radius_m", "wheel radius (m), > 0; default 0.05"},
       {"wheel_encoder_counts_per_rev", "wheel encoder counts, >= 0 (0 = ideal); default 16384"},
       {"steering_encoder_counts_per_rev", "steering encoder counts, >= 0 (0 = ideal); default 16384"},
-      {"position_resolution_m", "absolute position sensing step (m), >= 0; default 1e-5"},
-      {"force_resolution_N", "handle force sensor step (N), >= 0; default 0.01"},
-      {"steering_time_constant_s", "tau of the steering-velocity loop (eq 3c), sets K2 = J/tau - b; default 0.02"},
       {"virtual_mass_kg",
        "1/K1 of the virtual caster (eq 2) (kg), > 0; default 10 (unicycle only: the bicycle's is "
        "its plate mass)"},
-      {"speed_floor_m_per_s", "epsilon of eq 2 (m/s), > 0; default 0.02"},
-      {"lookahead_m", "L of eqs 7-8 (m), > 0; default 0.05"},
       {"gain_form", "small_angle (eq 8, default) or circular (eq 7)"},
-      {"p_gain_scale", "multiplies the penetration gain, > 0; default 1"},
-      {"theta_gain_scale", "multiplies the out-of-tangency gain, > 0; default 1"},
-      {"integral_gain_per_m3", "integral action on p (1/m³), >= 0; default 0"},
       {"overlay", "constraint overlay (§5) on/off; default true"},
-      {"overlay_min_radius_m", "overlay activation radius (m), >= 0; default 0.1"},
-      {"release_force_N", "pull-off force that releases a wall (N), >= 0; default 1"},
       {"stability_action", "above the eq 10 bound: warn (default), lengthen_lookahead or brake"},
-      {"stability_margin", "act at this fraction of the eq 10 speed, 0.05..1; default 0.8"},
-      {"contact_force_threshold_N", "coupling force that means a blocked slave (N), > 0; default 2"},
       {"initial_position_m", "start position [x, y] (m); default [0, 0]"},
       {"initial_heading_deg", "start heading (deg from +x); default 0"},
       {"operator", "simulated operator (master without a human)"},
-      {"operator.speed_m_per_s", "speed the operator holds (m/s), > 0; default 0.2"},
-      {"operator.direction_deg", "push direction (deg from +x); default 0"},
-      {"operator.then_at_s", "time of the change of direction (s), 0 = never; default 0"},
-      {"operator.then_direction_deg", "push direction after then_at_s (deg); default 0"},
-      {"operator.max_force_N", "largest push (N), > 0; default 60"},
       {"bicycle", "bicycle cobot plate (kind: bicycle)"},
-      {"bicycle.half_wheelbase_m", "wheels at ±this on the plate's x axis (m), > 0; default 0.2"},
-      {"bicycle.plate_mass_kg", "plate mass (kg), > 0; also the caster's virtual mass (isotropic); default 12"},
-      {"bicycle.plate_inertia_kgm2", "plate inertia (kg·m²), > 0; also the caster's virtual inertia; default 0.4"},
-      {"bicycle.singularity_threshold", "singularity measure below which the guard acts, 0..0.99; default 0.05"},
       {"bicycle.singularity_guard", "keep the wheels off the singular configuration; default true"},
       {"bicycle.hold_heading_deg", "angular constraint: the wheels hold the plate's θ at this (deg); default none"},
-      {"bicycle.heading_bandwidth_per_s", "ω_h of the angular constraint's return (rad/s), 0.1..20; default 5"},
       {"rig", "simulated (default: the models above) or fieldbus (the real unicycle cobot on CAN, needs fieldbus)"},
       {"fieldbus", "the real rig's CAN bus, steering drive and sensor node (rig: fieldbus only)"},
       {"fieldbus.can", "the bus: medium, interface or bus"},
@@ -129,6 +96,9 @@ DeviceBackend CobotBackend() {
            "default 0.01"},
       });
 
+  // The keys with a number come from the key table (cobot_keys.hpp), written once.
+  b.key_table.assign(keys::kAll.begin(), keys::kAll.end());
+  for (const config::KeySpec& spec : b.key_table) b.keys.push_back({spec.key, config::DescribeKey(spec)});
   b.section_required = false;
   b.read = [](const config::Field* section, const SectionContext& context) -> std::any {
     return ReadCobot(section, context.dof, context.role);
