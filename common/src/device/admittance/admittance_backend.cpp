@@ -9,6 +9,7 @@
 #include "admittance_device.hpp"
 #include "admittance_keys.hpp"
 #include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/backend_key_table.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/fieldbus/can_port_yaml.hpp"
 
@@ -153,9 +154,7 @@ DeviceBackend AdmittanceBackend() {
                     {"drives[].eds", "the drive's EDS/DCF: checked at configure (docs/cia402.md, EDS)"},
                 });
 
-  // The keys with a value come from the key table (admittance_keys.hpp), written once.
-  b.key_table.assign(admittance_keys::kAll.begin(), admittance_keys::kAll.end());
-  for (const config::KeySpec& spec : b.key_table) b.keys.push_back({spec.key, config::DescribeKey(spec)});
+  AdoptKeyTable(b, admittance_keys::kAll);  // the keys with a number, written once (admittance_keys.hpp)
   b.section_required = true;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
     return ReadAdmittance(*section, context.dof);

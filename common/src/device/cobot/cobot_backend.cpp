@@ -9,6 +9,7 @@
 
 #include "cobot_backend_private.hpp"
 #include "cobot_keys.hpp"
+#include "teleop/device/backend_key_table.hpp"
 #include "teleop/device/cobot/cobot_fieldbus_device.hpp"
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/can_port_yaml.hpp"
@@ -96,9 +97,7 @@ DeviceBackend CobotBackend() {
            "default 0.01"},
       });
 
-  // The keys with a number come from the key table (cobot_keys.hpp), written once.
-  b.key_table.assign(keys::kAll.begin(), keys::kAll.end());
-  for (const config::KeySpec& spec : b.key_table) b.keys.push_back({spec.key, config::DescribeKey(spec)});
+  AdoptKeyTable(b, keys::kAll);  // the keys with a number, written once (cobot_keys.hpp)
   b.section_required = false;
   b.read = [](const config::Field* section, const SectionContext& context) -> std::any {
     return ReadCobot(section, context.dof, context.role);

@@ -2,7 +2,6 @@
 // that span keys (dof, role, rig, fieldbus node ids).
 
 #include <cmath>
-#include <numbers>
 #include <string>
 
 #include "cobot_backend_private.hpp"
@@ -20,8 +19,6 @@ using config::Finite;
 using config::Map;
 using config::NonNegative;
 using config::Positive;
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 int ReadCount(const Field& f) {
   const double v = NonNegative(f, "counts per revolution (0 = ideal)");
@@ -49,7 +46,7 @@ void ReadBicycle(const Field& f, CobotBackendConfig& c) {
   if (auto v = map.Optional("singularity_guard")) c.bicycle_caster.singularity_guard = v->AsBool();
   if (auto v = map.Optional("hold_heading_deg")) {
     c.bicycle_caster.heading_constraint = true;
-    c.bicycle_caster.heading_target_rad = Finite(*v) * kDeg;
+    c.bicycle_caster.heading_target_rad = Finite(*v) * config::kDeg;
   }
   c.bicycle_caster.heading_bandwidth_per_s = config::ReadNumber(map, keys::kHeadingBandwidth);
 }
@@ -85,7 +82,7 @@ void ReadSteering(const Field& f, CobotFieldbusConfig& c) {
   }
   if (auto v = map.Optional("rated_torque_Nm")) d.scaling.rated_torque_Nm = Positive(*v, "N·m");
   if (auto v = map.Optional("max_torque_Nm")) d.max_torque_Nm = Positive(*v, "N·m");
-  if (auto v = map.Optional("offset_deg")) c.steering_offset_rad = Finite(*v) * kDeg;
+  if (auto v = map.Optional("offset_deg")) c.steering_offset_rad = Finite(*v) * config::kDeg;
   if (auto v = map.Optional("max_angle_jump_rad")) c.steering.max_angle_jump_rad = Positive(*v, "rad");
   if (auto v = map.Optional("hold_stiffness_Nm_per_rad"))
     c.steering.hold_stiffness_Nm_per_rad = Positive(*v, "N·m/rad");
@@ -264,7 +261,7 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
       const DofVector xy = config::ReadDofVector(*v, 2, Finite);
       c.initial.position_m = {xy[0], xy[1]};
     }
-    if (auto v = map.Optional("initial_heading_deg")) c.initial.heading_rad = Finite(*v) * kDeg;
+    if (auto v = map.Optional("initial_heading_deg")) c.initial.heading_rad = Finite(*v) * config::kDeg;
     if (auto v = map.Optional("operator")) ReadOperator(*v, c.op);
     if (auto v = map.Optional("bicycle")) ReadBicycle(*v, c);
     if (c.kind == CobotBackendConfig::Kind::kBicycle) {

@@ -3,11 +3,11 @@
 
 #include <Eigen/LU>
 #include <memory>
-#include <numbers>
 
 #include "device/hybrid/hybrid_fieldbus_section.hpp"
 #include "device/hybrid/hybrid_keys.hpp"
 #include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/backend_key_table.hpp"
 
 namespace teleop::device::hybrid {
 namespace {
@@ -17,8 +17,6 @@ using config::Finite;
 using config::Map;
 using config::NonNegative;
 using config::Positive;
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 Eigen::Vector2d Vec2(const Field& f) {
   const DofVector v = config::ReadDofVector(f, 2, Finite);
@@ -39,10 +37,10 @@ void ReadGeometry(const Field& f, FiveBarConfig& g) {
   if (auto v = m.Optional("distal_1_m")) g.distal_1_m = Positive(*v, "m");
   if (auto v = m.Optional("distal_2_m")) g.distal_2_m = Positive(*v, "m");
   if (auto v = m.Optional("base_separation_m")) g.base_separation_m = NonNegative(*v, "m");
-  if (auto v = m.Optional("joint_1_min_deg")) g.joint_1_min_rad = Finite(*v) * kDeg;
-  if (auto v = m.Optional("joint_1_max_deg")) g.joint_1_max_rad = Finite(*v) * kDeg;
-  if (auto v = m.Optional("joint_2_min_deg")) g.joint_2_min_rad = Finite(*v) * kDeg;
-  if (auto v = m.Optional("joint_2_max_deg")) g.joint_2_max_rad = Finite(*v) * kDeg;
+  if (auto v = m.Optional("joint_1_min_deg")) g.joint_1_min_rad = Finite(*v) * config::kDeg;
+  if (auto v = m.Optional("joint_1_max_deg")) g.joint_1_max_rad = Finite(*v) * config::kDeg;
+  if (auto v = m.Optional("joint_2_min_deg")) g.joint_2_min_rad = Finite(*v) * config::kDeg;
+  if (auto v = m.Optional("joint_2_max_deg")) g.joint_2_max_rad = Finite(*v) * config::kDeg;
   if (auto v = m.Optional("workspace_x_m")) {
     const Eigen::Vector2d r = Vec2(*v);
     g.workspace_x_min_m = r.x();
@@ -238,9 +236,7 @@ DeviceBackend HybridBackend() {
        "max_force_N, mass_kg"},
       {"environment", "simulated wall on the handle (slave): point_m, normal, stiffness_N_per_m, damping_Ns_per_m"},
   };
-  // The keys with a number come from the key table (hybrid_keys.hpp), written once.
-  b.key_table.assign(keys::kAll.begin(), keys::kAll.end());
-  for (const config::KeySpec& spec : b.key_table) b.keys.push_back({spec.key, config::DescribeKey(spec)});
+  AdoptKeyTable(b, keys::kAll);  // the keys with a number, written once (hybrid_keys.hpp)
   for (ConfigKey& key : HybridFieldbusKeys()) b.keys.push_back(std::move(key));
   b.section_required = false;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {

@@ -2,7 +2,6 @@
 #include "device/hybrid/hybrid_fieldbus_section.hpp"
 
 #include <cmath>
-#include <numbers>
 #include <string>
 
 #include "teleop/error.hpp"
@@ -16,8 +15,6 @@ using config::Field;
 using config::Finite;
 using config::Map;
 using config::Positive;
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 double AtLeast(const Field& f, double low, const char* unit) {
   const double v = Finite(f);
@@ -33,7 +30,7 @@ void ReadDrive(const Field& f, fieldbus::Cia402DriveConfig& d, double& joint_off
   d.produce_sync = false;  // the device produces the bus's SYNC
   d.cycle_period_s = cycle_period_s;
   d.node_id = static_cast<std::uint8_t>(config::IntInRange(m.Required("node_id"), 1, 127));
-  if (auto v = m.Optional("joint_offset_deg")) joint_offset_rad = Finite(*v) * kDeg;
+  if (auto v = m.Optional("joint_offset_deg")) joint_offset_rad = Finite(*v) * config::kDeg;
   if (auto v = m.Optional("rated_torque_Nm")) d.scaling.rated_torque_Nm = Positive(*v, "N·m");
   d.max_torque_Nm = Positive(m.Required("max_torque_Nm"), "N·m");
   if (auto v = m.Optional("position_rad_per_count")) d.scaling.position_rad_per_count = Positive(*v, "rad/count");
