@@ -50,6 +50,25 @@ TEST(AdmittanceKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
   EXPECT_EQ(code.tracking_error_cycles, 10);
   EXPECT_EQ(read.virtual_mass_kg[0], 2.0);
   EXPECT_EQ(read.virtual_damping_Ns_per_m[0], 8.0);
+  // Each drive's keys: defaults from AdmittanceAxisConfig and its Cia402DriveConfig.
+  const AdmittanceAxisConfig axis{};
+  ASSERT_EQ(read.axes.size(), 1U);
+  const AdmittanceAxisConfig& a = read.axes[0];
+  EXPECT_EQ(a.drive.node_id, 3);
+  same(keys::kDriveTransmission.default_value, axis.transmission_m_per_rad, a.transmission_m_per_rad, "transmission");
+  same(keys::kDriveRatedTorque.default_value, axis.drive.scaling.rated_torque_Nm, a.drive.scaling.rated_torque_Nm,
+       "rated_torque_Nm");
+  same(keys::kDrivePositionUnit.default_value, axis.drive.scaling.position_rad_per_count,
+       a.drive.scaling.position_rad_per_count, "position_rad_per_count");
+  same(keys::kDriveVelocityUnit.default_value, axis.drive.scaling.velocity_rad_per_s_per_unit,
+       a.drive.scaling.velocity_rad_per_s_per_unit, "velocity_rad_per_s_per_unit");
+  same(keys::kDriveMaxTorque.default_value, axis.drive.max_torque_Nm, a.drive.max_torque_Nm, "max_torque_Nm");
+  same(keys::kDriveHeartbeatPeriod.default_value, axis.drive.drive_heartbeat_period_ms,
+       a.drive.drive_heartbeat_period_ms, "heartbeat_period_ms");
+  same(keys::kDriveHeartbeatTimeout.default_value, axis.drive.heartbeat_timeout_ms, a.drive.heartbeat_timeout_ms,
+       "heartbeat_timeout_ms");
+  same(keys::kDriveStaleAfter.default_value, axis.drive.stale_after_ms, a.drive.stale_after_ms, "stale_after_ms");
+  EXPECT_EQ(axis.drive.scaling.position_rad_per_count, 1.0 / 4096.0);
   // A value given is read in the key's unit.
   const AdmittanceConfig given = Read(
       "{virtual_mass_kg: 2, virtual_damping_Ns_per_m: 8, cycle_period_ms: 2, tracking_error_cycles: 4, "

@@ -27,22 +27,21 @@ AdmittanceAxisConfig ReadDrive(const Field& f) {
                     "heartbeat_timeout_ms", "stale_after_ms", "eds"});
   AdmittanceAxisConfig a;
   fieldbus::Cia402DriveConfig& d = a.drive;
-  d.node_id = static_cast<std::uint8_t>(config::IntInRange(map.Required("node_id"), 1, 127));
-  if (auto v = map.Optional("transmission_m_per_rad")) a.transmission_m_per_rad = Positive(*v, "m/rad");
-  if (auto v = map.Optional("rated_torque_Nm")) d.scaling.rated_torque_Nm = Positive(*v, "N·m");
-  if (auto v = map.Optional("position_rad_per_count")) d.scaling.position_rad_per_count = Positive(*v, "rad");
-  if (auto v = map.Optional("velocity_rad_per_s_per_unit")) {
-    d.scaling.velocity_rad_per_s_per_unit = Positive(*v, "rad/s");
-  }
+  namespace keys = admittance_keys;
+  d.node_id = static_cast<std::uint8_t>(config::ReadInteger(map, keys::kDriveNodeId));
+  a.transmission_m_per_rad = config::ReadNumber(map, keys::kDriveTransmission);
+  d.scaling.rated_torque_Nm = config::ReadNumber(map, keys::kDriveRatedTorque);
+  d.scaling.position_rad_per_count = config::ReadNumber(map, keys::kDrivePositionUnit);
+  d.scaling.velocity_rad_per_s_per_unit = config::ReadNumber(map, keys::kDriveVelocityUnit);
   if (auto v = map.Optional("direction")) {
     const int dir = config::IntInRange(*v, -1, 1);
     if (dir == 0) v->Fail("must be 1 or -1");
     d.scaling.sign = dir;
   }
-  if (auto v = map.Optional("max_torque_Nm")) d.max_torque_Nm = Positive(*v, "N·m");
-  if (auto v = map.Optional("heartbeat_period_ms")) d.drive_heartbeat_period_ms = Positive(*v, "ms");
-  if (auto v = map.Optional("heartbeat_timeout_ms")) d.heartbeat_timeout_ms = Positive(*v, "ms");
-  if (auto v = map.Optional("stale_after_ms")) d.stale_after_ms = Positive(*v, "ms");
+  d.max_torque_Nm = config::ReadNumber(map, keys::kDriveMaxTorque);
+  d.drive_heartbeat_period_ms = config::ReadNumber(map, keys::kDriveHeartbeatPeriod);
+  d.heartbeat_timeout_ms = config::ReadNumber(map, keys::kDriveHeartbeatTimeout);
+  d.stale_after_ms = config::ReadNumber(map, keys::kDriveStaleAfter);
   if (auto v = map.Optional("eds")) d.eds_file = v->AsString();
   return a;
 }
@@ -138,21 +137,11 @@ DeviceBackend AdmittanceBackend() {
   for (const fieldbus::CanPortKey& key : fieldbus::kCanPortKeys) {
     b.keys.push_back({std::string("can.") + key.key, key.description});
   }
-  b.keys.insert(b.keys.end(),
-                {
-                    {"drives", "one drive per DOF, in axis order"},
-                    {"drives[].node_id", "CANopen node-ID 1..127"},
-                    {"drives[].transmission_m_per_rad", "axis metres per joint radian, > 0; default 1"},
-                    {"drives[].rated_torque_Nm", "0x6076 (N·m), > 0; default 1"},
-                    {"drives[].position_rad_per_count", "rad per position unit, > 0; default 1/4096"},
-                    {"drives[].velocity_rad_per_s_per_unit", "rad/s per velocity unit, > 0; default 1/4096"},
-                    {"drives[].direction", "1 or -1 (the drive's positive direction against the axis')"},
-                    {"drives[].max_torque_Nm", "0x6072, the drive loops' torque limit (N·m), > 0; default 0.5"},
-                    {"drives[].heartbeat_period_ms", "the drive's heartbeat (0x1017) (ms); default 50"},
-                    {"drives[].heartbeat_timeout_ms", "the host's consumer timeout (ms), > the period; default 150"},
-                    {"drives[].stale_after_ms", "TPDO data older than this is a fault (ms), > 0; default 10"},
-                    {"drives[].eds", "the drive's EDS/DCF: checked at configure (docs/cia402.md, EDS)"},
-                });
+  b.keys.insert(b.keys.end(), {
+                                  {"drives", "one drive per DOF, in axis order"},
+                                  {"drives[].direction", "1 or -1 (the drive's positive direction against the axis')"},
+                                  {"drives[].eds", "the drive's EDS/DCF: checked at configure (docs/cia402.md, EDS)"},
+                              });
 
   AdoptKeyTable(b, admittance_keys::kAll);  // the keys with a number, written once (admittance_keys.hpp)
   b.section_required = true;

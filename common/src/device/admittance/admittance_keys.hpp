@@ -87,7 +87,60 @@ inline const KeySpec kTrackingErrorCycles{
     .low = 1,
     .high = 100000};
 
-inline const std::array kAll{kVirtualMass,    kVirtualDamping, kMaxForce,    kMaxVelocity,      kPositionLoopBandwidth,
-                             kBandwidthRatio, kMaxStiffness,   kCyclePeriod, kMaxTrackingError, kTrackingErrorCycles};
+/// The keys of each `drives` entry; defaults from AdmittanceAxisConfig (and its fieldbus::Cia402DriveConfig).
+inline const AdmittanceAxisConfig kAxis{};
+inline const KeySpec kDriveNodeId{.key = "drives[].node_id",
+                                  .type = KeyType::kInteger,
+                                  .range = KeyRange::kInRange,
+                                  .required = true,
+                                  .meaning = "CANopen node-ID, distinct across the drives.",
+                                  .low = 1,
+                                  .high = 127};
+inline const KeySpec kDriveTransmission{.key = "drives[].transmission_m_per_rad",
+                                        .unit = "m/rad",
+                                        .range = KeyRange::kPositive,
+                                        .default_value = kAxis.transmission_m_per_rad,
+                                        .meaning = "Axis metres per joint radian (a capstan radius, a lead / 2π)."};
+inline const KeySpec kDriveRatedTorque{.key = "drives[].rated_torque_Nm",
+                                       .unit = "N·m",
+                                       .range = KeyRange::kPositive,
+                                       .default_value = kAxis.drive.scaling.rated_torque_Nm,
+                                       .meaning = "0x6076; checked where the drive has it."};
+inline const KeySpec kDrivePositionUnit{.key = "drives[].position_rad_per_count",
+                                        .unit = "rad",
+                                        .range = KeyRange::kPositive,
+                                        .default_value = kAxis.drive.scaling.position_rad_per_count,
+                                        .meaning = "Joint rad per position unit (0x6064, 0x607A)."};
+inline const KeySpec kDriveVelocityUnit{.key = "drives[].velocity_rad_per_s_per_unit",
+                                        .unit = "rad/s",
+                                        .range = KeyRange::kPositive,
+                                        .default_value = kAxis.drive.scaling.velocity_rad_per_s_per_unit,
+                                        .meaning = "Joint rad/s per velocity unit (0x606C, 0x60FF)."};
+inline const KeySpec kDriveMaxTorque{.key = "drives[].max_torque_Nm",
+                                     .unit = "N·m",
+                                     .range = KeyRange::kPositive,
+                                     .default_value = kAxis.drive.max_torque_Nm,
+                                     .meaning = "0x6072, the drive loops' torque limit."};
+inline const KeySpec kDriveHeartbeatPeriod{.key = "drives[].heartbeat_period_ms",
+                                           .unit = "ms",
+                                           .range = KeyRange::kPositive,
+                                           .default_value = kAxis.drive.drive_heartbeat_period_ms,
+                                           .meaning = "The drive's heartbeat, 0x1017."};
+inline const KeySpec kDriveHeartbeatTimeout{.key = "drives[].heartbeat_timeout_ms",
+                                            .unit = "ms",
+                                            .range = KeyRange::kPositive,
+                                            .default_value = kAxis.drive.heartbeat_timeout_ms,
+                                            .meaning = "The host's consumer timeout, more than the period."};
+inline const KeySpec kDriveStaleAfter{.key = "drives[].stale_after_ms",
+                                      .unit = "ms",
+                                      .range = KeyRange::kPositive,
+                                      .default_value = kAxis.drive.stale_after_ms,
+                                      .meaning = "TPDO data older than this is a fault."};
+
+inline const std::array kAll{kVirtualMass,           kVirtualDamping,        kMaxForce,          kMaxVelocity,
+                             kPositionLoopBandwidth, kBandwidthRatio,        kMaxStiffness,      kCyclePeriod,
+                             kMaxTrackingError,      kTrackingErrorCycles,   kDriveNodeId,       kDriveTransmission,
+                             kDriveRatedTorque,      kDrivePositionUnit,     kDriveVelocityUnit, kDriveMaxTorque,
+                             kDriveHeartbeatPeriod,  kDriveHeartbeatTimeout, kDriveStaleAfter};
 
 }  // namespace teleop::device::admittance_keys
