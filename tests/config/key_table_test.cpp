@@ -13,6 +13,7 @@
 #include "teleop/config/yaml_reader.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
+#include "teleop/fieldbus/can_port_yaml.hpp"
 #include "teleop/node/device_list.hpp"
 
 namespace teleop {
@@ -129,6 +130,46 @@ TEST(KeyTable, ReadersAndDescriptionsFollowTheTable) {
   const config::Map wrong(bad_field, {"bandwidth_ratio", "cycles"});
   EXPECT_THROW((void)config::ReadNumber(wrong, ratio), Error);
   EXPECT_THROW((void)config::ReadInteger(wrong, cycles), Error);
+}
+
+// The one CAN bus section reader the admittance, cobot and hybrid backends share.
+TEST(KeyTable, TheSharedCanSectionReaderReadsAndRefuses) {
+  static const std::string file = "can.yaml";
+  const auto read = [](const std::string& yaml, fieldbus::CanMediumKey medium) {
+    const YAML::Node node = YAML::Load(yaml);
+    const config::Field field(node, "device.x.can", &file);
+    fieldbus::CanPortConfig can;
+    fieldbus::ReadCanPortSection(field, can, medium);
+    return can;
+  };
+  const auto error = [&](const std::string& yaml, fieldbus::CanMediumKey medium) -> std::string {
+    try {
+      (void)read(yaml, medium);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  using fieldbus::CanMediumKey;
+  const fieldbus::CanPortConfig socket = read("{interface: vcan0}", CanMediumKey::kOptional);
+  EXPECT_EQ(socket.medium, transport::CanMedium::kSocketCan);
+  EXPECT_EQ(socket.interface_name, "vcan0");
+  const fieldbus::CanPortConfig daemon =
+      read("{medium: emulated, bus: \"127.0.0.2:47301\", connect_timeout_ms: 250}", CanMediumKey::kRequired);
+  EXPECT_EQ(daemon.medium, transport::CanMedium::kEmulatedBus);
+  EXPECT_EQ(daemon.emulated_bus_host, "127.0.0.2");
+  EXPECT_EQ(daemon.emulated_bus_port, 47301);
+  EXPECT_EQ(daemon.connect_timeout_ms, 250.0);
+  EXPECT_NE(error("{interface: vcan0}", CanMediumKey::kRequired).find("'device.x.can.medium'"), std::string::npos);
+  EXPECT_NE(error("{medium: ethercat}", CanMediumKey::kOptional).find("socketcan or emulated"), std::string::npos);
+  EXPECT_NE(error("{medium: emulated, bus: \"127.0.0.1:70000\"}", CanMediumKey::kOptional).find("HOST:PORT"),
+            std::string::npos);
+  EXPECT_NE(error("{medium: emulated, interface: can0}", CanMediumKey::kOptional).find("only for medium socketcan"),
+            std::string::npos);
+  EXPECT_NE(error("{}", CanMediumKey::kOptional).find("interface"), std::string::npos);
+  EXPECT_NE(error("{interface: can0, baud: 1}", CanMediumKey::kOptional).find("baud"), std::string::npos);
+  EXPECT_NE(error("{interface: can0, connect_timeout_ms: 0}", CanMediumKey::kOptional).find("must be > 0 ms"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -18,8 +18,6 @@ namespace {
 
 using config::Field;
 using config::Map;
-using config::NonNegative;
-using config::Positive;
 
 AdmittanceAxisConfig ReadDrive(const Field& f) {
   const Map map(f, {"node_id", "transmission_m_per_rad", "rated_torque_Nm", "position_rad_per_count",
