@@ -9,7 +9,7 @@
 #include <utility>
 
 #include "teleop/config/yaml_config.hpp"
-#include "teleop/device/loopback/loopback_plant.hpp"
+#include "teleop/device/loopback.hpp"
 #include "teleop/error.hpp"
 #include "test_utilities/base_config.hpp"
 

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "teleop/device/loopback/loopback_plant.hpp"
+#include "teleop/device/loopback.hpp"
 #include "teleop/error.hpp"
 #include "test_utilities/base_config.hpp"
 #include "test_utilities/config_text.hpp"

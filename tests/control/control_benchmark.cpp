@@ -4,7 +4,7 @@
 #include <benchmark/benchmark.h>
 
 #include "teleop/control/three_channel_law.hpp"
-#include "teleop/device/loopback/loopback_plant.hpp"
+#include "teleop/device/loopback.hpp"
 
 namespace teleop {
 namespace {

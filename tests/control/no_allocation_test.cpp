@@ -7,7 +7,7 @@
 #include <memory>
 
 #include "teleop/control/three_channel_law.hpp"
-#include "teleop/device/loopback/loopback_plant.hpp"
+#include "teleop/device/loopback.hpp"
 #include "test_utilities/limit_malloc.hpp"
 
 namespace teleop {

@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <string>
 
-#include "teleop/device/loopback/loopback_backend.hpp"
+#include "teleop/device/loopback.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device {

@@ -25,7 +25,7 @@
 
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/device/device_registry.hpp"
-#include "teleop/device/loopback/loopback_plant.hpp"
+#include "teleop/device/loopback.hpp"
 #include "teleop/node/command_server.hpp"
 #include "teleop/node/teleop_node.hpp"
 #include "teleop/transport/can_emulated_bus.hpp"

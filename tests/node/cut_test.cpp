@@ -21,7 +21,7 @@
 
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/device/device_registry.hpp"
-#include "teleop/device/loopback/loopback_plant.hpp"
+#include "teleop/device/loopback.hpp"
 #include "teleop/node/teleop_node.hpp"
 #include "teleop/transport/emulated_link.hpp"
 #include "test_utilities/limit_malloc.hpp"

@@ -8,7 +8,7 @@
 #include "teleop/control/three_channel_law.hpp"
 #include "teleop/control/velocity_estimator.hpp"
 #include "teleop/device/law_command.hpp"
-#include "teleop/device/loopback/loopback_plant.hpp"
+#include "teleop/device/loopback.hpp"
 #include "teleop/types.hpp"
 
 namespace teleop::test {

@@ -4,20 +4,24 @@ namespace teleop::config {
 
 namespace {
 
-const char* RangeText(KeyRange range) noexcept {
-  switch (range) {
+std::string RangeText(const KeySpec& spec) {
+  switch (spec.range) {
     case KeyRange::kFinite:
       return "finite";
     case KeyRange::kPositive:
       return "> 0";
     case KeyRange::kNonNegative:
       return "≥ 0";
+    case KeyRange::kInRange:
+      return Num(spec.low) + ".." + Num(spec.high);
   }
   return "";
 }
 
 std::string TypeText(const KeySpec& spec) {
-  std::string text = spec.type == KeyType::kDofValue ? "DOF value" : "number";
+  std::string text = spec.type == KeyType::kDofValue  ? "DOF value"
+                     : spec.type == KeyType::kInteger ? "integer"
+                                                      : "number";
   if (spec.unit[0] != '\0') text += std::string(", ") + spec.unit;
   return text;
 }
@@ -28,6 +32,8 @@ double Checked(const Field& f, const KeySpec& spec) {
       return Positive(f, spec.unit);
     case KeyRange::kNonNegative:
       return NonNegative(f, spec.unit);
+    case KeyRange::kInRange:
+      return InRange(f, spec.low, spec.high, spec.unit);
     case KeyRange::kFinite:
       break;
   }
@@ -43,14 +49,14 @@ std::string LeafOf(const KeySpec& spec) {
 }
 
 std::string DescribeKey(const KeySpec& spec) {
-  return TypeText(spec) + ", " + RangeText(spec.range) + ", " +
+  return TypeText(spec) + ", " + RangeText(spec) + ", " +
          (spec.required ? std::string("required") : "default " + Num(spec.default_value)) + ": " + spec.meaning;
 }
 
 std::string KeyTableRow(const KeySpec& spec) {
   return "| `" + LeafOf(spec) + "` | " + TypeText(spec) + " | " +
-         (spec.required ? std::string("**required**") : Num(spec.default_value)) + " | " + RangeText(spec.range) +
-         " | " + spec.meaning + " |";
+         (spec.required ? std::string("**required**") : Num(spec.default_value)) + " | " + RangeText(spec) + " | " +
+         spec.meaning + " |";
 }
 
 double ReadNumber(const Map& map, const KeySpec& spec) {
@@ -58,6 +64,16 @@ double ReadNumber(const Map& map, const KeySpec& spec) {
   if (spec.required) return Checked(map.Required(leaf), spec);
   if (auto v = map.Optional(leaf)) return Checked(*v, spec);
   return spec.default_value;
+}
+
+int ReadInteger(const Map& map, const KeySpec& spec) {
+  const std::string leaf = LeafOf(spec);
+  const auto check = [&spec](const Field& f) {
+    return IntInRange(f, static_cast<int>(spec.low), static_cast<int>(spec.high));
+  };
+  if (spec.required) return check(map.Required(leaf));
+  if (auto v = map.Optional(leaf)) return check(*v);
+  return static_cast<int>(spec.default_value);
 }
 
 DofVector ReadDofValue(const Map& map, const KeySpec& spec, int dof) {

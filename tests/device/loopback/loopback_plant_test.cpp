@@ -1,5 +1,3 @@
-#include "teleop/device/loopback/loopback_plant.hpp"
-
 #include <gtest/gtest.h>
 
 #include <array>
@@ -8,6 +6,7 @@
 #include <numbers>
 #include <string>
 
+#include "teleop/device/loopback.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device {

@@ -11,15 +11,17 @@ namespace teleop::config {
 enum class KeyType : std::uint8_t {
   kNumber,    ///< One number.
   kDofValue,  ///< One number for every DOF, or a list of exactly `dof` numbers (ReadDofVector).
+  kInteger,   ///< A whole number in [low, high] (range kInRange).
 };
 
 /// The range a key's value must lie in (the reader's check and the docs' "range" column).
-enum class KeyRange : std::uint8_t { kFinite, kPositive, kNonNegative };
+enum class KeyRange : std::uint8_t { kFinite, kPositive, kNonNegative, kInRange /* [low, high] */ };
 
 /// One key of a config section, written once: its reader (ReadNumber, ReadDofValue), its line in `--list-devices`
 /// (DescribeKey) and its row in docs/configuration.md (KeyTableRow; tests/config/configuration_docs_test.cpp checks
 /// the row is there verbatim) all come from it. A backend keeps its table in one private header
-/// (common/src/device/loopback/loopback_keys.hpp is the model) and lists it in DeviceBackend::key_table.
+/// (common/src/device/<name>/<name>_keys.hpp), takes an optional key's default from its config struct's member
+/// initialiser, and lists the table with device::AdoptKeyTable (teleop/device/backend_key_table.hpp).
 struct KeySpec {
   const char* key = "";  ///< Path below the section, e.g. "mass_kg", "operator.mass_kg" (the reader reads the leaf).
   KeyType type = KeyType::kNumber;
@@ -28,6 +30,8 @@ struct KeySpec {
   bool required = false;
   double default_value = 0.0;  ///< When not required and absent.
   const char* meaning = "";    ///< One sentence for the docs and `--list-devices`.
+  double low = 0.0;            ///< kInRange: the smallest value allowed.
+  double high = 0.0;           ///< kInRange: the largest value allowed.
 };
 
 }  // namespace teleop::config

@@ -17,6 +17,8 @@ std::string KeyTableRow(const KeySpec& spec);
 /// Reads a kNumber key from `map`: required (a missing key is an error at the section) or its default, checked
 /// against its range with its unit in the message.
 double ReadNumber(const Map& map, const KeySpec& spec);
+/// Reads a kInteger key: required or its default, in [low, high].
+int ReadInteger(const Map& map, const KeySpec& spec);
 /// Reads a kDofValue key: `dof` entries, each checked against the range; absent: the default on every DOF.
 DofVector ReadDofValue(const Map& map, const KeySpec& spec, int dof);
 

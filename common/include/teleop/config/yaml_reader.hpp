@@ -8,6 +8,7 @@
 
 #include <functional>
 #include <initializer_list>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -84,6 +85,9 @@ using teleop::ClosestMatch;
 // ---- value checks shared by every section reader: each throws at the value with its unit in the message ----------
 
 /// `value` as text the way messages print numbers.
+/// One degree in radians: a `..._deg` key's value times kDeg is what the config structs hold (rad).
+inline constexpr double kDeg = std::numbers::pi / 180.0;
+
 std::string Num(double value);
 double Finite(const Field& f);
 double NonNegative(const Field& f, const char* unit);

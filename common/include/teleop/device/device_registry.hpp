@@ -54,7 +54,7 @@ struct DeviceBackend {
   Capabilities nominal{};
   std::vector<ConfigKey> keys;  ///< Every key its reader accepts.
   /// The keys written once in a key table (teleop/config/key_table.hpp): their reader, their `keys` entry and their
-  /// docs row come from it. Empty for a backend that has not adopted one.
+  /// docs row come from it (AdoptKeyTable, teleop/device/backend_key_table.hpp). Empty for a backend without one.
   std::vector<config::KeySpec> key_table;
   /// Whether `device.<name>:` must be present. When it is absent and not required, `read` gets nullptr.
   bool section_required = true;

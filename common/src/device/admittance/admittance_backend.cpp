@@ -7,53 +7,17 @@
 #include <memory>
 
 #include "admittance_device.hpp"
+#include "admittance_keys.hpp"
 #include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/backend_key_table.hpp"
 #include "teleop/device/device_registry.hpp"
+#include "teleop/fieldbus/can_port_yaml.hpp"
 
 namespace teleop::device {
 namespace {
 
 using config::Field;
 using config::Map;
-using config::NonNegative;
-using config::Positive;
-
-void ReadCan(const Field& f, fieldbus::CanPortConfig& can) {
-  const Map map(f, {"medium", "interface", "bus", "connect_timeout_ms"});
-  if (auto v = map.Optional("medium")) {
-    const std::string medium = v->AsString();
-    if (medium == "socketcan") {
-      can.medium = transport::CanMedium::kSocketCan;
-    } else if (medium == "emulated") {
-      can.medium = transport::CanMedium::kEmulatedBus;
-    } else {
-      v->Fail("must be socketcan (a SocketCAN interface) or emulated (the teleop-canbus daemon), got '" + medium + "'");
-    }
-  }
-  const bool emulated = can.medium == transport::CanMedium::kEmulatedBus;
-  if (auto v = map.Optional("interface")) {
-    if (emulated) v->Fail("only for medium socketcan");
-    can.interface_name = v->AsString();
-    if (can.interface_name.empty() || can.interface_name.size() > 15) {
-      v->Fail("must be a network interface name of 1..15 characters (e.g. can0), got '" + can.interface_name + "'");
-    }
-  } else if (!emulated) {
-    map.Required("interface");
-  }
-  if (auto v = map.Optional("bus")) {
-    if (!emulated) v->Fail("only for medium emulated (the teleop-canbus daemon's address)");
-    const std::string text = v->AsString();
-    const std::size_t colon = text.rfind(':');
-    const std::string port = colon == std::string::npos ? "" : text.substr(colon + 1);
-    if (colon == std::string::npos || colon == 0 || port.empty() || port.size() > 5 ||
-        port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) < 1 || std::stoi(port) > 65535) {
-      v->Fail("must be \"IPv4:PORT\" like \"127.0.0.1:47300\", got '" + text + "'");
-    }
-    can.emulated_bus_host = text.substr(0, colon);
-    can.emulated_bus_port = static_cast<std::uint16_t>(std::stoi(port));
-  }
-  if (auto v = map.Optional("connect_timeout_ms")) can.connect_timeout_ms = Positive(*v, "ms");
-}
 
 AdmittanceAxisConfig ReadDrive(const Field& f) {
   const Map map(f, {"node_id", "transmission_m_per_rad", "rated_torque_Nm", "position_rad_per_count",
@@ -61,22 +25,21 @@ AdmittanceAxisConfig ReadDrive(const Field& f) {
                     "heartbeat_timeout_ms", "stale_after_ms", "eds"});
   AdmittanceAxisConfig a;
   fieldbus::Cia402DriveConfig& d = a.drive;
-  d.node_id = static_cast<std::uint8_t>(config::IntInRange(map.Required("node_id"), 1, 127));
-  if (auto v = map.Optional("transmission_m_per_rad")) a.transmission_m_per_rad = Positive(*v, "m/rad");
-  if (auto v = map.Optional("rated_torque_Nm")) d.scaling.rated_torque_Nm = Positive(*v, "N·m");
-  if (auto v = map.Optional("position_rad_per_count")) d.scaling.position_rad_per_count = Positive(*v, "rad");
-  if (auto v = map.Optional("velocity_rad_per_s_per_unit")) {
-    d.scaling.velocity_rad_per_s_per_unit = Positive(*v, "rad/s");
-  }
+  namespace keys = admittance_keys;
+  d.node_id = static_cast<std::uint8_t>(config::ReadInteger(map, keys::kDriveNodeId));
+  a.transmission_m_per_rad = config::ReadNumber(map, keys::kDriveTransmission);
+  d.scaling.rated_torque_Nm = config::ReadNumber(map, keys::kDriveRatedTorque);
+  d.scaling.position_rad_per_count = config::ReadNumber(map, keys::kDrivePositionUnit);
+  d.scaling.velocity_rad_per_s_per_unit = config::ReadNumber(map, keys::kDriveVelocityUnit);
   if (auto v = map.Optional("direction")) {
     const int dir = config::IntInRange(*v, -1, 1);
     if (dir == 0) v->Fail("must be 1 or -1");
     d.scaling.sign = dir;
   }
-  if (auto v = map.Optional("max_torque_Nm")) d.max_torque_Nm = Positive(*v, "N·m");
-  if (auto v = map.Optional("heartbeat_period_ms")) d.drive_heartbeat_period_ms = Positive(*v, "ms");
-  if (auto v = map.Optional("heartbeat_timeout_ms")) d.heartbeat_timeout_ms = Positive(*v, "ms");
-  if (auto v = map.Optional("stale_after_ms")) d.stale_after_ms = Positive(*v, "ms");
+  d.max_torque_Nm = config::ReadNumber(map, keys::kDriveMaxTorque);
+  d.drive_heartbeat_period_ms = config::ReadNumber(map, keys::kDriveHeartbeatPeriod);
+  d.heartbeat_timeout_ms = config::ReadNumber(map, keys::kDriveHeartbeatTimeout);
+  d.stale_after_ms = config::ReadNumber(map, keys::kDriveStaleAfter);
   if (auto v = map.Optional("eds")) d.eds_file = v->AsString();
   return a;
 }
@@ -87,29 +50,24 @@ AdmittanceConfig ReadAdmittance(const Field& f, int dof) {
                     "max_tracking_error_m", "tracking_error_cycles", "can", "drives"});
   AdmittanceConfig c;
   c.dof = dof;
-  c.virtual_mass_kg =
-      config::ReadDofVector(map.Required("virtual_mass_kg"), dof, [](const Field& x) { return Positive(x, "kg"); });
-  c.virtual_damping_Ns_per_m = config::ReadDofVector(map.Required("virtual_damping_Ns_per_m"), dof,
-                                                     [](const Field& x) { return NonNegative(x, "N·s/m"); });
+  namespace keys = admittance_keys;
+  c.virtual_mass_kg = config::ReadDofValue(map, keys::kVirtualMass, dof);
+  c.virtual_damping_Ns_per_m = config::ReadDofValue(map, keys::kVirtualDamping, dof);
   if (auto v = map.Optional("mode")) {
     const std::string mode = v->AsString();
     if (!fieldbus::ParseCia402Mode(mode, c.mode) || c.mode == fieldbus::Cia402Mode::kCyclicSynchronousTorque) {
       v->Fail("must be position or velocity (the drives follow the virtual mass), got '" + mode + "'");
     }
   }
-  if (auto v = map.Optional("max_force_N")) c.max_force_N = Positive(*v, "N");
-  if (auto v = map.Optional("max_velocity_m_per_s")) c.max_velocity_m_per_s = Positive(*v, "m/s");
-  if (auto v = map.Optional("position_loop_bandwidth_rad_per_s")) {
-    c.position_loop_bandwidth_rad_per_s = Positive(*v, "rad/s");
-  }
-  if (auto v = map.Optional("bandwidth_ratio")) c.bandwidth_ratio = config::InRange(*v, 1.0, 1000.0, "");
-  if (auto v = map.Optional("max_stiffness_N_per_m")) c.max_stiffness_N_per_m = NonNegative(*v, "N/m");
-  if (auto v = map.Optional("cycle_period_ms")) c.cycle_period_s = Positive(*v, "ms") * 1e-3;
-  if (auto v = map.Optional("max_tracking_error_m")) c.max_tracking_error_m = Positive(*v, "m");
-  if (auto v = map.Optional("tracking_error_cycles")) {
-    c.tracking_error_cycles = config::IntInRange(*v, 1, 100000);
-  }
-  ReadCan(map.Required("can"), c.can);
+  c.max_force_N = config::ReadNumber(map, keys::kMaxForce);
+  c.max_velocity_m_per_s = config::ReadNumber(map, keys::kMaxVelocity);
+  c.position_loop_bandwidth_rad_per_s = config::ReadNumber(map, keys::kPositionLoopBandwidth);
+  c.bandwidth_ratio = config::ReadNumber(map, keys::kBandwidthRatio);
+  c.max_stiffness_N_per_m = config::ReadNumber(map, keys::kMaxStiffness);
+  c.cycle_period_s = config::ReadNumber(map, keys::kCyclePeriod) * 1e-3;
+  c.max_tracking_error_m = config::ReadNumber(map, keys::kMaxTrackingError);
+  c.tracking_error_cycles = config::ReadInteger(map, keys::kTrackingErrorCycles);
+  fieldbus::ReadCanPortSection(map.Required("can"), c.can);
   const Field drives = map.Required("drives");
   const std::vector<Field> items = drives.AsList();
   if (static_cast<int>(items.size()) != dof) {
@@ -171,40 +129,19 @@ DeviceBackend AdmittanceBackend() {
   b.nominal.measures_velocity = true;
   b.nominal.measures_force = false;
   b.keys = {
-      {"virtual_mass_kg", "m_v per axis (kg), > 0: one number or one per DOF"},
-      {"virtual_damping_Ns_per_m", "b_v per axis (N·s/m), >= 0: one number or one per DOF"},
       {"mode", "position (CiA 402 mode 8, default) or velocity (9): the target the drives take"},
-      {"max_force_N", "the law's force is clamped to it (N), > 0; default 50"},
-      {"max_velocity_m_per_s", "the virtual mass's speed limit (m/s), > 0; default 0.5"},
-      {"position_loop_bandwidth_rad_per_s",
-       "the drives' position-loop bandwidth (rad/s): the stability model's "
-       "assumption is checked against it; unset: the check is not applicable"},
-      {"bandwidth_ratio", "how much faster than b_v/m_v and sqrt(K/m_v) the loop must be, 1..1000; default 10"},
-      {"max_stiffness_N_per_m", "K, the stiffest spring the slave meets (coupling kp + fixture), N/m, >= 0; default 0"},
-      {"cycle_period_ms", "the drives' cycle (0x1006) (ms), > 0; default 1"},
-      {"max_tracking_error_m",
-       "the largest |drive's measured position - virtual position two cycles earlier| (m), > 0; default "
-       "2 (v_max/loop bandwidth + v_max T), at least 1 mm"},
-      {"tracking_error_cycles",
-       "consecutive cycles beyond max_tracking_error_m that fault the pair, 1..100000; default 10"},
       {"can", "the drives' bus"},
-      {"can.medium", "socketcan (default) or emulated (the teleop-canbus daemon)"},
-      {"can.interface", "SocketCAN interface (can0, vcan0, ...); required for socketcan"},
-      {"can.bus", "teleop-canbus address IPv4:PORT (emulated only); default 127.0.0.1:47300"},
-      {"can.connect_timeout_ms", "how long to wait for teleop-canbus (ms), > 0; default 1000"},
-      {"drives", "one drive per DOF, in axis order"},
-      {"drives[].node_id", "CANopen node-ID 1..127"},
-      {"drives[].transmission_m_per_rad", "axis metres per joint radian, > 0; default 1"},
-      {"drives[].rated_torque_Nm", "0x6076 (N·m), > 0; default 1"},
-      {"drives[].position_rad_per_count", "rad per position unit, > 0; default 1/4096"},
-      {"drives[].velocity_rad_per_s_per_unit", "rad/s per velocity unit, > 0; default 1/4096"},
-      {"drives[].direction", "1 or -1 (the drive's positive direction against the axis')"},
-      {"drives[].max_torque_Nm", "0x6072, the drive loops' torque limit (N·m), > 0; default 0.5"},
-      {"drives[].heartbeat_period_ms", "the drive's heartbeat (0x1017) (ms); default 50"},
-      {"drives[].heartbeat_timeout_ms", "the host's consumer timeout (ms), > the period; default 150"},
-      {"drives[].stale_after_ms", "TPDO data older than this is a fault (ms), > 0; default 10"},
-      {"drives[].eds", "the drive's EDS/DCF: checked at configure (docs/cia402.md, EDS)"},
   };
+  for (const fieldbus::CanPortKey& key : fieldbus::kCanPortKeys) {
+    b.keys.push_back({std::string("can.") + key.key, key.description});
+  }
+  b.keys.insert(b.keys.end(), {
+                                  {"drives", "one drive per DOF, in axis order"},
+                                  {"drives[].direction", "1 or -1 (the drive's positive direction against the axis')"},
+                                  {"drives[].eds", "the drive's EDS/DCF: checked at configure (docs/cia402.md, EDS)"},
+                              });
+
+  AdoptKeyTable(b, admittance_keys::kAll);  // the keys with a number, written once (admittance_keys.hpp)
   b.section_required = true;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
     return ReadAdmittance(*section, context.dof);

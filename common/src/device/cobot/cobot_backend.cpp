@@ -8,8 +8,11 @@
 #include <string>
 
 #include "cobot_backend_private.hpp"
+#include "cobot_keys.hpp"
+#include "teleop/device/backend_key_table.hpp"
 #include "teleop/device/cobot/cobot_fieldbus_device.hpp"
 #include "teleop/error.hpp"
+#include "teleop/fieldbus/can_port_yaml.hpp"
 
 namespace teleop::device::cobot {
 
@@ -22,105 +25,79 @@ DeviceBackend CobotBackend() {
   b.nominal = CobotCapabilities(2, 0.0);
   b.keys = {
       {"kind", "unicycle (dof 2, default) or bicycle (dof 3; walls on the plate's reference point)"},
-      {"cart_mass_kg", "moving mass (kg), > 0; default 10"},
-      {"rolling_damping_Ns_per_m", "rolling resistance (N·s/m), >= 0; default 20"},
-      {"steering_inertia_kgm2", "wheel assembly about the steering axis (kg·m²), > 0; default 0.002"},
-      {"steering_damping_Nms_per_rad", "steering friction b (N·m·s/rad), >= 0; default 0.004"},
-      {"max_steering_torque_Nm", "steering motor limit (N·m), > 0; default 2"},
-      {"cornering_stiffness_N_per_rad", "wheel slip model C (N/rad), >= 0, 0 = no slip; default 500"},
-      {"brake_max_force_N", "wheel brake (N), >= 0, 0 = none; default 0"},
-      {"friction_coefficient",
-       "tire μ: the floor carries at most μ·N across the wheel, then it slides; >= 0, "
-       "0 = no limit; default 0 (unicycle)"},
-      {"normal_load_N", "N of the friction limit (N), >= 0, 0 = cart_mass_kg·g; default 0"},
-      {"wheel_radius_m", "wheel radius (m), > 0; default 0.05"},
       {"wheel_encoder_counts_per_rev", "wheel encoder counts, >= 0 (0 = ideal); default 16384"},
       {"steering_encoder_counts_per_rev", "steering encoder counts, >= 0 (0 = ideal); default 16384"},
-      {"position_resolution_m", "absolute position sensing step (m), >= 0; default 1e-5"},
-      {"force_resolution_N", "handle force sensor step (N), >= 0; default 0.01"},
-      {"steering_time_constant_s", "tau of the steering-velocity loop (eq 3c), sets K2 = J/tau - b; default 0.02"},
       {"virtual_mass_kg",
        "1/K1 of the virtual caster (eq 2) (kg), > 0; default 10 (unicycle only: the bicycle's is "
        "its plate mass)"},
-      {"speed_floor_m_per_s", "epsilon of eq 2 (m/s), > 0; default 0.02"},
-      {"lookahead_m", "L of eqs 7-8 (m), > 0; default 0.05"},
       {"gain_form", "small_angle (eq 8, default) or circular (eq 7)"},
-      {"p_gain_scale", "multiplies the penetration gain, > 0; default 1"},
-      {"theta_gain_scale", "multiplies the out-of-tangency gain, > 0; default 1"},
-      {"integral_gain_per_m3", "integral action on p (1/m³), >= 0; default 0"},
       {"overlay", "constraint overlay (§5) on/off; default true"},
-      {"overlay_min_radius_m", "overlay activation radius (m), >= 0; default 0.1"},
-      {"release_force_N", "pull-off force that releases a wall (N), >= 0; default 1"},
       {"stability_action", "above the eq 10 bound: warn (default), lengthen_lookahead or brake"},
-      {"stability_margin", "act at this fraction of the eq 10 speed, 0.05..1; default 0.8"},
-      {"contact_force_threshold_N", "coupling force that means a blocked slave (N), > 0; default 2"},
       {"initial_position_m", "start position [x, y] (m); default [0, 0]"},
       {"initial_heading_deg", "start heading (deg from +x); default 0"},
       {"operator", "simulated operator (master without a human)"},
-      {"operator.speed_m_per_s", "speed the operator holds (m/s), > 0; default 0.2"},
-      {"operator.direction_deg", "push direction (deg from +x); default 0"},
-      {"operator.then_at_s", "time of the change of direction (s), 0 = never; default 0"},
-      {"operator.then_direction_deg", "push direction after then_at_s (deg); default 0"},
-      {"operator.max_force_N", "largest push (N), > 0; default 60"},
       {"bicycle", "bicycle cobot plate (kind: bicycle)"},
-      {"bicycle.half_wheelbase_m", "wheels at ±this on the plate's x axis (m), > 0; default 0.2"},
-      {"bicycle.plate_mass_kg", "plate mass (kg), > 0; also the caster's virtual mass (isotropic); default 12"},
-      {"bicycle.plate_inertia_kgm2", "plate inertia (kg·m²), > 0; also the caster's virtual inertia; default 0.4"},
-      {"bicycle.singularity_threshold", "singularity measure below which the guard acts, 0..0.99; default 0.05"},
       {"bicycle.singularity_guard", "keep the wheels off the singular configuration; default true"},
       {"bicycle.hold_heading_deg", "angular constraint: the wheels hold the plate's θ at this (deg); default none"},
-      {"bicycle.heading_bandwidth_per_s", "ω_h of the angular constraint's return (rad/s), 0.1..20; default 5"},
       {"rig", "simulated (default: the models above) or fieldbus (the real unicycle cobot on CAN, needs fieldbus)"},
       {"fieldbus", "the real rig's CAN bus, steering drive and sensor node (rig: fieldbus only)"},
       {"fieldbus.can", "the bus: medium, interface or bus"},
-      {"fieldbus.can.medium", "socketcan (default) or emulated (the teleop-canbus daemon)"},
-      {"fieldbus.can.interface", "SocketCAN interface (can0, vcan0, ...); required for socketcan"},
-      {"fieldbus.can.bus", "teleop-canbus address IPv4:PORT (emulated only); default 127.0.0.1:47300"},
-      {"fieldbus.can.connect_timeout_ms", "how long to wait for teleop-canbus (ms), > 0; default 1000"},
-      {"fieldbus.cycle_period_ms", "SYNC period written to the drive (ms), 0.125..100, = 1000/rate_hz; default 1"},
-      {"fieldbus.first_frames_timeout_ms",
-       "activation: wait for the drive's and sensor node's first PDOs (ms); "
-       "default 500"},
-      {"fieldbus.steering", "the steering motor's CiA 402 drive (cyclic synchronous torque)"},
-      {"fieldbus.steering.node_id", "CANopen node id, 1..127; required"},
-      {"fieldbus.steering.mode", "torque (cyclic synchronous torque; velocity is refused: the client has no CSV)"},
-      {"fieldbus.steering.gear_ratio", "motor rad per steering rad, > 0; default 1"},
-      {"fieldbus.steering.position_rad_per_count", "motor rad per position-actual unit (0x6064), > 0; default 1/4096"},
-      {"fieldbus.steering.velocity_rad_per_s_per_unit",
-       "motor rad/s per velocity-actual unit (0x606C), > 0; "
-       "default 1/4096"},
-      {"fieldbus.steering.direction", "1 or -1: the drive's positive direction against the steering angle's"},
-      {"fieldbus.steering.rated_torque_Nm", "the drive's rated torque 0x6076 (N·m, motor side), checked; default 1"},
-      {"fieldbus.steering.max_torque_Nm", "torque limit written to 0x6072 (N·m, motor side), > 0; default 0.5"},
-      {"fieldbus.steering.offset_deg", "cart heading when the steering angle reads 0 (deg); default 0"},
-      {"fieldbus.steering.max_angle_jump_rad",
-       "steering angle step per cycle that is an encoder jump (rad); "
-       "default 0.2"},
-      {"fieldbus.steering.hold_stiffness_Nm_per_rad", "hold after an encoder jump (N·m/rad, motor side); default 2"},
-      {"fieldbus.steering.hold_damping_Nms_per_rad", "hold damping (N·m·s/rad, motor side), >= 0; default 0.05"},
-      {"fieldbus.steering.heartbeat_period_ms", "the drive's heartbeat period 0x1017 (ms); default 50"},
-      {"fieldbus.steering.heartbeat_timeout_ms",
-       "heartbeat consumer timeout (ms), > heartbeat_period_ms; "
-       "default 150"},
-      {"fieldbus.steering.stale_after_ms", "no TPDO for this long: the drive is lost (ms); default 10"},
-      {"fieldbus.sensors", "the wheel encoder, handle force sensor and wheel brake on a separate CAN node"},
-      {"fieldbus.sensors.source",
-       "node (a separate CAN node; drive is refused: the drive's PDOs carry the steering "
-       "axis only)"},
-      {"fieldbus.sensors.node_id", "the sensor node's id, 1..127, not the drive's; required"},
-      {"fieldbus.sensors.wheel_cob_id", "wheel TPDO COB-ID (INTEGER32 counts, CiA 406 0x6004); default 0x180+node"},
-      {"fieldbus.sensors.force_cob_id",
-       "force TPDO COB-ID (2 x INTEGER16, CiA 401 0x6401/1-2, 0x8000 = invalid); default 0x280+node"},
-      {"fieldbus.sensors.brake_cob_id",
-       "brake RPDO COB-ID (1 byte, bit 0, CiA 401 0x6200/1), used when "
-       "brake_max_force_N > 0; default 0x200+node"},
-      {"fieldbus.sensors.wheel_direction", "1 or -1: the wheel encoder's count direction; default 1"},
-      {"fieldbus.sensors.force_N_per_unit", "handle force scaling (N per analog unit), > 0; default 0.01"},
-      {"fieldbus.sensors.stale_after_ms", "no sensor TPDO for this long: the node is lost (ms); default 10"},
-      {"fieldbus.sensors.max_wheel_step_m",
-       "wheel travel step between two TPDOs that is an encoder jump (m); "
-       "default 0.01"},
   };
+  for (const fieldbus::CanPortKey& key : fieldbus::kCanPortKeys) {
+    b.keys.push_back({std::string("fieldbus.can.") + key.key, key.description});
+  }
+  b.keys.insert(
+      b.keys.end(),
+      {
+          {"fieldbus.cycle_period_ms", "SYNC period written to the drive (ms), 0.125..100, = 1000/rate_hz; default 1"},
+          {"fieldbus.first_frames_timeout_ms",
+           "activation: wait for the drive's and sensor node's first PDOs (ms); "
+           "default 500"},
+          {"fieldbus.steering", "the steering motor's CiA 402 drive (cyclic synchronous torque)"},
+          {"fieldbus.steering.node_id", "CANopen node id, 1..127; required"},
+          {"fieldbus.steering.mode", "torque (cyclic synchronous torque; velocity is refused: the client has no CSV)"},
+          {"fieldbus.steering.gear_ratio", "motor rad per steering rad, > 0; default 1"},
+          {"fieldbus.steering.position_rad_per_count",
+           "motor rad per position-actual unit (0x6064), > 0; default 1/4096"},
+          {"fieldbus.steering.velocity_rad_per_s_per_unit",
+           "motor rad/s per velocity-actual unit (0x606C), > 0; "
+           "default 1/4096"},
+          {"fieldbus.steering.direction", "1 or -1: the drive's positive direction against the steering angle's"},
+          {"fieldbus.steering.rated_torque_Nm",
+           "the drive's rated torque 0x6076 (N·m, motor side), checked; default 1"},
+          {"fieldbus.steering.max_torque_Nm", "torque limit written to 0x6072 (N·m, motor side), > 0; default 0.5"},
+          {"fieldbus.steering.offset_deg", "cart heading when the steering angle reads 0 (deg); default 0"},
+          {"fieldbus.steering.max_angle_jump_rad",
+           "steering angle step per cycle that is an encoder jump (rad); "
+           "default 0.2"},
+          {"fieldbus.steering.hold_stiffness_Nm_per_rad",
+           "hold after an encoder jump (N·m/rad, motor side); default 2"},
+          {"fieldbus.steering.hold_damping_Nms_per_rad", "hold damping (N·m·s/rad, motor side), >= 0; default 0.05"},
+          {"fieldbus.steering.heartbeat_period_ms", "the drive's heartbeat period 0x1017 (ms); default 50"},
+          {"fieldbus.steering.heartbeat_timeout_ms",
+           "heartbeat consumer timeout (ms), > heartbeat_period_ms; "
+           "default 150"},
+          {"fieldbus.steering.stale_after_ms", "no TPDO for this long: the drive is lost (ms); default 10"},
+          {"fieldbus.sensors", "the wheel encoder, handle force sensor and wheel brake on a separate CAN node"},
+          {"fieldbus.sensors.source",
+           "node (a separate CAN node; drive is refused: the drive's PDOs carry the steering "
+           "axis only)"},
+          {"fieldbus.sensors.node_id", "the sensor node's id, 1..127, not the drive's; required"},
+          {"fieldbus.sensors.wheel_cob_id", "wheel TPDO COB-ID (INTEGER32 counts, CiA 406 0x6004); default 0x180+node"},
+          {"fieldbus.sensors.force_cob_id",
+           "force TPDO COB-ID (2 x INTEGER16, CiA 401 0x6401/1-2, 0x8000 = invalid); default 0x280+node"},
+          {"fieldbus.sensors.brake_cob_id",
+           "brake RPDO COB-ID (1 byte, bit 0, CiA 401 0x6200/1), used when "
+           "brake_max_force_N > 0; default 0x200+node"},
+          {"fieldbus.sensors.wheel_direction", "1 or -1: the wheel encoder's count direction; default 1"},
+          {"fieldbus.sensors.force_N_per_unit", "handle force scaling (N per analog unit), > 0; default 0.01"},
+          {"fieldbus.sensors.stale_after_ms", "no sensor TPDO for this long: the node is lost (ms); default 10"},
+          {"fieldbus.sensors.max_wheel_step_m",
+           "wheel travel step between two TPDOs that is an encoder jump (m); "
+           "default 0.01"},
+      });
+
+  AdoptKeyTable(b, keys::kAll);  // the keys with a number, written once (cobot_keys.hpp)
   b.section_required = false;
   b.read = [](const config::Field* section, const SectionContext& context) -> std::any {
     return ReadCobot(section, context.dof, context.role);

@@ -2,12 +2,14 @@
 // that span keys (dof, role, rig, fieldbus node ids).
 
 #include <cmath>
-#include <numbers>
 #include <string>
 
 #include "cobot_backend_private.hpp"
+#include "cobot_keys.hpp"
+#include "teleop/config/key_table.hpp"
 #include "teleop/config/yaml_reader.hpp"
 #include "teleop/error.hpp"
+#include "teleop/fieldbus/can_port_yaml.hpp"
 
 namespace teleop::device::cobot {
 namespace {
@@ -18,8 +20,6 @@ using config::Map;
 using config::NonNegative;
 using config::Positive;
 
-constexpr double kDeg = std::numbers::pi / 180.0;
-
 int ReadCount(const Field& f) {
   const double v = NonNegative(f, "counts per revolution (0 = ideal)");
   if (v != std::floor(v) || v > 1e9) f.Fail("must be a whole number of counts, got " + config::Num(v));
@@ -29,67 +29,26 @@ int ReadCount(const Field& f) {
 void ReadOperator(const Field& f, CobotOperatorScript& op) {
   const Map map(f, {"speed_m_per_s", "direction_deg", "then_at_s", "then_direction_deg", "max_force_N"});
   op.enabled = true;
-  if (auto v = map.Optional("speed_m_per_s")) op.speed_m_per_s = Positive(*v, "m/s");
-  if (auto v = map.Optional("direction_deg")) op.direction_deg = Finite(*v);
-  if (auto v = map.Optional("then_at_s")) op.then_at_s = NonNegative(*v, "s (0 = never)");
-  if (auto v = map.Optional("then_direction_deg")) op.then_direction_deg = Finite(*v);
-  if (auto v = map.Optional("max_force_N")) op.max_force_N = Positive(*v, "N");
+  op.speed_m_per_s = config::ReadNumber(map, keys::kOperatorSpeed);
+  op.direction_deg = config::ReadNumber(map, keys::kOperatorDirection);
+  op.then_at_s = config::ReadNumber(map, keys::kOperatorThenAt);
+  op.then_direction_deg = config::ReadNumber(map, keys::kOperatorThenDirection);
+  op.max_force_N = config::ReadNumber(map, keys::kOperatorMaxForce);
 }
 
 void ReadBicycle(const Field& f, CobotBackendConfig& c) {
   const Map map(f, {"half_wheelbase_m", "plate_mass_kg", "plate_inertia_kgm2", "singularity_threshold",
                     "singularity_guard", "hold_heading_deg", "heading_bandwidth_per_s"});
-  if (auto v = map.Optional("half_wheelbase_m")) c.bicycle.geometry.half_wheelbase_m = Positive(*v, "m");
-  if (auto v = map.Optional("plate_mass_kg")) c.bicycle.plate_mass_kg = Positive(*v, "kg");
-  if (auto v = map.Optional("plate_inertia_kgm2")) c.bicycle.plate_inertia_kgm2 = Positive(*v, "kg·m²");
-  if (auto v = map.Optional("singularity_threshold")) {
-    c.bicycle_caster.singularity_threshold = config::InRange(*v, 0.0, 0.99, "");
-  }
+  c.bicycle.geometry.half_wheelbase_m = config::ReadNumber(map, keys::kHalfWheelbase);
+  c.bicycle.plate_mass_kg = config::ReadNumber(map, keys::kPlateMass);
+  c.bicycle.plate_inertia_kgm2 = config::ReadNumber(map, keys::kPlateInertia);
+  c.bicycle_caster.singularity_threshold = config::ReadNumber(map, keys::kSingularityThreshold);
   if (auto v = map.Optional("singularity_guard")) c.bicycle_caster.singularity_guard = v->AsBool();
   if (auto v = map.Optional("hold_heading_deg")) {
     c.bicycle_caster.heading_constraint = true;
-    c.bicycle_caster.heading_target_rad = Finite(*v) * kDeg;
+    c.bicycle_caster.heading_target_rad = Finite(*v) * config::kDeg;
   }
-  if (auto v = map.Optional("heading_bandwidth_per_s")) {
-    c.bicycle_caster.heading_bandwidth_per_s = config::InRange(*v, 0.1, 20.0, "rad/s");
-  }
-}
-
-void ReadCanPort(const Field& f, fieldbus::CanPortConfig& can) {
-  const Map map(f, {"medium", "interface", "bus", "connect_timeout_ms"});
-  if (auto v = map.Optional("medium")) {
-    const std::string medium = v->AsString();
-    if (medium == "socketcan") {
-      can.medium = transport::CanMedium::kSocketCan;
-    } else if (medium == "emulated") {
-      can.medium = transport::CanMedium::kEmulatedBus;
-    } else {
-      v->Fail("must be socketcan (a SocketCAN interface) or emulated (the teleop-canbus daemon), got '" + medium + "'");
-    }
-  }
-  const bool emulated = can.medium == transport::CanMedium::kEmulatedBus;
-  if (auto v = map.Optional("interface")) {
-    if (emulated) v->Fail("only for medium socketcan");
-    can.interface_name = v->AsString();
-    if (can.interface_name.empty() || can.interface_name.size() > 15) {
-      v->Fail("must be a network interface name of 1..15 characters (e.g. can0), got '" + can.interface_name + "'");
-    }
-  } else if (!emulated) {
-    map.Required("interface");
-  }
-  if (auto v = map.Optional("bus")) {
-    if (!emulated) v->Fail("only for medium emulated (the teleop-canbus daemon's address)");
-    const std::string text = v->AsString();
-    const std::size_t colon = text.rfind(':');
-    const std::string port = colon == std::string::npos ? "" : text.substr(colon + 1);
-    if (colon == std::string::npos || colon == 0 || port.empty() || port.size() > 5 ||
-        port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) < 1 || std::stoi(port) > 65535) {
-      v->Fail("must be \"IPv4:PORT\" like \"127.0.0.1:47300\", got '" + text + "'");
-    }
-    can.emulated_bus_host = text.substr(0, colon);
-    can.emulated_bus_port = static_cast<std::uint16_t>(std::stoi(port));
-  }
-  if (auto v = map.Optional("connect_timeout_ms")) can.connect_timeout_ms = Positive(*v, "ms");
+  c.bicycle_caster.heading_bandwidth_per_s = config::ReadNumber(map, keys::kHeadingBandwidth);
 }
 
 std::uint8_t ReadNodeId(const Field& f) { return static_cast<std::uint8_t>(config::IntInRange(f, 1, 127)); }
@@ -123,7 +82,7 @@ void ReadSteering(const Field& f, CobotFieldbusConfig& c) {
   }
   if (auto v = map.Optional("rated_torque_Nm")) d.scaling.rated_torque_Nm = Positive(*v, "N·m");
   if (auto v = map.Optional("max_torque_Nm")) d.max_torque_Nm = Positive(*v, "N·m");
-  if (auto v = map.Optional("offset_deg")) c.steering_offset_rad = Finite(*v) * kDeg;
+  if (auto v = map.Optional("offset_deg")) c.steering_offset_rad = Finite(*v) * config::kDeg;
   if (auto v = map.Optional("max_angle_jump_rad")) c.steering.max_angle_jump_rad = Positive(*v, "rad");
   if (auto v = map.Optional("hold_stiffness_Nm_per_rad"))
     c.steering.hold_stiffness_Nm_per_rad = Positive(*v, "N·m/rad");
@@ -172,7 +131,7 @@ void ReadSensors(const Field& f, CobotFieldbusConfig& c) {
 void ReadFieldbus(const Field& f, CobotBackendConfig& c) {
   const Map map(f, {"can", "cycle_period_ms", "steering", "sensors", "first_frames_timeout_ms"});
   CobotFieldbusConfig& b = c.fieldbus;
-  ReadCanPort(map.Required("can"), b.can);
+  fieldbus::ReadCanPortSection(map.Required("can"), b.can);
   if (auto v = map.Optional("cycle_period_ms")) {
     b.steering.drive.cycle_period_s = config::InRange(*v, 0.125, 100.0, "ms") * 1e-3;
   }
@@ -200,7 +159,7 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
     throw Error("device.cobot: " + why);
   }
   CobotBackendConfig c;
-  double tau_s = 0.02;
+  double tau_s = keys::kSteeringTimeConstant.default_value;
   if (section != nullptr) {
     const Map map(*section, {"kind",
                              "cart_mass_kg",
@@ -250,30 +209,24 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
         v->Fail("must be unicycle or bicycle, got '" + kind + "'");
       }
     }
-    if (auto v = map.Optional("cart_mass_kg")) p.cart_mass_kg = Positive(*v, "kg");
-    if (auto v = map.Optional("rolling_damping_Ns_per_m")) p.rolling_damping_Ns_per_m = NonNegative(*v, "N·s/m");
-    if (auto v = map.Optional("steering_inertia_kgm2")) p.steering_inertia_kgm2 = Positive(*v, "kg·m²");
-    if (auto v = map.Optional("steering_damping_Nms_per_rad")) {
-      p.steering_damping_Nms_per_rad = NonNegative(*v, "N·m·s/rad");
-    }
-    if (auto v = map.Optional("max_steering_torque_Nm")) p.max_steering_torque_Nm = Positive(*v, "N·m");
-    if (auto v = map.Optional("cornering_stiffness_N_per_rad")) {
-      p.cornering_stiffness_N_per_rad = NonNegative(*v, "N/rad (0 = no slip)");
-    }
-    if (auto v = map.Optional("brake_max_force_N")) p.brake_max_force_N = NonNegative(*v, "N (0 = no brake)");
-    if (auto v = map.Optional("friction_coefficient")) {
-      p.friction_coefficient = NonNegative(*v, "(0 = no traction limit)");
-    }
-    if (auto v = map.Optional("normal_load_N")) p.normal_load_N = NonNegative(*v, "N (0 = cart_mass_kg·g)");
-    if (auto v = map.Optional("wheel_radius_m")) s.wheel_radius_m = Positive(*v, "m");
+    p.cart_mass_kg = config::ReadNumber(map, keys::kCartMass);
+    p.rolling_damping_Ns_per_m = config::ReadNumber(map, keys::kRollingDamping);
+    p.steering_inertia_kgm2 = config::ReadNumber(map, keys::kSteeringInertia);
+    p.steering_damping_Nms_per_rad = config::ReadNumber(map, keys::kSteeringDamping);
+    p.max_steering_torque_Nm = config::ReadNumber(map, keys::kMaxSteeringTorque);
+    p.cornering_stiffness_N_per_rad = config::ReadNumber(map, keys::kCorneringStiffness);
+    p.brake_max_force_N = config::ReadNumber(map, keys::kBrakeMaxForce);
+    p.friction_coefficient = config::ReadNumber(map, keys::kFrictionCoefficient);
+    p.normal_load_N = config::ReadNumber(map, keys::kNormalLoad);
+    s.wheel_radius_m = config::ReadNumber(map, keys::kWheelRadius);
     if (auto v = map.Optional("wheel_encoder_counts_per_rev")) s.wheel_encoder_counts_per_rev = ReadCount(*v);
     if (auto v = map.Optional("steering_encoder_counts_per_rev")) s.steering_encoder_counts_per_rev = ReadCount(*v);
-    if (auto v = map.Optional("position_resolution_m")) s.position_resolution_m = NonNegative(*v, "m (0 = ideal)");
-    if (auto v = map.Optional("force_resolution_N")) s.force_resolution_N = NonNegative(*v, "N (0 = ideal)");
-    if (auto v = map.Optional("steering_time_constant_s")) tau_s = Positive(*v, "s");
+    s.position_resolution_m = config::ReadNumber(map, keys::kPositionResolution);
+    s.force_resolution_N = config::ReadNumber(map, keys::kForceResolution);
+    tau_s = config::ReadNumber(map, keys::kSteeringTimeConstant);
     if (auto v = map.Optional("virtual_mass_kg")) w.caster.k1_per_kg = 1.0 / Positive(*v, "kg");
-    if (auto v = map.Optional("speed_floor_m_per_s")) w.caster.speed_floor_m_per_s = Positive(*v, "m/s");
-    if (auto v = map.Optional("lookahead_m")) w.tracker.lookahead_m = Positive(*v, "m");
+    w.caster.speed_floor_m_per_s = config::ReadNumber(map, keys::kSpeedFloor);
+    w.tracker.lookahead_m = config::ReadNumber(map, keys::kLookahead);
     if (auto v = map.Optional("gain_form")) {
       const std::string form = v->AsString();
       if (form == "small_angle") {
@@ -284,12 +237,12 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
         v->Fail("must be small_angle (eq 8) or circular (eq 7), got '" + form + "'");
       }
     }
-    if (auto v = map.Optional("p_gain_scale")) w.tracker.p_gain_scale = Positive(*v, "");
-    if (auto v = map.Optional("theta_gain_scale")) w.tracker.theta_gain_scale = Positive(*v, "");
-    if (auto v = map.Optional("integral_gain_per_m3")) w.tracker.integral_gain_per_m3 = NonNegative(*v, "1/m³");
+    w.tracker.p_gain_scale = config::ReadNumber(map, keys::kPGainScale);
+    w.tracker.theta_gain_scale = config::ReadNumber(map, keys::kThetaGainScale);
+    w.tracker.integral_gain_per_m3 = config::ReadNumber(map, keys::kIntegralGain);
     if (auto v = map.Optional("overlay")) w.overlay_enabled = v->AsBool();
-    if (auto v = map.Optional("overlay_min_radius_m")) w.overlay_min_radius_m = NonNegative(*v, "m");
-    if (auto v = map.Optional("release_force_N")) w.release_force_N = NonNegative(*v, "N");
+    w.overlay_min_radius_m = config::ReadNumber(map, keys::kOverlayMinRadius);
+    w.release_force_N = config::ReadNumber(map, keys::kReleaseForce);
     if (auto v = map.Optional("stability_action")) {
       const std::string action = v->AsString();
       if (action == "warn") {
@@ -302,13 +255,13 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
         v->Fail("must be warn, lengthen_lookahead or brake, got '" + action + "'");
       }
     }
-    if (auto v = map.Optional("stability_margin")) w.guard.margin = config::InRange(*v, 0.05, 1.0, "");
-    if (auto v = map.Optional("contact_force_threshold_N")) c.contact_force_threshold_N = Positive(*v, "N");
+    w.guard.margin = config::ReadNumber(map, keys::kStabilityMargin);
+    c.contact_force_threshold_N = config::ReadNumber(map, keys::kContactForceThreshold);
     if (auto v = map.Optional("initial_position_m")) {
       const DofVector xy = config::ReadDofVector(*v, 2, Finite);
       c.initial.position_m = {xy[0], xy[1]};
     }
-    if (auto v = map.Optional("initial_heading_deg")) c.initial.heading_rad = Finite(*v) * kDeg;
+    if (auto v = map.Optional("initial_heading_deg")) c.initial.heading_rad = Finite(*v) * config::kDeg;
     if (auto v = map.Optional("operator")) ReadOperator(*v, c.op);
     if (auto v = map.Optional("bicycle")) ReadBicycle(*v, c);
     if (c.kind == CobotBackendConfig::Kind::kBicycle) {

@@ -3,10 +3,11 @@
 
 #include <Eigen/LU>
 #include <memory>
-#include <numbers>
 
 #include "device/hybrid/hybrid_fieldbus_section.hpp"
+#include "device/hybrid/hybrid_keys.hpp"
 #include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/backend_key_table.hpp"
 
 namespace teleop::device::hybrid {
 namespace {
@@ -16,8 +17,6 @@ using config::Finite;
 using config::Map;
 using config::NonNegative;
 using config::Positive;
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 Eigen::Vector2d Vec2(const Field& f) {
   const DofVector v = config::ReadDofVector(f, 2, Finite);
@@ -38,10 +37,10 @@ void ReadGeometry(const Field& f, FiveBarConfig& g) {
   if (auto v = m.Optional("distal_1_m")) g.distal_1_m = Positive(*v, "m");
   if (auto v = m.Optional("distal_2_m")) g.distal_2_m = Positive(*v, "m");
   if (auto v = m.Optional("base_separation_m")) g.base_separation_m = NonNegative(*v, "m");
-  if (auto v = m.Optional("joint_1_min_deg")) g.joint_1_min_rad = Finite(*v) * kDeg;
-  if (auto v = m.Optional("joint_1_max_deg")) g.joint_1_max_rad = Finite(*v) * kDeg;
-  if (auto v = m.Optional("joint_2_min_deg")) g.joint_2_min_rad = Finite(*v) * kDeg;
-  if (auto v = m.Optional("joint_2_max_deg")) g.joint_2_max_rad = Finite(*v) * kDeg;
+  if (auto v = m.Optional("joint_1_min_deg")) g.joint_1_min_rad = Finite(*v) * config::kDeg;
+  if (auto v = m.Optional("joint_1_max_deg")) g.joint_1_max_rad = Finite(*v) * config::kDeg;
+  if (auto v = m.Optional("joint_2_min_deg")) g.joint_2_min_rad = Finite(*v) * config::kDeg;
+  if (auto v = m.Optional("joint_2_max_deg")) g.joint_2_max_rad = Finite(*v) * config::kDeg;
   if (auto v = m.Optional("workspace_x_m")) {
     const Eigen::Vector2d r = Vec2(*v);
     g.workspace_x_min_m = r.x();
@@ -124,30 +123,30 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
   if (auto v = m.Optional("geometry")) ReadGeometry(*v, c.rig.geometry);
   if (auto v = m.Optional("motor")) {
     const Map mm(*v, {"max_torque_Nm", "time_constant_s", "pulley_ratio"});
-    if (auto x = mm.Optional("max_torque_Nm")) c.rig.motor.max_torque_Nm = Positive(*x, "N·m");
-    if (auto x = mm.Optional("time_constant_s")) c.rig.motor.time_constant_s = NonNegative(*x, "s");
-    if (auto x = mm.Optional("pulley_ratio")) c.rig.motor.pulley_ratio = Positive(*x, "");
+    c.rig.motor.max_torque_Nm = config::ReadNumber(mm, keys::kMotorMaxTorque);
+    c.rig.motor.time_constant_s = config::ReadNumber(mm, keys::kMotorTimeConstant);
+    c.rig.motor.pulley_ratio = config::ReadNumber(mm, keys::kMotorPulleyRatio);
   }
   if (auto v = m.Optional("brake")) {
     const Map mm(*v, {"max_torque_Nm", "time_constant_s", "drag_Nm", "hysteresis_Nm", "pulley_ratio",
                       "residual_fraction", "static_ratio"});
-    if (auto x = mm.Optional("residual_fraction")) c.rig.brake.residual_fraction = NonNegative(*x, "");
-    if (auto x = mm.Optional("static_ratio")) c.rig.brake.static_ratio = Positive(*x, "");
-    if (auto x = mm.Optional("max_torque_Nm")) c.rig.brake.max_torque_Nm = Positive(*x, "N·m");
-    if (auto x = mm.Optional("time_constant_s")) c.rig.brake.time_constant_s = NonNegative(*x, "s");
-    if (auto x = mm.Optional("drag_Nm")) c.rig.brake.drag_Nm = NonNegative(*x, "N·m");
-    if (auto x = mm.Optional("hysteresis_Nm")) c.rig.brake.hysteresis_Nm = NonNegative(*x, "N·m");
-    if (auto x = mm.Optional("pulley_ratio")) c.rig.brake.pulley_ratio = Positive(*x, "");
+    c.rig.brake.residual_fraction = config::ReadNumber(mm, keys::kBrakeResidual);
+    c.rig.brake.static_ratio = config::ReadNumber(mm, keys::kBrakeStaticRatio);
+    c.rig.brake.max_torque_Nm = config::ReadNumber(mm, keys::kBrakeMaxTorque);
+    c.rig.brake.time_constant_s = config::ReadNumber(mm, keys::kBrakeTimeConstant);
+    c.rig.brake.drag_Nm = config::ReadNumber(mm, keys::kBrakeDrag);
+    c.rig.brake.hysteresis_Nm = config::ReadNumber(mm, keys::kBrakeHysteresis);
+    c.rig.brake.pulley_ratio = config::ReadNumber(mm, keys::kBrakePulleyRatio);
   }
-  if (auto v = m.Optional("joint_inertia_kgm2")) c.rig.joint_inertia_kgm2 = Positive(*v, "kg·m²");
-  if (auto v = m.Optional("handle_mass_kg")) c.rig.handle_mass_kg = NonNegative(*v, "kg");
-  if (auto v = m.Optional("joint_damping_Nms_per_rad")) c.rig.joint_damping_Nms_per_rad = NonNegative(*v, "N·m·s/rad");
-  if (auto v = m.Optional("substeps")) c.rig.substeps = config::IntInRange(*v, 1, 1000);
-  if (auto v = m.Optional("joint_coulomb_Nm")) c.rig.joint_coulomb_Nm = NonNegative(*v, "N·m");
+  c.rig.joint_inertia_kgm2 = config::ReadNumber(m, keys::kJointInertia);
+  c.rig.handle_mass_kg = config::ReadNumber(m, keys::kHandleMass);
+  c.rig.joint_damping_Nms_per_rad = config::ReadNumber(m, keys::kJointDamping);
+  c.rig.substeps = config::ReadInteger(m, keys::kSubsteps);
+  c.rig.joint_coulomb_Nm = config::ReadNumber(m, keys::kJointCoulomb);
   if (auto v = m.Optional("encoders")) {
     const Map mm(*v, {"counts_per_joint_rev", "velocity_filter_hz"});
-    if (auto x = mm.Optional("counts_per_joint_rev")) c.rig.encoders.counts_per_joint_rev = NonNegative(*x, "");
-    if (auto x = mm.Optional("velocity_filter_hz")) c.rig.encoders.velocity_filter_hz = NonNegative(*x, "Hz");
+    c.rig.encoders.counts_per_joint_rev = config::ReadNumber(mm, keys::kEncoderCounts);
+    c.rig.encoders.velocity_filter_hz = config::ReadNumber(mm, keys::kEncoderVelocityFilter);
   }
   if (auto v = m.Optional("force_sensor")) {
     const Map mm(*v, {"noise_std_N", "bandwidth_hz", "seed"});
@@ -221,21 +220,10 @@ DeviceBackend HybridBackend() {
        "five-bar: proximal_1_m, proximal_2_m, distal_1_m, distal_2_m (0.2), base_separation_m (0), "
        "joint_1_min_deg/max (-40/110), joint_2_min_deg/max (70/220), workspace_x_m [-0.19, 0.19], "
        "workspace_y_m [0.09, 0.32]"},
-      {"motor",
-       "max_torque_Nm (4.44, after the reducer), time_constant_s (0.0005: the current-loop torque lag; the paper's "
-       "7 ms is the mechanical time constant), pulley_ratio (5)"},
-      {"brake",
-       "max_torque_Nm (4), time_constant_s (0.05), drag_Nm (0.08), hysteresis_Nm (0), residual_fraction (0.02: "
-       "remanence after release), static_ratio (1.1: static / sliding torque), pulley_ratio (5)"},
-      {"joint_coulomb_Nm", "Coulomb friction per joint (N·m, joint side), >= 0; default 0.1"},
-      {"encoders",
-       "counts_per_joint_rev (40000; 0 = exact), velocity_filter_hz (200: low-pass of the differenced velocity; "
-       "0 = none): the simulated rig's readings"},
+      {"motor", "the motor per joint: the motor.* keys"},
+      {"brake", "the particle brake per joint: the brake.* keys"},
+      {"encoders", "the simulated rig's encoders: the encoders.* keys"},
       {"force_sensor", "noise_std_N (0.05), bandwidth_hz (500; 0 = none), seed (1): the simulated handle sensor"},
-      {"joint_inertia_kgm2", "reflected actuator + pulley inertia per joint (kg·m²), > 0; default 0.02"},
-      {"handle_mass_kg", "point mass at the handle (kg), >= 0; default 0.3"},
-      {"joint_damping_Nms_per_rad", "viscous friction per joint (N·m·s/rad), >= 0; default 0.01"},
-      {"substeps", "integration sub-steps per period, 1..1000; default 10"},
       {"allocation",
        "use_brakes (true; false = motors only), rest_velocity_rad_per_s (0.02), brake_model_mismatch (0.2: the "
        "simulated rig's allocation believes its brake 20 % faster and 10 % stronger; 0..0.9)"},
@@ -248,6 +236,7 @@ DeviceBackend HybridBackend() {
        "max_force_N, mass_kg"},
       {"environment", "simulated wall on the handle (slave): point_m, normal, stiffness_N_per_m, damping_Ns_per_m"},
   };
+  AdoptKeyTable(b, keys::kAll);  // the keys with a number, written once (hybrid_keys.hpp)
   for (ConfigKey& key : HybridFieldbusKeys()) b.keys.push_back(std::move(key));
   b.section_required = false;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {

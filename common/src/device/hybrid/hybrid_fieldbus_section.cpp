@@ -2,10 +2,10 @@
 #include "device/hybrid/hybrid_fieldbus_section.hpp"
 
 #include <cmath>
-#include <numbers>
 #include <string>
 
 #include "teleop/error.hpp"
+#include "teleop/fieldbus/can_port_yaml.hpp"
 #include "teleop/fieldbus/modbus_yaml.hpp"
 
 namespace teleop::device::hybrid {
@@ -16,50 +16,10 @@ using config::Finite;
 using config::Map;
 using config::Positive;
 
-constexpr double kDeg = std::numbers::pi / 180.0;
-
 double AtLeast(const Field& f, double low, const char* unit) {
   const double v = Finite(f);
   if (v < low) f.Fail("must be >= " + config::Num(low) + " " + unit + ", got " + config::Num(v));
   return v;
-}
-
-void ReadCan(const Field& f, fieldbus::CanPortConfig& can) {
-  const Map m(f, {"medium", "interface", "bus", "connect_timeout_ms"});
-  const Field medium = m.Required("medium");
-  const std::string kind = medium.AsString();
-  if (kind == "socketcan") {
-    can.medium = transport::CanMedium::kSocketCan;
-    const Field iface = m.Required("interface");
-    can.interface_name = iface.AsString();
-    if (can.interface_name.empty() || can.interface_name.size() > 15) {
-      iface.Fail("must be a network interface name of 1..15 characters (e.g. can0, vcan0)");
-    }
-    if (auto v = m.Optional("bus")) v->Fail("only for medium emulated (the teleop-canbus daemon's address)");
-  } else if (kind == "emulated") {
-    can.medium = transport::CanMedium::kEmulatedBus;
-    if (auto v = m.Optional("interface")) v->Fail("only for medium socketcan");
-    if (auto v = m.Optional("bus")) {
-      const std::string text = v->AsString();
-      const auto colon = text.rfind(':');
-      if (colon == std::string::npos || colon == 0)
-        v->Fail("must be HOST:PORT (the teleop-canbus daemon), got '" + text + "'");
-      int port = 0;
-      try {
-        std::size_t used = 0;
-        port = std::stoi(text.substr(colon + 1), &used);
-        if (used != text.size() - colon - 1) port = 0;
-      } catch (const std::exception&) {
-        port = 0;
-      }
-      if (port < 1 || port > 65535) v->Fail("port must be 1..65535, got '" + text.substr(colon + 1) + "'");
-      can.emulated_bus_host = text.substr(0, colon);
-      can.emulated_bus_port = static_cast<std::uint16_t>(port);
-    }
-  } else {
-    medium.Fail("must be socketcan or emulated; got '" + kind + "'");
-  }
-  if (auto v = m.Optional("connect_timeout_ms")) can.connect_timeout_ms = Positive(*v, "ms");
 }
 
 void ReadDrive(const Field& f, fieldbus::Cia402DriveConfig& d, double& joint_offset_rad, double cycle_period_s) {
@@ -70,7 +30,7 @@ void ReadDrive(const Field& f, fieldbus::Cia402DriveConfig& d, double& joint_off
   d.produce_sync = false;  // the device produces the bus's SYNC
   d.cycle_period_s = cycle_period_s;
   d.node_id = static_cast<std::uint8_t>(config::IntInRange(m.Required("node_id"), 1, 127));
-  if (auto v = m.Optional("joint_offset_deg")) joint_offset_rad = Finite(*v) * kDeg;
+  if (auto v = m.Optional("joint_offset_deg")) joint_offset_rad = Finite(*v) * config::kDeg;
   if (auto v = m.Optional("rated_torque_Nm")) d.scaling.rated_torque_Nm = Positive(*v, "N·m");
   d.max_torque_Nm = Positive(m.Required("max_torque_Nm"), "N·m");
   if (auto v = m.Optional("position_rad_per_count")) d.scaling.position_rad_per_count = Positive(*v, "rad/count");
@@ -145,7 +105,7 @@ void ReadHybridFieldbusSection(const Field& section, HybridFieldbusRigConfig& ou
   const Map m(section,
               {"can", "cycle_period_ms", "sync_cob_id", "drives", "modbus", "force_sensor", "activate_timeout_ms"});
   HybridFieldbusConfig& c = out.device;
-  ReadCan(m.Required("can"), out.can);
+  fieldbus::ReadCanPortSection(m.Required("can"), out.can, fieldbus::CanMediumKey::kRequired);
   double cycle_period_s = 1e-3;
   if (auto v = m.Optional("cycle_period_ms")) cycle_period_s = config::InRange(*v, 0.1, 100.0, "ms") * 1e-3;
   if (auto v = m.Optional("sync_cob_id")) {

@@ -1,7 +1,5 @@
 // The `loopback` backend: the simulated plant of Abbott & Okamura §4.1 (docs/configuration.md, `device.loopback`).
 
-#include "teleop/device/loopback/loopback_backend.hpp"
-
 #include <yaml-cpp/yaml.h>
 
 #include <memory>
@@ -10,6 +8,8 @@
 #include "loopback_keys.hpp"
 #include "teleop/config/key_table.hpp"
 #include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/backend_key_table.hpp"
+#include "teleop/device/loopback.hpp"
 
 namespace teleop::device {
 namespace {
@@ -144,9 +144,7 @@ DeviceBackend LoopbackBackend() {
       {"environment.stiffness_N_per_m", "wall stiffness (N/m), > 0"},
       {"environment.damping_Ns_per_m", "wall damping (N·s/m), >= 0; default 0"},
   };
-  // The keys with a value come from the key table (loopback_keys.hpp), written once.
-  b.key_table.assign(loopback_keys::kAll.begin(), loopback_keys::kAll.end());
-  for (const config::KeySpec& spec : b.key_table) b.keys.push_back({spec.key, config::DescribeKey(spec)});
+  AdoptKeyTable(b, loopback_keys::kAll);  // the keys with a number, written once (loopback_keys.hpp)
   b.section_required = true;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
     return ReadLoopback(*section, context.dof);  // section_required: the config reader checked it is there

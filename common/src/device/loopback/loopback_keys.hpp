@@ -1,11 +1,14 @@
 #pragma once
 
 // The `device.loopback` keys with a value, each written once (teleop/config/key_table.hpp): the reader
-// (loopback_backend.cpp), `--list-devices` and the rows of docs/configuration.md come from this table.
+// (loopback_backend.cpp), `--list-devices` and the rows of docs/configuration.md come from this table. A key that is
+// not required takes its default from the config struct's member initialiser (teleop/device/loopback.hpp), the one
+// place it is written: a config built in code and one read from YAML without the key get the same value.
 
 #include <array>
 
 #include "teleop/config/key_table.hpp"
+#include "teleop/device/loopback.hpp"
 
 namespace teleop::device::loopback_keys {
 
@@ -13,37 +16,54 @@ using config::KeyRange;
 using config::KeySpec;
 using config::KeyType;
 
-inline constexpr KeySpec kMass{"mass_kg",
-                               KeyType::kNumber,
-                               "kg",
-                               KeyRange::kPositive,
-                               true,
-                               0.0,
-                               "Device mass per DOF. Paper §4.1: master 0.040, slave 0.036."};
-inline constexpr KeySpec kDamping{"damping_Ns_per_m",
-                                  KeyType::kNumber,
-                                  "N·s/m",
-                                  KeyRange::kNonNegative,
-                                  true,
-                                  0.0,
-                                  "Device damping. Paper: master 0.41, slave 0.49."};
-inline constexpr KeySpec kEncoderResolution{"encoder_resolution_m",
-                                            KeyType::kNumber,
-                                            "m",
-                                            KeyRange::kNonNegative,
-                                            false,
-                                            0.0,
-                                            "Position reads are rounded to this step; 0 = exact."};
-inline constexpr KeySpec kInitialPosition{"initial_position_m", KeyType::kDofValue, "m", KeyRange::kFinite, false, 0.0,
-                                          "Start position."};
-inline constexpr KeySpec kOperatorMass{
-    "operator.mass_kg", KeyType::kNumber, "kg", KeyRange::kNonNegative, false, 0.0, "m_h, added to the device mass."};
-inline constexpr KeySpec kOperatorDamping{
-    "operator.damping_Ns_per_m", KeyType::kNumber, "N·s/m", KeyRange::kNonNegative, false, 0.0, "b_h."};
-inline constexpr KeySpec kOperatorStiffness{
-    "operator.stiffness_N_per_m", KeyType::kNumber, "N/m", KeyRange::kNonNegative, false, 0.0, "k_h."};
+inline const KeySpec kMass{"mass_kg",
+                           KeyType::kNumber,
+                           "kg",
+                           KeyRange::kPositive,
+                           true,
+                           0.0,
+                           "Device mass per DOF. Paper §4.1: master 0.040, slave 0.036."};
+inline const KeySpec kDamping{"damping_Ns_per_m",
+                              KeyType::kNumber,
+                              "N·s/m",
+                              KeyRange::kNonNegative,
+                              true,
+                              0.0,
+                              "Device damping. Paper: master 0.41, slave 0.49."};
+inline const KeySpec kEncoderResolution{"encoder_resolution_m",
+                                        KeyType::kNumber,
+                                        "m",
+                                        KeyRange::kNonNegative,
+                                        false,
+                                        LoopbackPlantConfig{}.encoder_resolution_m,
+                                        "Position reads are rounded to this step; 0 = exact."};
+inline const KeySpec kInitialPosition{
+    "initial_position_m", KeyType::kDofValue, "m", KeyRange::kFinite, false, 0.0,  // empty = 0
+    "Start position."};
+inline constexpr SimulatedOperatorConfig kOperator{};  // the operator's defaults
+inline const KeySpec kOperatorMass{"operator.mass_kg",
+                                   KeyType::kNumber,
+                                   "kg",
+                                   KeyRange::kNonNegative,
+                                   false,
+                                   kOperator.mass_kg,
+                                   "m_h, added to the device mass."};
+inline const KeySpec kOperatorDamping{"operator.damping_Ns_per_m",
+                                      KeyType::kNumber,
+                                      "N·s/m",
+                                      KeyRange::kNonNegative,
+                                      false,
+                                      kOperator.damping_Ns_per_m,
+                                      "b_h."};
+inline const KeySpec kOperatorStiffness{"operator.stiffness_N_per_m",
+                                        KeyType::kNumber,
+                                        "N/m",
+                                        KeyRange::kNonNegative,
+                                        false,
+                                        kOperator.stiffness_N_per_m,
+                                        "k_h."};
 
-inline constexpr std::array kAll{kMass,         kDamping,         kEncoderResolution, kInitialPosition,
-                                 kOperatorMass, kOperatorDamping, kOperatorStiffness};
+inline const std::array kAll{kMass,         kDamping,         kEncoderResolution, kInitialPosition,
+                             kOperatorMass, kOperatorDamping, kOperatorStiffness};
 
 }  // namespace teleop::device::loopback_keys

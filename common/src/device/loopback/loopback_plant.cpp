@@ -1,9 +1,8 @@
-#include "teleop/device/loopback/loopback_plant.hpp"
-
 #include <cmath>
 #include <limits>
 #include <string>
 
+#include "teleop/device/loopback.hpp"
 #include "teleop/error.hpp"
 #include "validate.hpp"
 
@@ -26,10 +25,8 @@ DofVector InitialVector(const DofVector& given, int dof, const char* name) {
 }  // namespace
 
 LoopbackPlantConfig LoopbackPlantConfig::PaperMaster(int dof) {
-  LoopbackPlantConfig config;
+  LoopbackPlantConfig config;  // the struct's defaults are the paper's master
   config.dof = dof;
-  config.mass_kg = 0.040;
-  config.damping_Ns_per_m = 0.41;
   return config;
 }
 

@@ -1,9 +1,8 @@
-#include "teleop/device/loopback/operator_script.hpp"
-
 #include <cmath>
 #include <numbers>
 #include <string>
 
+#include "teleop/device/loopback.hpp"
 #include "validate.hpp"
 
 namespace teleop::device {

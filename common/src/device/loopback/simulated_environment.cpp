@@ -1,7 +1,6 @@
-#include "teleop/device/loopback/simulated_environment.hpp"
-
 #include <string>
 
+#include "teleop/device/loopback.hpp"
 #include "validate.hpp"
 
 namespace teleop::device {

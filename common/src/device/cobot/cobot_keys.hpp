@@ -1,0 +1,216 @@
+#pragma once
+
+// The `device.cobot` keys with a number, each written once (teleop/config/key_table.hpp): the reader
+// (cobot_config_reader.cpp), `--list-devices` and the rows of docs/configuration.md come from this table. Each default
+// is the default-constructed CobotBackendConfig's (its member initialisers and UnicycleCobotConfig::Prototype()),
+// except steering_time_constant_s, which no struct holds (the reader turns it into K2): its default is written here.
+
+#include <array>
+
+#include "teleop/config/key_table.hpp"
+#include "teleop/device/cobot/cobot_backend.hpp"
+
+namespace teleop::device::cobot::keys {
+
+using config::KeyRange;
+using config::KeySpec;
+
+inline const CobotBackendConfig kDefaults{};
+
+inline const KeySpec kCartMass{.key = "cart_mass_kg",
+                               .unit = "kg",
+                               .range = KeyRange::kPositive,
+                               .default_value = kDefaults.unicycle.plant.cart_mass_kg,
+                               .meaning = "Moving mass."};
+inline const KeySpec kRollingDamping{.key = "rolling_damping_Ns_per_m",
+                                     .unit = "N·s/m",
+                                     .range = KeyRange::kNonNegative,
+                                     .default_value = kDefaults.unicycle.plant.rolling_damping_Ns_per_m,
+                                     .meaning = "Rolling resistance."};
+inline const KeySpec kSteeringInertia{.key = "steering_inertia_kgm2",
+                                      .unit = "kg·m²",
+                                      .range = KeyRange::kPositive,
+                                      .default_value = kDefaults.unicycle.plant.steering_inertia_kgm2,
+                                      .meaning = "Wheel assembly about the steering axis."};
+inline const KeySpec kSteeringDamping{.key = "steering_damping_Nms_per_rad",
+                                      .unit = "N·m·s/rad",
+                                      .range = KeyRange::kNonNegative,
+                                      .default_value = kDefaults.unicycle.plant.steering_damping_Nms_per_rad,
+                                      .meaning = "Steering friction b."};
+inline const KeySpec kMaxSteeringTorque{.key = "max_steering_torque_Nm",
+                                        .unit = "N·m",
+                                        .range = KeyRange::kPositive,
+                                        .default_value = kDefaults.unicycle.plant.max_steering_torque_Nm,
+                                        .meaning = "Steering motor limit."};
+inline const KeySpec kCorneringStiffness{.key = "cornering_stiffness_N_per_rad",
+                                         .unit = "N/rad",
+                                         .range = KeyRange::kNonNegative,
+                                         .default_value = kDefaults.unicycle.plant.cornering_stiffness_N_per_rad,
+                                         .meaning = "Wheel slip model C; 0 = no slip."};
+inline const KeySpec kBrakeMaxForce{.key = "brake_max_force_N",
+                                    .unit = "N",
+                                    .range = KeyRange::kNonNegative,
+                                    .default_value = kDefaults.unicycle.plant.brake_max_force_N,
+                                    .meaning = "Wheel brake; 0 = none."};
+inline const KeySpec kFrictionCoefficient{
+    .key = "friction_coefficient",
+    .range = KeyRange::kNonNegative,
+    .default_value = kDefaults.unicycle.plant.friction_coefficient,
+    .meaning = "Tire μ: the floor carries at most μ·N across the wheel, then it slides; 0 = no limit."};
+inline const KeySpec kNormalLoad{.key = "normal_load_N",
+                                 .unit = "N",
+                                 .range = KeyRange::kNonNegative,
+                                 .default_value = kDefaults.unicycle.plant.normal_load_N,
+                                 .meaning = "N of the friction limit; 0 = cart_mass_kg·g."};
+inline const KeySpec kWheelRadius{.key = "wheel_radius_m",
+                                  .unit = "m",
+                                  .range = KeyRange::kPositive,
+                                  .default_value = kDefaults.unicycle.sensors.wheel_radius_m,
+                                  .meaning = "Wheel radius."};
+inline const KeySpec kPositionResolution{.key = "position_resolution_m",
+                                         .unit = "m",
+                                         .range = KeyRange::kNonNegative,
+                                         .default_value = kDefaults.unicycle.sensors.position_resolution_m,
+                                         .meaning = "Absolute position sensing step; 0 = ideal."};
+inline const KeySpec kForceResolution{.key = "force_resolution_N",
+                                      .unit = "N",
+                                      .range = KeyRange::kNonNegative,
+                                      .default_value = kDefaults.unicycle.sensors.force_resolution_N,
+                                      .meaning = "Handle force sensor step; 0 = ideal."};
+inline const KeySpec kSteeringTimeConstant{.key = "steering_time_constant_s",
+                                           .unit = "s",
+                                           .range = KeyRange::kPositive,
+                                           .default_value = 0.02,
+                                           .meaning = "τ of the steering-velocity loop (eq 3c), sets K2 = J/τ − b."};
+inline const KeySpec kSpeedFloor{.key = "speed_floor_m_per_s",
+                                 .unit = "m/s",
+                                 .range = KeyRange::kPositive,
+                                 .default_value = kDefaults.unicycle.controller.caster.speed_floor_m_per_s,
+                                 .meaning = "ε of eq 2."};
+inline const KeySpec kLookahead{.key = "lookahead_m",
+                                .unit = "m",
+                                .range = KeyRange::kPositive,
+                                .default_value = kDefaults.unicycle.controller.tracker.lookahead_m,
+                                .meaning = "L of eqs 7-8."};
+inline const KeySpec kPGainScale{.key = "p_gain_scale",
+                                 .range = KeyRange::kPositive,
+                                 .default_value = kDefaults.unicycle.controller.tracker.p_gain_scale,
+                                 .meaning = "Multiplies the penetration gain."};
+inline const KeySpec kThetaGainScale{.key = "theta_gain_scale",
+                                     .range = KeyRange::kPositive,
+                                     .default_value = kDefaults.unicycle.controller.tracker.theta_gain_scale,
+                                     .meaning = "Multiplies the out-of-tangency gain."};
+inline const KeySpec kIntegralGain{.key = "integral_gain_per_m3",
+                                   .unit = "1/m³",
+                                   .range = KeyRange::kNonNegative,
+                                   .default_value = kDefaults.unicycle.controller.tracker.integral_gain_per_m3,
+                                   .meaning = "Integral action on p."};
+inline const KeySpec kOverlayMinRadius{.key = "overlay_min_radius_m",
+                                       .unit = "m",
+                                       .range = KeyRange::kNonNegative,
+                                       .default_value = kDefaults.unicycle.controller.overlay_min_radius_m,
+                                       .meaning = "Overlay activation radius."};
+inline const KeySpec kReleaseForce{.key = "release_force_N",
+                                   .unit = "N",
+                                   .range = KeyRange::kNonNegative,
+                                   .default_value = kDefaults.unicycle.controller.release_force_N,
+                                   .meaning = "Pull-off force that releases a wall."};
+inline const KeySpec kStabilityMargin{.key = "stability_margin",
+                                      .range = KeyRange::kInRange,
+                                      .default_value = kDefaults.unicycle.controller.guard.margin,
+                                      .meaning = "Act at this fraction of the eq 10 speed.",
+                                      .low = 0.05,
+                                      .high = 1.0};
+inline const KeySpec kContactForceThreshold{.key = "contact_force_threshold_N",
+                                            .unit = "N",
+                                            .range = KeyRange::kPositive,
+                                            .default_value = kDefaults.contact_force_threshold_N,
+                                            .meaning = "Coupling force that means a blocked slave."};
+inline const KeySpec kOperatorSpeed{.key = "operator.speed_m_per_s",
+                                    .unit = "m/s",
+                                    .range = KeyRange::kPositive,
+                                    .default_value = kDefaults.op.speed_m_per_s,
+                                    .meaning = "Speed the operator holds."};
+inline const KeySpec kOperatorDirection{.key = "operator.direction_deg",
+                                        .unit = "deg",
+                                        .range = KeyRange::kFinite,
+                                        .default_value = kDefaults.op.direction_deg,
+                                        .meaning = "Push direction, from +x."};
+inline const KeySpec kOperatorThenAt{.key = "operator.then_at_s",
+                                     .unit = "s",
+                                     .range = KeyRange::kNonNegative,
+                                     .default_value = kDefaults.op.then_at_s,
+                                     .meaning = "Time of the change of direction; 0 = never."};
+inline const KeySpec kOperatorThenDirection{.key = "operator.then_direction_deg",
+                                            .unit = "deg",
+                                            .range = KeyRange::kFinite,
+                                            .default_value = kDefaults.op.then_direction_deg,
+                                            .meaning = "Push direction after then_at_s."};
+inline const KeySpec kOperatorMaxForce{.key = "operator.max_force_N",
+                                       .unit = "N",
+                                       .range = KeyRange::kPositive,
+                                       .default_value = kDefaults.op.max_force_N,
+                                       .meaning = "Largest push."};
+inline const KeySpec kHalfWheelbase{.key = "bicycle.half_wheelbase_m",
+                                    .unit = "m",
+                                    .range = KeyRange::kPositive,
+                                    .default_value = kDefaults.bicycle.geometry.half_wheelbase_m,
+                                    .meaning = "Wheels at ±this on the plate's x axis."};
+inline const KeySpec kPlateMass{.key = "bicycle.plate_mass_kg",
+                                .unit = "kg",
+                                .range = KeyRange::kPositive,
+                                .default_value = kDefaults.bicycle.plate_mass_kg,
+                                .meaning = "Plate mass; also the caster's virtual mass (isotropic)."};
+inline const KeySpec kPlateInertia{.key = "bicycle.plate_inertia_kgm2",
+                                   .unit = "kg·m²",
+                                   .range = KeyRange::kPositive,
+                                   .default_value = kDefaults.bicycle.plate_inertia_kgm2,
+                                   .meaning = "Plate inertia; also the caster's virtual inertia."};
+inline const KeySpec kSingularityThreshold{.key = "bicycle.singularity_threshold",
+                                           .range = KeyRange::kInRange,
+                                           .default_value = kDefaults.bicycle_caster.singularity_threshold,
+                                           .meaning = "Singularity measure below which the guard acts.",
+                                           .low = 0.0,
+                                           .high = 0.99};
+inline const KeySpec kHeadingBandwidth{.key = "bicycle.heading_bandwidth_per_s",
+                                       .unit = "rad/s",
+                                       .range = KeyRange::kInRange,
+                                       .default_value = kDefaults.bicycle_caster.heading_bandwidth_per_s,
+                                       .meaning = "ω_h of the angular constraint's return.",
+                                       .low = 0.1,
+                                       .high = 20.0};
+
+inline const std::array kAll{kCartMass,
+                             kRollingDamping,
+                             kSteeringInertia,
+                             kSteeringDamping,
+                             kMaxSteeringTorque,
+                             kCorneringStiffness,
+                             kBrakeMaxForce,
+                             kFrictionCoefficient,
+                             kNormalLoad,
+                             kWheelRadius,
+                             kPositionResolution,
+                             kForceResolution,
+                             kSteeringTimeConstant,
+                             kSpeedFloor,
+                             kLookahead,
+                             kPGainScale,
+                             kThetaGainScale,
+                             kIntegralGain,
+                             kOverlayMinRadius,
+                             kReleaseForce,
+                             kStabilityMargin,
+                             kContactForceThreshold,
+                             kOperatorSpeed,
+                             kOperatorDirection,
+                             kOperatorThenAt,
+                             kOperatorThenDirection,
+                             kOperatorMaxForce,
+                             kHalfWheelbase,
+                             kPlateMass,
+                             kPlateInertia,
+                             kSingularityThreshold,
+                             kHeadingBandwidth};
+
+}  // namespace teleop::device::cobot::keys

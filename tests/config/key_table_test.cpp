@@ -1,0 +1,176 @@
+// The backends' key tables (teleop/config/key_spec.hpp): every key a table lists is in `--list-devices` with the line
+// the table writes, a reader refuses a key it does not know by its name, and the table's reading of a value and of
+// its absence is what the backend's reader does.
+
+#include "teleop/config/key_table.hpp"
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <map>
+#include <string>
+
+#include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/device_registry.hpp"
+#include "teleop/error.hpp"
+#include "teleop/fieldbus/can_port_yaml.hpp"
+#include "teleop/node/device_list.hpp"
+
+namespace teleop {
+namespace {
+
+/// A section each backend accepts with its required keys only (the process's role and dof in `context`).
+struct Minimal {
+  std::string yaml;
+  device::SectionContext context;
+};
+
+const std::map<std::string, Minimal>& MinimalSections() {
+  static const std::map<std::string, Minimal> sections{
+      {"loopback", {"{mass_kg: 0.04, damping_Ns_per_m: 0.41}", {Role::kMaster, 1}}},
+      {"admittance",
+       {"{virtual_mass_kg: 1, virtual_damping_Ns_per_m: 5, can: {interface: can0}, drives: [{node_id: 1}]}",
+        {Role::kSlave, 1}}},
+      {"hybrid", {"{}", {Role::kMaster, 2}}},
+      {"cobot", {"{}", {Role::kMaster, 2}}},
+  };
+  return sections;
+}
+
+std::string ReadError(const std::string& backend, const std::string& yaml, const device::SectionContext& context) {
+  static const std::string file = "keys.yaml";
+  const YAML::Node node = YAML::Load(yaml);
+  const config::Field field(node, "device." + backend, &file);
+  try {
+    (void)device::FindDevice(backend)->read(&field, context);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(KeyTable, ListDevicesShowsEveryKeyOfEveryBackendsTable) {
+  const std::string listing = node::DescribeDevices();
+  int tables = 0;
+  for (const std::string& name : device::RegisteredDevices()) {
+    const device::DeviceBackend* backend = device::FindDevice(name);
+    if (backend->key_table.empty()) continue;
+    ++tables;
+    const auto section = listing.find("\n" + name + ": ");
+    ASSERT_NE(section, std::string::npos) << name;
+    const auto next = listing.find("\n\n", section + 1);
+    const std::string own = listing.substr(section, next == std::string::npos ? std::string::npos : next + 1 - section);
+    for (const config::KeySpec& spec : backend->key_table) {
+      const std::string line = "\n    " + std::string(spec.key) + ": " + config::DescribeKey(spec) + "\n";
+      EXPECT_NE(own.find(line), std::string::npos) << name << ": --list-devices lacks" << line << "in\n" << own;
+    }
+  }
+  EXPECT_GE(tables, 4) << "loopback, admittance, hybrid and cobot each have a key table";
+  EXPECT_EQ(listing.find("\n    warp_factor: "), std::string::npos) << "the check can fail";
+}
+
+TEST(KeyTable, EveryBackendRefusesAnUnknownKeyByItsName) {
+  for (const auto& [name, minimal] : MinimalSections()) {
+    ASSERT_NE(device::FindDevice(name), nullptr) << name;
+    EXPECT_EQ(ReadError(name, minimal.yaml, minimal.context), "") << name << ": the minimal section is valid";
+    std::string yaml = minimal.yaml;
+    yaml.insert(1, yaml.size() > 2 ? "warp_factor: 9, " : "warp_factor: 9");
+    const std::string error = ReadError(name, yaml, minimal.context);
+    EXPECT_NE(error.find("warp_factor"), std::string::npos) << name << ": " << error;
+    EXPECT_NE(error.find("keys.yaml:1:"), std::string::npos) << name << ": " << error;
+  }
+}
+
+TEST(KeyTable, AValueOutOfItsTablesRangeIsRefusedWithTheKeysName) {
+  // One key of each backend's table, at a value outside its range: the reader's message names the key.
+  for (const auto& [name, minimal] : MinimalSections()) {
+    for (const config::KeySpec& spec : device::FindDevice(name)->key_table) {
+      if (spec.required || spec.type == config::KeyType::kDofValue) continue;
+      const std::string leaf = config::LeafOf(spec);
+      if (leaf != spec.key) continue;  // a nested key: its parent has keys of its own
+      const char* bad = spec.range == config::KeyRange::kFinite ? ".nan" : "-1e9";
+      std::string yaml = minimal.yaml;
+      yaml.insert(1, leaf + ": " + bad + (yaml.size() > 2 ? ", " : ""));
+      const std::string error = ReadError(name, yaml, minimal.context);
+      EXPECT_NE(error.find("'device." + name + "." + leaf + "'"), std::string::npos)
+          << name << "." << leaf << " = " << bad << ": " << error;
+    }
+  }
+}
+
+TEST(KeyTable, ReadersAndDescriptionsFollowTheTable) {
+  const config::KeySpec ratio{.key = "bandwidth_ratio",
+                              .range = config::KeyRange::kInRange,
+                              .default_value = 10.0,
+                              .meaning = "x",
+                              .low = 1.0,
+                              .high = 1000.0};
+  const config::KeySpec cycles{.key = "cycles",
+                               .type = config::KeyType::kInteger,
+                               .range = config::KeyRange::kInRange,
+                               .default_value = 10.0,
+                               .meaning = "y",
+                               .low = 1.0,
+                               .high = 100.0};
+  EXPECT_EQ(config::KeyTableRow(ratio), "| `bandwidth_ratio` | number | 10 | 1..1000 | x |");
+  EXPECT_EQ(config::DescribeKey(cycles), "integer, 1..100, default 10: y");
+  static const std::string file = "k.yaml";
+  const YAML::Node empty = YAML::Load("{}");
+  const config::Field empty_field(empty, "s", &file);
+  const config::Map none(empty_field, {"bandwidth_ratio", "cycles"});
+  EXPECT_EQ(config::ReadNumber(none, ratio), 10.0);
+  EXPECT_EQ(config::ReadInteger(none, cycles), 10);
+  const YAML::Node given = YAML::Load("{bandwidth_ratio: 20, cycles: 7}");
+  const config::Field given_field(given, "s", &file);
+  const config::Map some(given_field, {"bandwidth_ratio", "cycles"});
+  EXPECT_EQ(config::ReadNumber(some, ratio), 20.0);
+  EXPECT_EQ(config::ReadInteger(some, cycles), 7);
+  const YAML::Node bad = YAML::Load("{bandwidth_ratio: 0.5, cycles: 2.5}");
+  const config::Field bad_field(bad, "s", &file);
+  const config::Map wrong(bad_field, {"bandwidth_ratio", "cycles"});
+  EXPECT_THROW((void)config::ReadNumber(wrong, ratio), Error);
+  EXPECT_THROW((void)config::ReadInteger(wrong, cycles), Error);
+}
+
+// The one CAN bus section reader the admittance, cobot and hybrid backends share.
+TEST(KeyTable, TheSharedCanSectionReaderReadsAndRefuses) {
+  static const std::string file = "can.yaml";
+  const auto read = [](const std::string& yaml, fieldbus::CanMediumKey medium) {
+    const YAML::Node node = YAML::Load(yaml);
+    const config::Field field(node, "device.x.can", &file);
+    fieldbus::CanPortConfig can;
+    fieldbus::ReadCanPortSection(field, can, medium);
+    return can;
+  };
+  const auto error = [&](const std::string& yaml, fieldbus::CanMediumKey medium) -> std::string {
+    try {
+      (void)read(yaml, medium);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  using fieldbus::CanMediumKey;
+  const fieldbus::CanPortConfig socket = read("{interface: vcan0}", CanMediumKey::kOptional);
+  EXPECT_EQ(socket.medium, transport::CanMedium::kSocketCan);
+  EXPECT_EQ(socket.interface_name, "vcan0");
+  const fieldbus::CanPortConfig daemon =
+      read("{medium: emulated, bus: \"127.0.0.2:47301\", connect_timeout_ms: 250}", CanMediumKey::kRequired);
+  EXPECT_EQ(daemon.medium, transport::CanMedium::kEmulatedBus);
+  EXPECT_EQ(daemon.emulated_bus_host, "127.0.0.2");
+  EXPECT_EQ(daemon.emulated_bus_port, 47301);
+  EXPECT_EQ(daemon.connect_timeout_ms, 250.0);
+  EXPECT_NE(error("{interface: vcan0}", CanMediumKey::kRequired).find("'device.x.can.medium'"), std::string::npos);
+  EXPECT_NE(error("{medium: ethercat}", CanMediumKey::kOptional).find("socketcan or emulated"), std::string::npos);
+  EXPECT_NE(error("{medium: emulated, bus: \"127.0.0.1:70000\"}", CanMediumKey::kOptional).find("HOST:PORT"),
+            std::string::npos);
+  EXPECT_NE(error("{medium: emulated, interface: can0}", CanMediumKey::kOptional).find("only for medium socketcan"),
+            std::string::npos);
+  EXPECT_NE(error("{}", CanMediumKey::kOptional).find("interface"), std::string::npos);
+  EXPECT_NE(error("{interface: can0, baud: 1}", CanMediumKey::kOptional).find("baud"), std::string::npos);
+  EXPECT_NE(error("{interface: can0, connect_timeout_ms: 0}", CanMediumKey::kOptional).find("must be > 0 ms"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace teleop

@@ -1,0 +1,93 @@
+// The cobot backend's key table (cobot_keys.hpp) against CobotBackendConfig: each key's default is the default-
+// constructed config's, an absent key reads as it, and a given one is read in its place.
+
+#include "cobot_keys.hpp"
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <any>
+#include <string>
+
+#include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/device_registry.hpp"
+#include "teleop/error.hpp"
+
+namespace teleop::device::cobot {
+namespace {
+
+CobotBackendConfig Read(const std::string& yaml, int dof = 2) {
+  static const std::string file = "cobot.yaml";
+  const YAML::Node node = YAML::Load(yaml);
+  const config::Field field(node, "device.cobot", &file);
+  return std::any_cast<CobotBackendConfig>(FindDevice("cobot")->read(&field, SectionContext{Role::kMaster, dof}));
+}
+
+TEST(CobotKeys, TheTablesDefaultsAreTheConfigsAndTheReadersWhenAbsent) {
+  const CobotBackendConfig code{};
+  const CobotBackendConfig read = Read("{operator: {}}");
+  const CobotBackendConfig bicycle = Read("{kind: bicycle, bicycle: {}}", 3);
+  const auto same = [](const config::KeySpec& spec, double in_code, double from_yaml) {
+    EXPECT_EQ(spec.default_value, in_code) << spec.key;
+    EXPECT_EQ(from_yaml, in_code) << spec.key;
+  };
+  const UnicyclePlantConfig& p = code.unicycle.plant;
+  const UnicyclePlantConfig& rp = read.unicycle.plant;
+  same(keys::kCartMass, p.cart_mass_kg, rp.cart_mass_kg);
+  same(keys::kRollingDamping, p.rolling_damping_Ns_per_m, rp.rolling_damping_Ns_per_m);
+  same(keys::kSteeringInertia, p.steering_inertia_kgm2, rp.steering_inertia_kgm2);
+  same(keys::kSteeringDamping, p.steering_damping_Nms_per_rad, rp.steering_damping_Nms_per_rad);
+  same(keys::kMaxSteeringTorque, p.max_steering_torque_Nm, rp.max_steering_torque_Nm);
+  same(keys::kCorneringStiffness, p.cornering_stiffness_N_per_rad, rp.cornering_stiffness_N_per_rad);
+  same(keys::kBrakeMaxForce, p.brake_max_force_N, rp.brake_max_force_N);
+  same(keys::kFrictionCoefficient, p.friction_coefficient, rp.friction_coefficient);
+  same(keys::kNormalLoad, p.normal_load_N, rp.normal_load_N);
+  same(keys::kWheelRadius, code.unicycle.sensors.wheel_radius_m, read.unicycle.sensors.wheel_radius_m);
+  same(keys::kPositionResolution, code.unicycle.sensors.position_resolution_m,
+       read.unicycle.sensors.position_resolution_m);
+  same(keys::kForceResolution, code.unicycle.sensors.force_resolution_N, read.unicycle.sensors.force_resolution_N);
+  const VirtualWallConfig& w = code.unicycle.controller;
+  const VirtualWallConfig& rw = read.unicycle.controller;
+  same(keys::kSpeedFloor, w.caster.speed_floor_m_per_s, rw.caster.speed_floor_m_per_s);
+  same(keys::kLookahead, w.tracker.lookahead_m, rw.tracker.lookahead_m);
+  same(keys::kPGainScale, w.tracker.p_gain_scale, rw.tracker.p_gain_scale);
+  same(keys::kThetaGainScale, w.tracker.theta_gain_scale, rw.tracker.theta_gain_scale);
+  same(keys::kIntegralGain, w.tracker.integral_gain_per_m3, rw.tracker.integral_gain_per_m3);
+  same(keys::kOverlayMinRadius, w.overlay_min_radius_m, rw.overlay_min_radius_m);
+  same(keys::kReleaseForce, w.release_force_N, rw.release_force_N);
+  same(keys::kStabilityMargin, w.guard.margin, rw.guard.margin);
+  same(keys::kContactForceThreshold, code.contact_force_threshold_N, read.contact_force_threshold_N);
+  same(keys::kOperatorSpeed, code.op.speed_m_per_s, read.op.speed_m_per_s);
+  same(keys::kOperatorDirection, code.op.direction_deg, read.op.direction_deg);
+  same(keys::kOperatorThenAt, code.op.then_at_s, read.op.then_at_s);
+  same(keys::kOperatorThenDirection, code.op.then_direction_deg, read.op.then_direction_deg);
+  same(keys::kOperatorMaxForce, code.op.max_force_N, read.op.max_force_N);
+  same(keys::kHalfWheelbase, code.bicycle.geometry.half_wheelbase_m, bicycle.bicycle.geometry.half_wheelbase_m);
+  same(keys::kPlateMass, code.bicycle.plate_mass_kg, bicycle.bicycle.plate_mass_kg);
+  same(keys::kPlateInertia, code.bicycle.plate_inertia_kgm2, bicycle.bicycle.plate_inertia_kgm2);
+  same(keys::kSingularityThreshold, code.bicycle_caster.singularity_threshold,
+       bicycle.bicycle_caster.singularity_threshold);
+  same(keys::kHeadingBandwidth, code.bicycle_caster.heading_bandwidth_per_s,
+       bicycle.bicycle_caster.heading_bandwidth_per_s);
+  EXPECT_EQ(keys::kAll.size(), 32U);
+  // steering_time_constant_s has no struct member: its default τ = 0.02 s sets K2 = J/τ − b (eq 3c).
+  EXPECT_EQ(keys::kSteeringTimeConstant.default_value, 0.02);
+  EXPECT_NEAR(read.unicycle.controller.caster.k2_Nms_per_rad,
+              p.steering_inertia_kgm2 / 0.02 - p.steering_damping_Nms_per_rad, 1e-12);
+  const CobotBackendConfig given = Read("{cart_mass_kg: 7, stability_margin: 0.5, operator: {max_force_N: 30}}");
+  EXPECT_EQ(given.unicycle.plant.cart_mass_kg, 7.0);
+  EXPECT_EQ(given.unicycle.controller.guard.margin, 0.5);
+  EXPECT_EQ(given.op.max_force_N, 30.0);
+}
+
+TEST(CobotKeys, AnUnknownNestedKeyIsRefusedByItsName) {
+  try {
+    (void)Read("{operator: {speed_m_per_s: 0.1, warp_s: 1}}");
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("operator.warp_s"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace teleop::device::cobot
