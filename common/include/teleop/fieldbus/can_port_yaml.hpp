@@ -6,7 +6,7 @@
 
 #include <array>
 
-#include "teleop/fieldbus/can_port.hpp"
+#include "teleop/fieldbus/can_port_config.hpp"
 
 namespace teleop::config {
 class Field;
