@@ -410,6 +410,17 @@ def main():
               f"{s.get('telemetry_records')} | {s.get('telemetry_dropped')} |")
         w("")
 
+    # The scale sections (deploy/bench.sh --scale, deploy/bench/scale_report.py) are a run of their own: carried over
+    # from the page this run replaces.
+    try:
+        with open(out_md) as f:
+            old = f.read()
+        start, end = old.index("<!-- scale:begin"), old.index("<!-- scale:end -->") + len("<!-- scale:end -->")
+        w(old[start:end])
+        w("")
+    except (OSError, ValueError):
+        pass
+
     w("## Not measured or not done")
     w("")
     w("- A software PLL on the kernel receive timestamps (the alternative to the triggered cycle): not built; the "

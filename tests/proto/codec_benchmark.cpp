@@ -29,7 +29,7 @@ void BM_Encode(benchmark::State& state) {
     benchmark::ClobberMemory();
   }
 }
-BENCHMARK(BM_Encode)->Arg(1)->Arg(6);
+BENCHMARK(BM_Encode)->Arg(1)->Arg(6)->Arg(12);
 
 void BM_Decode(benchmark::State& state) {
   const teleop::proto::SampleMessage m = MakeMessage(static_cast<int>(state.range(0)));
@@ -41,7 +41,7 @@ void BM_Decode(benchmark::State& state) {
     benchmark::DoNotOptimize(out);
   }
 }
-BENCHMARK(BM_Decode)->Arg(1)->Arg(6);
+BENCHMARK(BM_Decode)->Arg(1)->Arg(6)->Arg(12);
 
 void BM_Crc32c(benchmark::State& state) {
   std::array<std::uint8_t, 180> bytes{};

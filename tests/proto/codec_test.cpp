@@ -286,7 +286,7 @@ TEST(Codec, EncodeRefusesSmallBufferAndBadDof) {
   std::array<std::uint8_t, 256> big{};
   m.dof = 0;
   EXPECT_EQ(EncodeSample(m, big), 0u);
-  m.dof = 7;
+  m.dof = 13;  // kMaxWireDof + 1
   EXPECT_EQ(EncodeSample(m, big), 0u);
 }
 
