@@ -99,7 +99,11 @@ TEST(Codec, SizesFollowTheLayout) {
   EXPECT_EQ(EncodedSampleSize(6), 184u);
   EXPECT_EQ(EncodedSampleSize(1, true), 80u);
   EXPECT_EQ(EncodedSampleSize(6, true), 280u);
-  EXPECT_EQ(MaxEncodedSampleSize(), 280u);
+  EXPECT_EQ(EncodedSampleSize(7), 208u);   // 36 + 7 × 24 + 4
+  EXPECT_EQ(EncodedSampleSize(12), 328u);  // 36 + 12 × 24 + 4
+  EXPECT_EQ(EncodedSampleSize(12, true), 520u);
+  EXPECT_EQ(MaxEncodedSampleSize(), 520u);
+  EXPECT_EQ(EncodedSampleSize(13), 0u);
   EXPECT_EQ(EncodedSampleSize(0, true), 0u);
   EXPECT_EQ(EncodedSampleSize(0), 0u);
   EXPECT_EQ(EncodedSampleSize(7), 0u);
