@@ -38,7 +38,7 @@ while [[ $# -gt 0 ]]; do
   shift
 done
 case "${level}" in
-  real) run_s=${run_s:-6}; rounds=${rounds:-4}; jitter_s=4; dofs=(1 2 3 6 7 12); pair_counts=(1 2 4 8)
+  real) run_s=${run_s:-5}; rounds=${rounds:-4}; jitter_s=4; dofs=(1 2 3 6 7 12); pair_counts=(1 2 4 8)
         rates=(1000 4000); bench_time=0.2 ;;
   quick) run_s=${run_s:-1}; rounds=${rounds:-2}; jitter_s=1; dofs=(1 2 3 6 7 12); pair_counts=(1 2 4 8)
          rates=(1000 4000); bench_time=0.05 ;;
@@ -71,6 +71,14 @@ rt_mode=off
 [[ ${is_root} -eq 1 ]] && rt_mode=rt
 log() { echo "[bench --scale] $*" >&2; }
 started=$(date +%s)
+# cpu0's idle states as name:usage pairs (does /dev/cpu_dma_latency 0 keep the CPU in POLL? the usage counts tell).
+idle_states() {
+  local st out=""
+  for st in /sys/devices/system/cpu/cpu0/cpuidle/state*; do
+    [[ -d ${st} ]] && out+="$(cat "${st}/name"):$(cat "${st}/usage") "
+  done
+  echo "${out% }"
+}
 
 {
   echo "{"
@@ -81,6 +89,8 @@ started=$(date +%s)
   echo "  \"root\": $([[ ${is_root} -eq 1 ]] && echo true || echo false),"
   echo "  \"cpuidle_driver\": \"$(cat /sys/devices/system/cpu/cpuidle/current_driver 2>/dev/null || echo none)\","
   echo "  \"clocksource\": \"$(cat /sys/devices/system/clocksource/clocksource0/current_clocksource 2>/dev/null || echo unknown)\","
+  echo "  \"guest_halt_poll_ns\": \"$(cat /sys/module/haltpoll/parameters/guest_halt_poll_ns 2>/dev/null || echo none)\","
+  echo "  \"idle_states_start\": \"$(idle_states)\","
   echo "  \"loadavg_start\": \"$(cut -d' ' -f1-3 /proc/loadavg)\","
   echo "  \"date_utc\": \"$(date -u +%Y-%m-%dT%H:%M:%SZ)\","
   echo "  \"git\": \"$(git -C "${TELEOP_ROOT}" rev-parse --short HEAD 2>/dev/null || echo unknown)\","
@@ -289,7 +299,7 @@ if [[ -x "${bin}/can_link_benchmark" ]]; then
   awk '/^\{/ {exit} {print}' "${work}/can_budget.out" > "${raw}/can_budget.txt"
 fi
 
-echo "{\"loadavg_end\": \"$(cut -d' ' -f1-3 /proc/loadavg)\", \"elapsed_s\": $(( $(date +%s) - started ))}" \
+echo "{\"loadavg_end\": \"$(cut -d' ' -f1-3 /proc/loadavg)\", \"idle_states_end\": \"$(idle_states)\", \"elapsed_s\": $(( $(date +%s) - started ))}" \
   > "${raw}/machine_end.json"
 mkdir -p "${out_dir}"
 /usr/bin/python3 "${TELEOP_ROOT}/deploy/bench/scale_report.py" "${raw}" "${out_dir}"

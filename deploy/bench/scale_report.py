@@ -431,17 +431,19 @@ def main():
       "not the `rt` ones. Percentiles: the loop's histogram reports a bin's upper edge (1 µs bins), cyclictest the "
       "truncated µs, so the loop reads up to 1 µs higher at equal wake-ups.")
     w("")
-    w("What is not the code's: on a VM the idle vCPU halts and leaves to the host whatever `/dev/cpu_dma_latency` "
-      "asks (with no guest cpuidle driver the request changes nothing; this machine's driver is shown above). The "
-      "host polls a halted vCPU for a short while before it deschedules it (KVM's `halt_poll_ns`, 200 µs by "
-      "default): an 8 kHz sleep (125 µs) ends inside that window, a 1 kHz sleep (about 1 ms) does not, so every 1 kHz "
-      "wake-up waits for the host to schedule the vCPU again, and cyclictest pays it as much as the loop. That is "
-      "why both have more jitter at 1 kHz than at 8 kHz. Where the interleaved ratio is near 1 the earlier gap "
-      "(2.62×, 1.68× in the main table) was the moment of measurement (the two ran minutes apart on a shared host); "
-      "what remains beyond it in the master's row is the process's own work on the same CPU between wake-ups (its "
-      "cycle of 10–25 µs evicts what the next wake-up's kernel path needs: the cache after a long sleep). A guest can "
-      "only buy it back with CPU: sleep to shortly before the deadline and spin (as `sync.spin_us` does for the "
-      "triggered slave), not done for the free loop.")
+    w(f"What is not the code's: the wake-up itself. This machine's cpuidle driver is `{m.get('cpuidle_driver')}` "
+      f"(guest_halt_poll_ns {m.get('guest_halt_poll_ns')}); cpu0's idle states (name:usage) went from "
+      f"`{m.get('idle_states_start')}` to `{end.get('idle_states_end')}` over this run. An idle vCPU that halts "
+      "leaves to the host, which must schedule the vCPU's thread again when the timer fires: cyclictest pays that "
+      "as much as the loop, and more after a long sleep (1 kHz, about 1 ms) than after a short one (8 kHz, 125 µs, "
+      "which a halt-polling vCPU or host often still spans); `/dev/cpu_dma_latency` 0 asks the governor for POLL "
+      "instead of the halt (the POLL count grows where that is honoured). Where the interleaved ratio is near 1× the "
+      "earlier gap (2.62× for the master and 1.68× for the loop alone at 1 kHz in the main table) was the moment of "
+      "measurement: there cyclictest and the loop ran minutes apart on a shared host. What remains beyond it in the "
+      "master's row is the process's own work on the same CPU between wake-ups (its cycle of 10–25 µs evicts what "
+      "the next wake-up's kernel path needs: the cache after a long sleep). A guest can only buy that back with CPU: "
+      "sleep to shortly before the deadline and spin (as `sync.spin_us` does for the triggered slave), not done for "
+      "the free loop.")
     w("")
     w(END)
     region = "\n".join(lines)
