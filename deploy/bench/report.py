@@ -284,7 +284,7 @@ def main():
             scale = {"ns": 1, "us": 1e3, "ms": 1e6}.get(unit, 1)
             w(f"| {b}: {bm['name']} | {bm['cpu_time'] * scale:.0f} |")
     w("")
-    w("The law step has 1- and 6-DOF cases only (`BM_LawStep`); a 3-DOF case is not in the benchmark yet.")
+    w("`BM_LawStep` and `BM_CycleCompute` (one side's whole cycle without its system calls) run at 1, 2, 3, 6, 7 and 12 DOF; the scale section below fits them against DOF (`deploy/bench.sh --scale`).")
     w("")
 
     # Allocations.

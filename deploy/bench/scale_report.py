@@ -2,6 +2,7 @@
 """Turns deploy/bench.sh --scale's raw files into the scale sections of docs/performance.md.
 
   scale_report.py RAW_DIR OUT_DIR
+  scale_report.py docs/performance-scale.json docs     # again from the figures of an earlier run (no run)
 
 Writes OUT_DIR/performance-scale.json (every raw figure), OUT_DIR/performance/scale-*.png (the plots) and replaces the
 region between the scale markers of OUT_DIR/performance.md (created with only that region when the file does not
@@ -82,13 +83,17 @@ def line_text(coef, unit, var):
 
 def main():
     raw, out_dir = sys.argv[1:3]
-    data = {}
-    for path in sorted(glob.glob(os.path.join(raw, "*.json"))):
-        data[os.path.basename(path)[:-5]] = load(path)
-    budget_text = ""
-    if os.path.exists(os.path.join(raw, "can_budget.txt")):
-        with open(os.path.join(raw, "can_budget.txt")) as f:
-            budget_text = f.read()
+    if raw.endswith(".json"):  # a performance-scale.json written before: the tables and plots again, no run
+        data = load(raw, {})
+        budget_text = data.get("can_budget_text", "")
+    else:
+        data = {}
+        for path in sorted(glob.glob(os.path.join(raw, "*.json"))):
+            data[os.path.basename(path)[:-5]] = load(path)
+        budget_text = ""
+        if os.path.exists(os.path.join(raw, "can_budget.txt")):
+            with open(os.path.join(raw, "can_budget.txt")) as f:
+                budget_text = f.read()
     data["can_budget_text"] = budget_text
     os.makedirs(out_dir, exist_ok=True)
     with open(os.path.join(out_dir, "performance-scale.json"), "w") as f:
@@ -192,9 +197,10 @@ def main():
       "directions, worst-case bit stuffing) from `can_link_benchmark`'s budget (1 kHz figure × rate / 1000). Classic "
       "CAN carries at most 6 DOF (its frames are identifiers base + 0..3) and CAN FD 12 (one 64-byte frame); a start "
       "refused by the bus-load check (`max_bus_load` 0.70 in the shipped configs) or by the layout is listed as such. "
-      "Start-up analysis: the stability check's time as the process logs it (master / slave; the axes have equal "
-      "gains, so the check analyses one axis and reuses it) and, last column, a slave whose every axis has its own "
-      "gain (no reuse).")
+      "Start-up analysis: the stability check's time as the process logs it (master / slave; every axis has the "
+      "same gains, so the check analyses each distinct axis model once: the master's one, the slave's two, its "
+      "fixture's axis and the free ones) and, last column, a slave whose every axis has its own gain (no reuse). "
+      "Classic CAN rows beyond 6 DOF give the frames and load the layout would need if it went on (it does not).")
     w("")
     w("| transport | rate | DOF | result | compute master p50 / p99 (µs) | compute slave p50 / p99 (µs) | overruns "
       "master / slave | slave data age p50 / p99 (µs) | master jitter p99 (µs) | bytes per cycle | bus load | "
@@ -218,13 +224,14 @@ def main():
                     wire, load_text = f"{udp_datagram_bytes(d)} B", "–"
                 else:
                     b = budget.get((transport, d))
-                    wire = f"{b['frames']} × frames, {b['bytes']} B" if b else "–"
+                    wire = (f"{b['frames']} frame{'s' if b['frames'] > 1 else ''}, {b['bytes']} B" if b else "–")
                     load_text = f"{100 * b['load_1khz'] * rate / 1000:.0f} %" if b else "–"
                 cm, cs = (ms or {}).get("compute_us", {}), (ss or {}).get("compute_us", {})
                 age = (ss or {}).get("data_age_us", {})
                 jit = (ms or {}).get("jitter_us", {})
                 distinct = (data.get(f"analysis-distinct-{d}") or {}).get("analysis_ms")
-                result = "ran" if refused is None else f"refused: {refused[-120:]}".replace("|", "/")
+                reason = re.sub(r"^(\[[^\]]*\] )+", "", refused or "").replace("|", "/")
+                result = "ran" if refused is None else f"refused: {reason[:160]}"
                 w(f"| {label} | {rate} Hz | {d} | {result} | {fmt(cm.get('p50'))} / {fmt(cm.get('p99'))} | "
                   f"{fmt(cs.get('p50'))} / {fmt(cs.get('p99'))} | "
                   f"{fmt(100 * om if om is not None else None, 2)} % / {fmt(100 * osl if osl is not None else None, 2)} % | "
@@ -265,8 +272,8 @@ def main():
     ca = fit([d for d, v in distinct], [v for d, v in distinct], 1)
     if ca is not None:
         w(f"- Start-up analysis with distinct axes ≈ {line_text(ca, 'ms', 'DOF')}: one worst-case search per axis "
-          "(linear; it runs before the first cycle, not in it). With equal gains on every axis it stays at one axis' "
-          "cost whatever the DOF.")
+          "(linear; it runs before the first cycle, not in it). With equal gains it costs the distinct axis models "
+          "only (two for the shipped slave), whatever the DOF.")
     w("- Bytes: UDP 84 + 24 × DOF (closed form above); CAN frames per cycle: classic ⌈slots⌉ (1 DOF: 1, 2–3: 2, 4: 3, "
       "5–6: 4), FD one frame of 8 × (slots − 1) + last slot bytes, rounded up to an FD length.")
     w("")
