@@ -55,7 +55,8 @@ def main():
     w("")
     w(f"Every number on this page was written by `{m.get('command', 'deploy/bench.sh')}` in one run "
       "(raw figures: [performance.json](performance.json)). Regenerate with `deploy/bench.sh` (a few minutes, root "
-      "for the real-time rows). Tests never assert timing; these are measurements.")
+      "for the real-time rows). The scale section (DOF, pairs per host, the 1 kHz jitter interleaved) is a run of "
+      "its own: `deploy/bench.sh --scale` rewrites only it. Tests never assert timing; these are measurements.")
     w("")
     w("| machine | kernel | CPU | CPUs | PREEMPT_RT | root | load average (start → end) | date (UTC) | git |")
     w("|---|---|---|---|---|---|---|---|---|")
