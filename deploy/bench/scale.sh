@@ -167,12 +167,11 @@ def scan(path):
     m = re.search(r"stability[^\n]*?; (\d+(?:\.\d+)?) ms", text)
     if m:
         ms = float(m.group(1))
-    reason = None
-    for line in text.splitlines():
-        if "critical" in line or "error" in line.lower():
-            reason = line.strip()[-300:]
-            break
-    return ms, reason
+    lines = text.splitlines()
+    reason = next((l.strip() for l in lines if "[critical]" in l), None)
+    if reason is None:
+        reason = next((l.strip() for l in lines if "error" in l.lower()), None)
+    return ms, reason[:600] if reason else None
 (m_ms, m_reason), (s_ms, s_reason) = scan(sys.argv[1]), scan(sys.argv[2])
 ms, ss = (int(x) for x in sys.argv[3].split(","))
 print(json.dumps({"transport": sys.argv[4], "rate_hz": int(sys.argv[5]), "mode": sys.argv[6], "dof": int(sys.argv[7]),
