@@ -63,6 +63,8 @@ cleanup() {
   rm -rf "${work}"
 }
 trap cleanup EXIT
+# The processes write fault records (a peer lost at a run's end) into their working directory: the scratch one.
+cd "${work}"
 ncpu=$(nproc)
 cpu_master=0; cpu_slave=$(( ncpu > 1 ? 1 : 0 ))
 is_root=0
