@@ -445,8 +445,8 @@ def main():
       "normal-scheduled thread's sleeps may expire up to 50 µs late (the kernel's default slack, which batches "
       "wake-ups); the loop now sets its thread's slack to 1 ns (`PR_SET_TIMERSLACK`, "
       "`PeriodicLoopConfig::timer_slack_ns`), for the sleeps and for the triggered wait's `ppoll`. A SCHED_FIFO "
-      "thread gets no slack from the kernel anyway, so this changes the `off` rows (slack 1 ns against 50 µs above), "
-      "not the `rt` ones. Percentiles: the loop's histogram reports a bin's upper edge (1 µs bins), cyclictest the "
+      "thread gets no slack from the kernel anyway (its `PR_GET_TIMERSLACK` reads 0, `timer_slack_ns` in the loop's "
+      "JSON), so this changes the `off` rows (slack 1 ns against 50 µs above), not the `rt` ones. Percentiles: the loop's histogram reports a bin's upper edge (1 µs bins), cyclictest the "
       "truncated µs, so the loop reads up to 1 µs higher at equal wake-ups.")
     w("")
     w(f"What is not the code's: the wake-up itself. This machine's cpuidle driver is `{m.get('cpuidle_driver')}` "
