@@ -95,10 +95,19 @@ def main():
             with open(os.path.join(raw, "can_budget.txt")) as f:
                 budget_text = f.read()
     data["can_budget_text"] = budget_text
+    # A process's run summary carries every counter of the run; the figures here keep what the section uses and
+    # what explains it (a few hundred runs: the whole summaries would make a megabyte per run of the bench).
+    keep = {"role", "dof", "rate_hz", "sync", "cycles", "overruns", "compute_us", "jitter_us", "period_us",
+            "data_age_us", "data_age_cycles", "rtt_ms", "stop_reason", "duration_s", "cycles_with_peer",
+            "triggered_cycles", "trigger_timeouts", "trigger_timeouts_coupled", "realtime_settings_applied",
+            "cpu_dma_latency_held", "link_detail", "final_state"}
+    for key, value in list(data.items()):
+        if isinstance(value, dict) and "compute_us" in value and "cycles" in value:
+            data[key] = {k: v for k, v in value.items() if k in keep}
     os.makedirs(out_dir, exist_ok=True)
-    with open(os.path.join(out_dir, "performance-scale.json"), "w") as f:
-        json.dump(data, f, indent=1, sort_keys=True)
-        f.write("\n")
+    with open(os.path.join(out_dir, "performance-scale.json"), "w") as f:  # one line per entry: small, diffable
+        f.write("{\n" + ",\n".join(f"{json.dumps(k)}: {json.dumps(data[k], sort_keys=True)}" for k in sorted(data))
+                + "\n}\n")
     budget = parse_can_budget(budget_text)
     m = data.get("machine") or {}
     end = data.get("machine_end") or {}
