@@ -3,6 +3,8 @@
 #
 #   deploy/bench.sh                 # full run: writes docs/performance.md and docs/performance.json
 #   deploy/bench.sh --smoke --out DIR   # seconds: every step once, tiny durations, writes DIR/performance.{md,json}
+#   deploy/bench.sh --scale [--quick]   # the scale sections only (DOF sweep, pairs per host, interleaved jitter):
+#                                       # about 11 min (--quick: 3 min, provisional); deploy/bench/scale.sh says more
 #
 # Side by side in the same run: loop timing of both processes at 1, 2, 4, 8 kHz, free-running and phase-locked
 # (sync.mode triggered), and of the loop alone (teleop-loop-bench) beside cyclictest at the same interval and
@@ -15,13 +17,18 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
 
+if [[ "${1:-}" == --scale ]]; then
+  shift
+  exec "$(dirname "${BASH_SOURCE[0]}")/bench/scale.sh" "$@"
+fi
+
 smoke=0
 out_dir="${TELEOP_ROOT}/docs"
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --smoke) smoke=1 ;;
     --out) out_dir="$2"; shift ;;
-    *) echo "usage: deploy/bench.sh [--smoke] [--out DIR]" >&2; exit 1 ;;
+    *) echo "usage: deploy/bench.sh [--smoke] [--out DIR] | deploy/bench.sh --scale [--quick] [--out DIR]" >&2; exit 1 ;;
   esac
   shift
 done

@@ -2,7 +2,7 @@
 // without the processes' config validation (whose rate cap is 4000 Hz), for deploy/bench.sh. Prints one JSON
 // object with the wake-up jitter, period and overruns, and whether the real-time settings were applied.
 //
-//   teleop-loop-bench --rate 8000 --duration 3 [--fifo 80] [--cpu 1] [--lock] [--dma-latency-us 0]
+//   teleop-loop-bench --rate 8000 --duration 3 [--fifo 80] [--cpu 1] [--lock] [--dma-latency-us 0] [--timer-slack-ns 1]
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
@@ -30,6 +30,8 @@ int Run(int argc, char** argv) {
   app.add_option("--cpu", config.cpu, "Pin to this CPU (-1 = any)");
   app.add_flag("--lock", config.lock_memory, "mlockall before the first cycle");
   app.add_option("--dma-latency-us", config.cpu_dma_latency_us, "Hold /dev/cpu_dma_latency at this value (-1 = no)");
+  app.add_option("--timer-slack-ns", config.timer_slack_ns,
+                 "Timer slack of the loop thread (ns; default 1 as in the processes; 0 = the inherited 50 us)");
   CLI11_PARSE(app, argc, argv);
   teleop::runtime::PeriodicLoop loop(config);
   loop.Run([](std::uint64_t, double) {});
@@ -40,6 +42,7 @@ int Run(int argc, char** argv) {
   std::printf(R"("cpu_dma_latency_us": %d, "cpu_dma_latency_held": %s, "realtime_settings_applied": %s, )",
               config.cpu_dma_latency_us, s.cpu_dma_latency_held ? "true" : "false",
               s.realtime_settings_applied ? "true" : "false");
+  std::printf(R"("timer_slack_ns": %lld, )", static_cast<long long>(s.timer_slack_ns));
   PrintDistribution("jitter", s.jitter_ns);
   PrintDistribution("period", s.period_ns);
   std::printf(R"("cycles": %llu, "overruns": %llu, "skipped_slots": %llu, "overrun_fraction": %.6f})"

@@ -55,7 +55,8 @@ def main():
     w("")
     w(f"Every number on this page was written by `{m.get('command', 'deploy/bench.sh')}` in one run "
       "(raw figures: [performance.json](performance.json)). Regenerate with `deploy/bench.sh` (a few minutes, root "
-      "for the real-time rows). Tests never assert timing; these are measurements.")
+      "for the real-time rows). The scale section (DOF, pairs per host, the 1 kHz jitter interleaved) is a run of "
+      "its own: `deploy/bench.sh --scale` rewrites only it. Tests never assert timing; these are measurements.")
     w("")
     w("| machine | kernel | CPU | CPUs | PREEMPT_RT | root | load average (start → end) | date (UTC) | git |")
     w("|---|---|---|---|---|---|---|---|---|")
@@ -284,7 +285,7 @@ def main():
             scale = {"ns": 1, "us": 1e3, "ms": 1e6}.get(unit, 1)
             w(f"| {b}: {bm['name']} | {bm['cpu_time'] * scale:.0f} |")
     w("")
-    w("The law step has 1- and 6-DOF cases only (`BM_LawStep`); a 3-DOF case is not in the benchmark yet.")
+    w("`BM_LawStep` and `BM_CycleCompute` (one side's whole cycle without its system calls) run at 1, 2, 3, 6, 7 and 12 DOF; the scale section below fits them against DOF (`deploy/bench.sh --scale`).")
     w("")
 
     # Allocations.
@@ -409,6 +410,17 @@ def main():
             w(f"| {label} | {fmt(c.get('p50'))} / {fmt(c.get('p99'))} / {fmt(c.get('max'))} | {s.get('overruns')} | "
               f"{s.get('telemetry_records')} | {s.get('telemetry_dropped')} |")
         w("")
+
+    # The scale sections (deploy/bench.sh --scale, deploy/bench/scale_report.py) are a run of their own: carried over
+    # from the page this run replaces.
+    try:
+        with open(out_md) as f:
+            old = f.read()
+        start, end = old.index("<!-- scale:begin"), old.index("<!-- scale:end -->") + len("<!-- scale:end -->")
+        w(old[start:end])
+        w("")
+    except (OSError, ValueError):
+        pass
 
     w("## Not measured or not done")
     w("")

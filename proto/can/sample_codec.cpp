@@ -212,7 +212,7 @@ void CycleAssembler::Tick() noexcept {
 FrameStatus CycleAssembler::Push(const CanFrame& frame, SampleMessage& out) noexcept {
   if (frame.error || frame.remote || frame.fd != format_.fd) return FrameStatus::kBadFormat;
   if (frame.extended != format_.extended_id) return FrameStatus::kUnknownId;
-  if (slots_ < 1 || slots_ > kMaxSlots) return FrameStatus::kBadFormat;  // dof outside the wire range
+  if (FramesPerCycle(format_) == 0) return FrameStatus::kBadFormat;  // dof outside the range of this CAN kind
   return format_.fd ? PushFd(frame, out) : PushClassic(frame, out);
 }
 

@@ -5,13 +5,21 @@
 
 namespace teleop::proto::can {
 
+namespace {
+
+bool DofFits(const CanWireFormat& format) noexcept {
+  return format.dof >= 1 && format.dof <= (format.fd ? kMaxWireDof : kMaxClassicDof);
+}
+
+}  // namespace
+
 int FramesPerCycle(const CanWireFormat& format) noexcept {
-  if (format.dof < 1 || format.dof > kMaxWireDof) return 0;
+  if (!DofFits(format)) return 0;
   return format.fd ? 1 : SlotCount(format.dof);
 }
 
 FormatStatus CheckFormat(const CanWireFormat& format) noexcept {
-  if (format.dof < 1 || format.dof > kMaxWireDof) return FormatStatus::kBadDof;
+  if (!DofFits(format)) return FormatStatus::kBadDof;
   const std::uint32_t max_id = format.extended_id ? kMaxExtendedId : kMaxStandardId;
   const std::uint32_t m = format.master_to_slave_base_id;
   const std::uint32_t s = format.slave_to_master_base_id;
@@ -25,7 +33,7 @@ const char* ToString(FormatStatus status) noexcept {
     case FormatStatus::kOk:
       return "ok";
     case FormatStatus::kBadDof:
-      return "dof outside 1..6";
+      return "dof outside 1..6 (classic CAN) or 1..12 (CAN FD)";
     case FormatStatus::kIdOutOfRange:
       return "base identifier + 4 does not fit the identifier width";
     case FormatStatus::kIdRangesOverlap:

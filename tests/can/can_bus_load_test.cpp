@@ -107,12 +107,16 @@ TEST(CanBusLoad, ExtendedIdsCostTwentyFiveBitsMorePerFrame) {
 }
 
 TEST(CanBusLoad, OverheadWithinTenPercentForEveryWireDof) {
-  for (int dof = 1; dof <= kMaxWireDof; ++dof) {
-    for (const bool fd : {false, true}) {
+  for (const bool fd : {false, true}) {
+    for (int dof = 1; dof <= (fd ? kMaxWireDof : kMaxClassicDof); ++dof) {
       for (const bool ext : {false, true}) {
         const BusLoad b = ComputeBusLoad(Format(dof, fd, ext), CanBitrates{1e6, 5e6}, 1000.0);
         EXPECT_GE(b.overhead, 1.0 - kTol) << dof << fd << ext;
-        EXPECT_LE(b.overhead, 1.1) << dof << fd << ext;
+        // One exception, CAN FD at 10 DOF: its 54 data bytes need a 64-byte frame (the FD lengths step from 48 to
+        // 64), where the 380 payload bits alone would fit 48 bytes: 1.23x (11-bit), 1.20x (29-bit) by the
+        // worst-case stuffing formula; 11 and 12 DOF fill the 64 bytes again (docs/can.md).
+        const double bound = fd && dof == 10 ? (ext ? 1.20 : 1.233) : 1.1;
+        EXPECT_LE(b.overhead, bound) << dof << fd << ext;
       }
     }
   }

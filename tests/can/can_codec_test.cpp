@@ -211,12 +211,40 @@ TEST(CanCodec, NonFiniteFieldDropsTheWholeCycle) {
 }
 
 // Seeded property test: random in-range samples survive classic and FD encoding within half an LSB.
+// Classic CAN stops at 6 DOF (4 slots, identifiers base + 0..3; base + 4 is the FD frame's), CAN FD at 12 (8 slots,
+// one 64-byte frame); beyond either the format is refused and nothing is encoded (docs/can.md).
+TEST(CanCodec, ClassicCarriesUpToSixDofAndFdUpToTwelve) {
+  EXPECT_EQ(CheckFormat(Format(6, false)), FormatStatus::kOk);
+  EXPECT_EQ(CheckFormat(Format(7, false)), FormatStatus::kBadDof);
+  EXPECT_EQ(FramesPerCycle(Format(7, false)), 0);
+  EXPECT_EQ(CheckFormat(Format(12, true)), FormatStatus::kOk);
+  EXPECT_EQ(FramesPerCycle(Format(12, true)), 1);
+  EXPECT_EQ(FdDataBytes(12), 64);
+  EXPECT_EQ(SlotCount(12), kMaxSlots);
+  EXPECT_EQ(CheckFormat(Format(13, true)), FormatStatus::kBadDof);
+  SampleMessage m{};
+  m.dof = 7;
+  std::array<CanFrame, kMaxSlots> frames{};
+  EXPECT_EQ(EncodeCycle(m, Format(7, false), frames).frames, 0);
+  const EncodeResult fd = EncodeCycle(m, Format(7, true), frames);
+  ASSERT_EQ(fd.frames, 1);
+  EXPECT_EQ(frames[0].len, 48);  // 8 x 4 + 6 data bytes, rounded up to an FD length
+  EXPECT_EQ(frames[0].id, 0x100u + kFdIdOffset);
+  CycleAssembler classic(Format(7, false), SenderRole::kMaster);
+  SampleMessage out{};
+  CanFrame f{};
+  f.id = 0x100;
+  f.len = 8;
+  EXPECT_EQ(classic.Push(f, out), FrameStatus::kBadFormat);
+}
+
 TEST(CanCodec, RoundTripWithinHalfLsbAllDofBothFormats) {
   std::mt19937 rng(20240611);
   std::uniform_real_distribution<double> pos(-0.16, 0.16), vel(-2.0, 2.0), force(-20.0, 20.0);
   constexpr int kSamplesPerCase = 200;  // raise for a longer run
   for (int dof = 1; dof <= kMaxWireDof; ++dof) {
     for (const bool fd : {false, true}) {
+      if (!fd && dof > kMaxClassicDof) continue;  // classic CAN carries 1..6 (FramesPerCycle 0 beyond)
       const CanWireFormat f = Format(dof, fd);
       CycleAssembler rx(f, SenderRole::kSlave);
       for (int i = 0; i < kSamplesPerCase; ++i) {

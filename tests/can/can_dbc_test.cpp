@@ -9,6 +9,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "teleop/proto/can/sample_codec.hpp"
@@ -79,11 +80,12 @@ std::map<std::uint32_t, DbcMessage> ParseDbc(const std::string& path) {
   return messages;
 }
 
-// What the codec's table says slot `slot` carries (6 DOF, the largest layout the DBC describes): its signals, and
-// for slot 0 the layout marker (a 1-bit unsigned signal "Layout", always 1). FD: bit positions in the FD frame.
+// What the codec's table says slot `slot` carries in the largest layout the DBC describes (6 DOF classic, 12 FD):
+// its signals, and for slot 0 the layout marker (a 1-bit unsigned signal "Layout", always 1). FD: bit positions in
+// the FD frame.
 std::vector<DbcSignal> SlotExpected(int slot, bool fd, const std::string& receiver) {
   std::vector<DbcSignal> out;
-  const int dof = kMaxWireDof;
+  const int dof = fd ? kMaxWireDof : kMaxClassicDof;
   for (const SlotSignal& s : SlotSignals(slot)) {
     if (!SignalUsed(slot, s, dof)) continue;
     const FieldScaling& sc = ScalingOf(s.kind);
@@ -122,7 +124,7 @@ std::vector<DbcSignal> SlotExpected(int slot, bool fd, const std::string& receiv
 
 std::vector<DbcSignal> ExpectedSignals(bool fd, const std::string& receiver) {
   std::vector<DbcSignal> out;
-  for (int slot = 0; slot < SlotCount(kMaxWireDof); ++slot) {
+  for (int slot = 0; slot < SlotCount(fd ? kMaxWireDof : kMaxClassicDof); ++slot) {
     const std::vector<DbcSignal> signals = SlotExpected(slot, fd, receiver);
     out.insert(out.end(), signals.begin(), signals.end());
   }
@@ -167,7 +169,7 @@ TEST(CanDbc, EveryMessageAndSignalMatchesTheCodecTable) {
     const std::string sender = role == SenderRole::kMaster ? "MASTER" : "SLAVE";
     const std::string receiver = role == SenderRole::kMaster ? "SLAVE" : "MASTER";
     // Classic: the signals of slot k in message base + k.
-    for (int slot = 0; slot < kMaxSlots; ++slot) {
+    for (int slot = 0; slot < kMaxClassicSlots; ++slot) {
       const auto it = messages.find(base + static_cast<std::uint32_t>(slot));
       ASSERT_NE(it, messages.end()) << base + slot;
       EXPECT_EQ(it->second.dlc, 8);
@@ -177,7 +179,9 @@ TEST(CanDbc, EveryMessageAndSignalMatchesTheCodecTable) {
     }
     const auto fd = messages.find(base + kFdIdOffset);
     ASSERT_NE(fd, messages.end());
-    EXPECT_EQ(static_cast<std::size_t>(fd->second.dlc), RoundUpToFdLength(static_cast<std::size_t>(FdDataBytes(6))));
+    EXPECT_EQ(static_cast<std::size_t>(fd->second.dlc),
+              RoundUpToFdLength(static_cast<std::size_t>(FdDataBytes(kMaxWireDof))));
+    EXPECT_EQ(fd->second.dlc, 64);           // 12 DOF fill one CAN FD frame exactly
     EXPECT_EQ(fd->second.frame_format, 14);  // StandardCAN_FD
     EXPECT_EQ(fd->second.sender, sender);
     ExpectSameSignals(fd->second.signals, ExpectedSignals(true, receiver), fd->second.name);
@@ -202,17 +206,18 @@ TEST(CanDbc, CodecFramesDecodeThroughTheDbc) {
   std::uniform_real_distribution<double> u(-0.1, 0.1);
   SampleMessage m{};
   m.sender = SenderRole::kSlave;
-  m.dof = 6;
   m.flags = kFlagFault | kFlagShutdown | kFlagClutched;
   m.sequence = 11;
-  for (std::size_t j = 0; j < 6; ++j) {
+  for (std::size_t j = 0; j < static_cast<std::size_t>(kMaxWireDof); ++j) {
     m.position_m[j] = u(rng);
     m.velocity_m_per_s[j] = 10 * u(rng);
     m.force_N[j] = 100 * u(rng);
   }
-  for (const bool fd : {false, true}) {
+  // Classic at its largest (6 DOF, 4 frames), FD at 6 and at its largest (12 DOF, one 64-byte frame).
+  for (const auto& [fd, dof] : {std::pair{false, 6}, std::pair{true, 6}, std::pair{true, 12}}) {
+    m.dof = static_cast<std::uint8_t>(dof);
     CanWireFormat f{};
-    f.dof = 6;
+    f.dof = dof;
     f.fd = fd;
     std::array<CanFrame, kMaxSlots> frames{};
     const EncodeResult r = EncodeCycle(m, f, frames);
@@ -223,6 +228,7 @@ TEST(CanDbc, CodecFramesDecodeThroughTheDbc) {
       const auto it = messages.find(frame.id);
       ASSERT_NE(it, messages.end());
       for (const DbcSignal& s : it->second.signals) {
+        if (s.start_bit >= 8 * frame.len) continue;  // the FD message's slots past this dof: not sent
         const double v = DecodeWithDbc(s, frame);
         const std::string stem = s.name.substr(0, s.name.find_first_of("0123456789_"));
         if (stem == "Counter") {
@@ -241,7 +247,8 @@ TEST(CanDbc, CodecFramesDecodeThroughTheDbc) {
         ++checked;
       }
     }
-    EXPECT_EQ(checked, 4 + 1 + 1 + 18) << "fd " << fd;  // 4 counters, flags, the layout marker, 6 DOF × 3
+    // counters, flags, the layout marker, 3 per DOF
+    EXPECT_EQ(checked, SlotCount(dof) + 1 + 1 + 3 * dof) << "fd " << fd << " dof " << dof;
   }
 }
 

@@ -323,7 +323,7 @@ TEST(CanBusBudget, RefusesAboveTheLimitWithTheNumbers) {
   config.slave_to_master_base_id = config.master_to_slave_base_id + 2;
   EXPECT_THROW(CheckCanBusBudget(config, 1000.0), Error);
   config.slave_to_master_base_id = 0x180;
-  config.dof = 7;
+  config.dof = 13;  // beyond CAN FD's 12 (classic: 6)
   EXPECT_THROW(CheckCanBusBudget(config, 1000.0), Error);
 }
 

@@ -232,7 +232,7 @@ TEST(YamlConfigErrors, WrongTypeIntegerAndBool) {
 
 TEST(YamlConfigErrors, OutOfRange) {
   ExpectError(Replace(kBase, "rate_hz: 1000", "rate_hz: 9000"), "9000", "rate_hz", "250..8000 Hz");
-  ExpectError(Replace(kBase, "dof: 1", "dof: 7"), "7", "dof", "1..6");
+  ExpectError(Replace(kBase, "dof: 1", "dof: 13"), "13", "dof", "1..12");
   ExpectError(Replace(kBase, "kp_N_per_m: 600", "kp_N_per_m: -600"), "-600", "law.kp_N_per_m", ">= 0");
   ExpectError(Replace(kBase, "kp_N_per_m: 600", "kp_N_per_m: .nan"), ".nan", "law.kp_N_per_m", "finite");
   ExpectError(Replace(kBase, "mass_kg: 0.04", "mass_kg: 0"), "0\n    damping", "device.loopback.mass_kg", "> 0 kg");

@@ -20,7 +20,9 @@ TEST(NoAllocation, TheCounterSeesAnAllocation) {
   EXPECT_EQ(*p, 1.0);
 }
 
-control::ThreeChannelLaw::Config SixDofLaw() {
+// At the most DOF the framework carries (kMaxDof, 12).
+control::ThreeChannelLaw::Config MaxDofLaw() {
+  static_assert(kMaxDof == 12);
   auto config = control::ThreeChannelLaw::ZeroGains(Role::kSlave, kMaxDof);
   config.kp_N_per_m.setConstant(600.0);
   config.kd_Ns_per_m.setConstant(2.0);
@@ -38,8 +40,8 @@ control::ThreeChannelLaw::Config SixDofLaw() {
 }
 
 TEST(NoAllocation, LawFixtureAndEstimatorStep) {
-  control::ThreeChannelLaw law(SixDofLaw());
-  control::ForbiddenRegionFixture fixture(SixDofLaw().fixture);
+  control::ThreeChannelLaw law(MaxDofLaw());
+  control::ForbiddenRegionFixture fixture(MaxDofLaw().fixture);
   control::VelocityEstimator estimator({kMaxDof, 200.0});
   control::ThreeChannelLaw::Input in;
   in.position_m = DofVector::Constant(kMaxDof, 0.002);

@@ -287,7 +287,7 @@ TEST(ThreeChannelLaw, RejectsBadConfigWithActionableMessages) {
   c.velocity_filter_hz = -5.0;
   expect_error(c, "velocity_filter_hz");
   c = Gains(Role::kMaster, 0.0, 0.0, 0.0, 0.0);
-  c.dof = 7;
+  c.dof = kMaxDof + 1;
   expect_error(c, "dof");
   c = ThreeChannelLaw::ZeroGains(Role::kMaster, 2);
   c.fixture = ForbiddenRegionFixture::Eq7(100.0);  // 1-DOF fixture on a 2-DOF law

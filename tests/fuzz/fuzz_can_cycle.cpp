@@ -1,5 +1,5 @@
 // libFuzzer harness: the CAN frame decode and cycle reassembly (proto/can/sample_codec.cpp, CycleAssembler). The
-// first input byte picks the wire format (dof 1..6, classic or FD, 11- or 29-bit identifiers); the rest is a
+// first input byte picks the wire format (dof 1..6 classic or 1..12 FD, 11- or 29-bit identifiers); the rest is a
 // stream of frames, each: a control byte (bit 0 extended, 1 FD, 2 BRS, 3 remote, 4 error, 5 Tick() after it,
 // 6 Reset() after it), an identifier byte (offset from the peer's base, so most frames hit the peer's identifiers),
 // a length byte, then that many data bytes. Properties: no crash or UB; every status is in range; a completed
@@ -20,8 +20,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using namespace teleop::proto::can;
   if (size == 0) return 0;
   CanWireFormat format{};
-  format.dof = 1 + data[0] % kMaxWireDof;
   format.fd = (data[0] & 0x10) != 0;
+  format.dof = 1 + (data[0] & 0x0F) % (format.fd ? kMaxWireDof : kMaxClassicDof);  // classic 1..6, FD 1..12
   format.extended_id = (data[0] & 0x20) != 0;
   TELEOP_FUZZ_CHECK(CheckFormat(format) == FormatStatus::kOk);
   const SenderRole peer = (data[0] & 0x40) != 0 ? SenderRole::kSlave : SenderRole::kMaster;

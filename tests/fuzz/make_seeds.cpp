@@ -132,8 +132,9 @@ int main(int argc, char** argv) {
 
   // CAN harness: format byte, then per frame: control, id offset, length, data.
   const std::filesystem::path can_dir = root / "can_cycle";
-  for (const int dof : {1, 3, 6}) {
+  for (const int dof : {1, 3, 6, 12}) {
     for (const bool fd : {false, true}) {
+      if (!fd && dof > can::kMaxClassicDof) continue;
       can::CanWireFormat format{};
       format.dof = dof;
       format.fd = fd;

@@ -48,10 +48,10 @@ config::ProcessConfig Parse(const std::string& text) { return config::ParseProce
 struct Pair {
   explicit Pair(bool slave_fixture = false) : Pair(Config("master", false), Config("slave", slave_fixture)) {}
   Pair(const std::string& master_config, const std::string& slave_config,
-       const transport::EmulatedMediumConfig& medium_config = {}) {
+       const transport::EmulatedMediumConfig& medium_config = {}, int dof = 2) {
     medium = std::make_shared<transport::EmulatedMedium>(medium_config);
-    auto m = std::make_unique<MockDevice>(2);
-    auto s = std::make_unique<MockDevice>(2);
+    auto m = std::make_unique<MockDevice>(dof);
+    auto s = std::make_unique<MockDevice>(dof);
     master_device = m.get();
     slave_device = s.get();
     master =
@@ -256,6 +256,31 @@ TEST(TeleopNode, TheCycleAllocatesNothing) {
   ASSERT_EQ(pair.slave->engagement(), EngagementState::kEngaged) << "re-engaged within the 1300 cycles";
   EXPECT_EQ(counter.count(), 0u);
   EXPECT_NEAR(pair.slave_device->last_command.force_N[0], -kFixture_N_per_m * 0.002 + kKp_N_per_m * 0.003, 1e-9);
+}
+
+// The same at the most DOF a pair carries (kMaxDof, 12: the 7..12-DOF wire samples, the DOF sweep of
+// docs/performance.md): the cycle's storage is fixed at kMaxDof, so more DOF never reaches the heap.
+TEST(TeleopNode, TheCycleAllocatesNothingAtTwelveDof) {
+  static_assert(kMaxDof == 12);
+  auto twelve = [](std::string text) { return text.replace(text.find("dof: 2"), 6, "dof: 12"); };
+  Pair pair(twelve(Config("master", false)), twelve(Config("slave", true)), {}, kMaxDof);
+  pair.master_device->position_m = DofVector::Constant(kMaxDof, 0.001);
+  pair.master_device->position_m[0] = 0.01;
+  pair.slave_device->position_m = DofVector::Constant(kMaxDof, 0.001);
+  pair.slave_device->position_m[0] = 0.007;
+  pair.Engage();
+  test::AllocationCounter counter;
+  for (int k = 0; k < 2000; ++k) {
+    if (k == 500) pair.master_device->faults = device::kFaultDriver;
+    if (k == 700) pair.master_device->faults = device::kFaultNone;
+    pair.Step();
+  }
+  ASSERT_EQ(pair.slave->engagement(), EngagementState::kEngaged) << "re-engaged within the 1300 cycles";
+  EXPECT_EQ(counter.count(), 0u);
+  ASSERT_EQ(pair.slave_device->last_command.force_N.size(), kMaxDof);
+  // Axis 0 as at 2 DOF (fixture and coupling); axis 11 is coupled only (both ends at 1 mm: no force).
+  EXPECT_NEAR(pair.slave_device->last_command.force_N[0], -kFixture_N_per_m * 0.002 + kKp_N_per_m * 0.003, 1e-9);
+  EXPECT_NEAR(pair.slave_device->last_command.force_N[11], 0.0, 1e-9);
 }
 
 // ---- time-domain passivity (docs/stability.md) through the node: the controller sits between the law and the

@@ -22,18 +22,18 @@ teleop::proto::SampleMessage MakeMessage(int dof) {
 
 void BM_Encode(benchmark::State& state) {
   teleop::proto::SampleMessage m = MakeMessage(static_cast<int>(state.range(0)));
-  std::array<std::uint8_t, 256> buffer{};
+  std::array<std::uint8_t, teleop::proto::kMaxEncodedSampleBytes> buffer{};
   for (auto _ : state) {
     ++m.sequence;
     benchmark::DoNotOptimize(teleop::proto::EncodeSample(m, buffer));
     benchmark::ClobberMemory();
   }
 }
-BENCHMARK(BM_Encode)->Arg(1)->Arg(6);
+BENCHMARK(BM_Encode)->Arg(1)->Arg(2)->Arg(3)->Arg(6)->Arg(7)->Arg(12);
 
 void BM_Decode(benchmark::State& state) {
   const teleop::proto::SampleMessage m = MakeMessage(static_cast<int>(state.range(0)));
-  std::array<std::uint8_t, 256> buffer{};
+  std::array<std::uint8_t, teleop::proto::kMaxEncodedSampleBytes> buffer{};
   const std::size_t size = teleop::proto::EncodeSample(m, buffer);
   teleop::proto::SampleMessage out;
   for (auto _ : state) {
@@ -41,7 +41,7 @@ void BM_Decode(benchmark::State& state) {
     benchmark::DoNotOptimize(out);
   }
 }
-BENCHMARK(BM_Decode)->Arg(1)->Arg(6);
+BENCHMARK(BM_Decode)->Arg(1)->Arg(2)->Arg(3)->Arg(6)->Arg(7)->Arg(12);
 
 void BM_Crc32c(benchmark::State& state) {
   std::array<std::uint8_t, 180> bytes{};

@@ -131,14 +131,14 @@ TEST(SecureCodec, FrameDecodeGivesViewsIntoTheDatagram) {
   EXPECT_EQ(view.ciphertext.size(), 64u);
   EXPECT_EQ(view.tag.data(), frame.data() + 92);
   EXPECT_EQ(view.tag.size(), 16u);
-  // Every sample size 64 + 24k, or 80 + 40k with the energy block (k = 0..5), is a valid sealed length; others
-  // are not.
-  for (std::uint16_t n = 0; n < 300; ++n) {
-    std::array<std::uint8_t, 28 + 300 + 16> buffer{};
+  // Every sample size 64 + 24k, or 80 + 40k with the energy block (k = 0..11: 1..12 DOF), is a valid sealed
+  // length; others are not.
+  for (std::uint16_t n = 0; n < 560; ++n) {
+    std::array<std::uint8_t, 28 + 560 + 16> buffer{};
     std::copy(kGoldenFrameHeader.begin(), kGoldenFrameHeader.end(), buffer.begin());
     buffer[24] = static_cast<std::uint8_t>(n);
     buffer[25] = static_cast<std::uint8_t>(n >> 8);
-    const bool sample_size = (n >= 64 && n <= 184 && (n - 64) % 24 == 0) || (n >= 80 && n <= 280 && (n - 80) % 40 == 0);
+    const bool sample_size = (n >= 64 && n <= 328 && (n - 64) % 24 == 0) || (n >= 80 && n <= 520 && (n - 80) % 40 == 0);
     EXPECT_EQ(DecodeSecureFrame(std::span(buffer).first(28 + n + 16), view),
               sample_size ? DecodeStatus::kOk : DecodeStatus::kBadLength)
         << n;

@@ -110,10 +110,11 @@ class CaptureCheckTest(unittest.TestCase):
         # (dof, fd) -> frame lengths of one direction: the table of tests/can/can_codec_test.cpp (SlotLength,
         # FdDataBytes rounded to an FD length), here derived from the DBC alone.
         classic = [[7], [8, 4], [8, 8], [8, 8, 6], [8, 8, 8, 4], [8, 8, 8, 8]]
-        fd_lengths = [7, 12, 16, 24, 32, 32]
+        fd_lengths = [7, 12, 16, 24, 32, 32, 48, 48, 48, 64, 64, 64]  # classic CAN stops at 6 DOF, FD at 12
         expected = {}
-        for dof in range(1, 7):
-            expected[(dof, False)] = classic[dof - 1]
+        for dof in range(1, 13):
+            if dof <= 6:
+                expected[(dof, False)] = classic[dof - 1]
             expected[(dof, True)] = [fd_lengths[dof - 1]]
         for (dof, fd), lengths in expected.items():
             layout = checker.Layout(messages, "SLAVE", dof, fd)

@@ -1,6 +1,7 @@
 #include "teleop/runtime/periodic_loop.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <array>
@@ -280,6 +281,33 @@ TEST(PeriodicLoopDmaLatency, NotAskedTouchesNothingAndInvalidValueIsRejected) {
   EXPECT_EQ(loop.stats().setting_warnings, 0u);
   EXPECT_FALSE(loop.stats().cpu_dma_latency_held);
   config.cpu_dma_latency_us = -2;
+  EXPECT_THROW(PeriodicLoop{config}, Error);
+}
+
+// The loop thread's timer slack (docs/performance.md, "The 1 kHz jitter"): the kernel's 50 µs default would land in
+// every normal-scheduled wake-up; the loop sets 1 ns for the run, and 0 leaves what the thread inherited.
+TEST(PeriodicLoopTimerSlack, TheLoopSetsItsThreadsSlackAndZeroLeavesTheInheritedOne) {
+  const long inherited = prctl(PR_GET_TIMERSLACK, 0UL, 0UL, 0UL, 0UL);
+  ASSERT_GT(inherited, 0);
+  PeriodicLoopConfig config;
+  config.rate_hz = 1000.0;
+  config.duration_s = 0.002;
+  long seen_in_body = -1;
+  {
+    PeriodicLoop loop(config);  // default: 1 ns
+    loop.Run([&](std::uint64_t, double) { seen_in_body = prctl(PR_GET_TIMERSLACK, 0UL, 0UL, 0UL, 0UL); });
+    EXPECT_EQ(loop.stats().timer_slack_ns, 1);
+    EXPECT_EQ(seen_in_body, 1);
+    EXPECT_EQ(loop.stats().setting_warnings, 0u);
+  }
+  ASSERT_EQ(prctl(PR_SET_TIMERSLACK, static_cast<unsigned long>(inherited), 0UL, 0UL, 0UL), 0);
+  config.timer_slack_ns = 0;
+  {
+    PeriodicLoop loop(config);
+    loop.Run([](std::uint64_t, double) {});
+    EXPECT_EQ(loop.stats().timer_slack_ns, inherited);
+  }
+  config.timer_slack_ns = -1;
   EXPECT_THROW(PeriodicLoop{config}, Error);
 }
 

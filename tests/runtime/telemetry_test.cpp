@@ -173,7 +173,7 @@ TEST_F(TelemetryWriterTest, UnwritablePathIsASetUpErrorNamingThePath) {
     EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
   }
   EXPECT_THROW(TelemetryWriter((dir_ / "x.csv").string(), 0, 1), Error);
-  EXPECT_THROW(TelemetryWriter((dir_ / "y.csv").string(), 16, 7), Error);
+  EXPECT_THROW(TelemetryWriter((dir_ / "y.csv").string(), 16, kMaxDof + 1), Error);
 }
 
 }  // namespace

@@ -279,7 +279,7 @@ TEST(UdpLink, SendWithoutPeerIsACountedError) {
   UdpLink link(Config(SenderRole::kSlave));
   EXPECT_FALSE(link.Send(MakeSample(SenderRole::kMaster, 1)));
   proto::SampleMessage bad = MakeSample(SenderRole::kMaster, 1);
-  bad.dof = 9;
+  bad.dof = 13;  // kMaxWireDof + 1
   link.SetPeer("127.0.0.1", 9);
   EXPECT_FALSE(link.Send(bad));  // not encodable
   EXPECT_EQ(link.counters().send_errors, 2u);

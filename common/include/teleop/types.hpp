@@ -5,8 +5,10 @@
 
 namespace teleop {
 
-/// The most Cartesian degrees of freedom a device or a wire sample carries (x, y, z, roll, pitch, yaw).
-inline constexpr int kMaxDof = 6;
+/// The most degrees of freedom a device or a wire sample carries: 12 covers a 7-joint arm with a 6-DOF wrist
+/// sensor's Cartesian axes, or a bimanual console of two 6-DOF devices driven as one pair (x, y, z, roll, pitch,
+/// yaw per device). Storage of a DofVector is fixed at this size (12 doubles), whatever the configured dof.
+inline constexpr int kMaxDof = 12;
 
 /// A per-DOF vector with a run-time size of 1..kMaxDof and fixed storage: resizing it never touches the heap,
 /// so it is safe inside the control cycle. The unit and frame are stated where a variable is declared.

@@ -35,9 +35,11 @@ builtin_interfaces_msg_dds__Time_ WallClockNow() noexcept {
   return {static_cast<int32_t>(ts.tv_sec), static_cast<uint32_t>(ts.tv_nsec)};
 }
 
+/// The IDL's State arrays hold 6 axes (one Cartesian device); a pair of more DOF (up to kMaxDof, 12) shows its first
+/// 6 on DDS (docs/dds.md); the full vectors are in the telemetry CSV.
 void CopyArray(const double (&in)[kMaxDof], double (&out)[6]) noexcept {
-  static_assert(kMaxDof == 6, "the IDL arrays hold kMaxDof entries");
-  std::copy(std::begin(in), std::end(in), std::begin(out));
+  static_assert(kMaxDof >= 6, "the IDL arrays hold 6 entries");
+  std::copy(std::begin(in), std::begin(in) + 6, std::begin(out));
 }
 
 /// DDS wants `char*` in the generated structs; it only reads them while writing.

@@ -4,6 +4,7 @@
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
+#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -113,6 +114,10 @@ PeriodicLoop::PeriodicLoop(const PeriodicLoopConfig& config) : config_(config), 
     throw Error("periodic loop: cpu_dma_latency_us " + std::to_string(config.cpu_dma_latency_us) +
                 " is invalid (-1 = leave it alone, 0 = no idle halt, else the largest wake-up latency in µs)");
   }
+  if (config.timer_slack_ns < 0) {
+    throw Error("periodic loop: timer_slack_ns " + std::to_string(config.timer_slack_ns) +
+                " is invalid (0 = leave the inherited slack, else the slack in ns)");
+  }
   if (!std::isfinite(config.duration_s) || config.duration_s < 0.0) {
     throw Error("periodic loop: duration_s " + std::to_string(config.duration_s) +
                 " must be finite and >= 0 (0 = until stopped)");
@@ -191,6 +196,12 @@ void PeriodicLoop::Run(const Body& body) {
   stats_.cpu_dma_latency_held = dma_latency.has_value() && dma_latency->held();
   stats_.cpu_dma_latency_errno = dma_latency.has_value() ? dma_latency->error() : 0;
   stats_.setting_warnings = dma_latency.has_value() && !dma_latency->held() ? 1 : 0;
+  // Timer slack: a per-thread attribute, so set here, on the thread that sleeps (docs/performance.md, "1 kHz jitter").
+  if (config_.timer_slack_ns > 0 &&
+      prctl(PR_SET_TIMERSLACK, static_cast<unsigned long>(config_.timer_slack_ns), 0UL, 0UL, 0UL) != 0) {
+    ++stats_.setting_warnings;
+  }
+  stats_.timer_slack_ns = prctl(PR_GET_TIMERSLACK, 0UL, 0UL, 0UL, 0UL);
   stats_.realtime_settings_applied = config_.fifo_priority > 0 && config_.lock_memory &&
                                      (config_.cpu_dma_latency_us < 0 || stats_.cpu_dma_latency_held);
   stats_.cycles = 0;

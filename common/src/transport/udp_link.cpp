@@ -34,7 +34,7 @@ using asio::ip::udp;
 // Longer than any valid sample, so an oversized datagram is read (truncated) as more than a sample and rejected
 // as kBadLength instead of being mistaken for a shorter valid one.
 constexpr std::size_t kMaxSampleBytes = proto::kMaxEncodedSampleBytes;
-constexpr std::size_t kReceiveBufferBytes = 512;
+constexpr std::size_t kReceiveBufferBytes = 1024;  // 12 DOF with the energy block sealed: 564
 static_assert(kReceiveBufferBytes > kMaxSampleBytes);
 static_assert(kReceiveBufferBytes > proto::kMaxSecureMessageSize);
 constexpr std::size_t kTransmitBufferBytes = std::max(kMaxSampleBytes, proto::kMaxSecureMessageSize);

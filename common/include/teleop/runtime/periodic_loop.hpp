@@ -31,6 +31,11 @@ struct PeriodicLoopConfig {
   /// Triggered mode: > 0: from this long before the expected arrival, poll the trigger in a busy loop instead of
   /// sleeping in it, so the cycle starts without a wake-up latency (costs that much CPU per cycle). 0: off.
   std::int64_t trigger_spin_ns = 0;
+  /// ≥ 1: the loop thread's timer slack (prctl PR_SET_TIMERSLACK, ns) for the whole of Run(): how late the kernel
+  /// may let the loop's sleeps (clock_nanosleep, the trigger's ppoll) expire to batch wake-ups. The kernel's default
+  /// for a normal-scheduled thread is 50 µs, which lands whole in the wake-up jitter; SCHED_FIFO threads get 0
+  /// regardless. Default 1 (the least the kernel takes). 0: leave the inherited value (an A/B in teleop-loop-bench).
+  std::int64_t timer_slack_ns = 1;
 };
 
 /// Per-cycle timing statistics, collected without allocation.
@@ -47,7 +52,8 @@ struct CycleStats {
   bool realtime_settings_applied = false;
   bool cpu_dma_latency_held = false;   ///< The cpu_dma_latency_us request is held open for this run.
   int cpu_dma_latency_errno = 0;       ///< Why it is not (errno of the failed open/write), 0 when held or not asked.
-  std::uint64_t setting_warnings = 0;  ///< Settings asked for but not applied (today: cpu_dma_latency).
+  std::uint64_t setting_warnings = 0;  ///< Settings asked for but not applied (cpu_dma_latency, timer slack).
+  std::int64_t timer_slack_ns = -1;  ///< The loop thread's timer slack during the run (PR_GET_TIMERSLACK), -1 unknown.
   std::uint64_t triggered_cycles = 0;  ///< Triggered mode: cycles started by the trigger.
   std::uint64_t trigger_timeouts = 0;  ///< Triggered mode: cycles started by the timeout (free-running fallback).
 };

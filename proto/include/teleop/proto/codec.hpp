@@ -49,7 +49,8 @@ inline constexpr std::size_t kCrcSize = 4;       ///< CRC-32C over every byte be
 inline constexpr std::size_t kEnergyBytesPerDof = 16;
 }  // namespace wire
 
-/// Largest encoded sample (bytes): header + 6 DOF × (3 + 2) doubles + CRC = 280 (184 without the energy block).
+/// Largest encoded sample (bytes): header + 12 DOF × (3 + 2) doubles + CRC = 520 (328 without the energy block;
+/// 6 DOF: 280 and 184).
 inline constexpr std::size_t kMaxEncodedSampleBytes =
     wire::kHeaderSize + kMaxWireDof * (wire::kBytesPerDof + wire::kEnergyBytesPerDof) + wire::kCrcSize;
 /// kMaxEncodedSampleBytes.

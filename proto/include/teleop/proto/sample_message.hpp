@@ -8,8 +8,9 @@ namespace teleop::proto {
 /// Version of the wire format. A receiver rejects any other version (counted as kBadVersion).
 /// Any change of layout or meaning of a field bumps it (docs/protocol.md, "Version policy").
 inline constexpr std::uint8_t kProtocolVersion = 1;
-/// The most DOF one sample carries.
-inline constexpr int kMaxWireDof = 6;
+/// The most DOF one sample carries (the dof byte allows more; 12 is the framework's kMaxDof). Widening it from 6
+/// to 12 changed no byte of a 1..6-DOF sample; a receiver built with 6 rejects 7..12 as kBadDof.
+inline constexpr int kMaxWireDof = 12;
 
 /// Message types carried in the header. Only samples exist in version 1.
 enum class MessageType : std::uint8_t { kSample = 1 };

@@ -76,8 +76,8 @@ inline constexpr std::size_t kFrameHeaderSize = 28;
 /// Smallest and largest sample plaintext a frame carries: the version-1 encoding of 1 DOF, and of kMaxWireDof DOF
 /// with the energy block (EncodedSampleSize).
 inline constexpr std::size_t kMinFramePlaintextBytes = 64;
-inline constexpr std::size_t kMaxFramePlaintextBytes = kMaxEncodedSampleBytes;  // 280
-/// Largest frame: 28 + 280 + 16 = 324 bytes.
+inline constexpr std::size_t kMaxFramePlaintextBytes = kMaxEncodedSampleBytes;  // 520 (12 DOF with the energy block)
+/// Largest frame: 28 + 520 + 16 = 564 bytes.
 inline constexpr std::size_t kMaxSecureFrameSize =
     secure_wire::kFrameHeaderSize + kMaxFramePlaintextBytes + kFrameTagBytes;
 /// Largest version-2 message of any type.

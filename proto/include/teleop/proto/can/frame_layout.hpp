@@ -65,8 +65,14 @@ inline constexpr int kLayout1OneDofSlotBytes = 6;
 /// Bits of the rolling cycle counter carried in every slot.
 inline constexpr int kCounterBits = 4;
 inline constexpr std::uint8_t kCounterModulo = 1u << kCounterBits;
-/// Slots of the largest sample (6 DOF).
-inline constexpr int kMaxSlots = 4;
+/// Slots of the largest sample (12 DOF: 8 slots, 64 bytes, exactly one CAN FD frame).
+inline constexpr int kMaxSlots = 8;
+/// The most DOF classic CAN carries: its slots are frames base + 0..3 (the identifier base + 4 is the FD frame's),
+/// so 4 slots, 6 DOF. Beyond that classic CAN would need more identifiers, and its bus would not carry them anyway:
+/// 6 DOF bilateral at 1 kHz is 108 % of 1 Mbit/s (docs/performance.md). CAN FD carries 1..kMaxWireDof (12).
+inline constexpr int kMaxClassicDof = 6;
+/// Slots of the largest classic sample.
+inline constexpr int kMaxClassicSlots = 4;
 /// Identifier of the FD frame relative to the direction's base identifier (classic frames use base + 0..3).
 inline constexpr std::uint32_t kFdIdOffset = 4;
 /// Identifiers a direction occupies: base .. base + kIdSpan - 1.

@@ -8,7 +8,7 @@ namespace teleop::proto::can {
 
 /// What both ends of a CAN link must agree on (the receiver checks every frame against it).
 struct CanWireFormat {
-  int dof = 3;                                    ///< 1..kMaxWireDof.
+  int dof = 3;                                    ///< 1..kMaxClassicDof (6) classic, 1..kMaxWireDof (12) FD.
   bool fd = false;                                ///< One CAN FD frame per cycle instead of classic frames.
   bool brs = true;                                ///< FD bit-rate switch in sent frames (ignored for classic).
   bool extended_id = false;                       ///< 29-bit identifiers.
@@ -27,7 +27,7 @@ int FramesPerCycle(const CanWireFormat& format) noexcept;
 /// Why a format is unusable; kOk when both ends can use it.
 enum class FormatStatus : std::uint8_t {
   kOk,
-  kBadDof,           ///< dof outside 1..kMaxWireDof.
+  kBadDof,           ///< dof outside 1..kMaxClassicDof (classic) or 1..kMaxWireDof (FD).
   kIdOutOfRange,     ///< base + kIdSpan - 1 does not fit 11 (or 29) bits.
   kIdRangesOverlap,  ///< The two directions' identifier ranges overlap.
 };
