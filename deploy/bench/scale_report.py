@@ -275,6 +275,48 @@ def main():
                            for rate in (1000, 4000)])]
         w(f"| {label} | {cells[0]} | {cells[1]} | {met[0]} |")
     w("")
+    # What sets the limit: the wire or bus (a refused start), the compute (the cycle's share of the period), or
+    # the machine's floor (the overruns a 1-DOF pair already has, against those at the largest DOF that ran).
+    w("What sets it, per transport and rate (from the rows above and the compute model):")
+    w("")
+    for transport, label in TRANSPORTS:
+        for rate in (1000, 4000):
+            rows = [(d, sweep[(transport, rate, d)]) for d in dof_tags if (transport, rate, d) in sweep]
+            if not rows:
+                continue
+            ran = [(d, p) for d, p in rows if p["refused"] is None and p["om"] is not None]
+            first_refused = next(((d, p) for d, p in rows if p["refused"] is not None), None)
+            if not ran:
+                w(f"- {label}, {rate} Hz: no DOF starts (the bus-load check or the layout refuses even "
+                  f"{rows[0][0]} DOF).")
+                continue
+            top_d, top = ran[-1]
+            low_d, low = ran[0]
+            worst = lambda p: 100 * max(p["om"], p["os"] or 0.0)  # noqa: E731
+            why = ("the wire carries it all" if first_refused is None else
+                   f"{first_refused[0]} DOF is refused at start-up ("
+                   + ("bus load" if "bus load" in (first_refused[1]["refused"] or "") else "layout") + ")")
+            share = ""
+            if lin is not None:
+                share = (f"; the cycle's own compute at {top_d} DOF (the model above) is "
+                         f"{np.polyval(lin, top_d) / 1000:.2f} µs, {100 * np.polyval(lin, top_d) / (1e9 / rate):.2f} % "
+                         "of the period")
+            met_d = [d for d, p in ran if p["ok"]]
+            missed_d = [d for d, p in ran if not p["ok"]]
+            if not missed_d:
+                trend = "the target is met at every DOF that runs"
+            elif worst(top) > 2 * worst(low) + 0.1:
+                trend = "overruns grow with DOF"
+            elif not met_d:
+                trend = ("the 0.1 % target is missed at every DOF, and by as much at 1 DOF as at the most: the "
+                         "host's late wake-ups (jitter section below), not the cost per DOF")
+            else:
+                trend = (f"met at {', '.join(map(str, met_d))} DOF and missed at {', '.join(map(str, missed_d))}, "
+                         "with no trend in DOF: a handful of late wake-ups of the host per run (jitter section "
+                         "below), not the cost per DOF")
+            w(f"- {label}, {rate} Hz: runs up to {top_d} DOF ({why}); worst process overruns {worst(low):.2f} % "
+              f"at {low_d} DOF and {worst(top):.2f} % at {top_d} DOF: {trend}{share}.")
+    w("")
     models = []
     for transport, label in TRANSPORTS:
         for rate in (1000, 4000):
