@@ -14,13 +14,13 @@
 #include <string>
 #include <vector>
 
+#include "device/cobot/bicycle_caster.hpp"
+#include "device/cobot/bicycle_plant.hpp"
+#include "device/cobot/cobot_backend.hpp"
+#include "device/cobot/scripted_operator.hpp"
+#include "device/cobot/tracking_stability.hpp"
+#include "device/cobot/unicycle_cobot.hpp"
 #include "scenarios.hpp"
-#include "teleop/device/cobot/bicycle_caster.hpp"
-#include "teleop/device/cobot/bicycle_plant.hpp"
-#include "teleop/device/cobot/cobot_backend.hpp"
-#include "teleop/device/cobot/scripted_operator.hpp"
-#include "teleop/device/cobot/tracking_stability.hpp"
-#include "teleop/device/cobot/unicycle_cobot.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::scenario {

@@ -9,8 +9,8 @@
 #include <numbers>
 #include <string>
 
+#include "device/cobot/cobot_backend.hpp"
 #include "teleop/config/yaml_reader.hpp"
-#include "teleop/device/cobot/cobot_backend.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
 #include "test_utilities/limit_malloc.hpp"

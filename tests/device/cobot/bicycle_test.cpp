@@ -6,9 +6,9 @@
 #include <cmath>
 #include <numbers>
 
-#include "teleop/device/cobot/bicycle_caster.hpp"
-#include "teleop/device/cobot/bicycle_kinematics.hpp"
-#include "teleop/device/cobot/bicycle_plant.hpp"
+#include "device/cobot/bicycle_caster.hpp"
+#include "device/cobot/bicycle_kinematics.hpp"
+#include "device/cobot/bicycle_plant.hpp"
 #include "teleop/error.hpp"
 #include "test_utilities/limit_malloc.hpp"
 

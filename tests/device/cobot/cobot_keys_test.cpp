@@ -1,7 +1,7 @@
 // The cobot backend's key table (cobot_keys.hpp) against CobotBackendConfig: each key's default is the default-
 // constructed config's, an absent key reads as it, and a given one is read in its place.
 
-#include "cobot_keys.hpp"
+#include "device/cobot/cobot_keys.hpp"
 
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>

@@ -1,6 +1,6 @@
 // Constraint geometry (Colgate et al. Fig. 5): penetration, normals, tangents and curvature of lines, circles and
 // polylines; tracking errors p and θ; eq 7/8 gains.
-#include "teleop/device/cobot/constraint.hpp"
+#include "device/cobot/constraint.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,7 +8,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "teleop/device/cobot/constraint_tracker.hpp"
+#include "device/cobot/constraint_tracker.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device::cobot {

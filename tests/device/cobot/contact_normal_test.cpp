@@ -12,7 +12,7 @@
 #include <random>
 #include <vector>
 
-#include "teleop/device/cobot/cobot_backend.hpp"
+#include "device/cobot/cobot_backend.hpp"
 
 namespace teleop::device::cobot {
 namespace {

@@ -9,9 +9,9 @@
 #include <limits>
 #include <numbers>
 
-#include "teleop/device/cobot/scripted_operator.hpp"
-#include "teleop/device/cobot/unicycle_cobot.hpp"
-#include "teleop/device/cobot/virtual_caster.hpp"
+#include "device/cobot/scripted_operator.hpp"
+#include "device/cobot/unicycle_cobot.hpp"
+#include "device/cobot/virtual_caster.hpp"
 
 namespace teleop::device::cobot {
 namespace {

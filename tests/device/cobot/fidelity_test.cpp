@@ -15,12 +15,12 @@
 #include <numbers>
 #include <string>
 
+#include "device/cobot/bicycle_caster.hpp"
+#include "device/cobot/bicycle_plant.hpp"
+#include "device/cobot/cobot_backend.hpp"
+#include "device/cobot/constraint_overlay.hpp"
+#include "device/cobot/unicycle_plant.hpp"
 #include "teleop/config/yaml_reader.hpp"
-#include "teleop/device/cobot/bicycle_caster.hpp"
-#include "teleop/device/cobot/bicycle_plant.hpp"
-#include "teleop/device/cobot/cobot_backend.hpp"
-#include "teleop/device/cobot/constraint_overlay.hpp"
-#include "teleop/device/cobot/unicycle_plant.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
 

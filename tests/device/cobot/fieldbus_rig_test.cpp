@@ -14,9 +14,9 @@
 #include <numbers>
 #include <string>
 
+#include "device/cobot/cobot_fieldbus_device.hpp"
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/config/yaml_reader.hpp"
-#include "teleop/device/cobot/cobot_fieldbus_device.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/simulated_cia402_drive.hpp"

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <random>
 
-#include "teleop/device/cobot/tracking_stability.hpp"
+#include "device/cobot/tracking_stability.hpp"
 
 namespace teleop::device::cobot {
 namespace {

@@ -4,8 +4,8 @@
 
 #include <cmath>
 
+#include "device/cobot/cobot_steering_drive.hpp"
 #include "fieldbus/cia402_test_rig.hpp"
-#include "teleop/device/cobot/cobot_steering_drive.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device::cobot {

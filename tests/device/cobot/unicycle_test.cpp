@@ -7,10 +7,10 @@
 #include <numbers>
 #include <random>
 
-#include "teleop/device/cobot/cobot_sensors.hpp"
-#include "teleop/device/cobot/rate_estimator.hpp"
-#include "teleop/device/cobot/unicycle_cobot.hpp"
-#include "teleop/device/cobot/unicycle_plant.hpp"
+#include "device/cobot/cobot_sensors.hpp"
+#include "device/cobot/rate_estimator.hpp"
+#include "device/cobot/unicycle_cobot.hpp"
+#include "device/cobot/unicycle_plant.hpp"
 #include "teleop/error.hpp"
 #include "test_utilities/limit_malloc.hpp"
 

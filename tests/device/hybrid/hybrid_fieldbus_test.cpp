@@ -54,7 +54,7 @@ struct Rig {
   std::unique_ptr<fieldbus::SimulatedCanForceSensor> sensor;
   std::unique_ptr<HybridFieldbusDevice> device;  // last: destroyed first (its Deactivate steps the rig)
 
-  explicit Rig(bool can_sensor = false) {
+  explicit Rig(bool can_sensor = false, bool clutch_pedal = false) {
     // Handle at (0, 200 mm) when both drives read 0: θ1 = 30°, θ2 = 150°.
     config.joint_offset_rad = {30.0 * kDeg, 150.0 * kDeg};
     for (int i = 0; i < 2; ++i) {
@@ -76,6 +76,7 @@ struct Rig {
                  Point("brake_2_Nm", ModbusTable::kHoldingRegister, 1, 0.001, 4.0)};
     a.inputs = {Point("force_x_N", ModbusTable::kInputRegister, 0, 0.01),
                 Point("force_y_N", ModbusTable::kInputRegister, 1, 0.01)};
+    if (clutch_pedal) a.inputs.push_back(Point("clutch", ModbusTable::kDiscreteInput, 0, 1.0));
     for (int i = 0; i < 2; ++i) {
       const auto k = static_cast<std::size_t>(i);
       fieldbus::SimulatedCia402DriveConfig s;
@@ -268,6 +269,43 @@ TEST(HybridFieldbusDevice, SilentAmplifierEngagesTheSafeState) {
   ASSERT_EQ(rig.server.Control("mode normal"), "ok");
   ASSERT_TRUE(rig.CycleUntil([&] { return rig.BrakeRegisters().minCoeff() > 3.999; }, 5.0, {5.0, 0.0}));
   EXPECT_TRUE(rig.device->latched_safe());  // latched until Activate() again
+}
+
+// The operator's clutch pedal on a discrete input of the amplifier (the register map's input `clutch`): the reading
+// follows it, pressed and released, with no fault; a rig without that input never reports it.
+TEST(HybridFieldbusDevice, ClutchPedalOnADiscreteInputIsTheReadingsClutch) {
+  Rig rig(false, true);
+  rig.BringUp();
+  Reading r = rig.Cycle(Eigen::Vector2d::Zero());
+  EXPECT_FALSE(r.clutch_pressed);
+  ASSERT_EQ(rig.server.Control("set di 0 1"), "ok");
+  ASSERT_TRUE(rig.CycleUntil(
+      [&] {
+        rig.device->Read(r);
+        return r.clutch_pressed;
+      },
+      3.0, Eigen::Vector2d::Zero()));
+  EXPECT_EQ(r.faults, kFaultNone);
+  ASSERT_EQ(rig.server.Control("set di 0 0"), "ok");
+  ASSERT_TRUE(rig.CycleUntil(
+      [&] {
+        rig.device->Read(r);
+        return !r.clutch_pressed;
+      },
+      3.0, Eigen::Vector2d::Zero()));
+  EXPECT_FALSE(rig.device->latched_safe());
+
+  Rig plain;
+  plain.BringUp();
+  ASSERT_EQ(plain.server.Control("set di 0 1"), "ok");
+  ASSERT_EQ(plain.server.Control("set ir 0 0 1500"), "ok");
+  ASSERT_TRUE(plain.CycleUntil(  // a poll after both were set has arrived
+      [&] {
+        plain.device->Read(r);
+        return std::abs(r.force_N(1) - 15.0) < 1e-9;
+      },
+      3.0, Eigen::Vector2d::Zero()));
+  EXPECT_FALSE(r.clutch_pressed);
 }
 
 // The handle force sensor on CAN (answering each SYNC of the device): its force in the reading; silent, it goes stale

@@ -108,9 +108,9 @@ struct Reading {
   std::uint32_t faults = kFaultNone;
   std::uint32_t warnings = kWarningNone;  ///< WarningBits; informational, the node records them and acts on none.
   /// The operator's clutch (pedal or button) is pressed: the pair decouples and re-indexes on release
-  /// (docs/clutch.md). A backend without one leaves it false. A Modbus backend would map
-  /// a discrete input (function 0x02) to it; a CiA 402 drive bit 16+n of its digital inputs object 0x60FD (the
-  /// manufacturer-specific inputs, CiA 402-2 §"Digital inputs"), read in the same cycle as the position.
+  /// (docs/clutch.md). A backend without one leaves it false. The loopback plant's is scripted; the hybrid's
+  /// fieldbus rig reads the Modbus input named `clutch` of its amplifier's register map (a discrete input,
+  /// function 0x02). Not built yet: a CiA 402 drive's digital inputs object 0x60FD as a source.
   bool clutch_pressed = false;
 };
 

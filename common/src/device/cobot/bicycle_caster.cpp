@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/bicycle_caster.hpp"
+#include "device/cobot/bicycle_caster.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/bicycle_kinematics.hpp"
+#include "device/cobot/bicycle_kinematics.hpp"
 
 #include <cmath>
 

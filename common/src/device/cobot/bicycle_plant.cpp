@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/bicycle_plant.hpp"
+#include "device/cobot/bicycle_plant.hpp"
 
 #include <algorithm>
 #include <cmath>

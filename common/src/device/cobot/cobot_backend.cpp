@@ -2,15 +2,15 @@
 // CAN (docs/cobot.md, `device.cobot`). The reader is cobot_config_reader.cpp, the devices unicycle_cobot_device.cpp,
 // bicycle_cobot_device.cpp and cobot_fieldbus_device.cpp.
 
-#include "teleop/device/cobot/cobot_backend.hpp"
+#include "device/cobot/cobot_backend.hpp"
 
 #include <memory>
 #include <string>
 
 #include "cobot_backend_private.hpp"
 #include "cobot_keys.hpp"
+#include "device/cobot/cobot_fieldbus_device.hpp"
 #include "teleop/device/backend_key_table.hpp"
-#include "teleop/device/cobot/cobot_fieldbus_device.hpp"
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/can_port_yaml.hpp"
 

@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "teleop/device/cobot/cobot_backend.hpp"
+#include "device/cobot/cobot_backend.hpp"
 #include "teleop/types.hpp"
 
 namespace teleop::config {

@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/cobot_fieldbus_device.hpp"
+#include "device/cobot/cobot_fieldbus_device.hpp"
 
 #include <cmath>
 #include <string>

@@ -7,8 +7,8 @@
 
 #include <array>
 
+#include "device/cobot/cobot_backend.hpp"
 #include "teleop/config/key_table.hpp"
-#include "teleop/device/cobot/cobot_backend.hpp"
 
 namespace teleop::device::cobot::keys {
 

@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/cobot_sensor_node.hpp"
+#include "device/cobot/cobot_sensor_node.hpp"
 
 #include <algorithm>
 #include <array>

@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/cobot_sensors.hpp"
+#include "device/cobot/cobot_sensors.hpp"
 
 #include <cmath>
 #include <numbers>

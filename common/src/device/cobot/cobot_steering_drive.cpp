@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/cobot_steering_drive.hpp"
+#include "device/cobot/cobot_steering_drive.hpp"
 
 #include <cmath>
 #include <string>

@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/constraint.hpp"
+#include "device/cobot/constraint.hpp"
 
 #include <cmath>
 #include <limits>

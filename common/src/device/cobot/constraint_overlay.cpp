@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/constraint_overlay.hpp"
+#include "device/cobot/constraint_overlay.hpp"
 
 #include <cmath>
 

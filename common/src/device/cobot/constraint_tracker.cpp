@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/constraint_tracker.hpp"
+#include "device/cobot/constraint_tracker.hpp"
 
 #include <algorithm>
 #include <cmath>

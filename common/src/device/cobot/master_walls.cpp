@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/master_walls.hpp"
+#include "device/cobot/master_walls.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/rate_estimator.hpp"
+#include "device/cobot/rate_estimator.hpp"
 
 #include <cmath>
 #include <numbers>

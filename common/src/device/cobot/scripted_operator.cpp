@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/scripted_operator.hpp"
+#include "device/cobot/scripted_operator.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/tracking_stability.hpp"
+#include "device/cobot/tracking_stability.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>

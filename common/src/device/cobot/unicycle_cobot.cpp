@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/unicycle_cobot.hpp"
+#include "device/cobot/unicycle_cobot.hpp"
 
 #include <cmath>
 #include <string>

@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/unicycle_plant.hpp"
+#include "device/cobot/unicycle_plant.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,10 +1,10 @@
-#include "teleop/device/cobot/virtual_caster.hpp"
+#include "device/cobot/virtual_caster.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <string>
 
-#include "teleop/device/cobot/planar.hpp"
+#include "device/cobot/planar.hpp"
 #include "teleop/error.hpp"
 
 namespace teleop::device::cobot {

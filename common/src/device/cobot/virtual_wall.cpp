@@ -1,4 +1,4 @@
-#include "teleop/device/cobot/virtual_wall.hpp"
+#include "device/cobot/virtual_wall.hpp"
 
 #include <cmath>
 #include <numbers>

@@ -132,6 +132,7 @@ void HybridFieldbusDevice::Build() {
       force_input_[k] = fieldbus::FindPoint(config_.amplifier.inputs, i == 0 ? "force_x_N" : "force_y_N");
     }
   }
+  clutch_input_ = fieldbus::FindPoint(config_.amplifier.inputs, "clutch");
 }
 
 HybridFieldbusDevice::~HybridFieldbusDevice() { Deactivate(); }
@@ -244,6 +245,7 @@ void HybridFieldbusDevice::Read(Reading& out) noexcept {
   out.force_N = DofVector::Zero(2);
   out.rendered_force_N = DofVector::Zero(2);
   out.faults = kFaultNone;
+  out.clutch_pressed = false;
   if (!active_) {
     out.faults = kFaultDriver;
     return;
@@ -287,6 +289,9 @@ void HybridFieldbusDevice::Read(Reading& out) noexcept {
   }
   fieldbus::ModbusReading m;
   if (amplifier_->LatestReading(m) != kFaultNone) Latch(RigFaultSource::kAmplifier, kFaultCommunication);
+  // The clutch pedal, when the register map has an input `clutch` (any table; a discrete input, FC 2, is the
+  // usual one): pressed while it reads non-zero. A stale amplifier latches the safe state above, pedal or not.
+  if (clutch_input_ >= 0) out.clutch_pressed = m.values[static_cast<std::size_t>(clutch_input_)] != 0.0;
   if (sensor_) {
     fieldbus::CanForceReading f;
     fieldbus::CanForceSensorStatus s = sensor_->Read(f);

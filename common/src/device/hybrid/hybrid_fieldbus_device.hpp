@@ -125,6 +125,7 @@ class HybridFieldbusDevice final : public Device {
   std::unique_ptr<fieldbus::ModbusIoThread> amplifier_;
   std::array<int, 2> brake_output_{0, 1};  // slots in ModbusCommand::values
   std::array<int, 2> force_input_{0, 1};   // slots in ModbusReading::values (Modbus sensor)
+  int clutch_input_ = -1;                  // the optional input `clutch` (a pedal on a discrete input); -1: none
   Eigen::Vector2d joint_rad_{0.0, 0.0};
   Eigen::Vector2d joint_velocity_rad_per_s_{0.0, 0.0};
   Eigen::Vector2d hand_force_N_{0.0, 0.0};

@@ -144,7 +144,8 @@ std::vector<ConfigKey> HybridFieldbusKeys() {
        "drive_consumer_timeout_ms"},
       {"fieldbus.modbus",
        "the brake amplifier (a Modbus section, docs/modbus.md): outputs brake_1_Nm, brake_2_Nm (safe_value = "
-       "brake.max_torque_Nm); inputs force_x_N, force_y_N when force_sensor.bus is modbus"},
+       "brake.max_torque_Nm); inputs force_x_N, force_y_N when force_sensor.bus is modbus, and an optional "
+       "input clutch (a pedal on a discrete input: pressed while non-zero)"},
       {"fieldbus.force_sensor",
        "handle force sensor: bus modbus | can (cob_id, encoding int16|int32, scale_N_per_count, offset_N, "
        "stale_after_ms)"},

@@ -1,7 +1,7 @@
 #pragma once
 
-#include "teleop/device/cobot/cobot_sensor_node.hpp"
-#include "teleop/device/cobot/cobot_steering_drive.hpp"
+#include "device/cobot/cobot_sensor_node.hpp"
+#include "device/cobot/cobot_steering_drive.hpp"
 #include "teleop/fieldbus/can_port_config.hpp"
 
 namespace teleop::device::cobot {

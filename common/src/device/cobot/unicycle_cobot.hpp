@@ -1,10 +1,10 @@
 #pragma once
 
-#include "teleop/device/cobot/cobot_sensors.hpp"
-#include "teleop/device/cobot/constraint.hpp"
-#include "teleop/device/cobot/rate_estimator.hpp"
-#include "teleop/device/cobot/unicycle_plant.hpp"
-#include "teleop/device/cobot/virtual_wall.hpp"
+#include "device/cobot/cobot_sensors.hpp"
+#include "device/cobot/constraint.hpp"
+#include "device/cobot/rate_estimator.hpp"
+#include "device/cobot/unicycle_plant.hpp"
+#include "device/cobot/virtual_wall.hpp"
 
 namespace teleop::device::cobot {
 

@@ -3,7 +3,7 @@
 #include <array>
 #include <cstdint>
 
-#include "teleop/device/cobot/bicycle_plant.hpp"
+#include "device/cobot/bicycle_plant.hpp"
 
 namespace teleop::device::cobot {
 

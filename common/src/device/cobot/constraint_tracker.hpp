@@ -2,7 +2,7 @@
 
 #include <cstdint>
 
-#include "teleop/device/cobot/constraint.hpp"
+#include "device/cobot/constraint.hpp"
 
 namespace teleop::device::cobot {
 

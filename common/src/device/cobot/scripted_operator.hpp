@@ -1,7 +1,7 @@
 #pragma once
 
-#include "teleop/device/cobot/constraint.hpp"
-#include "teleop/device/cobot/unicycle_plant.hpp"
+#include "device/cobot/constraint.hpp"
+#include "device/cobot/unicycle_plant.hpp"
 
 namespace teleop::device::cobot {
 

@@ -3,7 +3,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 
-#include "teleop/device/cobot/planar.hpp"
+#include "device/cobot/planar.hpp"
 
 namespace teleop::device::cobot {
 

@@ -1,6 +1,6 @@
 #pragma once
 
-#include "teleop/device/cobot/planar.hpp"
+#include "device/cobot/planar.hpp"
 
 namespace teleop::device::cobot {
 

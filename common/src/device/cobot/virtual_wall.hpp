@@ -2,11 +2,11 @@
 
 #include <cstdint>
 
-#include "teleop/device/cobot/constraint.hpp"
-#include "teleop/device/cobot/constraint_overlay.hpp"
-#include "teleop/device/cobot/constraint_tracker.hpp"
-#include "teleop/device/cobot/tracking_stability.hpp"
-#include "teleop/device/cobot/virtual_caster.hpp"
+#include "device/cobot/constraint.hpp"
+#include "device/cobot/constraint_overlay.hpp"
+#include "device/cobot/constraint_tracker.hpp"
+#include "device/cobot/tracking_stability.hpp"
+#include "device/cobot/virtual_caster.hpp"
 
 namespace teleop::device::cobot {
 

@@ -3,11 +3,11 @@
 #include <cstdint>
 #include <memory>
 
-#include "teleop/device/cobot/bicycle_caster.hpp"
-#include "teleop/device/cobot/bicycle_plant.hpp"
-#include "teleop/device/cobot/cobot_fieldbus_config.hpp"
-#include "teleop/device/cobot/master_walls.hpp"
-#include "teleop/device/cobot/unicycle_cobot.hpp"
+#include "device/cobot/bicycle_caster.hpp"
+#include "device/cobot/bicycle_plant.hpp"
+#include "device/cobot/cobot_fieldbus_config.hpp"
+#include "device/cobot/master_walls.hpp"
+#include "device/cobot/unicycle_cobot.hpp"
 #include "teleop/device/device.hpp"
 #include "teleop/device/device_config.hpp"
 #include "teleop/device/device_registry.hpp"

@@ -1,8 +1,8 @@
 #pragma once
 
-#include "teleop/device/cobot/constraint.hpp"
-#include "teleop/device/cobot/planar.hpp"
-#include "teleop/device/cobot/virtual_wall.hpp"
+#include "device/cobot/constraint.hpp"
+#include "device/cobot/planar.hpp"
+#include "device/cobot/virtual_wall.hpp"
 #include "teleop/device/device.hpp"
 
 namespace teleop::device::cobot {

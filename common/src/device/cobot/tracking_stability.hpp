@@ -2,7 +2,7 @@
 
 #include <cstdint>
 
-#include "teleop/device/cobot/constraint_tracker.hpp"
+#include "device/cobot/constraint_tracker.hpp"
 
 namespace teleop::device::cobot {
 

@@ -2,7 +2,7 @@
 
 #include <array>
 
-#include "teleop/device/cobot/bicycle_kinematics.hpp"
+#include "device/cobot/bicycle_kinematics.hpp"
 
 namespace teleop::device::cobot {
 

@@ -1,6 +1,6 @@
 #pragma once
 
-#include "teleop/device/cobot/constraint.hpp"
+#include "device/cobot/constraint.hpp"
 
 namespace teleop::device::cobot {
 

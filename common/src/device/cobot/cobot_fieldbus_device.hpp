@@ -3,13 +3,13 @@
 #include <memory>
 #include <string>
 
-#include "teleop/device/cobot/cobot_backend.hpp"
-#include "teleop/device/cobot/cobot_fieldbus_config.hpp"
-#include "teleop/device/cobot/cobot_sensor_node.hpp"
-#include "teleop/device/cobot/cobot_steering_drive.hpp"
-#include "teleop/device/cobot/master_walls.hpp"
-#include "teleop/device/cobot/rate_estimator.hpp"
-#include "teleop/device/cobot/virtual_wall.hpp"
+#include "device/cobot/cobot_backend.hpp"
+#include "device/cobot/cobot_fieldbus_config.hpp"
+#include "device/cobot/cobot_sensor_node.hpp"
+#include "device/cobot/cobot_steering_drive.hpp"
+#include "device/cobot/master_walls.hpp"
+#include "device/cobot/rate_estimator.hpp"
+#include "device/cobot/virtual_wall.hpp"
 #include "teleop/fieldbus/can_force_sensor.hpp"
 
 namespace teleop::device::cobot {

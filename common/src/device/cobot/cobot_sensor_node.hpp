@@ -15,7 +15,7 @@
 #include <cstdint>
 #include <memory>
 
-#include "teleop/device/cobot/planar.hpp"
+#include "device/cobot/planar.hpp"
 #include "teleop/fieldbus/can_force_sensor.hpp"
 #include "teleop/fieldbus/canopen_timebase.hpp"
 #include "teleop/transport/can_filter.hpp"
