@@ -808,7 +808,7 @@ TEST(NodeCommand, GainsAndPlanesOverTheSocketAndEveryCommandIsAnEvent) {
     EXPECT_EQ(Send(path, "fixture-plane nan 1\n").rfind("refused: ", 0), 0u) << "not finite";
     EXPECT_EQ(Send(path, "clutch on\n"), "ok: clutch on\n");
     EXPECT_EQ(Send(path, "clutch off\n"), "ok: clutch off\n");
-    for (const char* line : {"gain kq 1\n", "gain kp_N_per_m:7 1\n", "gain kp_N_per_m 1 2 3\n",
+    for (const char* line : {"gain kq 1\n", "gain kp_N_per_m:99 1\n", "gain kp_N_per_m 1 2 3\n",
                              "fixture-plane 0.04 1 0.01 9\n", "fixture-plane 0.04\n", "fixture-plane 0.04 1 -1\n"}) {
       EXPECT_EQ(Send(path, line).rfind("error: ", 0), 0u) << line;
     }
