@@ -199,16 +199,7 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
     UnicyclePlantConfig& p = c.unicycle.plant;
     CobotSensorConfig& s = c.unicycle.sensors;
     VirtualWallConfig& w = c.unicycle.controller;
-    if (auto v = map.Optional("kind")) {
-      const std::string kind = v->AsString();
-      if (kind == "unicycle") {
-        c.kind = CobotBackendConfig::Kind::kUnicycle;
-      } else if (kind == "bicycle") {
-        c.kind = CobotBackendConfig::Kind::kBicycle;
-      } else {
-        v->Fail("must be unicycle or bicycle, got '" + kind + "'");
-      }
-    }
+    c.kind = config::ReadChoiceAs<CobotBackendConfig::Kind>(map, keys::kKind);
     p.cart_mass_kg = config::ReadNumber(map, keys::kCartMass);
     p.rolling_damping_Ns_per_m = config::ReadNumber(map, keys::kRollingDamping);
     p.steering_inertia_kgm2 = config::ReadNumber(map, keys::kSteeringInertia);
@@ -227,34 +218,14 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
     if (auto v = map.Optional("virtual_mass_kg")) w.caster.k1_per_kg = 1.0 / Positive(*v, "kg");
     w.caster.speed_floor_m_per_s = config::ReadNumber(map, keys::kSpeedFloor);
     w.tracker.lookahead_m = config::ReadNumber(map, keys::kLookahead);
-    if (auto v = map.Optional("gain_form")) {
-      const std::string form = v->AsString();
-      if (form == "small_angle") {
-        w.tracker.gain_form = ConstraintTrackerConfig::GainForm::kSmallAngle;
-      } else if (form == "circular") {
-        w.tracker.gain_form = ConstraintTrackerConfig::GainForm::kCircular;
-      } else {
-        v->Fail("must be small_angle (eq 8) or circular (eq 7), got '" + form + "'");
-      }
-    }
+    w.tracker.gain_form = config::ReadChoiceAs<ConstraintTrackerConfig::GainForm>(map, keys::kGainForm);
     w.tracker.p_gain_scale = config::ReadNumber(map, keys::kPGainScale);
     w.tracker.theta_gain_scale = config::ReadNumber(map, keys::kThetaGainScale);
     w.tracker.integral_gain_per_m3 = config::ReadNumber(map, keys::kIntegralGain);
-    if (auto v = map.Optional("overlay")) w.overlay_enabled = v->AsBool();
+    w.overlay_enabled = config::ReadBool(map, keys::kOverlay);
     w.overlay_min_radius_m = config::ReadNumber(map, keys::kOverlayMinRadius);
     w.release_force_N = config::ReadNumber(map, keys::kReleaseForce);
-    if (auto v = map.Optional("stability_action")) {
-      const std::string action = v->AsString();
-      if (action == "warn") {
-        w.guard.action = StabilityGuardConfig::Action::kWarn;
-      } else if (action == "lengthen_lookahead") {
-        w.guard.action = StabilityGuardConfig::Action::kLengthenLookahead;
-      } else if (action == "brake") {
-        w.guard.action = StabilityGuardConfig::Action::kBrake;
-      } else {
-        v->Fail("must be warn, lengthen_lookahead or brake, got '" + action + "'");
-      }
-    }
+    w.guard.action = config::ReadChoiceAs<StabilityGuardConfig::Action>(map, keys::kStabilityAction);
     w.guard.margin = config::ReadNumber(map, keys::kStabilityMargin);
     c.contact_force_threshold_N = config::ReadNumber(map, keys::kContactForceThreshold);
     if (auto v = map.Optional("initial_position_m")) {
@@ -274,16 +245,7 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
     } else if (auto v = map.Optional("bicycle")) {
       v->Fail("only for kind: bicycle");
     }
-    if (auto v = map.Optional("rig")) {
-      const std::string rig = v->AsString();
-      if (rig == "simulated") {
-        c.rig = CobotBackendConfig::Rig::kSimulated;
-      } else if (rig == "fieldbus") {
-        c.rig = CobotBackendConfig::Rig::kFieldbus;
-      } else {
-        v->Fail("must be simulated or fieldbus, got '" + rig + "'");
-      }
-    }
+    c.rig = config::ReadChoiceAs<CobotBackendConfig::Rig>(map, keys::kRig);
     if (c.rig == CobotBackendConfig::Rig::kFieldbus) {
       const Field rig = map.Required("rig");
       if (c.kind != CobotBackendConfig::Kind::kUnicycle) {

@@ -1,9 +1,10 @@
 #pragma once
 
-// The `device.cobot` keys with a number, each written once (teleop/config/key_table.hpp): the reader
-// (cobot_config_reader.cpp), `--list-devices` and the rows of docs/configuration.md come from this table. Each default
-// is the default-constructed CobotBackendConfig's (its member initialisers and UnicycleCobotConfig::Prototype()),
-// except steering_time_constant_s, which no struct holds (the reader turns it into K2): its default is written here.
+// The `device.cobot` keys with a number, a word or true/false, each written once (teleop/config/key_table.hpp): the
+// reader (cobot_config_reader.cpp), `--list-devices` and the rows of docs/configuration.md come from this table. Each
+// default is the default-constructed CobotBackendConfig's (its member initialisers and
+// UnicycleCobotConfig::Prototype()), except steering_time_constant_s, which no struct holds (the reader turns it into
+// K2): its default is written here.
 
 #include <array>
 
@@ -16,6 +17,35 @@ using config::KeyRange;
 using config::KeySpec;
 
 inline const CobotBackendConfig kDefaults{};
+
+// The keys with a word or true/false: each choice lists its words in the order of the enum it sets.
+inline const KeySpec kKind{.key = "kind",
+                           .type = config::KeyType::kChoice,
+                           .meaning = "unicycle (dof 2) or bicycle (dof 3; walls on the plate's reference point).",
+                           .choices = {"unicycle", "bicycle"},
+                           .default_choice = static_cast<int>(kDefaults.kind)};
+inline const KeySpec kGainForm{.key = "gain_form",
+                               .type = config::KeyType::kChoice,
+                               .meaning = "The tracker's gains: small_angle (eq 8) or circular (eq 7).",
+                               .choices = {"small_angle", "circular"},
+                               .default_choice = static_cast<int>(kDefaults.unicycle.controller.tracker.gain_form)};
+inline const KeySpec kOverlay{.key = "overlay",
+                              .type = config::KeyType::kBool,
+                              .meaning = "Constraint overlay (§5) on or off.",
+                              .default_bool = kDefaults.unicycle.controller.overlay_enabled};
+inline const KeySpec kStabilityAction{
+    .key = "stability_action",
+    .type = config::KeyType::kChoice,
+    .meaning = "Above the eq 10 bound: warn, lengthen the look-ahead, or brake (needs brake_max_force_N > 0).",
+    .choices = {"warn", "lengthen_lookahead", "brake"},
+    .default_choice = static_cast<int>(kDefaults.unicycle.controller.guard.action)};
+inline const KeySpec kRig{.key = "rig",
+                          .type = config::KeyType::kChoice,
+                          .meaning =
+                              "simulated (the models above) or fieldbus (the real unicycle cobot on CAN, needs "
+                              "fieldbus).",
+                          .choices = {"simulated", "fieldbus"},
+                          .default_choice = static_cast<int>(kDefaults.rig)};
 
 inline const KeySpec kCartMass{.key = "cart_mass_kg",
                                .unit = "kg",
@@ -180,7 +210,12 @@ inline const KeySpec kHeadingBandwidth{.key = "bicycle.heading_bandwidth_per_s",
                                        .low = 0.1,
                                        .high = 20.0};
 
-inline const std::array kAll{kCartMass,
+inline const std::array kAll{kKind,
+                             kGainForm,
+                             kOverlay,
+                             kStabilityAction,
+                             kRig,
+                             kCartMass,
                              kRollingDamping,
                              kSteeringInertia,
                              kSteeringDamping,
