@@ -102,14 +102,7 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
   const Map m(*section, {"initial_position_m", "geometry", "motor", "brake", "joint_inertia_kgm2", "handle_mass_kg",
                          "joint_damping_Nms_per_rad", "joint_coulomb_Nm", "substeps", "allocation", "effect",
                          "operator", "environment", "rig", "fieldbus", "encoders", "force_sensor"});
-  if (auto v = m.Optional("rig")) {
-    const std::string rig = v->AsString();
-    if (rig == "fieldbus") {
-      c.fieldbus_rig = true;
-    } else if (rig != "simulated") {
-      v->Fail("must be simulated or fieldbus; got '" + rig + "'");
-    }
-  }
+  c.fieldbus_rig = config::ReadChoice(m, keys::kRigKind) == 1;
   if (c.fieldbus_rig) {
     // The simulation's own inputs make no sense on the real rig: refuse them rather than ignore them.
     for (const char* key : {"operator", "environment", "effect", "substeps", "encoders", "force_sensor"}) {
@@ -236,7 +229,7 @@ DeviceBackend HybridBackend() {
        "max_force_N, mass_kg"},
       {"environment", "simulated wall on the handle (slave): point_m, normal, stiffness_N_per_m, damping_Ns_per_m"},
   };
-  AdoptKeyTable(b, keys::kAll);  // the keys with a number, written once (hybrid_keys.hpp)
+  AdoptKeyTable(b, keys::kAll);  // the keys with a number or a word, written once (hybrid_keys.hpp)
   for (ConfigKey& key : HybridFieldbusKeys()) b.keys.push_back(std::move(key));
   b.section_required = false;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
