@@ -69,7 +69,7 @@ TEST(CobotKeys, TheTablesDefaultsAreTheConfigsAndTheReadersWhenAbsent) {
        bicycle.bicycle_caster.singularity_threshold);
   same(keys::kHeadingBandwidth, code.bicycle_caster.heading_bandwidth_per_s,
        bicycle.bicycle_caster.heading_bandwidth_per_s);
-  EXPECT_EQ(keys::kAll.size(), 37U);  // 32 with a number, 5 with a word or true/false
+  EXPECT_EQ(keys::kAll.size(), 38U);  // 32 with a number, 6 with a word or true/false
   // steering_time_constant_s has no struct member: its default τ = 0.02 s sets K2 = J/τ − b (eq 3c).
   EXPECT_EQ(keys::kSteeringTimeConstant.default_value, 0.02);
   EXPECT_NEAR(read.unicycle.controller.caster.k2_Nms_per_rad,
@@ -98,6 +98,10 @@ TEST(CobotKeys, TheWordKeysDefaultsAreTheConfigsAndAWrongWordIsRefused) {
   EXPECT_EQ(read.unicycle.controller.guard.action, w.guard.action);
   EXPECT_EQ(keys::kRig.default_choice, static_cast<int>(code.rig));
   EXPECT_EQ(read.rig, code.rig);
+  const CobotBackendConfig bicycle = Read("{kind: bicycle, bicycle: {}}", 3);
+  EXPECT_EQ(keys::kSingularityGuard.default_bool, code.bicycle_caster.singularity_guard);
+  EXPECT_EQ(bicycle.bicycle_caster.singularity_guard, code.bicycle_caster.singularity_guard);
+  EXPECT_FALSE(Read("{kind: bicycle, bicycle: {singularity_guard: false}}", 3).bicycle_caster.singularity_guard);
   EXPECT_EQ(config::KeyTableRow(keys::kOverlay),
             "| `overlay` | boolean | true | true, false | " + std::string(keys::kOverlay.meaning) + " |");
 

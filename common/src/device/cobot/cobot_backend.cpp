@@ -33,7 +33,6 @@ DeviceBackend CobotBackend() {
       {"initial_heading_deg", "start heading (deg from +x); default 0"},
       {"operator", "simulated operator (master without a human)"},
       {"bicycle", "bicycle cobot plate (kind: bicycle)"},
-      {"bicycle.singularity_guard", "keep the wheels off the singular configuration; default true"},
       {"bicycle.hold_heading_deg", "angular constraint: the wheels hold the plate's θ at this (deg); default none"},
       {"fieldbus", "the real rig's CAN bus, steering drive and sensor node (rig: fieldbus only)"},
       {"fieldbus.can", "the bus: medium, interface or bus"},

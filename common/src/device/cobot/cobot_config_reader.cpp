@@ -43,7 +43,7 @@ void ReadBicycle(const Field& f, CobotBackendConfig& c) {
   c.bicycle.plate_mass_kg = config::ReadNumber(map, keys::kPlateMass);
   c.bicycle.plate_inertia_kgm2 = config::ReadNumber(map, keys::kPlateInertia);
   c.bicycle_caster.singularity_threshold = config::ReadNumber(map, keys::kSingularityThreshold);
-  if (auto v = map.Optional("singularity_guard")) c.bicycle_caster.singularity_guard = v->AsBool();
+  c.bicycle_caster.singularity_guard = config::ReadBool(map, keys::kSingularityGuard);
   if (auto v = map.Optional("hold_heading_deg")) {
     c.bicycle_caster.heading_constraint = true;
     c.bicycle_caster.heading_target_rad = Finite(*v) * config::kDeg;

@@ -202,6 +202,10 @@ inline const KeySpec kSingularityThreshold{.key = "bicycle.singularity_threshold
                                            .meaning = "Singularity measure below which the guard acts.",
                                            .low = 0.0,
                                            .high = 0.99};
+inline const KeySpec kSingularityGuard{.key = "bicycle.singularity_guard",
+                                       .type = config::KeyType::kBool,
+                                       .meaning = "Keep the wheels off the singular configuration.",
+                                       .default_bool = kDefaults.bicycle_caster.singularity_guard};
 inline const KeySpec kHeadingBandwidth{.key = "bicycle.heading_bandwidth_per_s",
                                        .unit = "rad/s",
                                        .range = KeyRange::kInRange,
@@ -246,6 +250,7 @@ inline const std::array kAll{kKind,
                              kPlateMass,
                              kPlateInertia,
                              kSingularityThreshold,
-                             kHeadingBandwidth};
+                             kHeadingBandwidth,
+                             kSingularityGuard};
 
 }  // namespace teleop::device::cobot::keys
