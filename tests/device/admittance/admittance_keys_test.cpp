@@ -78,6 +78,17 @@ TEST(AdmittanceKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
   EXPECT_EQ(given.tracking_error_cycles, 4);
 }
 
+// drives[].eds: a text key; its default is the default-constructed drive config's (no file), and a given path is read.
+TEST(AdmittanceKeys, TheEdsKeysDefaultIsTheStructsAndAPathIsRead) {
+  namespace keys = admittance_keys;
+  const AdmittanceAxisConfig code{};
+  EXPECT_EQ(std::string(keys::kDriveEds.default_text), code.drive.eds_file);
+  const std::string head =
+      "{virtual_mass_kg: 2, virtual_damping_Ns_per_m: 8, can: {interface: can0}, drives: [{node_id: 3";
+  EXPECT_EQ(Read(head + "}]}").axes.at(0).drive.eds_file, code.drive.eds_file);
+  EXPECT_EQ(Read(head + ", eds: drive.eds}]}").axes.at(0).drive.eds_file, "drive.eds");
+}
+
 // mode: the table's default word is the default-constructed config's mode, absent reads as it, velocity is read, and a
 // wrong word (torque included: the drives follow the virtual mass) is refused naming the key and both words.
 TEST(AdmittanceKeys, TheModeKeysDefaultIsTheStructsAndAWrongWordIsRefused) {

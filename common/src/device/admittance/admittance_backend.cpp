@@ -40,7 +40,7 @@ AdmittanceAxisConfig ReadDrive(const Field& f) {
   d.drive_heartbeat_period_ms = config::ReadNumber(map, keys::kDriveHeartbeatPeriod);
   d.heartbeat_timeout_ms = config::ReadNumber(map, keys::kDriveHeartbeatTimeout);
   d.stale_after_ms = config::ReadNumber(map, keys::kDriveStaleAfter);
-  if (auto v = map.Optional("eds")) d.eds_file = v->AsString();
+  d.eds_file = config::ReadText(map, keys::kDriveEds);
   return a;
 }
 
@@ -132,7 +132,6 @@ DeviceBackend AdmittanceBackend() {
   b.keys.insert(b.keys.end(), {
                                   {"drives", "one drive per DOF, in axis order"},
                                   {"drives[].direction", "1 or -1 (the drive's positive direction against the axis')"},
-                                  {"drives[].eds", "the drive's EDS/DCF: checked at configure (docs/cia402.md, EDS)"},
                               });
 
   AdoptKeyTable(b, admittance_keys::kAll);  // the keys with a number or a word, written once (admittance_keys.hpp)
