@@ -43,6 +43,10 @@ TEST(CobotKeys, TheTablesDefaultsAreTheConfigsAndTheReadersWhenAbsent) {
   same(keys::kFrictionCoefficient, p.friction_coefficient, rp.friction_coefficient);
   same(keys::kNormalLoad, p.normal_load_N, rp.normal_load_N);
   same(keys::kWheelRadius, code.unicycle.sensors.wheel_radius_m, read.unicycle.sensors.wheel_radius_m);
+  same(keys::kWheelEncoderCounts, code.unicycle.sensors.wheel_encoder_counts_per_rev,
+       read.unicycle.sensors.wheel_encoder_counts_per_rev);
+  same(keys::kSteeringEncoderCounts, code.unicycle.sensors.steering_encoder_counts_per_rev,
+       read.unicycle.sensors.steering_encoder_counts_per_rev);
   same(keys::kPositionResolution, code.unicycle.sensors.position_resolution_m,
        read.unicycle.sensors.position_resolution_m);
   same(keys::kForceResolution, code.unicycle.sensors.force_resolution_N, read.unicycle.sensors.force_resolution_N);
@@ -69,7 +73,7 @@ TEST(CobotKeys, TheTablesDefaultsAreTheConfigsAndTheReadersWhenAbsent) {
        bicycle.bicycle_caster.singularity_threshold);
   same(keys::kHeadingBandwidth, code.bicycle_caster.heading_bandwidth_per_s,
        bicycle.bicycle_caster.heading_bandwidth_per_s);
-  EXPECT_EQ(keys::kAll.size(), 38U);  // 32 with a number, 6 with a word or true/false
+  EXPECT_EQ(keys::kAll.size(), 40U);  // 34 with a number, 6 with a word or true/false
   // steering_time_constant_s has no struct member: its default τ = 0.02 s sets K2 = J/τ − b (eq 3c).
   EXPECT_EQ(keys::kSteeringTimeConstant.default_value, 0.02);
   EXPECT_NEAR(read.unicycle.controller.caster.k2_Nms_per_rad,

@@ -24,8 +24,6 @@ DeviceBackend CobotBackend() {
       "simulated or (unicycle) on CAN";
   b.nominal = CobotCapabilities(2, 0.0);
   b.keys = {
-      {"wheel_encoder_counts_per_rev", "wheel encoder counts, >= 0 (0 = ideal); default 16384"},
-      {"steering_encoder_counts_per_rev", "steering encoder counts, >= 0 (0 = ideal); default 16384"},
       {"virtual_mass_kg",
        "1/K1 of the virtual caster (eq 2) (kg), > 0; default 10 (unicycle only: the bicycle's is "
        "its plate mass)"},

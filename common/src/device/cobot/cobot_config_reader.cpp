@@ -1,7 +1,6 @@
 // The `device.cobot` section reader (docs/cobot.md, docs/configuration.md): every key, its range and the checks
 // that span keys (dof, role, rig, fieldbus node ids).
 
-#include <cmath>
 #include <string>
 
 #include "cobot_backend_private.hpp"
@@ -19,12 +18,6 @@ using config::Finite;
 using config::Map;
 using config::NonNegative;
 using config::Positive;
-
-int ReadCount(const Field& f) {
-  const double v = NonNegative(f, "counts per revolution (0 = ideal)");
-  if (v != std::floor(v) || v > 1e9) f.Fail("must be a whole number of counts, got " + config::Num(v));
-  return static_cast<int>(v);
-}
 
 void ReadOperator(const Field& f, CobotOperatorScript& op) {
   const Map map(f, {"speed_m_per_s", "direction_deg", "then_at_s", "then_direction_deg", "max_force_N"});
@@ -210,8 +203,8 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
     p.friction_coefficient = config::ReadNumber(map, keys::kFrictionCoefficient);
     p.normal_load_N = config::ReadNumber(map, keys::kNormalLoad);
     s.wheel_radius_m = config::ReadNumber(map, keys::kWheelRadius);
-    if (auto v = map.Optional("wheel_encoder_counts_per_rev")) s.wheel_encoder_counts_per_rev = ReadCount(*v);
-    if (auto v = map.Optional("steering_encoder_counts_per_rev")) s.steering_encoder_counts_per_rev = ReadCount(*v);
+    s.wheel_encoder_counts_per_rev = config::ReadInteger(map, keys::kWheelEncoderCounts);
+    s.steering_encoder_counts_per_rev = config::ReadInteger(map, keys::kSteeringEncoderCounts);
     s.position_resolution_m = config::ReadNumber(map, keys::kPositionResolution);
     s.force_resolution_N = config::ReadNumber(map, keys::kForceResolution);
     tau_s = config::ReadNumber(map, keys::kSteeringTimeConstant);
