@@ -142,8 +142,9 @@ TEST(KeyTable, AChoiceKeyRefusesAWrongWordWithTheWordsItAllows) {
   const config::KeySpec on{.key = "on", .type = config::KeyType::kBool, .meaning = "b", .default_bool = true};
   const config::KeySpec eds{.key = "eds", .type = config::KeyType::kText, .meaning = "t", .default_text = "a.eds"};
   EXPECT_EQ(config::KeyTableRow(mode), "| `mode` | choice | velocity | position, velocity, torque | m |");
-  EXPECT_EQ(config::DescribeKey(on), "boolean, true, false, default true: b");
-  EXPECT_EQ(config::KeyTableRow(eds), "| `eds` | text | \"a.eds\" | text | t |");
+  EXPECT_EQ(config::DescribeKey(on), "boolean, true | false, default true: b");
+  EXPECT_EQ(config::DescribeKey(mode), "choice, position | velocity | torque, default velocity: m");
+  EXPECT_EQ(config::KeyTableRow(eds), "| `eds` | text | \"a.eds\" | any | t |");
   static const std::string file = "k.yaml";
   const auto map_of = [](const YAML::Node& node) {
     return config::Map(config::Field(node, "s", &file), {"mode", "on", "eds"});

@@ -6,20 +6,22 @@ namespace teleop::config {
 
 namespace {
 
-std::string RangeText(const KeySpec& spec) {
+/// `separator` between a choice's words: ", " in a docs cell, " | " in a `--list-devices` line (whose fields are
+/// separated by commas).
+std::string RangeText(const KeySpec& spec, const std::string& separator = ", ") {
   switch (spec.type) {
     case KeyType::kChoice: {
       std::string words;
       for (const char* w : spec.choices) {
         if (w == nullptr) break;
-        words += (words.empty() ? "" : ", ") + std::string(w);
+        words += (words.empty() ? "" : separator) + std::string(w);
       }
       return words;
     }
     case KeyType::kBool:
-      return "true, false";
+      return "true" + separator + "false";
     case KeyType::kText:
-      return "text";
+      return "any";
     default:
       break;
   }
@@ -97,7 +99,7 @@ std::string ChoiceWords(const KeySpec& spec) {
 }
 
 std::string DescribeKey(const KeySpec& spec) {
-  return TypeText(spec) + ", " + RangeText(spec) + ", " +
+  return TypeText(spec) + ", " + RangeText(spec, " | ") + ", " +
          (spec.required ? std::string("required") : "default " + DefaultText(spec)) + ": " + spec.meaning;
 }
 

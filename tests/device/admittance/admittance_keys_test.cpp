@@ -83,6 +83,12 @@ TEST(AdmittanceKeys, TheEdsKeysDefaultIsTheStructsAndAPathIsRead) {
   namespace keys = admittance_keys;
   const AdmittanceAxisConfig code{};
   EXPECT_EQ(std::string(keys::kDriveEds.default_text), code.drive.eds_file);
+  int listed = 0;  // the backend lists the moved keys from its table (--list-devices, the docs rows)
+  for (const config::KeySpec& spec : FindDevice("admittance")->key_table) {
+    const std::string key = spec.key;
+    listed += key == "drives[].eds" || key == "mode" ? 1 : 0;
+  }
+  EXPECT_EQ(listed, 2);
   const std::string head =
       "{virtual_mass_kg: 2, virtual_damping_Ns_per_m: 8, can: {interface: can0}, drives: [{node_id: 3";
   EXPECT_EQ(Read(head + "}]}").axes.at(0).drive.eds_file, code.drive.eds_file);

@@ -174,6 +174,7 @@ inline const std::array kAll{kMode,
                              kDriveMaxTorque,
                              kDriveHeartbeatPeriod,
                              kDriveHeartbeatTimeout,
-                             kDriveStaleAfter};
+                             kDriveStaleAfter,
+                             kDriveEds};
 
 }  // namespace teleop::device::admittance_keys
