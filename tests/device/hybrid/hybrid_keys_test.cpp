@@ -47,7 +47,14 @@ TEST(HybridKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
   same(keys::kBrakePulleyRatio, code.brake.pulley_ratio, read.brake.pulley_ratio);
   same(keys::kEncoderCounts, code.encoders.counts_per_joint_rev, read.encoders.counts_per_joint_rev);
   same(keys::kEncoderVelocityFilter, code.encoders.velocity_filter_hz, read.encoders.velocity_filter_hz);
-  EXPECT_EQ(keys::kAll.size(), 18U);  // 17 with a number, rig with a word
+  const AllocationConfig alloc{};
+  const AllocationConfig read_alloc = Read("{allocation: {}}").allocation;
+  same(keys::kAllocationRestVelocity, alloc.rest_velocity_rad_per_s, read_alloc.rest_velocity_rad_per_s);
+  same(keys::kAllocationBrakeMismatch, alloc.brake_model_mismatch, read_alloc.brake_model_mismatch);
+  EXPECT_EQ(keys::kAllocationUseBrakes.default_bool, alloc.use_brakes);
+  EXPECT_EQ(read_alloc.use_brakes, alloc.use_brakes);
+  EXPECT_FALSE(Read("{allocation: {use_brakes: false}}").allocation.use_brakes);
+  EXPECT_EQ(keys::kAll.size(), 21U);  // 19 with a number, rig with a word, allocation.use_brakes true/false
   // The paper's values the docs state (docs/hybrid.md): motor 4.44 N·m after the reducer, brake 4 N·m, pulleys 5.
   EXPECT_EQ(code.motor.max_torque_Nm, 4.44);
   EXPECT_EQ(code.brake.max_torque_Nm, 4.0);

@@ -119,10 +119,45 @@ inline const KeySpec kEncoderVelocityFilter{.key = "encoders.velocity_filter_hz"
                                             .default_value = kRig.encoders.velocity_filter_hz,
                                             .meaning = "Low-pass of the differenced velocity; 0 = none."};
 
-inline const std::array kAll{
-    kRigKind,           kJointInertia,   kHandleMass,           kJointDamping,     kJointCoulomb,
-    kSubsteps,          kMotorMaxTorque, kMotorTimeConstant,    kMotorPulleyRatio, kBrakeMaxTorque,
-    kBrakeTimeConstant, kBrakeDrag,      kBrakeHysteresis,      kBrakeResidual,    kBrakeStaticRatio,
-    kBrakePulleyRatio,  kEncoderCounts,  kEncoderVelocityFilter};
+inline const AllocationConfig kAllocation{};
+inline const KeySpec kAllocationUseBrakes{.key = "allocation.use_brakes",
+                                          .type = KeyType::kBool,
+                                          .meaning = "false: motors only (the active system the paper compares with).",
+                                          .default_bool = kAllocation.use_brakes};
+inline const KeySpec kAllocationRestVelocity{
+    .key = "allocation.rest_velocity_rad_per_s",
+    .unit = "rad/s",
+    .range = KeyRange::kNonNegative,
+    .default_value = kAllocation.rest_velocity_rad_per_s,
+    .meaning = "Below this joint speed a brake opposes the operator's torque instead of the motion."};
+inline const KeySpec kAllocationBrakeMismatch{
+    .key = "allocation.brake_model_mismatch",
+    .range = KeyRange::kNonNegative,
+    .default_value = kAllocation.brake_model_mismatch,
+    .meaning =
+        "The simulated rig's allocation believes its brake faster by this fraction and stronger by half of it (0.2: "
+        "20 % faster, 10 % stronger); at most 0.9, checked at start."};
+
+inline const std::array kAll{kRigKind,
+                             kJointInertia,
+                             kHandleMass,
+                             kJointDamping,
+                             kJointCoulomb,
+                             kSubsteps,
+                             kMotorMaxTorque,
+                             kMotorTimeConstant,
+                             kMotorPulleyRatio,
+                             kBrakeMaxTorque,
+                             kBrakeTimeConstant,
+                             kBrakeDrag,
+                             kBrakeHysteresis,
+                             kBrakeResidual,
+                             kBrakeStaticRatio,
+                             kBrakePulleyRatio,
+                             kEncoderCounts,
+                             kEncoderVelocityFilter,
+                             kAllocationUseBrakes,
+                             kAllocationRestVelocity,
+                             kAllocationBrakeMismatch};
 
 }  // namespace teleop::device::hybrid::keys
