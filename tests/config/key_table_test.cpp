@@ -85,7 +85,8 @@ TEST(KeyTable, AValueOutOfItsTablesRangeIsRefusedWithTheKeysName) {
   // One key of each backend's table, at a value outside its range: the reader's message names the key.
   for (const auto& [name, minimal] : MinimalSections()) {
     for (const config::KeySpec& spec : device::FindDevice(name)->key_table) {
-      if (spec.required || spec.type == config::KeyType::kDofValue) continue;
+      // A text key takes any word; a choice or boolean one refuses ".nan" as it refuses any word not in its list.
+      if (spec.required || spec.type == config::KeyType::kDofValue || spec.type == config::KeyType::kText) continue;
       const std::string leaf = config::LeafOf(spec);
       if (leaf != spec.key) continue;  // a nested key: its parent has keys of its own
       const char* bad = spec.range == config::KeyRange::kFinite ? ".nan" : "-1e9";
@@ -130,6 +131,42 @@ TEST(KeyTable, ReadersAndDescriptionsFollowTheTable) {
   const config::Map wrong(bad_field, {"bandwidth_ratio", "cycles"});
   EXPECT_THROW((void)config::ReadNumber(wrong, ratio), Error);
   EXPECT_THROW((void)config::ReadInteger(wrong, cycles), Error);
+}
+
+TEST(KeyTable, AChoiceKeyRefusesAWrongWordWithTheWordsItAllows) {
+  const config::KeySpec mode{.key = "mode",
+                             .type = config::KeyType::kChoice,
+                             .meaning = "m",
+                             .choices = {"position", "velocity", "torque"},
+                             .default_choice = 1};
+  const config::KeySpec on{.key = "on", .type = config::KeyType::kBool, .meaning = "b", .default_bool = true};
+  const config::KeySpec eds{.key = "eds", .type = config::KeyType::kText, .meaning = "t", .default_text = "a.eds"};
+  EXPECT_EQ(config::KeyTableRow(mode), "| `mode` | choice | velocity | position, velocity, torque | m |");
+  EXPECT_EQ(config::DescribeKey(on), "boolean, true | false, default true: b");
+  EXPECT_EQ(config::DescribeKey(mode), "choice, position | velocity | torque, default velocity: m");
+  EXPECT_EQ(config::KeyTableRow(eds), "| `eds` | text | \"a.eds\" | any | t |");
+  static const std::string file = "k.yaml";
+  const auto map_of = [](const YAML::Node& node) {
+    return config::Map(config::Field(node, "s", &file), {"mode", "on", "eds"});
+  };
+  const YAML::Node empty = YAML::Load("{}");
+  EXPECT_EQ(config::ReadChoice(map_of(empty), mode), 1);
+  EXPECT_TRUE(config::ReadBool(map_of(empty), on));
+  EXPECT_EQ(config::ReadText(map_of(empty), eds), "a.eds");
+  const YAML::Node given = YAML::Load("{mode: torque, on: false, eds: b.eds}");
+  EXPECT_EQ(config::ReadChoice(map_of(given), mode), 2);
+  EXPECT_FALSE(config::ReadBool(map_of(given), on));
+  EXPECT_EQ(config::ReadText(map_of(given), eds), "b.eds");
+  const YAML::Node wrong = YAML::Load("{mode: current}");
+  try {
+    (void)config::ReadChoice(map_of(wrong), mode);
+    ADD_FAILURE() << "accepted 'current'";
+  } catch (const Error& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("k.yaml:1:8: key 's.mode': must be position, velocity or torque, got 'current'"),
+        std::string::npos)
+        << e.what();
+  }
 }
 
 // The one CAN bus section reader the admittance, cobot and hybrid backends share.

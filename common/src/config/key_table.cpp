@@ -1,10 +1,30 @@
 #include "teleop/config/key_table.hpp"
 
+#include <optional>
+
 namespace teleop::config {
 
 namespace {
 
-std::string RangeText(const KeySpec& spec) {
+/// `separator` between a choice's words: ", " in a docs cell, " | " in a `--list-devices` line (whose fields are
+/// separated by commas).
+std::string RangeText(const KeySpec& spec, const std::string& separator = ", ") {
+  switch (spec.type) {
+    case KeyType::kChoice: {
+      std::string words;
+      for (const char* w : spec.choices) {
+        if (w == nullptr) break;
+        words += (words.empty() ? "" : separator) + std::string(w);
+      }
+      return words;
+    }
+    case KeyType::kBool:
+      return "true" + separator + "false";
+    case KeyType::kText:
+      return "any";
+    default:
+      break;
+  }
   switch (spec.range) {
     case KeyRange::kFinite:
       return "finite";
@@ -21,6 +41,9 @@ std::string RangeText(const KeySpec& spec) {
 std::string TypeText(const KeySpec& spec) {
   std::string text = spec.type == KeyType::kDofValue  ? "DOF value"
                      : spec.type == KeyType::kInteger ? "integer"
+                     : spec.type == KeyType::kText    ? "text"
+                     : spec.type == KeyType::kChoice  ? "choice"
+                     : spec.type == KeyType::kBool    ? "boolean"
                                                       : "number";
   if (spec.unit[0] != '\0') text += std::string(", ") + spec.unit;
   return text;
@@ -48,15 +71,67 @@ std::string LeafOf(const KeySpec& spec) {
   return dot == std::string::npos ? key : key.substr(dot + 1);
 }
 
+std::string DefaultText(const KeySpec& spec) {
+  switch (spec.type) {
+    case KeyType::kChoice:
+      return spec.default_choice >= 0 && spec.default_choice < static_cast<int>(spec.choices.size()) &&
+                     spec.choices[spec.default_choice] != nullptr
+                 ? spec.choices[spec.default_choice]
+                 : "";
+    case KeyType::kBool:
+      return spec.default_bool ? "true" : "false";
+    case KeyType::kText:
+      return "\"" + std::string(spec.default_text) + "\"";
+    default:
+      return Num(spec.default_value);
+  }
+}
+
+std::string ChoiceWords(const KeySpec& spec) {
+  int n = 0;
+  while (n < static_cast<int>(spec.choices.size()) && spec.choices[n] != nullptr) ++n;
+  std::string words;
+  for (int i = 0; i < n; ++i) {
+    if (i > 0) words += i + 1 == n ? " or " : ", ";
+    words += spec.choices[i];
+  }
+  return words;
+}
+
 std::string DescribeKey(const KeySpec& spec) {
-  return TypeText(spec) + ", " + RangeText(spec) + ", " +
-         (spec.required ? std::string("required") : "default " + Num(spec.default_value)) + ": " + spec.meaning;
+  return TypeText(spec) + ", " + RangeText(spec, " | ") + ", " +
+         (spec.required ? std::string("required") : "default " + DefaultText(spec)) + ": " + spec.meaning;
 }
 
 std::string KeyTableRow(const KeySpec& spec) {
   return "| `" + LeafOf(spec) + "` | " + TypeText(spec) + " | " +
-         (spec.required ? std::string("**required**") : Num(spec.default_value)) + " | " + RangeText(spec) + " | " +
+         (spec.required ? std::string("**required**") : DefaultText(spec)) + " | " + RangeText(spec) + " | " +
          spec.meaning + " |";
+}
+
+int ReadChoice(const Map& map, const KeySpec& spec) {
+  const std::string leaf = LeafOf(spec);
+  std::optional<Field> v = spec.required ? std::optional<Field>(map.Required(leaf)) : map.Optional(leaf);
+  if (!v) return spec.default_choice;
+  const std::string word = v->AsString();
+  for (int i = 0; i < static_cast<int>(spec.choices.size()) && spec.choices[i] != nullptr; ++i) {
+    if (word == spec.choices[i]) return i;
+  }
+  v->Fail("must be " + ChoiceWords(spec) + ", got '" + word + "'");
+}
+
+bool ReadBool(const Map& map, const KeySpec& spec) {
+  const std::string leaf = LeafOf(spec);
+  if (spec.required) return map.Required(leaf).AsBool();
+  if (auto v = map.Optional(leaf)) return v->AsBool();
+  return spec.default_bool;
+}
+
+std::string ReadText(const Map& map, const KeySpec& spec) {
+  const std::string leaf = LeafOf(spec);
+  if (spec.required) return map.Required(leaf).AsString();
+  if (auto v = map.Optional(leaf)) return v->AsString();
+  return spec.default_text;
 }
 
 double ReadNumber(const Map& map, const KeySpec& spec) {

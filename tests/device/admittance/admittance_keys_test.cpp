@@ -12,6 +12,7 @@
 #include "admittance_device.hpp"
 #include "teleop/config/yaml_reader.hpp"
 #include "teleop/device/device_registry.hpp"
+#include "teleop/error.hpp"
 
 namespace teleop::device {
 namespace {
@@ -75,6 +76,47 @@ TEST(AdmittanceKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
       "can: {interface: can0}, drives: [{node_id: 3}]}");
   EXPECT_EQ(given.cycle_period_s, 0.002);
   EXPECT_EQ(given.tracking_error_cycles, 4);
+}
+
+// drives[].eds: a text key; its default is the default-constructed drive config's (no file), and a given path is read.
+TEST(AdmittanceKeys, TheEdsKeysDefaultIsTheStructsAndAPathIsRead) {
+  namespace keys = admittance_keys;
+  const AdmittanceAxisConfig code{};
+  EXPECT_EQ(std::string(keys::kDriveEds.default_text), code.drive.eds_file);
+  int listed = 0;  // the backend lists the moved keys from its table (--list-devices, the docs rows)
+  for (const config::KeySpec& spec : FindDevice("admittance")->key_table) {
+    const std::string key = spec.key;
+    listed += key == "drives[].eds" || key == "mode" ? 1 : 0;
+  }
+  EXPECT_EQ(listed, 2);
+  const std::string head =
+      "{virtual_mass_kg: 2, virtual_damping_Ns_per_m: 8, can: {interface: can0}, drives: [{node_id: 3";
+  EXPECT_EQ(Read(head + "}]}").axes.at(0).drive.eds_file, code.drive.eds_file);
+  EXPECT_EQ(Read(head + ", eds: drive.eds}]}").axes.at(0).drive.eds_file, "drive.eds");
+}
+
+// mode: the table's default word is the default-constructed config's mode, absent reads as it, velocity is read, and a
+// wrong word (torque included: the drives follow the virtual mass) is refused naming the key and both words.
+TEST(AdmittanceKeys, TheModeKeysDefaultIsTheStructsAndAWrongWordIsRefused) {
+  namespace keys = admittance_keys;
+  const AdmittanceConfig code{};
+  EXPECT_EQ(keys::kModes.at(static_cast<std::size_t>(keys::kMode.default_choice)), code.mode);
+  EXPECT_STREQ(keys::kMode.choices[keys::kMode.default_choice], "position");
+  const std::string base =
+      "virtual_mass_kg: 2, virtual_damping_Ns_per_m: 8, can: {interface: can0}, drives: [{node_id: 3}]";
+  EXPECT_EQ(Read("{" + base + "}").mode, code.mode);
+  EXPECT_EQ(Read("{mode: velocity, " + base + "}").mode, fieldbus::Cia402Mode::kCyclicSynchronousVelocity);
+  for (const char* word : {"torque", "current"}) {
+    try {
+      (void)Read("{mode: " + std::string(word) + ", " + base + "}");
+      ADD_FAILURE() << "accepted mode: " << word;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("'device.admittance.mode': must be position or velocity, got '" +
+                                           std::string(word) + "'"),
+                std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 }  // namespace

@@ -43,6 +43,10 @@ TEST(CobotKeys, TheTablesDefaultsAreTheConfigsAndTheReadersWhenAbsent) {
   same(keys::kFrictionCoefficient, p.friction_coefficient, rp.friction_coefficient);
   same(keys::kNormalLoad, p.normal_load_N, rp.normal_load_N);
   same(keys::kWheelRadius, code.unicycle.sensors.wheel_radius_m, read.unicycle.sensors.wheel_radius_m);
+  same(keys::kWheelEncoderCounts, code.unicycle.sensors.wheel_encoder_counts_per_rev,
+       read.unicycle.sensors.wheel_encoder_counts_per_rev);
+  same(keys::kSteeringEncoderCounts, code.unicycle.sensors.steering_encoder_counts_per_rev,
+       read.unicycle.sensors.steering_encoder_counts_per_rev);
   same(keys::kPositionResolution, code.unicycle.sensors.position_resolution_m,
        read.unicycle.sensors.position_resolution_m);
   same(keys::kForceResolution, code.unicycle.sensors.force_resolution_N, read.unicycle.sensors.force_resolution_N);
@@ -69,7 +73,7 @@ TEST(CobotKeys, TheTablesDefaultsAreTheConfigsAndTheReadersWhenAbsent) {
        bicycle.bicycle_caster.singularity_threshold);
   same(keys::kHeadingBandwidth, code.bicycle_caster.heading_bandwidth_per_s,
        bicycle.bicycle_caster.heading_bandwidth_per_s);
-  EXPECT_EQ(keys::kAll.size(), 32U);
+  EXPECT_EQ(keys::kAll.size(), 40U);  // 34 with a number, 6 with a word or true/false
   // steering_time_constant_s has no struct member: its default τ = 0.02 s sets K2 = J/τ − b (eq 3c).
   EXPECT_EQ(keys::kSteeringTimeConstant.default_value, 0.02);
   EXPECT_NEAR(read.unicycle.controller.caster.k2_Nms_per_rad,
@@ -78,6 +82,56 @@ TEST(CobotKeys, TheTablesDefaultsAreTheConfigsAndTheReadersWhenAbsent) {
   EXPECT_EQ(given.unicycle.plant.cart_mass_kg, 7.0);
   EXPECT_EQ(given.unicycle.controller.guard.margin, 0.5);
   EXPECT_EQ(given.op.max_force_N, 30.0);
+}
+
+// The keys with a word or true/false: the table's default is the default-constructed config's (its enum value's index
+// among the words), an absent key reads as it, a given word is read, and a wrong word is refused naming the key and
+// the words it allows.
+TEST(CobotKeys, TheWordKeysDefaultsAreTheConfigsAndAWrongWordIsRefused) {
+  const CobotBackendConfig code{};
+  const CobotBackendConfig read = Read("{}");
+  const VirtualWallConfig& w = code.unicycle.controller;
+  EXPECT_STREQ(keys::kKind.choices[keys::kKind.default_choice], "unicycle");
+  EXPECT_EQ(keys::kKind.default_choice, static_cast<int>(code.kind));
+  EXPECT_EQ(read.kind, code.kind);
+  EXPECT_EQ(keys::kGainForm.default_choice, static_cast<int>(w.tracker.gain_form));
+  EXPECT_EQ(read.unicycle.controller.tracker.gain_form, w.tracker.gain_form);
+  EXPECT_EQ(keys::kOverlay.default_bool, w.overlay_enabled);
+  EXPECT_EQ(read.unicycle.controller.overlay_enabled, w.overlay_enabled);
+  EXPECT_EQ(keys::kStabilityAction.default_choice, static_cast<int>(w.guard.action));
+  EXPECT_EQ(read.unicycle.controller.guard.action, w.guard.action);
+  EXPECT_EQ(keys::kRig.default_choice, static_cast<int>(code.rig));
+  EXPECT_EQ(read.rig, code.rig);
+  const CobotBackendConfig bicycle = Read("{kind: bicycle, bicycle: {}}", 3);
+  EXPECT_EQ(keys::kSingularityGuard.default_bool, code.bicycle_caster.singularity_guard);
+  EXPECT_EQ(bicycle.bicycle_caster.singularity_guard, code.bicycle_caster.singularity_guard);
+  EXPECT_FALSE(Read("{kind: bicycle, bicycle: {singularity_guard: false}}", 3).bicycle_caster.singularity_guard);
+  EXPECT_EQ(config::KeyTableRow(keys::kOverlay),
+            "| `overlay` | boolean | true | true, false | " + std::string(keys::kOverlay.meaning) + " |");
+
+  const CobotBackendConfig given = Read(
+      "{gain_form: circular, overlay: false, stability_action: lengthen_lookahead, kind: bicycle, bicycle: {}}", 3);
+  EXPECT_EQ(given.kind, CobotBackendConfig::Kind::kBicycle);
+  EXPECT_EQ(given.unicycle.controller.tracker.gain_form, ConstraintTrackerConfig::GainForm::kCircular);
+  EXPECT_FALSE(given.unicycle.controller.overlay_enabled);
+  EXPECT_EQ(given.unicycle.controller.guard.action, StabilityGuardConfig::Action::kLengthenLookahead);
+
+  const auto error = [](const std::string& yaml) -> std::string {
+    try {
+      (void)Read(yaml);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  const std::string action = error("{stability_action: stop}");
+  EXPECT_NE(action.find("key 'device.cobot.stability_action': must be warn, lengthen_lookahead or brake, got 'stop'"),
+            std::string::npos)
+      << action;
+  const std::string kind = error("{kind: tricycle}");
+  EXPECT_NE(kind.find("'device.cobot.kind': must be unicycle or bicycle, got 'tricycle'"), std::string::npos) << kind;
+  const std::string overlay = error("{overlay: maybe}");
+  EXPECT_NE(overlay.find("'device.cobot.overlay': expected true or false"), std::string::npos) << overlay;
 }
 
 TEST(CobotKeys, AnUnknownNestedKeyIsRefusedByItsName) {

@@ -11,6 +11,7 @@
 
 #include "device/hybrid/hybrid_backend.hpp"
 #include "teleop/config/yaml_reader.hpp"
+#include "teleop/error.hpp"
 
 namespace teleop::device::hybrid {
 namespace {
@@ -46,7 +47,14 @@ TEST(HybridKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
   same(keys::kBrakePulleyRatio, code.brake.pulley_ratio, read.brake.pulley_ratio);
   same(keys::kEncoderCounts, code.encoders.counts_per_joint_rev, read.encoders.counts_per_joint_rev);
   same(keys::kEncoderVelocityFilter, code.encoders.velocity_filter_hz, read.encoders.velocity_filter_hz);
-  EXPECT_EQ(keys::kAll.size(), 17U);
+  const AllocationConfig alloc{};
+  const AllocationConfig read_alloc = Read("{allocation: {}}").allocation;
+  same(keys::kAllocationRestVelocity, alloc.rest_velocity_rad_per_s, read_alloc.rest_velocity_rad_per_s);
+  same(keys::kAllocationBrakeMismatch, alloc.brake_model_mismatch, read_alloc.brake_model_mismatch);
+  EXPECT_EQ(keys::kAllocationUseBrakes.default_bool, alloc.use_brakes);
+  EXPECT_EQ(read_alloc.use_brakes, alloc.use_brakes);
+  EXPECT_FALSE(Read("{allocation: {use_brakes: false}}").allocation.use_brakes);
+  EXPECT_EQ(keys::kAll.size(), 21U);  // 19 with a number, rig with a word, allocation.use_brakes true/false
   // The paper's values the docs state (docs/hybrid.md): motor 4.44 N·m after the reducer, brake 4 N·m, pulleys 5.
   EXPECT_EQ(code.motor.max_torque_Nm, 4.44);
   EXPECT_EQ(code.brake.max_torque_Nm, 4.0);
@@ -55,6 +63,24 @@ TEST(HybridKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
   EXPECT_EQ(given.substeps, 3);
   EXPECT_EQ(given.motor.pulley_ratio, 4.0);
   EXPECT_EQ(given.brake.drag_Nm, 0.2);
+}
+
+// rig: the table's default word is the default-constructed config's, absent reads as it, a wrong word is refused
+// naming the key and both words.
+TEST(HybridKeys, TheRigKeysDefaultIsTheConfigsAndAWrongWordIsRefused) {
+  const HybridDeviceConfig code{};
+  EXPECT_EQ(keys::kRigKind.default_choice, code.fieldbus_rig ? 1 : 0);
+  EXPECT_STREQ(keys::kRigKind.choices[keys::kRigKind.default_choice], "simulated");
+  EXPECT_EQ(Read("{}").fieldbus_rig, code.fieldbus_rig);
+  EXPECT_FALSE(Read("{rig: simulated}").fieldbus_rig);
+  try {
+    (void)Read("{rig: real}");
+    ADD_FAILURE() << "accepted rig: real";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'device.hybrid.rig': must be simulated or fieldbus, got 'real'"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(HybridKeys, AnUnknownNestedKeyIsRefusedByItsName) {

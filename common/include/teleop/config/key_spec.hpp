@@ -3,6 +3,7 @@
 // One config key written once (no YAML here: device_registry.hpp lists a backend's table). Reading, describing and
 // the docs row: teleop/config/key_table.hpp.
 
+#include <array>
 #include <cstdint>
 
 namespace teleop::config {
@@ -12,6 +13,9 @@ enum class KeyType : std::uint8_t {
   kNumber,    ///< One number.
   kDofValue,  ///< One number for every DOF, or a list of exactly `dof` numbers (ReadDofVector).
   kInteger,   ///< A whole number in [low, high] (range kInRange).
+  kText,      ///< A word or path (ReadText); default `default_text`.
+  kChoice,    ///< One of the words in `choices` (ReadChoice returns its index); default `choices[default_choice]`.
+  kBool,      ///< true or false (ReadBool); default `default_bool`.
 };
 
 /// The range a key's value must lie in (the reader's check and the docs' "range" column).
@@ -32,6 +36,11 @@ struct KeySpec {
   const char* meaning = "";    ///< One sentence for the docs and `--list-devices`.
   double low = 0.0;            ///< kInRange: the smallest value allowed.
   double high = 0.0;           ///< kInRange: the largest value allowed.
+  /// kChoice: the allowed words, in the order of the config enum they name (unused entries nullptr).
+  std::array<const char*, 4> choices{};
+  int default_choice = 0;         ///< kChoice: the index of the default word in `choices`.
+  bool default_bool = false;      ///< kBool: the default.
+  const char* default_text = "";  ///< kText: the default.
 };
 
 }  // namespace teleop::config

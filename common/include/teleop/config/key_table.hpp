@@ -19,6 +19,22 @@ std::string KeyTableRow(const KeySpec& spec);
 double ReadNumber(const Map& map, const KeySpec& spec);
 /// Reads a kInteger key: required or its default, in [low, high].
 int ReadInteger(const Map& map, const KeySpec& spec);
+/// The default as the docs and `--list-devices` print it ("10", "unicycle", "true", "\"\"").
+std::string DefaultText(const KeySpec& spec);
+/// A kChoice key's words as a message lists them: "warn, lengthen_lookahead or brake".
+std::string ChoiceWords(const KeySpec& spec);
+/// Reads a kChoice key: the index of its word in `choices` (required or `default_choice`); any other word is an
+/// error at the value naming the allowed words ("must be unicycle or bicycle, got 'x'").
+int ReadChoice(const Map& map, const KeySpec& spec);
+/// ReadChoice as the config enum whose values are the indices of `choices`.
+template <typename Enum>
+Enum ReadChoiceAs(const Map& map, const KeySpec& spec) {
+  return static_cast<Enum>(ReadChoice(map, spec));
+}
+/// Reads a kBool key: required or `default_bool`.
+bool ReadBool(const Map& map, const KeySpec& spec);
+/// Reads a kText key: required or `default_text`.
+std::string ReadText(const Map& map, const KeySpec& spec);
 /// Reads a kDofValue key: `dof` entries, each checked against the range; absent: the default on every DOF.
 DofVector ReadDofValue(const Map& map, const KeySpec& spec, int dof);
 

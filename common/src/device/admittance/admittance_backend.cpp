@@ -40,7 +40,7 @@ AdmittanceAxisConfig ReadDrive(const Field& f) {
   d.drive_heartbeat_period_ms = config::ReadNumber(map, keys::kDriveHeartbeatPeriod);
   d.heartbeat_timeout_ms = config::ReadNumber(map, keys::kDriveHeartbeatTimeout);
   d.stale_after_ms = config::ReadNumber(map, keys::kDriveStaleAfter);
-  if (auto v = map.Optional("eds")) d.eds_file = v->AsString();
+  d.eds_file = config::ReadText(map, keys::kDriveEds);
   return a;
 }
 
@@ -53,12 +53,7 @@ AdmittanceConfig ReadAdmittance(const Field& f, int dof) {
   namespace keys = admittance_keys;
   c.virtual_mass_kg = config::ReadDofValue(map, keys::kVirtualMass, dof);
   c.virtual_damping_Ns_per_m = config::ReadDofValue(map, keys::kVirtualDamping, dof);
-  if (auto v = map.Optional("mode")) {
-    const std::string mode = v->AsString();
-    if (!fieldbus::ParseCia402Mode(mode, c.mode) || c.mode == fieldbus::Cia402Mode::kCyclicSynchronousTorque) {
-      v->Fail("must be position or velocity (the drives follow the virtual mass), got '" + mode + "'");
-    }
-  }
+  c.mode = keys::kModes.at(static_cast<std::size_t>(config::ReadChoice(map, keys::kMode)));
   c.max_force_N = config::ReadNumber(map, keys::kMaxForce);
   c.max_velocity_m_per_s = config::ReadNumber(map, keys::kMaxVelocity);
   c.position_loop_bandwidth_rad_per_s = config::ReadNumber(map, keys::kPositionLoopBandwidth);
@@ -129,7 +124,6 @@ DeviceBackend AdmittanceBackend() {
   b.nominal.measures_velocity = true;
   b.nominal.measures_force = false;
   b.keys = {
-      {"mode", "position (CiA 402 mode 8, default) or velocity (9): the target the drives take"},
       {"can", "the drives' bus"},
   };
   for (const fieldbus::CanPortKey& key : fieldbus::kCanPortKeys) {
@@ -138,10 +132,9 @@ DeviceBackend AdmittanceBackend() {
   b.keys.insert(b.keys.end(), {
                                   {"drives", "one drive per DOF, in axis order"},
                                   {"drives[].direction", "1 or -1 (the drive's positive direction against the axis')"},
-                                  {"drives[].eds", "the drive's EDS/DCF: checked at configure (docs/cia402.md, EDS)"},
                               });
 
-  AdoptKeyTable(b, admittance_keys::kAll);  // the keys with a number, written once (admittance_keys.hpp)
+  AdoptKeyTable(b, admittance_keys::kAll);  // the keys with a number or a word, written once (admittance_keys.hpp)
   b.section_required = true;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
     return ReadAdmittance(*section, context.dof);

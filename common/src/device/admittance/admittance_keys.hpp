@@ -18,6 +18,17 @@ using config::KeyType;
 
 inline const AdmittanceConfig kDefaults{};
 
+/// `mode`: the modes its words name, in the order of kMode's choices.
+inline constexpr std::array kModes{fieldbus::Cia402Mode::kCyclicSynchronousPosition,
+                                   fieldbus::Cia402Mode::kCyclicSynchronousVelocity};
+inline const KeySpec kMode{.key = "mode",
+                           .type = KeyType::kChoice,
+                           .meaning =
+                               "The target the drives take: position (CiA 402 mode 8) or velocity (9); not "
+                               "torque (the drives follow the virtual mass).",
+                           .choices = {"position", "velocity"},
+                           .default_choice = kDefaults.mode == kModes[1] ? 1 : 0};
+
 inline const KeySpec kVirtualMass{.key = "virtual_mass_kg",
                                   .type = KeyType::kDofValue,
                                   .unit = "kg",
@@ -137,10 +148,33 @@ inline const KeySpec kDriveStaleAfter{.key = "drives[].stale_after_ms",
                                       .default_value = kAxis.drive.stale_after_ms,
                                       .meaning = "TPDO data older than this is a fault."};
 
-inline const std::array kAll{kVirtualMass,           kVirtualDamping,        kMaxForce,          kMaxVelocity,
-                             kPositionLoopBandwidth, kBandwidthRatio,        kMaxStiffness,      kCyclePeriod,
-                             kMaxTrackingError,      kTrackingErrorCycles,   kDriveNodeId,       kDriveTransmission,
-                             kDriveRatedTorque,      kDrivePositionUnit,     kDriveVelocityUnit, kDriveMaxTorque,
-                             kDriveHeartbeatPeriod,  kDriveHeartbeatTimeout, kDriveStaleAfter};
+inline const KeySpec kDriveEds{.key = "drives[].eds",
+                               .type = KeyType::kText,
+                               .meaning =
+                                   "The drive's EDS/DCF file, checked at configure (docs/cia402.md, \"EDS / DCF\"); "
+                                   "\"\" = none.",
+                               .default_text = kAxis.drive.eds_file.c_str()};
+
+inline const std::array kAll{kMode,
+                             kVirtualMass,
+                             kVirtualDamping,
+                             kMaxForce,
+                             kMaxVelocity,
+                             kPositionLoopBandwidth,
+                             kBandwidthRatio,
+                             kMaxStiffness,
+                             kCyclePeriod,
+                             kMaxTrackingError,
+                             kTrackingErrorCycles,
+                             kDriveNodeId,
+                             kDriveTransmission,
+                             kDriveRatedTorque,
+                             kDrivePositionUnit,
+                             kDriveVelocityUnit,
+                             kDriveMaxTorque,
+                             kDriveHeartbeatPeriod,
+                             kDriveHeartbeatTimeout,
+                             kDriveStaleAfter,
+                             kDriveEds};
 
 }  // namespace teleop::device::admittance_keys

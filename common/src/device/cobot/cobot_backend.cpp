@@ -24,22 +24,14 @@ DeviceBackend CobotBackend() {
       "simulated or (unicycle) on CAN";
   b.nominal = CobotCapabilities(2, 0.0);
   b.keys = {
-      {"kind", "unicycle (dof 2, default) or bicycle (dof 3; walls on the plate's reference point)"},
-      {"wheel_encoder_counts_per_rev", "wheel encoder counts, >= 0 (0 = ideal); default 16384"},
-      {"steering_encoder_counts_per_rev", "steering encoder counts, >= 0 (0 = ideal); default 16384"},
       {"virtual_mass_kg",
        "1/K1 of the virtual caster (eq 2) (kg), > 0; default 10 (unicycle only: the bicycle's is "
        "its plate mass)"},
-      {"gain_form", "small_angle (eq 8, default) or circular (eq 7)"},
-      {"overlay", "constraint overlay (§5) on/off; default true"},
-      {"stability_action", "above the eq 10 bound: warn (default), lengthen_lookahead or brake"},
       {"initial_position_m", "start position [x, y] (m); default [0, 0]"},
       {"initial_heading_deg", "start heading (deg from +x); default 0"},
       {"operator", "simulated operator (master without a human)"},
       {"bicycle", "bicycle cobot plate (kind: bicycle)"},
-      {"bicycle.singularity_guard", "keep the wheels off the singular configuration; default true"},
       {"bicycle.hold_heading_deg", "angular constraint: the wheels hold the plate's θ at this (deg); default none"},
-      {"rig", "simulated (default: the models above) or fieldbus (the real unicycle cobot on CAN, needs fieldbus)"},
       {"fieldbus", "the real rig's CAN bus, steering drive and sensor node (rig: fieldbus only)"},
       {"fieldbus.can", "the bus: medium, interface or bus"},
   };
@@ -97,7 +89,7 @@ DeviceBackend CobotBackend() {
            "default 0.01"},
       });
 
-  AdoptKeyTable(b, keys::kAll);  // the keys with a number, written once (cobot_keys.hpp)
+  AdoptKeyTable(b, keys::kAll);  // the keys with a number, a word or true/false, written once (cobot_keys.hpp)
   b.section_required = false;
   b.read = [](const config::Field* section, const SectionContext& context) -> std::any {
     return ReadCobot(section, context.dof, context.role);

@@ -1,7 +1,6 @@
 // The `device.cobot` section reader (docs/cobot.md, docs/configuration.md): every key, its range and the checks
 // that span keys (dof, role, rig, fieldbus node ids).
 
-#include <cmath>
 #include <string>
 
 #include "cobot_backend_private.hpp"
@@ -20,12 +19,6 @@ using config::Map;
 using config::NonNegative;
 using config::Positive;
 
-int ReadCount(const Field& f) {
-  const double v = NonNegative(f, "counts per revolution (0 = ideal)");
-  if (v != std::floor(v) || v > 1e9) f.Fail("must be a whole number of counts, got " + config::Num(v));
-  return static_cast<int>(v);
-}
-
 void ReadOperator(const Field& f, CobotOperatorScript& op) {
   const Map map(f, {"speed_m_per_s", "direction_deg", "then_at_s", "then_direction_deg", "max_force_N"});
   op.enabled = true;
@@ -43,7 +36,7 @@ void ReadBicycle(const Field& f, CobotBackendConfig& c) {
   c.bicycle.plate_mass_kg = config::ReadNumber(map, keys::kPlateMass);
   c.bicycle.plate_inertia_kgm2 = config::ReadNumber(map, keys::kPlateInertia);
   c.bicycle_caster.singularity_threshold = config::ReadNumber(map, keys::kSingularityThreshold);
-  if (auto v = map.Optional("singularity_guard")) c.bicycle_caster.singularity_guard = v->AsBool();
+  c.bicycle_caster.singularity_guard = config::ReadBool(map, keys::kSingularityGuard);
   if (auto v = map.Optional("hold_heading_deg")) {
     c.bicycle_caster.heading_constraint = true;
     c.bicycle_caster.heading_target_rad = Finite(*v) * config::kDeg;
@@ -199,16 +192,7 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
     UnicyclePlantConfig& p = c.unicycle.plant;
     CobotSensorConfig& s = c.unicycle.sensors;
     VirtualWallConfig& w = c.unicycle.controller;
-    if (auto v = map.Optional("kind")) {
-      const std::string kind = v->AsString();
-      if (kind == "unicycle") {
-        c.kind = CobotBackendConfig::Kind::kUnicycle;
-      } else if (kind == "bicycle") {
-        c.kind = CobotBackendConfig::Kind::kBicycle;
-      } else {
-        v->Fail("must be unicycle or bicycle, got '" + kind + "'");
-      }
-    }
+    c.kind = config::ReadChoiceAs<CobotBackendConfig::Kind>(map, keys::kKind);
     p.cart_mass_kg = config::ReadNumber(map, keys::kCartMass);
     p.rolling_damping_Ns_per_m = config::ReadNumber(map, keys::kRollingDamping);
     p.steering_inertia_kgm2 = config::ReadNumber(map, keys::kSteeringInertia);
@@ -219,42 +203,22 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
     p.friction_coefficient = config::ReadNumber(map, keys::kFrictionCoefficient);
     p.normal_load_N = config::ReadNumber(map, keys::kNormalLoad);
     s.wheel_radius_m = config::ReadNumber(map, keys::kWheelRadius);
-    if (auto v = map.Optional("wheel_encoder_counts_per_rev")) s.wheel_encoder_counts_per_rev = ReadCount(*v);
-    if (auto v = map.Optional("steering_encoder_counts_per_rev")) s.steering_encoder_counts_per_rev = ReadCount(*v);
+    s.wheel_encoder_counts_per_rev = config::ReadInteger(map, keys::kWheelEncoderCounts);
+    s.steering_encoder_counts_per_rev = config::ReadInteger(map, keys::kSteeringEncoderCounts);
     s.position_resolution_m = config::ReadNumber(map, keys::kPositionResolution);
     s.force_resolution_N = config::ReadNumber(map, keys::kForceResolution);
     tau_s = config::ReadNumber(map, keys::kSteeringTimeConstant);
     if (auto v = map.Optional("virtual_mass_kg")) w.caster.k1_per_kg = 1.0 / Positive(*v, "kg");
     w.caster.speed_floor_m_per_s = config::ReadNumber(map, keys::kSpeedFloor);
     w.tracker.lookahead_m = config::ReadNumber(map, keys::kLookahead);
-    if (auto v = map.Optional("gain_form")) {
-      const std::string form = v->AsString();
-      if (form == "small_angle") {
-        w.tracker.gain_form = ConstraintTrackerConfig::GainForm::kSmallAngle;
-      } else if (form == "circular") {
-        w.tracker.gain_form = ConstraintTrackerConfig::GainForm::kCircular;
-      } else {
-        v->Fail("must be small_angle (eq 8) or circular (eq 7), got '" + form + "'");
-      }
-    }
+    w.tracker.gain_form = config::ReadChoiceAs<ConstraintTrackerConfig::GainForm>(map, keys::kGainForm);
     w.tracker.p_gain_scale = config::ReadNumber(map, keys::kPGainScale);
     w.tracker.theta_gain_scale = config::ReadNumber(map, keys::kThetaGainScale);
     w.tracker.integral_gain_per_m3 = config::ReadNumber(map, keys::kIntegralGain);
-    if (auto v = map.Optional("overlay")) w.overlay_enabled = v->AsBool();
+    w.overlay_enabled = config::ReadBool(map, keys::kOverlay);
     w.overlay_min_radius_m = config::ReadNumber(map, keys::kOverlayMinRadius);
     w.release_force_N = config::ReadNumber(map, keys::kReleaseForce);
-    if (auto v = map.Optional("stability_action")) {
-      const std::string action = v->AsString();
-      if (action == "warn") {
-        w.guard.action = StabilityGuardConfig::Action::kWarn;
-      } else if (action == "lengthen_lookahead") {
-        w.guard.action = StabilityGuardConfig::Action::kLengthenLookahead;
-      } else if (action == "brake") {
-        w.guard.action = StabilityGuardConfig::Action::kBrake;
-      } else {
-        v->Fail("must be warn, lengthen_lookahead or brake, got '" + action + "'");
-      }
-    }
+    w.guard.action = config::ReadChoiceAs<StabilityGuardConfig::Action>(map, keys::kStabilityAction);
     w.guard.margin = config::ReadNumber(map, keys::kStabilityMargin);
     c.contact_force_threshold_N = config::ReadNumber(map, keys::kContactForceThreshold);
     if (auto v = map.Optional("initial_position_m")) {
@@ -274,16 +238,7 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
     } else if (auto v = map.Optional("bicycle")) {
       v->Fail("only for kind: bicycle");
     }
-    if (auto v = map.Optional("rig")) {
-      const std::string rig = v->AsString();
-      if (rig == "simulated") {
-        c.rig = CobotBackendConfig::Rig::kSimulated;
-      } else if (rig == "fieldbus") {
-        c.rig = CobotBackendConfig::Rig::kFieldbus;
-      } else {
-        v->Fail("must be simulated or fieldbus, got '" + rig + "'");
-      }
-    }
+    c.rig = config::ReadChoiceAs<CobotBackendConfig::Rig>(map, keys::kRig);
     if (c.rig == CobotBackendConfig::Rig::kFieldbus) {
       const Field rig = map.Required("rig");
       if (c.kind != CobotBackendConfig::Kind::kUnicycle) {

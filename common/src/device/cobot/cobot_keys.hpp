@@ -1,9 +1,10 @@
 #pragma once
 
-// The `device.cobot` keys with a number, each written once (teleop/config/key_table.hpp): the reader
-// (cobot_config_reader.cpp), `--list-devices` and the rows of docs/configuration.md come from this table. Each default
-// is the default-constructed CobotBackendConfig's (its member initialisers and UnicycleCobotConfig::Prototype()),
-// except steering_time_constant_s, which no struct holds (the reader turns it into K2): its default is written here.
+// The `device.cobot` keys with a number, a word or true/false, each written once (teleop/config/key_table.hpp): the
+// reader (cobot_config_reader.cpp), `--list-devices` and the rows of docs/configuration.md come from this table. Each
+// default is the default-constructed CobotBackendConfig's (its member initialisers and
+// UnicycleCobotConfig::Prototype()), except steering_time_constant_s, which no struct holds (the reader turns it into
+// K2): its default is written here.
 
 #include <array>
 
@@ -16,6 +17,35 @@ using config::KeyRange;
 using config::KeySpec;
 
 inline const CobotBackendConfig kDefaults{};
+
+// The keys with a word or true/false: each choice lists its words in the order of the enum it sets.
+inline const KeySpec kKind{.key = "kind",
+                           .type = config::KeyType::kChoice,
+                           .meaning = "unicycle (dof 2) or bicycle (dof 3; walls on the plate's reference point).",
+                           .choices = {"unicycle", "bicycle"},
+                           .default_choice = static_cast<int>(kDefaults.kind)};
+inline const KeySpec kGainForm{.key = "gain_form",
+                               .type = config::KeyType::kChoice,
+                               .meaning = "The tracker's gains: small_angle (eq 8) or circular (eq 7).",
+                               .choices = {"small_angle", "circular"},
+                               .default_choice = static_cast<int>(kDefaults.unicycle.controller.tracker.gain_form)};
+inline const KeySpec kOverlay{.key = "overlay",
+                              .type = config::KeyType::kBool,
+                              .meaning = "Constraint overlay (§5) on or off.",
+                              .default_bool = kDefaults.unicycle.controller.overlay_enabled};
+inline const KeySpec kStabilityAction{
+    .key = "stability_action",
+    .type = config::KeyType::kChoice,
+    .meaning = "Above the eq 10 bound: warn, lengthen the look-ahead, or brake (needs brake_max_force_N > 0).",
+    .choices = {"warn", "lengthen_lookahead", "brake"},
+    .default_choice = static_cast<int>(kDefaults.unicycle.controller.guard.action)};
+inline const KeySpec kRig{.key = "rig",
+                          .type = config::KeyType::kChoice,
+                          .meaning =
+                              "simulated (the models above) or fieldbus (the real unicycle cobot on CAN, needs "
+                              "fieldbus).",
+                          .choices = {"simulated", "fieldbus"},
+                          .default_choice = static_cast<int>(kDefaults.rig)};
 
 inline const KeySpec kCartMass{.key = "cart_mass_kg",
                                .unit = "kg",
@@ -67,6 +97,22 @@ inline const KeySpec kWheelRadius{.key = "wheel_radius_m",
                                   .range = KeyRange::kPositive,
                                   .default_value = kDefaults.unicycle.sensors.wheel_radius_m,
                                   .meaning = "Wheel radius."};
+inline const KeySpec kWheelEncoderCounts{
+    .key = "wheel_encoder_counts_per_rev",
+    .type = config::KeyType::kInteger,
+    .range = KeyRange::kInRange,
+    .default_value = static_cast<double>(kDefaults.unicycle.sensors.wheel_encoder_counts_per_rev),
+    .meaning = "Wheel encoder counts per revolution; 0 = ideal.",
+    .low = 0.0,
+    .high = 1e9};
+inline const KeySpec kSteeringEncoderCounts{
+    .key = "steering_encoder_counts_per_rev",
+    .type = config::KeyType::kInteger,
+    .range = KeyRange::kInRange,
+    .default_value = static_cast<double>(kDefaults.unicycle.sensors.steering_encoder_counts_per_rev),
+    .meaning = "Steering encoder counts per revolution; 0 = ideal.",
+    .low = 0.0,
+    .high = 1e9};
 inline const KeySpec kPositionResolution{.key = "position_resolution_m",
                                          .unit = "m",
                                          .range = KeyRange::kNonNegative,
@@ -172,6 +218,10 @@ inline const KeySpec kSingularityThreshold{.key = "bicycle.singularity_threshold
                                            .meaning = "Singularity measure below which the guard acts.",
                                            .low = 0.0,
                                            .high = 0.99};
+inline const KeySpec kSingularityGuard{.key = "bicycle.singularity_guard",
+                                       .type = config::KeyType::kBool,
+                                       .meaning = "Keep the wheels off the singular configuration.",
+                                       .default_bool = kDefaults.bicycle_caster.singularity_guard};
 inline const KeySpec kHeadingBandwidth{.key = "bicycle.heading_bandwidth_per_s",
                                        .unit = "rad/s",
                                        .range = KeyRange::kInRange,
@@ -180,7 +230,12 @@ inline const KeySpec kHeadingBandwidth{.key = "bicycle.heading_bandwidth_per_s",
                                        .low = 0.1,
                                        .high = 20.0};
 
-inline const std::array kAll{kCartMass,
+inline const std::array kAll{kKind,
+                             kGainForm,
+                             kOverlay,
+                             kStabilityAction,
+                             kRig,
+                             kCartMass,
                              kRollingDamping,
                              kSteeringInertia,
                              kSteeringDamping,
@@ -190,6 +245,8 @@ inline const std::array kAll{kCartMass,
                              kFrictionCoefficient,
                              kNormalLoad,
                              kWheelRadius,
+                             kWheelEncoderCounts,
+                             kSteeringEncoderCounts,
                              kPositionResolution,
                              kForceResolution,
                              kSteeringTimeConstant,
@@ -211,6 +268,7 @@ inline const std::array kAll{kCartMass,
                              kPlateMass,
                              kPlateInertia,
                              kSingularityThreshold,
-                             kHeadingBandwidth};
+                             kHeadingBandwidth,
+                             kSingularityGuard};
 
 }  // namespace teleop::device::cobot::keys

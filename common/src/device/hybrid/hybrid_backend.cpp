@@ -102,14 +102,7 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
   const Map m(*section, {"initial_position_m", "geometry", "motor", "brake", "joint_inertia_kgm2", "handle_mass_kg",
                          "joint_damping_Nms_per_rad", "joint_coulomb_Nm", "substeps", "allocation", "effect",
                          "operator", "environment", "rig", "fieldbus", "encoders", "force_sensor"});
-  if (auto v = m.Optional("rig")) {
-    const std::string rig = v->AsString();
-    if (rig == "fieldbus") {
-      c.fieldbus_rig = true;
-    } else if (rig != "simulated") {
-      v->Fail("must be simulated or fieldbus; got '" + rig + "'");
-    }
-  }
+  c.fieldbus_rig = config::ReadChoice(m, keys::kRigKind) == 1;
   if (c.fieldbus_rig) {
     // The simulation's own inputs make no sense on the real rig: refuse them rather than ignore them.
     for (const char* key : {"operator", "environment", "effect", "substeps", "encoders", "force_sensor"}) {
@@ -158,10 +151,9 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
   }
   if (auto v = m.Optional("allocation")) {
     const Map mm(*v, {"use_brakes", "rest_velocity_rad_per_s", "brake_model_mismatch"});
-    if (auto x = mm.Optional("brake_model_mismatch")) c.allocation.brake_model_mismatch = NonNegative(*x, "");
-    if (auto x = mm.Optional("use_brakes")) c.allocation.use_brakes = x->AsBool();
-    if (auto x = mm.Optional("rest_velocity_rad_per_s"))
-      c.allocation.rest_velocity_rad_per_s = NonNegative(*x, "rad/s");
+    c.allocation.brake_model_mismatch = config::ReadNumber(mm, keys::kAllocationBrakeMismatch);
+    c.allocation.use_brakes = config::ReadBool(mm, keys::kAllocationUseBrakes);
+    c.allocation.rest_velocity_rad_per_s = config::ReadNumber(mm, keys::kAllocationRestVelocity);
   }
   if (auto v = m.Optional("effect")) ReadEffect(*v, c.effect);
   if (auto v = m.Optional("operator")) {
@@ -224,9 +216,7 @@ DeviceBackend HybridBackend() {
       {"brake", "the particle brake per joint: the brake.* keys"},
       {"encoders", "the simulated rig's encoders: the encoders.* keys"},
       {"force_sensor", "noise_std_N (0.05), bandwidth_hz (500; 0 = none), seed (1): the simulated handle sensor"},
-      {"allocation",
-       "use_brakes (true; false = motors only), rest_velocity_rad_per_s (0.02), brake_model_mismatch (0.2: the "
-       "simulated rig's allocation believes its brake 20 % faster and 10 % stronger; 0..0.9)"},
+      {"allocation", "the motor/brake torque allocation: the allocation.* keys"},
       {"effect",
        "local haptic effect: type none | wall (model spring|popc|hybrid|linear-damper, point_m, normal, "
        "stiffness_N_per_m, damper_coefficient, max_force_N) | friction (display motor|brake, point_m, "
@@ -236,7 +226,7 @@ DeviceBackend HybridBackend() {
        "max_force_N, mass_kg"},
       {"environment", "simulated wall on the handle (slave): point_m, normal, stiffness_N_per_m, damping_Ns_per_m"},
   };
-  AdoptKeyTable(b, keys::kAll);  // the keys with a number, written once (hybrid_keys.hpp)
+  AdoptKeyTable(b, keys::kAll);  // the keys with a number or a word, written once (hybrid_keys.hpp)
   for (ConfigKey& key : HybridFieldbusKeys()) b.keys.push_back(std::move(key));
   b.section_required = false;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {

@@ -131,7 +131,6 @@ void ReadHybridFieldbusSection(const Field& section, HybridFieldbusRigConfig& ou
 
 std::vector<ConfigKey> HybridFieldbusKeys() {
   return {
-      {"rig", "simulated (default: the simulated rig) | fieldbus (the real rig: device.hybrid.fieldbus, required)"},
       {"fieldbus.can",
        "the drives' CAN bus: medium socketcan (interface) | emulated (bus HOST:PORT of teleop-canbus), "
        "connect_timeout_ms"},

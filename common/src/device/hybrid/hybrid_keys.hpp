@@ -1,12 +1,13 @@
 #pragma once
 
-// The `device.hybrid` keys with a number, each written once (teleop/config/key_table.hpp): the reader
+// The `device.hybrid` keys with a number or a word, each written once (teleop/config/key_table.hpp): the reader
 // (hybrid_backend.cpp), `--list-devices` and the rows of docs/configuration.md come from this table; each default is
 // the member initialiser of the rig's config structs (hybrid_rig.hpp, motor_model.hpp, particle_brake.hpp,
 // rig_sensing.hpp), read from a default-constructed HybridRigConfig.
 
 #include <array>
 
+#include "device/hybrid/hybrid_device.hpp"
 #include "device/hybrid/hybrid_rig.hpp"
 #include "teleop/config/key_table.hpp"
 
@@ -17,6 +18,15 @@ using config::KeySpec;
 using config::KeyType;
 
 inline const HybridRigConfig kRig{};
+
+/// `rig`: the word's index is HybridDeviceConfig::fieldbus_rig (0 simulated, 1 fieldbus).
+inline const KeySpec kRigKind{.key = "rig",
+                              .type = KeyType::kChoice,
+                              .meaning =
+                                  "simulated (the simulated rig) or fieldbus (the real rig: device.hybrid.fieldbus, "
+                                  "required).",
+                              .choices = {"simulated", "fieldbus"},
+                              .default_choice = HybridDeviceConfig{}.fieldbus_rig ? 1 : 0};
 
 inline const KeySpec kJointInertia{.key = "joint_inertia_kgm2",
                                    .unit = "kg·m²",
@@ -109,10 +119,45 @@ inline const KeySpec kEncoderVelocityFilter{.key = "encoders.velocity_filter_hz"
                                             .default_value = kRig.encoders.velocity_filter_hz,
                                             .meaning = "Low-pass of the differenced velocity; 0 = none."};
 
-inline const std::array kAll{
-    kJointInertia,   kHandleMass,           kJointDamping,     kJointCoulomb,     kSubsteps,
-    kMotorMaxTorque, kMotorTimeConstant,    kMotorPulleyRatio, kBrakeMaxTorque,   kBrakeTimeConstant,
-    kBrakeDrag,      kBrakeHysteresis,      kBrakeResidual,    kBrakeStaticRatio, kBrakePulleyRatio,
-    kEncoderCounts,  kEncoderVelocityFilter};
+inline const AllocationConfig kAllocation{};
+inline const KeySpec kAllocationUseBrakes{.key = "allocation.use_brakes",
+                                          .type = KeyType::kBool,
+                                          .meaning = "false: motors only (the active system the paper compares with).",
+                                          .default_bool = kAllocation.use_brakes};
+inline const KeySpec kAllocationRestVelocity{
+    .key = "allocation.rest_velocity_rad_per_s",
+    .unit = "rad/s",
+    .range = KeyRange::kNonNegative,
+    .default_value = kAllocation.rest_velocity_rad_per_s,
+    .meaning = "Below this joint speed a brake opposes the operator's torque instead of the motion."};
+inline const KeySpec kAllocationBrakeMismatch{
+    .key = "allocation.brake_model_mismatch",
+    .range = KeyRange::kNonNegative,
+    .default_value = kAllocation.brake_model_mismatch,
+    .meaning =
+        "The simulated rig's allocation believes its brake faster by this fraction and stronger by half of it (0.2: "
+        "20 % faster, 10 % stronger); at most 0.9, checked at start."};
+
+inline const std::array kAll{kRigKind,
+                             kJointInertia,
+                             kHandleMass,
+                             kJointDamping,
+                             kJointCoulomb,
+                             kSubsteps,
+                             kMotorMaxTorque,
+                             kMotorTimeConstant,
+                             kMotorPulleyRatio,
+                             kBrakeMaxTorque,
+                             kBrakeTimeConstant,
+                             kBrakeDrag,
+                             kBrakeHysteresis,
+                             kBrakeResidual,
+                             kBrakeStaticRatio,
+                             kBrakePulleyRatio,
+                             kEncoderCounts,
+                             kEncoderVelocityFilter,
+                             kAllocationUseBrakes,
+                             kAllocationRestVelocity,
+                             kAllocationBrakeMismatch};
 
 }  // namespace teleop::device::hybrid::keys
