@@ -4,6 +4,7 @@
 #include <map>
 #include <mutex>
 #include <utility>
+#include <vector>
 
 #include "teleop/closest_match.hpp"
 #include "teleop/error.hpp"
@@ -14,6 +15,10 @@ namespace {
 struct Registry {
   std::mutex mutex;
   std::map<std::string, DeviceBackend, std::less<>> backends;  // sorted by name; nodes never move
+  /// TELEOP_REGISTER_DEVICE's builders, run at the first lookup (after every static initialiser: a backend's
+  /// description may read other translation units' constants, e.g. its key table, whose initialisation order
+  /// against the registrar's is unspecified).
+  std::vector<DeviceBackend (*)()> pending;
 };
 
 Registry& TheRegistry() {
@@ -57,21 +62,45 @@ AnalysisModel AnalysisModel::NotApplicable(std::string reason) {
   return m;
 }
 
-void RegisterDevice(DeviceBackend backend) {
+namespace {
+
+void AddLocked(Registry& registry, DeviceBackend backend) {
   if (backend.name.empty()) throw Error("device registry: a backend needs a non-empty name");
   const std::string name = backend.name;
   if (!backend.make) throw Error("device registry: backend '" + name + "' was registered without a factory");
   if (!backend.read) throw Error("device registry: backend '" + name + "' was registered without a section reader");
-  Registry& registry = TheRegistry();
-  const std::lock_guard<std::mutex> lock(registry.mutex);
   if (!registry.backends.emplace(name, std::move(backend)).second) {
     throw Error("device registry: backend '" + name + "' is already registered; pick another name");
   }
 }
 
+/// Builds the backends registered by builder (with the registry's lock held).
+void BuildPendingLocked(Registry& registry) {
+  std::vector<DeviceBackend (*)()> pending;
+  pending.swap(registry.pending);
+  for (DeviceBackend (*build)() : pending) AddLocked(registry, build());
+}
+
+}  // namespace
+
+void RegisterDevice(DeviceBackend backend) {
+  Registry& registry = TheRegistry();
+  const std::lock_guard<std::mutex> lock(registry.mutex);
+  BuildPendingLocked(registry);
+  AddLocked(registry, std::move(backend));
+}
+
+void RegisterDeviceBuilder(DeviceBackend (*build)()) {
+  if (build == nullptr) throw Error("device registry: a null backend builder");
+  Registry& registry = TheRegistry();
+  const std::lock_guard<std::mutex> lock(registry.mutex);
+  registry.pending.push_back(build);
+}
+
 const DeviceBackend* FindDevice(std::string_view name) {
   Registry& registry = TheRegistry();
   const std::lock_guard<std::mutex> lock(registry.mutex);
+  BuildPendingLocked(registry);
   const auto it = registry.backends.find(name);
   return it == registry.backends.end() ? nullptr : &it->second;
 }
@@ -79,6 +108,7 @@ const DeviceBackend* FindDevice(std::string_view name) {
 std::vector<std::string> RegisteredDevices() {
   Registry& registry = TheRegistry();
   const std::lock_guard<std::mutex> lock(registry.mutex);
+  BuildPendingLocked(registry);
   std::vector<std::string> names;
   names.reserve(registry.backends.size());
   for (const auto& [name, backend] : registry.backends) names.push_back(name);

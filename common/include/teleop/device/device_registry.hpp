@@ -70,6 +70,10 @@ struct DeviceBackend {
 /// Registers a backend (set-up only, thread-safe; callable from static initialisers and from an out-of-tree
 /// program's main). Throws teleop::Error for an empty name, a missing reader or factory, or a taken name.
 void RegisterDevice(DeviceBackend backend);
+/// Registers a backend by the function that describes it, called at the registry's first lookup rather than now
+/// (what TELEOP_REGISTER_DEVICE uses: at static-initialisation time the constants a description reads, such as its
+/// key table, may not be initialised yet). The builder's errors (a taken name, ...) are thrown by that lookup.
+void RegisterDeviceBuilder(DeviceBackend (*build)());
 /// The registered backend called `name`, or nullptr. The pointer stays valid for the program's lifetime.
 const DeviceBackend* FindDevice(std::string_view name);
 /// Creates the configured backend; throws teleop::Error naming the known backends when `backend` is unknown, and
@@ -91,11 +95,11 @@ std::string UnknownBackendMessage(std::string_view name);
 /// backend (`id` = its folder name) teleop::devices passes `-Wl,--undefined=teleop_device_backend_<id>`, so the
 /// linker takes that object out of the static library (common/src/device/CMakeLists.txt). An out-of-tree backend
 /// compiled into the executable registers the same way, or calls RegisterDevice from main.
-#define TELEOP_REGISTER_DEVICE(id, backend_expression)    \
-  extern "C" {                                            \
-  extern const bool teleop_device_backend_##id;           \
-  const bool teleop_device_backend_##id = [] {            \
-    ::teleop::device::RegisterDevice(backend_expression); \
-    return true;                                          \
-  }();                                                    \
+#define TELEOP_REGISTER_DEVICE(id, backend_expression)                                                               \
+  extern "C" {                                                                                                       \
+  extern const bool teleop_device_backend_##id;                                                                      \
+  const bool teleop_device_backend_##id = [] {                                                                       \
+    ::teleop::device::RegisterDeviceBuilder([]() -> ::teleop::device::DeviceBackend { return backend_expression; }); \
+    return true;                                                                                                     \
+  }();                                                                                                               \
   }
