@@ -73,7 +73,7 @@ TEST(CobotKeys, TheTablesDefaultsAreTheConfigsAndTheReadersWhenAbsent) {
        bicycle.bicycle_caster.singularity_threshold);
   same(keys::kHeadingBandwidth, code.bicycle_caster.heading_bandwidth_per_s,
        bicycle.bicycle_caster.heading_bandwidth_per_s);
-  EXPECT_EQ(keys::kAll.size(), 40U);  // 34 with a number, 6 with a word or true/false
+  EXPECT_EQ(keys::All().size(), 40U);  // 34 with a number, 6 with a word or true/false
   // steering_time_constant_s has no struct member: its default τ = 0.02 s sets K2 = J/τ − b (eq 3c).
   EXPECT_EQ(keys::kSteeringTimeConstant.default_value, 0.02);
   EXPECT_NEAR(read.unicycle.controller.caster.k2_Nms_per_rad,

@@ -54,7 +54,7 @@ TEST(HybridKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
   EXPECT_EQ(keys::kAllocationUseBrakes.default_bool, alloc.use_brakes);
   EXPECT_EQ(read_alloc.use_brakes, alloc.use_brakes);
   EXPECT_FALSE(Read("{allocation: {use_brakes: false}}").allocation.use_brakes);
-  EXPECT_EQ(keys::kAll.size(), 21U);  // 19 with a number, rig with a word, allocation.use_brakes true/false
+  EXPECT_EQ(keys::All().size(), 21U);  // 19 with a number, rig with a word, allocation.use_brakes true/false
   // The paper's values the docs state (docs/hybrid.md): motor 4.44 N·m after the reducer, brake 4 N·m, pulleys 5.
   EXPECT_EQ(code.motor.max_torque_Nm, 4.44);
   EXPECT_EQ(code.brake.max_torque_Nm, 4.0);

@@ -134,7 +134,7 @@ DeviceBackend AdmittanceBackend() {
                                   {"drives[].direction", "1 or -1 (the drive's positive direction against the axis')"},
                               });
 
-  AdoptKeyTable(b, admittance_keys::kAll);  // the keys with a number or a word, written once (admittance_keys.hpp)
+  AdoptKeyTable(b, admittance_keys::All());  // the keys with a number or a word, written once (admittance_keys.hpp)
   b.section_required = true;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
     return ReadAdmittance(*section, context.dof);

@@ -155,26 +155,31 @@ inline const KeySpec kDriveEds{.key = "drives[].eds",
                                    "\"\" = none.",
                                .default_text = kAxis.drive.eds_file.c_str()};
 
-inline const std::array kAll{kMode,
-                             kVirtualMass,
-                             kVirtualDamping,
-                             kMaxForce,
-                             kMaxVelocity,
-                             kPositionLoopBandwidth,
-                             kBandwidthRatio,
-                             kMaxStiffness,
-                             kCyclePeriod,
-                             kMaxTrackingError,
-                             kTrackingErrorCycles,
-                             kDriveNodeId,
-                             kDriveTransmission,
-                             kDriveRatedTorque,
-                             kDrivePositionUnit,
-                             kDriveVelocityUnit,
-                             kDriveMaxTorque,
-                             kDriveHeartbeatPeriod,
-                             kDriveHeartbeatTimeout,
-                             kDriveStaleAfter,
-                             kDriveEds};
+/// Every key of the table, built at its first use (after static initialisation: its elements are dynamically
+/// initialised constants, and a copy made during static initialisation could read one not yet initialised).
+inline const auto& All() {
+  static const std::array table{kMode,
+                                kVirtualMass,
+                                kVirtualDamping,
+                                kMaxForce,
+                                kMaxVelocity,
+                                kPositionLoopBandwidth,
+                                kBandwidthRatio,
+                                kMaxStiffness,
+                                kCyclePeriod,
+                                kMaxTrackingError,
+                                kTrackingErrorCycles,
+                                kDriveNodeId,
+                                kDriveTransmission,
+                                kDriveRatedTorque,
+                                kDrivePositionUnit,
+                                kDriveVelocityUnit,
+                                kDriveMaxTorque,
+                                kDriveHeartbeatPeriod,
+                                kDriveHeartbeatTimeout,
+                                kDriveStaleAfter,
+                                kDriveEds};
+  return table;
+}
 
 }  // namespace teleop::device::admittance_keys

@@ -89,7 +89,7 @@ DeviceBackend CobotBackend() {
            "default 0.01"},
       });
 
-  AdoptKeyTable(b, keys::kAll);  // the keys with a number, a word or true/false, written once (cobot_keys.hpp)
+  AdoptKeyTable(b, keys::All());  // the keys with a number, a word or true/false, written once (cobot_keys.hpp)
   b.section_required = false;
   b.read = [](const config::Field* section, const SectionContext& context) -> std::any {
     return ReadCobot(section, context.dof, context.role);

@@ -226,7 +226,7 @@ DeviceBackend HybridBackend() {
        "max_force_N, mass_kg"},
       {"environment", "simulated wall on the handle (slave): point_m, normal, stiffness_N_per_m, damping_Ns_per_m"},
   };
-  AdoptKeyTable(b, keys::kAll);  // the keys with a number or a word, written once (hybrid_keys.hpp)
+  AdoptKeyTable(b, keys::All());  // the keys with a number or a word, written once (hybrid_keys.hpp)
   for (ConfigKey& key : HybridFieldbusKeys()) b.keys.push_back(std::move(key));
   b.section_required = false;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {

@@ -138,26 +138,31 @@ inline const KeySpec kAllocationBrakeMismatch{
         "The simulated rig's allocation believes its brake faster by this fraction and stronger by half of it (0.2: "
         "20 % faster, 10 % stronger); at most 0.9, checked at start."};
 
-inline const std::array kAll{kRigKind,
-                             kJointInertia,
-                             kHandleMass,
-                             kJointDamping,
-                             kJointCoulomb,
-                             kSubsteps,
-                             kMotorMaxTorque,
-                             kMotorTimeConstant,
-                             kMotorPulleyRatio,
-                             kBrakeMaxTorque,
-                             kBrakeTimeConstant,
-                             kBrakeDrag,
-                             kBrakeHysteresis,
-                             kBrakeResidual,
-                             kBrakeStaticRatio,
-                             kBrakePulleyRatio,
-                             kEncoderCounts,
-                             kEncoderVelocityFilter,
-                             kAllocationUseBrakes,
-                             kAllocationRestVelocity,
-                             kAllocationBrakeMismatch};
+/// Every key of the table, built at its first use (after static initialisation: its elements are dynamically
+/// initialised constants, and a copy made during static initialisation could read one not yet initialised).
+inline const auto& All() {
+  static const std::array table{kRigKind,
+                                kJointInertia,
+                                kHandleMass,
+                                kJointDamping,
+                                kJointCoulomb,
+                                kSubsteps,
+                                kMotorMaxTorque,
+                                kMotorTimeConstant,
+                                kMotorPulleyRatio,
+                                kBrakeMaxTorque,
+                                kBrakeTimeConstant,
+                                kBrakeDrag,
+                                kBrakeHysteresis,
+                                kBrakeResidual,
+                                kBrakeStaticRatio,
+                                kBrakePulleyRatio,
+                                kEncoderCounts,
+                                kEncoderVelocityFilter,
+                                kAllocationUseBrakes,
+                                kAllocationRestVelocity,
+                                kAllocationBrakeMismatch};
+  return table;
+}
 
 }  // namespace teleop::device::hybrid::keys

@@ -144,7 +144,7 @@ DeviceBackend LoopbackBackend() {
       {"environment.stiffness_N_per_m", "wall stiffness (N/m), > 0"},
       {"environment.damping_Ns_per_m", "wall damping (N·s/m), >= 0; default 0"},
   };
-  AdoptKeyTable(b, loopback_keys::kAll);  // the keys with a number, written once (loopback_keys.hpp)
+  AdoptKeyTable(b, loopback_keys::All());  // the keys with a number, written once (loopback_keys.hpp)
   b.section_required = true;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
     return ReadLoopback(*section, context.dof);  // section_required: the config reader checked it is there

@@ -63,7 +63,12 @@ inline const KeySpec kOperatorStiffness{"operator.stiffness_N_per_m",
                                         kOperator.stiffness_N_per_m,
                                         "k_h."};
 
-inline const std::array kAll{kMass,         kDamping,         kEncoderResolution, kInitialPosition,
-                             kOperatorMass, kOperatorDamping, kOperatorStiffness};
+/// Every key of the table, built at its first use (after static initialisation: its elements are dynamically
+/// initialised constants, and a copy made during static initialisation could read one not yet initialised).
+inline const auto& All() {
+  static const std::array table{kMass,         kDamping,         kEncoderResolution, kInitialPosition,
+                                kOperatorMass, kOperatorDamping, kOperatorStiffness};
+  return table;
+}
 
 }  // namespace teleop::device::loopback_keys
