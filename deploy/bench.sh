@@ -130,25 +130,8 @@ cyclictest_run() {  # interval_us mode tag
     args=(--laptop -p 0)
   fi
   cyclictest -q -t1 -i "${interval}" -l "${loops}" -h 10000 "${args[@]}" > "${work}/cyclictest-${tag}.txt" 2>&1 || true
-  /usr/bin/python3 - "${work}/cyclictest-${tag}.txt" "${interval}" "${mode}" > "${raw}/cyclictest-${tag}.json" <<'PY'
-import json, sys
-hist, total, maximum = {}, 0, None
-for line in open(sys.argv[1]):
-    parts = line.split()
-    if len(parts) == 2 and parts[0].isdigit() and parts[1].isdigit():
-        hist[int(parts[0])] = int(parts[1]); total += int(parts[1])
-    elif line.startswith("# Max Latencies"):
-        maximum = int(line.split(":")[1].split()[0])
-def pct(p):
-    need, seen = p * total, 0
-    for us in sorted(hist):
-        seen += hist[us]
-        if seen >= need and hist[us]:
-            return us
-    return None
-print(json.dumps({"interval_us": int(sys.argv[2]), "mode": sys.argv[3], "count": total, "p50_us": pct(0.5),
-                  "p99_us": pct(0.99), "max_us": maximum}))
-PY
+  /usr/bin/python3 "${TELEOP_ROOT}/deploy/bench/cyclictest_json.py" "${work}/cyclictest-${tag}.txt" "${interval}" "${mode}" \
+    > "${raw}/cyclictest-${tag}.json"
 }
 
 log "loop timing of the processes (${rates[*]} Hz; modes ${modes[*]}; ${syncs[*]}) and cyclictest beside"

@@ -225,25 +225,7 @@ done
 # timer slack (1 ns), the loop alone with the kernel's default slack, and a pair (its master's jitter), all at the
 # same settings on the master's CPU.
 cyclictest_json() {  # file interval mode > json
-  /usr/bin/python3 - "$1" "$2" "$3" <<'PY'
-import json, sys
-hist, total, maximum = {}, 0, None
-for line in open(sys.argv[1]):
-    parts = line.split()
-    if len(parts) == 2 and parts[0].isdigit() and parts[1].isdigit():
-        hist[int(parts[0])] = int(parts[1]); total += int(parts[1])
-    elif line.startswith("# Max Latencies"):
-        maximum = int(line.split(":")[1].split()[0])
-def pct(p):
-    need, seen = p * total, 0
-    for us in sorted(hist):
-        seen += hist[us]
-        if seen >= need and hist[us]:
-            return us
-    return None
-print(json.dumps({"interval_us": int(sys.argv[2]), "mode": sys.argv[3], "count": total, "p50_us": pct(0.5),
-                  "p99_us": pct(0.99), "max_us": maximum}))
-PY
+  /usr/bin/python3 "${TELEOP_ROOT}/deploy/bench/cyclictest_json.py" "$1" "$2" "$3"
 }
 jitter_sets=("1000 off")
 [[ ${is_root} -eq 1 ]] && jitter_sets=("1000 rt" "8000 rt" "1000 off")
