@@ -10,10 +10,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <thread>
 
@@ -193,6 +195,25 @@ TEST(Supervisor, TextFromTheDomainCannotInjectRowsOrTerminalEscapes) {
       EXPECT_EQ(v.stop_reason, "duration?0?evil?row?[2J");
     }
   }
+}
+
+// docs/dds.md lists every Event kind by number and name as the bridge publishes them (kind is the enum's value):
+// a kind added without its line in the docs fails here.
+TEST(Bridge, DocsListEveryEventKindWithItsNumber) {
+  std::ifstream in(std::string(TELEOP_SOURCE_DIR) + "/docs/dds.md");
+  ASSERT_TRUE(in) << "docs/dds.md";
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string docs = text.str();
+  int kinds = 0;
+  for (int k = 0; k < 256; ++k) {  // the enum is uint8; EventKindName says "unknown" past the last kind
+    const std::string name = EventKindName(static_cast<node::Event::Kind>(k));
+    if (name == "unknown") break;
+    ++kinds;
+    EXPECT_NE(docs.find(" " + std::to_string(k) + " " + name), std::string::npos)
+        << "docs/dds.md does not list kind " << k << " " << name;
+  }
+  EXPECT_GT(kinds, static_cast<int>(node::Event::Kind::kPlaneRefused));
 }
 
 TEST(Bridge, ABridgeThatLeavesWithoutASummaryIsGone) {
