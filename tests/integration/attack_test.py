@@ -23,7 +23,7 @@ While the pair is coupled (master alive):
   other-port flood     no privileges: 3000 forged frames from another port; the slave's socket is connect()ed to the
                        master, so the kernel drops them: nothing is counted at all
   re-handshake         the slave is stopped (SIGSTOP) for 0.2 s, so the master re-handshakes; its new hellos are
-                       duplicated and the start-up's first hello replayed, as at start-up
+                       duplicated and the start-up's first hello replayed, and the stub flood runs, as at start-up
 On the emulated CAN bus (teleop-canbus, --canbus):
   unprivileged attach  a process running as nobody says hello to the daemon and sends it a bus-off command: it must
                        get no welcome, the command must not act, and the daemon counts both refusals
@@ -597,17 +597,31 @@ def main():
         if privileged:
             # A re-handshake: the slave stalls past the master's timeout; the master's new hellos are duplicated and
             # an older one replayed while the slave is stopped and as it resumes.
+            # Throughout, the start-up's stubs and forged hellos again from the master's port, 1 per ms (50 times the
+            # handshake bucket's 20/s that the old code charged them to): they must not keep the pair from setting the
+            # session up again. Not 4 per ms here: the stopped slave's queue holds them, and a backlog beyond the
+            # rejection bucket's burst (512) would be drained partly as rate_limited (the replayed hello among them),
+            # harmless to the pair but no longer countable by reason.
+            stub = Attack("stub flood of the handshake limiter (re-handshake)", LIVE,
+                          ("malformed", "bad_handshake_tag"))
             dup = Attack("duplicated hello (re-handshake)", LIVE, (), rejects=False)
             replay = Attack("replayed older hello (re-handshake)", LIVE, ("stale_handshake",))
-            with dup, replay:
+            stop_flood = threading.Event()
+            result = {}
+            flooder = threading.Thread(target=lambda: result.update(n=flood_until(to_slave, flood_item, 1, stop_flood)))
+            with stub, dup, replay:
                 echo.attach(dup, replay)
+                flooder.start()
                 slave.send_signal(signal.SIGSTOP)
                 time.sleep(0.2)
                 slave.send_signal(signal.SIGCONT)
                 time.sleep(0.8)
+                stop_flood.set()
+                flooder.join()
                 echo.attach(None, None)
-            attacks += [dup, replay]
-            rehandshake = (dup, replay)
+            stub.sent = result["n"]
+            attacks += [stub, dup, replay]
+            rehandshake = (stub, dup, replay)
             time.sleep(0.2)
             last_frames = capture(master_port, slave_port, 0.3)
             check(len(last_frames) > 30, f"captured the master's last {len(last_frames)} frames before it dies")
@@ -739,6 +753,10 @@ def main():
         cycles, engaged = coupled(a)
         check(engaged > 0, f"{a.name}: the pair coupled during it ({engaged} of {cycles} slave cycles engaged)")
         rows = between(slave_rows, a.t0, a.t1)
+        first = next(i for i, r in enumerate(rows) if int(r["engagement"]) == 3)
+        check(engaged == len(rows) - first and rows[-1]["wall"] - rows[first]["wall"] > 0.3,
+              f"{a.name}: once coupled, engaged in every later cycle of the attack ({engaged} of {len(rows) - first}, "
+              f"{rows[-1]['wall'] - rows[first]['wall']:.2f} s)")
         check(max(abs(r["position_m_0"]) for r in rows) < 0.1, f"{a.name}: the slave stayed within its rest range")
     if privileged:
         for a in rehandshake:

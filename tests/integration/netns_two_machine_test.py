@@ -11,6 +11,14 @@ the fixture; and from the veth counters that the traffic really went over the li
   --transport emulated-can  the CAN rig configs with the SocketCAN interface swapped for the emulated bus daemon
                             (teleop-canbus) running in the slave's namespace: the master reaches the bus over the veth.
                             Real SocketCAN runs in the qemu guest (tests/qemu, docs/qemu-can.md).
+  --units DIR               (udp) run each process as its systemd unit (DIR/teleop-<role>.service) ships: the unit's
+                            own ExecStart arguments in a staged root (/etc/teleop/<role>.yaml, /var/lib/teleop as the
+                            working and state directory), as an unprivileged user standing in for DynamicUser=yes
+                            (nobody), with root's /etc/teleop/teleop.key (0600) present but unreadable to it and the
+                            key handed over only as the unit's LoadCredential= names it: a copy in
+                            $CREDENTIALS_DIRECTORY (run/credentials/teleop-<role>.service/, owned by that user, 0400:
+                            systemd's layout where it cannot set an ACL). First the slave without the variable: it
+                            must refuse to start (status 2, the key unreadable: the deployment's old defect).
 
 Exit 77 (ctest: skipped) with a message only when network namespaces cannot be created here (not root, no
 CAP_SYS_ADMIN, no iproute2). The namespaces are deleted on every exit path, failures included; their names carry the
@@ -86,6 +94,75 @@ def relax_realtime(text):
     return re.sub(r"(?m)^(\s*cpu:)\s*-?\d+", r"\1 -1", text)
 
 
+def parse_unit(path):
+    """[Section] -> {key: [values]} of a systemd unit file (comments and blank lines skipped)."""
+    sections, current = {}, None
+    for raw in open(path):
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        m = re.match(r"\[(\w+)\]$", line)
+        if m:
+            current = sections.setdefault(m.group(1), {})
+            continue
+        key, _, value = line.partition("=")
+        current.setdefault(key.strip(), []).append(value.strip())
+    return sections
+
+
+UNIT_USER = 65534  # nobody: stands in for the unit's transient DynamicUser= user
+
+
+class AsShipped:
+    """One process as its unit starts it, in a staged root (see --units)."""
+
+    def __init__(self, units, role, workdir, config_text, key_text):
+        self.role = role
+        service = parse_unit(os.path.join(units, f"teleop-{role}.service"))["Service"]
+        check(service.get("DynamicUser") == ["yes"], f"teleop-{role}.service: DynamicUser=yes")
+        creds = [c.split(":", 1) for c in service.get("LoadCredential", [])]
+        check(len(creds) == 1 and creds[0][1] == "/etc/teleop/teleop.key",
+              f"teleop-{role}.service: LoadCredential=NAME:/etc/teleop/teleop.key ({service.get('LoadCredential')})")
+        name = creds[0][0]
+        check(service.get("WorkingDirectory") == ["/var/lib/teleop"] and service.get("StateDirectory") == ["teleop"],
+              f"teleop-{role}.service: works in its state directory /var/lib/teleop")
+        self.root = os.path.join(workdir, f"root-{role}")
+        if os.path.exists(self.root):
+            shutil.rmtree(self.root)
+        etc, self.state = os.path.join(self.root, "etc/teleop"), os.path.join(self.root, "var/lib/teleop")
+        self.creds = os.path.join(self.root, f"run/credentials/teleop-{role}.service")
+        for d in (etc, self.state, self.creds):
+            os.makedirs(d)
+        for d in (self.root, os.path.dirname(etc), etc, os.path.dirname(os.path.dirname(self.state)),
+                  os.path.dirname(self.state), os.path.dirname(self.creds), os.path.join(self.root, "run")):
+            os.chmod(d, 0o755)
+        with open(os.path.join(etc, f"{role}.yaml"), "w") as f:
+            f.write(config_text)
+        os.chmod(os.path.join(etc, f"{role}.yaml"), 0o644)
+        # root's key where docs/deployment.md puts it: private, so the service's user cannot open it.
+        self.root_key = os.path.join(etc, "teleop.key")
+        for path, owner in ((self.root_key, 0), (os.path.join(self.creds, name), UNIT_USER)):
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+            with os.fdopen(fd, "w") as f:
+                f.write(key_text)
+            os.chown(path, owner, owner)
+        os.chmod(os.path.join(self.creds, name), 0o400)  # as systemd writes a credential
+        os.chown(self.creds, UNIT_USER, UNIT_USER)
+        os.chmod(self.creds, 0o500)
+        os.chown(self.state, UNIT_USER, UNIT_USER)
+        self.argv = [a.replace("/etc/teleop", etc).replace("/var/lib/teleop", self.state)
+                     for a in service["ExecStart"][0].split()[1:]]
+        self.summary = os.path.join(self.state, f"{role}-summary.json")
+        check(f"--summary-json {self.summary}" in " ".join(self.argv),
+              f"teleop-{role}.service writes its summary to /var/lib/teleop/{role}-summary.json")
+
+    def command(self, ns, binary, extra, with_credentials=True):
+        env = ["env", "-u", "CREDENTIALS_DIRECTORY"] + ([f"CREDENTIALS_DIRECTORY={self.creds}"] if with_credentials
+                                                        else [])
+        drop = ["setpriv", f"--reuid={UNIT_USER}", f"--regid={UNIT_USER}", "--clear-groups", "--"]
+        return ns.exec(ns.master if self.role == "master" else ns.slave, env + drop + [binary] + self.argv + extra)
+
+
 def to_emulated_bus(text, bus):
     """SocketCAN interface -> the emulated bus daemon at `bus` (same frames, same budget, no AF_CAN needed)."""
     if not re.search(r"(?m)^\s*transport:\s*can\b", text):
@@ -123,6 +200,7 @@ def main():
     ap.add_argument("--configs", required=True, help="deploy/configs/loopback")
     ap.add_argument("--transport", required=True, choices=["udp", "emulated-can"])
     ap.add_argument("--workdir", required=True)
+    ap.add_argument("--units", help="deploy/systemd: run the UDP pair as the units ship (see the docstring)")
     args = ap.parse_args()
 
     if shutil.which("ip") is None:
@@ -166,12 +244,25 @@ def run_pair(args, ns, procs):
         cfgs[role] = os.path.join(args.workdir, f"{role}.yaml")
         with open(cfgs[role], "w") as f:
             f.write(text)
-    teleop_keys.ensure_key(args.workdir)  # the UDP rig configs: key_file teleop.key beside the config
+    key = teleop_keys.ensure_key(args.workdir)  # the UDP rig configs: key_file teleop.key beside the config
     mjson = os.path.join(args.workdir, "master.json")
     sjson = os.path.join(args.workdir, "slave.json")
     for p in (mjson, sjson):
         if os.path.exists(p):
             os.remove(p)
+    shipped = None
+    if args.units and args.transport == "udp":
+        if shutil.which("setpriv") is None:
+            raise Failure("setpriv (util-linux) is missing: it runs the processes as the units' unprivileged user")
+        key_text = open(key).read()
+        shipped = {role: AsShipped(args.units, role, args.workdir, open(cfgs[role]).read(), key_text)
+                   for role in ("master", "slave")}
+        for role in ("master", "slave"):
+            st = os.stat(shipped[role].root_key)
+            check(st.st_uid == 0 and (st.st_mode & 0o777) == 0o600,
+                  f"{role}: root's /etc/teleop/teleop.key is there, 0600, the unit's user (uid {UNIT_USER}) cannot "
+                  "read it")
+        mjson, sjson = shipped["master"].summary, shipped["slave"].summary
 
     # The loopback master is unreachable from the slave's namespace and vice versa: only the veth joins them.
     r = run(ns.exec(ns.master, ["ip", "-4", "-o", "addr", "show"]))
@@ -187,17 +278,32 @@ def run_pair(args, ns, procs):
         if not bus_out.wait_for("listening", 10):
             raise Failure("teleop-canbus did not start:\n" + bus_out.text())
 
-    slave = subprocess.Popen(ns.exec(ns.slave, [args.slave, "--config", cfgs["slave"], "--duration", "10",
-                                                "--summary-json", sjson]),
-                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    if shipped is not None:
+        # The deployment's old defect: the unit's user cannot open root's key. Without the credential the slave must
+        # refuse to start, naming the key file (the check can fail: this is what the units did before).
+        s = shipped["slave"]
+        r = subprocess.run(s.command(ns, args.slave, ["--duration", "0.2"], with_credentials=False),
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=60, cwd=s.state)
+        check(r.returncode == 2 and "teleop.key" in r.stdout and "Permission denied" in r.stdout,
+              f"as the unit's user without $CREDENTIALS_DIRECTORY the slave cannot open root's key and refuses to "
+              f"start (status {r.returncode}): {r.stdout.strip().splitlines()[-1] if r.stdout.strip() else ''}")
+        slave_cmd = s.command(ns, args.slave, ["--duration", "10"])
+        master_cmd = shipped["master"].command(ns, args.master, ["--duration", "3"])
+        print(f"as shipped: {' '.join(slave_cmd)}")
+    else:
+        slave_cmd = ns.exec(ns.slave, [args.slave, "--config", cfgs["slave"], "--duration", "10",
+                                       "--summary-json", sjson])
+        master_cmd = ns.exec(ns.master, [args.master, "--config", cfgs["master"], "--duration", "3",
+                                         "--summary-json", mjson])
+    slave = subprocess.Popen(slave_cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                             cwd=shipped["slave"].state if shipped else None)
     procs.append(slave)
     slave_out = Output(slave)
     if not slave_out.wait_for("DOF at", 60):
         slave.kill()
         raise Failure("teleop-slave did not start its loop:\n" + slave_out.text())
-    master = subprocess.Popen(ns.exec(ns.master, [args.master, "--config", cfgs["master"], "--duration", "3",
-                                                  "--summary-json", mjson]),
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    master = subprocess.Popen(master_cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                              cwd=shipped["master"].state if shipped else None)
     procs.append(master)
     master_out = Output(master)
     try:
@@ -211,6 +317,11 @@ def run_pair(args, ns, procs):
     check(master.returncode == 0, f"master exits 0 (got {master.returncode})")
     check(slave.returncode == 0, f"slave exits 0 (got {slave.returncode})")
     m, s = load(mjson), load(sjson)
+    if shipped is not None:
+        for name, x in (("master", m), ("slave", s)):
+            mode = x.get("security", {}).get("mode")
+            check(mode == "psk", f"{name}, as its unit starts it (uid {UNIT_USER}, the key only as the credential): "
+                                 f"its summary in /var/lib/teleop, link authenticated (security mode {mode})")
     check(s["stop_reason"] == "peer shutdown", f"the slave stopped on the master's shutdown ({s['stop_reason']})")
     check(m["stop_reason"] == "duration", f"the master ran its 3 s ({m['stop_reason']})")
     for name, x in (("master", m), ("slave", s)):
