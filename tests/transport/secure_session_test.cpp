@@ -911,6 +911,28 @@ TEST(SecureSession, ANewerHelloDuringAnOffloadedExchangeIsAnsweredInstead) {
   EXPECT_EQ(slave.session.counters().handshakes_started, 1u) << "one welcome sent";
 }
 
+// UdpLink sends a hello only when HelloReady(): with offload that means the helper made the key pair and
+// BeginHandshake does no X25519 (key_pairs_inline stays 0); without offload it always computes inline.
+TEST(SecureSession, HelloReadyMeansTheHelloCostsNoKeyExchange) {
+  SecureSessionConfig mc = Config(SenderRole::kMaster);
+  mc.offload_key_exchange = true;
+  End master(mc, KeyFromByte(1));
+  for (int hello = 0; hello < 3; ++hello) {
+    for (int i = 0; i < 1000 && !master.session.HelloReady(); ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    ASSERT_TRUE(master.session.HelloReady()) << "the helper makes the next key pair";
+    ASSERT_EQ(Hello(master).size(), proto::secure_wire::kHelloSize);
+  }
+  EXPECT_EQ(master.session.counters().key_pairs_inline, 0u);
+  EXPECT_EQ(master.session.counters().handshakes_started, 3u);
+
+  End inline_master(SenderRole::kMaster, KeyFromByte(1));
+  EXPECT_TRUE(inline_master.session.HelloReady());
+  static_cast<void>(Hello(inline_master));
+  EXPECT_EQ(inline_master.session.counters().key_pairs_inline, 1u);
+}
+
 TEST(SecureSession, AnOffloadedExchangeForAnOlderHelloIsDropped) {
   SecureSessionConfig mc = Config(SenderRole::kMaster);
   mc.offload_key_exchange = true;

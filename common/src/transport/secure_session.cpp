@@ -250,6 +250,10 @@ std::size_t SecureSession::BeginHandshake(std::span<std::uint8_t> out) noexcept 
   return BeginHandshake(out, now);
 }
 
+bool SecureSession::HelloReady() const noexcept {
+  return !config_.offload_key_exchange || pair_state_.load(std::memory_order_acquire) == kDone;
+}
+
 std::size_t SecureSession::BeginHandshake(std::span<std::uint8_t> out, std::uint64_t timestamp_ns) noexcept {
   if (config_.role != proto::SenderRole::kMaster || out.size() < sw::kHelloSize) return 0;
   if (pair_state_.load(std::memory_order_acquire) == kDone) {
@@ -260,6 +264,7 @@ std::size_t SecureSession::BeginHandshake(std::span<std::uint8_t> out, std::uint
     pair_state_.store(kIdle, std::memory_order_release);
     Kick();
   } else {
+    ++counters_.key_pairs_inline;
     randombytes_buf(secrets_->ephemeral_secret.data(), kKeyBytes);
     if (crypto_scalarmult_base(ephemeral_public_.data(), secrets_->ephemeral_secret.data()) != 0) return 0;
   }

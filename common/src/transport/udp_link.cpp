@@ -266,8 +266,10 @@ void UdpLink::DriveHandshake(std::int64_t now_ns) noexcept {
   const bool established = s.session->session_id() != 0;
   if (established && now_ns - s.last_sample_ns <= s.silence_ns) return;
   if (now_ns < s.next_hello_ns) return;
+  // The key pair is made ahead by the session's helper thread: until it is there, ask again next cycle rather than
+  // do the X25519 here (counters().key_pairs_inline stays 0).
+  if (!s.session->HelloReady()) return;
   s.next_hello_ns = now_ns + s.retry_ns;
-  // The key pair was made ahead by the session's helper thread (its first hello may still make one inline).
   const std::size_t size = s.session->BeginHandshake(s.reply);
   if (size > 0) SendRaw(s.reply.data(), size);
   counters_.handshakes_started = s.session->counters().handshakes_started;
