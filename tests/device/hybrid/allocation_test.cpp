@@ -95,7 +95,11 @@ TEST(MotorBrakeAllocation, AtRestTheBrakeOpposesTheAppliedTorqueOnlyWhileTheHand
 }
 
 // Fig. 5(b) at rest: the 50 N reaction is larger than the operator's 20 N push, so the end-effector is released
-// outward; the brakes are released and the motors render the whole reaction.
+// outward; the brakes are released and the motors render the whole reaction. Kwon & Song §3: "when the reaction
+// force of the virtual wall is larger than the force exerted by the human operator and the end-effector is released
+// as shown in Fig. 5(b), the resultant force of the motor force and the brake force is not perpendicular to the
+// virtual wall. This is because the brake can exert only a reaction force against its outward motion." (The rule
+// before engaged the brakes here, as the hand's torque opposes τ_d.)
 TEST(MotorBrakeAllocation, Fig5bReleaseAtRestReleasesTheBrakes) {
   const Eigen::Matrix2d jac = JacobianAt({0.0, 0.25});
   MotorBrakeAllocator alloc{AllocationConfig{}};
