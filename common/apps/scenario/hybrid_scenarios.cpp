@@ -211,6 +211,7 @@ struct WallOptions {
   double motor_time_constant_ms = 0.5;
   double brake_time_constant_ms = 50.0;
   double hand_mass_kg = 0.5;
+  double brake_model_mismatch = hy::AllocationConfig{}.brake_model_mismatch;
   double speed_mm_s = 250.0;
   bool at_contact_speed = false;
   bool no_brakes = false;
@@ -228,7 +229,8 @@ hy::WallScenarioConfig WallConfigFrom(const WallOptions& o) {
   config.rig.motor.time_constant_s = o.motor_time_constant_ms * 1e-3;
   config.rig.brake.time_constant_s = o.brake_time_constant_ms * 1e-3;
   config.allocation.motor = config.rig.motor;
-  config.allocation.brake = hy::AllocationBrakeModel(config.rig.brake);
+  config.allocation.brake_model_mismatch = o.brake_model_mismatch;
+  config.allocation.brake = hy::AllocationBrakeModel(config.rig.brake, o.brake_model_mismatch);
   config.wall.popc.actuator_time_constant_s = config.rig.motor.time_constant_s;
   config.hand_mass_kg = o.hand_mass_kg;
   if (o.no_brakes) config.allocation.use_brakes = false;
@@ -257,6 +259,7 @@ int RunWall(const WallOptions& o) {
     std::ostringstream extra;
     extra << ", \"model\": \"" << o.model << "\", \"motor_torque_lag_ms\": " << o.motor_time_constant_ms
           << ", \"brake_lag_ms\": " << o.brake_time_constant_ms << ", \"hand_mass_kg\": " << o.hand_mass_kg
+          << ", \"brake_model_mismatch\": " << o.brake_model_mismatch
           << ", \"brakes\": " << (config.allocation.use_brakes ? "true" : "false");
     PrintMetrics(r.metrics, true, false, label.str(), extra.str());
   } else {
@@ -416,6 +419,9 @@ void AddHybridScenarios(CLI::App& app) {
       ->check(CLI::Range(0.0, 500.0));
   w->add_option("--hand-mass-kg", wall.hand_mass_kg, "Operator's hand mass on the handle (kg; 0.5)")
       ->check(CLI::Range(0.0, 5.0));
+  w->add_option("--brake-model-mismatch", wall.brake_model_mismatch,
+                "The allocation's brake model: lag x (1 - m), torque x (1 + m/2), no remanence (0.2; 0 = exact)")
+      ->check(CLI::Range(0.0, 0.9));
   w->add_flag("--no-brakes", wall.no_brakes, "Motors only (for the damper walls)");
   w->add_option("--output", wall.output, "Output prefix (default hybrid_wall_<model>_<speed>)");
   w->add_flag("--json", wall.json, "One JSON object on stdout");

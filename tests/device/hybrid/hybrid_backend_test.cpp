@@ -116,6 +116,31 @@ stability: {check: false}
   EXPECT_EQ(r.faults, kFaultNone);
 }
 
+// Item 1 of the PO/PC fix in the device: the observer books the force the motors actually apply, so its actuator
+// model is the configured motor (motor.time_constant_s), not the observer's own default of 0.5 ms.
+TEST(HybridBackend, PoPcWallObservesTheConfiguredMotorLag) {
+  const std::string yaml = R"(
+role: master
+dof: 2
+rate_hz: 1000
+link: {security: {mode: insecure}, transport: udp, bind: "127.0.0.1:47111", peer: "127.0.0.1:47112", timeout_ms: 50}
+law: {kp_N_per_m: 600, kd_Ns_per_m: 2, kv_Ns_per_m: 0, kf: 0, max_force_N: 60, velocity_filter_hz: 200}
+device:
+  backend: hybrid
+  hybrid:
+    motor: {time_constant_s: 0.007}
+    effect: {type: wall, model: popc, point_m: [0, 0.25], normal: [0, 1], max_force_N: 80}
+stability: {check: false}
+)";
+  const auto config = config::ParseProcessConfig(yaml, "test.yaml");
+  const auto dev = MakeDevice(config.device);
+  const auto* hybrid = dynamic_cast<const HybridDevice*>(dev.get());
+  ASSERT_NE(hybrid, nullptr);
+  EXPECT_EQ(hybrid->wall().config().kind, WallKind::kSpringPoPc);
+  EXPECT_EQ(hybrid->wall().config().popc.actuator_time_constant_s, 0.007);
+  EXPECT_EQ(hybrid->wall().config().popc.max_force_N, 80.0);  // it saturates where the wall does, before observing
+}
+
 TEST(HybridBackend, BadSectionIsRejectedWithItsKey) {
   const std::string yaml = R"(
 role: master
@@ -133,7 +158,7 @@ stability: {check: false}
     (void)config::ParseProcessConfig(yaml, "bad.yaml");
     FAIL() << "accepted a bad wall model";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("spring, popc or hybrid"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("spring, popc, hybrid or linear-damper"), std::string::npos) << e.what();
   }
 }
 

@@ -55,7 +55,7 @@ void ReadGeometry(const Field& f, FiveBarConfig& g) {
 
 void ReadWall(const Map& m, WallConfig& w) {
   if (auto v = m.Optional("model")) {
-    if (!ParseWallKind(v->AsString().c_str(), w.kind)) v->Fail("must be spring, popc or hybrid");
+    if (!ParseWallKind(v->AsString().c_str(), w.kind)) v->Fail("must be spring, popc, hybrid or linear-damper");
   }
   if (auto v = m.Optional("point_m")) w.point_m = Vec2(*v);
   if (auto v = m.Optional("normal")) w.normal = Unit2(*v);

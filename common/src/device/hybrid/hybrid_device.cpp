@@ -35,6 +35,13 @@ AllocationConfig Synced(AllocationConfig a, const HybridRigConfig& rig) {
   return a;
 }
 
+// The PO/PC observer books the force the motors apply (Hannaford & Ryu, docs/hybrid.md): its actuator model is the
+// rig's motor (motor.time_constant_s), as in the scenarios, not the observer's default.
+WallConfig ObservingTheMotor(WallConfig w, const HybridRigConfig& rig) {
+  w.popc.actuator_time_constant_s = rig.motor.time_constant_s;
+  return w;
+}
+
 OperatorHandConfig HandAt(OperatorHandConfig h, const Eigen::Vector2d& start) {
   h.start_m = start;
   return h;
@@ -46,7 +53,7 @@ HybridDevice::HybridDevice(const HybridDeviceConfig& config)
     : config_(config),
       rig_(WithHand(config.rig, config.hand_mass_kg)),
       allocator_(Synced(config.allocation, config.rig)),
-      wall_(config.effect.wall),
+      wall_(ObservingTheMotor(config.effect.wall, config.rig)),
       hand_(HandAt(config.hand, config.rig.initial_position_m)),
       encoders_(config.rig.encoders),
       force_sensor_(config.rig.force_sensor_dynamics) {

@@ -67,6 +67,7 @@ class HybridDevice final : public Device {
   const HybridRig& rig() const noexcept { return rig_; }
   const Eigen::Vector2d& sensed_force_N() const noexcept { return sensed_force_N_; }
   const AllocationOutput& last_allocation() const noexcept { return allocation_out_; }
+  const WallModel& wall() const noexcept { return wall_; }
   double time_s() const noexcept { return time_s_; }
 
  private:

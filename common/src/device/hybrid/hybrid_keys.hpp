@@ -96,10 +96,11 @@ inline const KeySpec kBrakeHysteresis{.key = "brake.hysteresis_Nm",
                                       .meaning =
                                           "The delivered torque stays until the command has moved this much; "
                                           "0 = none."};
-inline const KeySpec kBrakeResidual{.key = "brake.residual_fraction",
-                                    .range = KeyRange::kNonNegative,
-                                    .default_value = kRig.brake.residual_fraction,
-                                    .meaning = "Remanence after release, a fraction of the capacity; 0 = none."};
+inline const KeySpec kBrakeResidual{
+    .key = "brake.residual_fraction",
+    .range = KeyRange::kNonNegative,
+    .default_value = kRig.brake.residual_fraction,
+    .meaning = "Remanence after release, a fraction of the largest torque delivered; 0 = none."};
 inline const KeySpec kBrakeStaticRatio{.key = "brake.static_ratio",
                                        .range = KeyRange::kPositive,
                                        .default_value = kRig.brake.static_ratio,
