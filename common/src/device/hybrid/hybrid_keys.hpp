@@ -98,13 +98,17 @@ inline const KeySpec kBrakeHysteresis{.key = "brake.hysteresis_Nm",
                                           "0 = none."};
 inline const KeySpec kBrakeResidual{
     .key = "brake.residual_fraction",
-    .range = KeyRange::kNonNegative,
+    .range = KeyRange::kInRange,
     .default_value = kRig.brake.residual_fraction,
-    .meaning = "Remanence after release, a fraction of the largest torque delivered; 0 = none."};
+    .meaning = "Remanence after release, a fraction of the largest torque delivered; 0 = none.",
+    .low = 0.0,
+    .high = 1.0};
 inline const KeySpec kBrakeStaticRatio{.key = "brake.static_ratio",
-                                       .range = KeyRange::kPositive,
+                                       .range = KeyRange::kInRange,
                                        .default_value = kRig.brake.static_ratio,
-                                       .meaning = "Static / sliding torque; 1 = none."};
+                                       .meaning = "Static / sliding torque; 1 = none.",
+                                       .low = 1.0,
+                                       .high = 10.0};
 inline const KeySpec kBrakePulleyRatio{.key = "brake.pulley_ratio",
                                        .range = KeyRange::kPositive,
                                        .default_value = kRig.brake.pulley_ratio,
