@@ -16,6 +16,7 @@
 #include "dds_entities.hpp"
 #include "teleop/dds/topic_names.hpp"
 #include "teleop/error.hpp"
+#include "teleop/runtime/background_thread.hpp"
 #include "teleop/runtime/spsc_ring.hpp"
 #include "teleop_msgs.h"
 
@@ -246,7 +247,10 @@ Bridge::Bridge(const BridgeConfig& config, Role role, double loop_rate_hz) {
   decimation_ =
       std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(loop_rate_hz / config.state_rate_hz)));
   impl_ = std::make_unique<Impl>(config, role, loop_rate_hz);
-  impl_->thread = std::thread([impl = impl_.get()] { impl->Run(); });
+  impl_->thread = std::thread([impl = impl_.get()] {
+    runtime::BecomeBackgroundThread("teleop-dds");
+    impl->Run();
+  });
   spdlog::info("dds: publishing on domain {} as rt/teleop/{}/{}/{{state,events,summary}}, state at {:.3g} Hz",
                config.domain_id, config.pair, impl_->role, loop_rate_hz / static_cast<double>(decimation_));
 }

@@ -27,6 +27,7 @@
 #include "dashboard_assets.hpp"
 #include "teleop/dds/dashboard_messages.hpp"
 #include "teleop/error.hpp"
+#include "teleop/runtime/background_thread.hpp"
 
 namespace teleop::dds {
 
@@ -401,6 +402,7 @@ struct DashboardServer::Impl {
     Accept();
     Tick();
     thread = std::thread([this] {
+      runtime::BecomeBackgroundThread("teleop-http");
       try {
         io.run();
       } catch (const std::exception& e) {

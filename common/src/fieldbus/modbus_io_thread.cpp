@@ -15,6 +15,7 @@
 
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/modbus_codec.hpp"
+#include "teleop/runtime/background_thread.hpp"
 #include "teleop/runtime/watchdog.hpp"
 
 namespace teleop::fieldbus {
@@ -195,7 +196,10 @@ void ModbusIoThread::Start() {
   SetTimeout(ctx, config_.byte_timeout_ms, true);
   stop_.store(false);
   try {
-    thread_ = std::thread([this] { Run(); });
+    thread_ = std::thread([this] {
+      runtime::BecomeBackgroundThread("teleop-modbus");
+      Run();
+    });
   } catch (const std::system_error& e) {
     throw Error(std::string("modbus: cannot start the I/O thread: ") + e.what());
   }

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "teleop/error.hpp"
+#include "teleop/runtime/background_thread.hpp"
 
 namespace teleop::node {
 
@@ -56,7 +57,10 @@ CommandServer::CommandServer(TeleopNode& node, const Config& config) : node_(nod
     ::close(listen_fd_);
     throw Error("command socket: cannot serve '" + config.path + "': " + why);
   }
-  thread_ = std::thread([this] { Serve(); });
+  thread_ = std::thread([this] {
+    runtime::BecomeBackgroundThread("teleop-commands");
+    Serve();
+  });
 }
 
 CommandServer::~CommandServer() {

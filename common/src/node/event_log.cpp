@@ -6,11 +6,13 @@
 #include <string>
 
 #include "teleop/node/engagement.hpp"
+#include "teleop/runtime/background_thread.hpp"
 
 namespace teleop::node {
 
 EventLog::EventLog(std::size_t capacity)
     : ring_(capacity), thread_([this] {
+        runtime::BecomeBackgroundThread("teleop-events");
         while (!stop_.load(std::memory_order_acquire)) {
           Drain();
           std::this_thread::sleep_for(std::chrono::milliseconds(20));

@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <system_error>
 
+#include "teleop/runtime/background_thread.hpp"
+
 namespace teleop::node {
 
 namespace {
@@ -33,6 +35,7 @@ FaultRecorder::FaultRecorder(std::size_t cycles, int dof, std::string dir, std::
   file_of_.fill(-1);
   files_.reserve(static_cast<std::size_t>(std::max(max_files, 0)));
   thread_ = std::thread([this] {
+    runtime::BecomeBackgroundThread("teleop-faultrec");
     while (!stop_.load(std::memory_order_acquire)) {
       WritePending();
       std::this_thread::sleep_for(std::chrono::milliseconds(10));

@@ -10,6 +10,7 @@
 #include <system_error>
 
 #include "teleop/error.hpp"
+#include "teleop/runtime/background_thread.hpp"
 
 namespace teleop::runtime {
 
@@ -100,7 +101,10 @@ TelemetryWriter::TelemetryWriter(const std::string& csv_path, std::size_t ring_c
     header_written_ = true;
   }
   try {
-    thread_ = std::thread([this] { Drain(); });
+    thread_ = std::thread([this] {
+      BecomeBackgroundThread("teleop-telem");
+      Drain();
+    });
   } catch (...) {
     std::fclose(file_);
     throw;

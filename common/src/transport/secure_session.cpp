@@ -10,6 +10,7 @@
 
 #include "teleop/error.hpp"
 #include "teleop/proto/codec.hpp"
+#include "teleop/runtime/background_thread.hpp"
 
 namespace teleop::transport {
 namespace {
@@ -149,7 +150,10 @@ SecureSession::SecureSession(const SecureSessionConfig& config, const PreSharedK
   crypto_kdf_derive_from_key(secrets_->mix_key.data(), kKeyBytes, kSubkeyMix, kHandshakeContext, key.bytes().data());
   if (config_.offload_key_exchange) {
     try {
-      helper_ = std::thread([this] { RunHelper(); });
+      helper_ = std::thread([this] {
+        runtime::BecomeBackgroundThread("teleop-kex");
+        RunHelper();
+      });
     } catch (const std::system_error& e) {
       secrets_->~Secrets();
       sodium_free(secrets_);

@@ -6,6 +6,8 @@
 #include <ctime>
 #include <utility>
 
+#include "teleop/runtime/background_thread.hpp"
+
 namespace teleop::transport {
 
 namespace {
@@ -22,6 +24,7 @@ CandumpLogPort::CandumpLogPort(std::unique_ptr<CanPort> inner, const std::string
                                std::size_t ring_frames)
     : inner_(std::move(inner)), writer_(path, std::move(interface_name)), ring_(ring_frames) {
   thread_ = std::thread([this] {
+    runtime::BecomeBackgroundThread("teleop-candump");
     while (!stop_.load(std::memory_order_acquire)) {
       Drain();
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
