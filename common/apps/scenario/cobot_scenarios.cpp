@@ -16,6 +16,7 @@
 
 #include "device/cobot/bicycle_caster.hpp"
 #include "device/cobot/bicycle_plant.hpp"
+#include "device/cobot/bicycle_sensing.hpp"
 #include "device/cobot/cobot_backend.hpp"
 #include "device/cobot/scripted_operator.hpp"
 #include "device/cobot/tracking_stability.hpp"
@@ -962,6 +963,10 @@ HeadingRun RunHeadingOnce(const HeadingOptions& o, bool constrained, const std::
   s.pose.angle_rad = e0;
   s.steer_rad = {-e0, -e0};  // both wheels along world +x
   s.twist << o.speed_m_per_s, 0.0, 0.0;
+  // The caster sees the plate as the device's does: the Prototype's encoders and force sensor, the rates estimated.
+  const device::cobot::UnicycleCobotConfig rig = device::cobot::UnicycleCobotConfig::Prototype();
+  device::cobot::BicycleSensing sensing(rig.sensors, rig.speed_filter, rig.steering_rate_filter, plant.geometry);
+  sensing.Reset(s);
   const Vec2 direction = device::cobot::UnitAt(o.push_direction_deg * kDegToRad);
   std::ofstream csv = OpenCsv(csv_path);
   csv << "t_s,x_m,y_m,theta_rad,model_theta_rad,force_x_N,force_y_N\n";
@@ -975,11 +980,15 @@ HeadingRun RunHeadingOnce(const HeadingOptions& o, bool constrained, const std::
     const double error = o.speed_m_per_s - speed;
     integral = std::clamp(integral + 300.0 * error * kPeriod_s, 0.0, 60.0);
     const Vec2 force = std::clamp(100.0 * error + integral, 0.5, 60.0) * direction;
-    const auto out = device::cobot::BicycleCasterStep(caster, plant.geometry, s, force, 0.0);
+    const double step_N = rig.sensors.force_resolution_N;
+    const Vec2 measured(device::cobot::Quantize(force.x(), step_N), device::cobot::Quantize(force.y(), step_N));
+    const device::cobot::BicyclePlantState seen = sensing.Measure(s, kPeriod_s);
+    const auto out = device::cobot::BicycleCasterStep(caster, plant.geometry, seen, measured, 0.0);
     device::cobot::BicyclePlantInput in;
     in.handle_force_N = force;
     in.steering_torque_Nm = out.steering_torque_Nm;
     device::cobot::Step(plant, in, kPeriod_s, s);
+    sensing.Roll(s, kPeriod_s);
     const double t = (k + 1) * kPeriod_s;
     const double model = e0 * (1.0 + w * t) * std::exp(-w * t);
     if (constrained) r.max_model_error_rad = std::max(r.max_model_error_rad, std::abs(s.pose.angle_rad - model));
