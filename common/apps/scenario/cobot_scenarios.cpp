@@ -662,7 +662,7 @@ int RunStability(const StabilityOptions& o) {
   std::ofstream csv = OpenCsv(csv_path);
   std::ofstream boundary = OpenCsv(boundary_path);
   csv << "tau_s,lookahead_m,speed_m_per_s,u_tau_m,u_tau_over_L,growth_ratio,stable_sim,stable_eq10\n";
-  boundary << "tau_s,lookahead_m,u_max_eq10_m_per_s,u_max_sim_m_per_s,u_tau_sim_m\n";
+  boundary << "tau_s,lookahead_m,u_max_eq10_m_per_s,u_max_sim_m_per_s,u_tau_sim_m,u_tau_linear_m\n";
   std::ostringstream json;
   json << std::setprecision(6) << "{\"scenario\":\"cobot-stability\",\"pairs\":[";
   bool first = true;
@@ -697,7 +697,8 @@ int RunStability(const StabilityOptions& o) {
         }
       }
       const double u_sim = 0.5 * (lo + hi);
-      boundary << tau << ',' << lookahead << ',' << u_eq10 << ',' << u_sim << ',' << u_sim * tau << '\n';
+      boundary << tau << ',' << lookahead << ',' << u_eq10 << ',' << u_sim << ',' << u_sim * tau << ','
+               << u_linear * tau << '\n';
       json << (first ? "" : ",") << "{\"tau_s\":" << tau << ",\"lookahead_m\":" << lookahead
            << ",\"u_max_eq10_m_per_s\":" << u_eq10 << ",\"u_max_eq11_m_per_s\":" << u_eq11
            << ",\"u_max_linear_m_per_s\":" << u_linear;
@@ -715,16 +716,40 @@ int RunStability(const StabilityOptions& o) {
   boundary.close();
   json << "]}";
   if (!o.common.no_plot) {
+    // The title names what was run; on a circle with eq 7's gains the eq 10 curve u tau = rho tan(L/rho), i.e.
+    // L = rho atan(u tau / rho), is drawn beside eq 11's line; with the integral, the linearized loop's boundary.
+    const bool circle = o.path == "circle";
+    const bool eq7 = o.gain_form == "circular";
+    const double rho_mm = o.radius_m * 1000.0;
+    std::ostringstream title;
+    title << "cobot-stability: ";
+    if (circle) {
+      title << "circle rho = " << rho_mm << " mm";
+    } else {
+      title << "line";
+    }
+    title << ", " << (eq7 && circle ? "eq 7" : "eq 8") << " gains";
+    if (o.integral_scale > 0.0) title << ", integral k_i = " << o.integral_scale << "/L^3";
     std::ostringstream gp;
     gp << "set terminal png size 900,700\nset output '" << o.common.output << ".png'\nset datafile separator ','\n"
-       << "set title 'cobot-stability: line tracking, eq 8 gains; eq 11 boundary u*tau = L' noenhanced\n"
-       << "set xlabel 'u*tau (mm)'\nset ylabel 'lookahead L (mm)'\nset grid\nset key top left\nset logscale xy\n"
+       << "set title '" << title.str() << "' noenhanced\n"
+       << "set xlabel 'u*tau (mm)'\nset ylabel 'lookahead L (mm)'\nset grid\nset key top left box opaque\n"
+       << "set logscale xy\nset samples 400\n"
        << "plot '" << csv_path << "' skip 1 using ($7==1 ? $4*1000 : 1/0):($2*1000) with points pt 7 ps 1.5 lc rgb "
        << "'forest-green' title 'simulation: converges', '" << csv_path
        << "' skip 1 using ($7==0 ? $4*1000 : 1/0):($2*1000) with points pt 5 ps 1.5 lc rgb 'red' title "
        << "'simulation: oscillates/diverges', '" << boundary_path
        << "' skip 1 using ($5*1000):($2*1000) with points pt 3 ps 3 lw 2 lc rgb 'black' title "
-       << "'simulated boundary (bisection)', x with lines lw 2 lc rgb 'blue' title 'eq 11: u tau = L'\n";
+       << "'simulated boundary (bisection)', x with lines lw 2 lc rgb 'blue' title 'eq 11: u tau = L'";
+    if (circle && eq7) {
+      gp << ", " << rho_mm << "*atan(x/" << rho_mm << ") with lines lw 2 dt 2 lc rgb 'dark-orange' title "
+         << "'eq 10: u tau = rho tan(L/rho)'";
+    }
+    if (o.integral_scale > 0.0) {
+      gp << ", '" << boundary_path << "' skip 1 using ($6*1000):($2*1000) with points pt 6 ps 3 lw 2 lc rgb "
+         << "'purple' title 'linearized loop with the integral (quartic)'";
+    }
+    gp << "\n";
     RunGnuplot(o.common.output + ".gp", gp.str());
   }
   if (o.common.json) {
