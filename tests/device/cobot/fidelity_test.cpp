@@ -305,6 +305,37 @@ TEST(CobotFidelity, BicycleSeesItsTwistThroughTheWheelAndSteeringEncoders) {
   }
 }
 
+// ---------------------------------------------------------------- the bicycle's angular constraint, from the config
+
+TEST(CobotFidelity, BicycleHoldsTheHeadingTheConfigAsksFor) {
+  // §2: the bicycle "can implement x, y, and angular constraint". `bicycle.hold_heading_deg` through the backend's
+  // reader into the device: the plate starts at θ = 20° at rest and the operator pushes it along x (no moment). The
+  // wheels are steered so that the plate turns to θ = 0 as it rolls, and it travels where it is pushed; without the
+  // key nothing turns the plate (no moment, no constraint), θ stays at 20°.
+  const std::string base =
+      "kind: bicycle, initial_heading_deg: 20, operator: {speed_m_per_s: 0.2, direction_deg: 0, max_force_N: 30}";
+  for (const bool hold : {true, false}) {
+    const std::string yaml =
+        "{" + base + (hold ? ", bicycle: {hold_heading_deg: 0, heading_bandwidth_per_s: 3}" : std::string()) + "}";
+    BicycleCobotDevice device(std::any_cast<CobotBackendConfig>(ReadSection(yaml, 3)));
+    Reading r;
+    for (int k = 0; k < 5000; ++k) {
+      device.Read(r);
+      device.Write(Command::Force(DofVector::Zero(3)));
+      device.Update(kPeriod_s);
+    }
+    const BicyclePlantState& s = device.state();
+    const double travel_deg = std::atan2(s.twist(1), s.twist(0)) / kDeg;
+    if (hold) {
+      EXPECT_NEAR(s.pose.angle_rad / kDeg, 0.0, 1.0) << "the angular constraint did not hold θ = 0";
+      EXPECT_NEAR(travel_deg, 0.0, 2.0) << "the plate did not travel where it was pushed";
+    } else {
+      EXPECT_NEAR(s.pose.angle_rad / kDeg, 20.0, 1.0) << "without the constraint the plate turned";
+    }
+    EXPECT_GT(std::hypot(s.twist(0), s.twist(1)), 0.15);
+  }
+}
+
 // ---------------------------------------------------------------- defect 5: the safe state near a fixture
 
 TEST(CobotFidelity, FaultInCasterModeCannotPushThroughAFixture) {
