@@ -16,6 +16,7 @@
 
 #include "device/cobot/bicycle_caster.hpp"
 #include "device/cobot/bicycle_plant.hpp"
+#include "device/cobot/bicycle_sensing.hpp"
 #include "device/cobot/cobot_backend.hpp"
 #include "device/cobot/scripted_operator.hpp"
 #include "device/cobot/tracking_stability.hpp"
@@ -661,7 +662,7 @@ int RunStability(const StabilityOptions& o) {
   std::ofstream csv = OpenCsv(csv_path);
   std::ofstream boundary = OpenCsv(boundary_path);
   csv << "tau_s,lookahead_m,speed_m_per_s,u_tau_m,u_tau_over_L,growth_ratio,stable_sim,stable_eq10\n";
-  boundary << "tau_s,lookahead_m,u_max_eq10_m_per_s,u_max_sim_m_per_s,u_tau_sim_m\n";
+  boundary << "tau_s,lookahead_m,u_max_eq10_m_per_s,u_max_sim_m_per_s,u_tau_sim_m,u_tau_linear_m\n";
   std::ostringstream json;
   json << std::setprecision(6) << "{\"scenario\":\"cobot-stability\",\"pairs\":[";
   bool first = true;
@@ -696,7 +697,8 @@ int RunStability(const StabilityOptions& o) {
         }
       }
       const double u_sim = 0.5 * (lo + hi);
-      boundary << tau << ',' << lookahead << ',' << u_eq10 << ',' << u_sim << ',' << u_sim * tau << '\n';
+      boundary << tau << ',' << lookahead << ',' << u_eq10 << ',' << u_sim << ',' << u_sim * tau << ','
+               << u_linear * tau << '\n';
       json << (first ? "" : ",") << "{\"tau_s\":" << tau << ",\"lookahead_m\":" << lookahead
            << ",\"u_max_eq10_m_per_s\":" << u_eq10 << ",\"u_max_eq11_m_per_s\":" << u_eq11
            << ",\"u_max_linear_m_per_s\":" << u_linear;
@@ -714,16 +716,40 @@ int RunStability(const StabilityOptions& o) {
   boundary.close();
   json << "]}";
   if (!o.common.no_plot) {
+    // The title names what was run; on a circle with eq 7's gains the eq 10 curve u tau = rho tan(L/rho), i.e.
+    // L = rho atan(u tau / rho), is drawn beside eq 11's line; with the integral, the linearized loop's boundary.
+    const bool circle = o.path == "circle";
+    const bool eq7 = o.gain_form == "circular";
+    const double rho_mm = o.radius_m * 1000.0;
+    std::ostringstream title;
+    title << "cobot-stability: ";
+    if (circle) {
+      title << "circle rho = " << rho_mm << " mm";
+    } else {
+      title << "line";
+    }
+    title << ", " << (eq7 && circle ? "eq 7" : "eq 8") << " gains";
+    if (o.integral_scale > 0.0) title << ", integral k_i = " << o.integral_scale << "/L^3";
     std::ostringstream gp;
     gp << "set terminal png size 900,700\nset output '" << o.common.output << ".png'\nset datafile separator ','\n"
-       << "set title 'cobot-stability: line tracking, eq 8 gains; eq 11 boundary u*tau = L' noenhanced\n"
-       << "set xlabel 'u*tau (mm)'\nset ylabel 'lookahead L (mm)'\nset grid\nset key top left\nset logscale xy\n"
+       << "set title '" << title.str() << "' noenhanced\n"
+       << "set xlabel 'u*tau (mm)'\nset ylabel 'lookahead L (mm)'\nset grid\nset key top left box opaque\n"
+       << "set logscale xy\nset samples 400\n"
        << "plot '" << csv_path << "' skip 1 using ($7==1 ? $4*1000 : 1/0):($2*1000) with points pt 7 ps 1.5 lc rgb "
        << "'forest-green' title 'simulation: converges', '" << csv_path
        << "' skip 1 using ($7==0 ? $4*1000 : 1/0):($2*1000) with points pt 5 ps 1.5 lc rgb 'red' title "
        << "'simulation: oscillates/diverges', '" << boundary_path
        << "' skip 1 using ($5*1000):($2*1000) with points pt 3 ps 3 lw 2 lc rgb 'black' title "
-       << "'simulated boundary (bisection)', x with lines lw 2 lc rgb 'blue' title 'eq 11: u tau = L'\n";
+       << "'simulated boundary (bisection)', x with lines lw 2 lc rgb 'blue' title 'eq 11: u tau = L'";
+    if (circle && eq7) {
+      gp << ", " << rho_mm << "*atan(x/" << rho_mm << ") with lines lw 2 dt 2 lc rgb 'dark-orange' title "
+         << "'eq 10: u tau = rho tan(L/rho)'";
+    }
+    if (o.integral_scale > 0.0) {
+      gp << ", '" << boundary_path << "' skip 1 using ($6*1000):($2*1000) with points pt 6 ps 3 lw 2 lc rgb "
+         << "'purple' title 'linearized loop with the integral (quartic)'";
+    }
+    gp << "\n";
     RunGnuplot(o.common.output + ".gp", gp.str());
   }
   if (o.common.json) {
@@ -962,6 +988,10 @@ HeadingRun RunHeadingOnce(const HeadingOptions& o, bool constrained, const std::
   s.pose.angle_rad = e0;
   s.steer_rad = {-e0, -e0};  // both wheels along world +x
   s.twist << o.speed_m_per_s, 0.0, 0.0;
+  // The caster sees the plate as the device's does: the Prototype's encoders and force sensor, the rates estimated.
+  const device::cobot::UnicycleCobotConfig rig = device::cobot::UnicycleCobotConfig::Prototype();
+  device::cobot::BicycleSensing sensing(rig.sensors, rig.speed_filter, rig.steering_rate_filter, plant.geometry);
+  sensing.Reset(s);
   const Vec2 direction = device::cobot::UnitAt(o.push_direction_deg * kDegToRad);
   std::ofstream csv = OpenCsv(csv_path);
   csv << "t_s,x_m,y_m,theta_rad,model_theta_rad,force_x_N,force_y_N\n";
@@ -975,11 +1005,15 @@ HeadingRun RunHeadingOnce(const HeadingOptions& o, bool constrained, const std::
     const double error = o.speed_m_per_s - speed;
     integral = std::clamp(integral + 300.0 * error * kPeriod_s, 0.0, 60.0);
     const Vec2 force = std::clamp(100.0 * error + integral, 0.5, 60.0) * direction;
-    const auto out = device::cobot::BicycleCasterStep(caster, plant.geometry, s, force, 0.0);
+    const double step_N = rig.sensors.force_resolution_N;
+    const Vec2 measured(device::cobot::Quantize(force.x(), step_N), device::cobot::Quantize(force.y(), step_N));
+    const device::cobot::BicyclePlantState seen = sensing.Measure(s, kPeriod_s);
+    const auto out = device::cobot::BicycleCasterStep(caster, plant.geometry, seen, measured, 0.0);
     device::cobot::BicyclePlantInput in;
     in.handle_force_N = force;
     in.steering_torque_Nm = out.steering_torque_Nm;
     device::cobot::Step(plant, in, kPeriod_s, s);
+    sensing.Roll(s, kPeriod_s);
     const double t = (k + 1) * kPeriod_s;
     const double model = e0 * (1.0 + w * t) * std::exp(-w * t);
     if (constrained) r.max_model_error_rad = std::max(r.max_model_error_rad, std::abs(s.pose.angle_rad - model));

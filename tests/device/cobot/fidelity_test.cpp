@@ -3,7 +3,8 @@
 //  - the bicycle's virtual caster is a point mass (§3.1) in every direction, with one mass;
 //  - a cobot is refused as the slave (passive: it cannot follow a master);
 //  - the eq 10 guard's warning reaches Reading::warnings;
-//  - the bicycle measures the handle force it claims to measure;
+//  - the bicycle measures the handle force it claims to measure, and its controllers see the plate through encoders
+//    (the twist from the two wheels' rolling, the rates by differentiation and filtering, §3.2);
 //  - a fault near a fixture cannot push the cart through it;
 //  - the overlay arc (§5, Fig. 8) against hand-computed geometry;
 //  - the friction limit (μ·N): "impossible to push the unicycle past a virtual constraint (unless the wheel slips)".
@@ -17,6 +18,7 @@
 
 #include "device/cobot/bicycle_caster.hpp"
 #include "device/cobot/bicycle_plant.hpp"
+#include "device/cobot/bicycle_sensing.hpp"
 #include "device/cobot/cobot_backend.hpp"
 #include "device/cobot/constraint_overlay.hpp"
 #include "device/cobot/unicycle_plant.hpp"
@@ -210,6 +212,128 @@ TEST(CobotFidelity, BicycleMeasuresTheHandleForceItClaims) {
     largest_N = std::max(largest_N, std::hypot(r.force_N[0], r.force_N[1]));
   }
   EXPECT_GT(largest_N, 1.0);  // the operator pushes: the reading is not the old constant 0
+}
+
+// ---------------------------------------------------------------- defect 6: the bicycle's sensor model
+
+/// A plate state moving with the twist (v, Ω), each wheel steered along its contact point's velocity (rolling
+/// without slip): the rigid-body kinematics by hand, v_i = v + Ω·(−r_i.y, r_i.x), β_i = atan2(v_i) − θ.
+BicyclePlantState Rolling(const BicycleGeometry& g, double plate_rad, const Vec2& v, double omega,
+                          double wheel_fallback_rad = 0.0) {
+  BicyclePlantState s;
+  s.pose.angle_rad = plate_rad;
+  s.twist << v.x(), v.y(), omega;
+  for (int i = 0; i < 2; ++i) {
+    const double side = i == 0 ? -1.0 : 1.0;
+    const Vec2 r = side * g.half_wheelbase_m * UnitAt(plate_rad);
+    const Vec2 vi = v + omega * Vec2(-r.y(), r.x());
+    s.steer_rad[static_cast<std::size_t>(i)] =
+        vi.norm() > 1e-12 ? std::atan2(vi.y(), vi.x()) - plate_rad : wheel_fallback_rad;
+  }
+  return s;
+}
+
+TEST(CobotFidelity, BicycleSeesItsTwistThroughTheWheelAndSteeringEncoders) {
+  // §3.2: "u and ω are estimated by digital differentiation and digital filtering of the associated angular
+  // measures". The bicycle's controllers see each wheel's rolling speed and steering rate that way, and the plate's
+  // twist from the two wheels (two points fix a planar rigid motion). Checked against the rigid motion, including
+  // the singular configuration (both wheels across their line, the plate turning about wheel 0).
+  const BicycleGeometry g;
+  const UnicycleCobotConfig rig = UnicycleCobotConfig::Prototype();
+  struct Case {
+    const char* what;
+    BicyclePlantState state;
+  };
+  const Case cases[] = {
+      {"translation at 30° (plate at 10°)", Rolling(g, 10.0 * kDeg, 0.3 * UnitAt(30.0 * kDeg), 0.0)},
+      {"turning about (0, 0.5 m) at 0.4 rad/s", Rolling(g, 0.0, {0.2, 0.0}, 0.4)},
+      {"singular: wheels across their line, turning about wheel 0",
+       Rolling(g, 0.0, {0.0, 0.1}, 0.5, 0.5 * std::numbers::pi)},
+      {"turning in place at 1 rad/s (plate at -40°)", Rolling(g, -40.0 * kDeg, {0.0, 0.0}, 1.0)},
+  };
+  for (const Case& c : cases) {
+    for (const bool ideal : {true, false}) {
+      CobotSensorConfig sensors = rig.sensors;
+      if (ideal) {
+        sensors.wheel_encoder_counts_per_rev = 0;
+        sensors.steering_encoder_counts_per_rev = 0;
+      }
+      BicycleSensing sensing(sensors, rig.speed_filter, rig.steering_rate_filter, g);
+      sensing.Reset(c.state);
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      constexpr int kSteps = 400;
+      for (int k = 0; k < kSteps; ++k) {
+        const BicyclePlantState seen = sensing.Measure(c.state, kPeriod_s);
+        if (k >= kSteps / 2) mean += seen.twist / (kSteps / 2);
+        if (ideal) {
+          EXPECT_NEAR(seen.twist(0), c.state.twist(0), 1e-9) << c.what;
+          EXPECT_NEAR(seen.twist(1), c.state.twist(1), 1e-9) << c.what;
+          EXPECT_NEAR(seen.twist(2), c.state.twist(2), 1e-9) << c.what;
+        }
+        sensing.Roll(c.state, kPeriod_s);
+      }
+      // Quantized (16384 counts: 19 µm of rolling, 0.38 mrad of steering): the mean over 0.2 s within 1 mm/s and
+      // 1 mm/s over the half wheelbase.
+      EXPECT_NEAR(mean(0), c.state.twist(0), 1e-3) << c.what;
+      EXPECT_NEAR(mean(1), c.state.twist(1), 1e-3) << c.what;
+      EXPECT_NEAR(mean(2), c.state.twist(2), 1e-3 / g.half_wheelbase_m) << c.what;
+    }
+  }
+  // A speed step seen through the backward difference and the 50 Hz low-pass: after the first difference,
+  // û(n) = u·(1 − e^(−2π·50 Hz·n·h)); the steering rate through its 100 Hz filter likewise.
+  CobotSensorConfig ideal = rig.sensors;
+  ideal.wheel_encoder_counts_per_rev = 0;
+  ideal.steering_encoder_counts_per_rev = 0;
+  BicycleSensing sensing(ideal, rig.speed_filter, rig.steering_rate_filter, g);
+  BicyclePlantState s = Rolling(g, 0.0, {0.0, 0.0}, 0.0);
+  sensing.Reset(s);
+  (void)sensing.Measure(s, kPeriod_s);
+  s = Rolling(g, 0.0, {0.2, 0.0}, 0.0);
+  sensing.Roll(s, kPeriod_s);
+  const double steer_rate = 0.5;
+  for (int n = 1; n <= 20; ++n) {
+    s.steer_rad = {steer_rate * (n - 1) * kPeriod_s, steer_rate * (n - 1) * kPeriod_s};
+    s.steer_rate_rad_per_s = {steer_rate, steer_rate};
+    const BicyclePlantState seen = sensing.Measure(s, kPeriod_s);
+    const double wheel = 0.2 * (1.0 - std::exp(-2.0 * std::numbers::pi * 50.0 * n * kPeriod_s));
+    EXPECT_NEAR(std::hypot(seen.twist(0), seen.twist(1)), wheel, 1e-9) << "step " << n;
+    if (n >= 2) {
+      const double rate = steer_rate * (1.0 - std::exp(-2.0 * std::numbers::pi * 100.0 * (n - 1) * kPeriod_s));
+      EXPECT_NEAR(seen.steer_rate_rad_per_s[0], rate, 1e-9) << "step " << n;
+    }
+    sensing.Roll(Rolling(g, 0.0, {0.2, 0.0}, 0.0), kPeriod_s);
+  }
+}
+
+// ---------------------------------------------------------------- the bicycle's angular constraint, from the config
+
+TEST(CobotFidelity, BicycleHoldsTheHeadingTheConfigAsksFor) {
+  // §2: the bicycle "can implement x, y, and angular constraint". `bicycle.hold_heading_deg` through the backend's
+  // reader into the device: the plate starts at θ = 20° at rest and the operator pushes it along x (no moment). The
+  // wheels are steered so that the plate turns to θ = 0 as it rolls, and it travels where it is pushed; without the
+  // key nothing turns the plate (no moment, no constraint), θ stays at 20°.
+  const std::string base =
+      "kind: bicycle, initial_heading_deg: 20, operator: {speed_m_per_s: 0.2, direction_deg: 0, max_force_N: 30}";
+  for (const bool hold : {true, false}) {
+    const std::string yaml =
+        "{" + base + (hold ? ", bicycle: {hold_heading_deg: 0, heading_bandwidth_per_s: 3}" : std::string()) + "}";
+    BicycleCobotDevice device(std::any_cast<CobotBackendConfig>(ReadSection(yaml, 3)));
+    Reading r;
+    for (int k = 0; k < 5000; ++k) {
+      device.Read(r);
+      device.Write(Command::Force(DofVector::Zero(3)));
+      device.Update(kPeriod_s);
+    }
+    const BicyclePlantState& s = device.state();
+    const double travel_deg = std::atan2(s.twist(1), s.twist(0)) / kDeg;
+    if (hold) {
+      EXPECT_NEAR(s.pose.angle_rad / kDeg, 0.0, 1.0) << "the angular constraint did not hold θ = 0";
+      EXPECT_NEAR(travel_deg, 0.0, 2.0) << "the plate did not travel where it was pushed";
+    } else {
+      EXPECT_NEAR(s.pose.angle_rad / kDeg, 20.0, 1.0) << "without the constraint the plate turned";
+    }
+    EXPECT_GT(std::hypot(s.twist(0), s.twist(1)), 0.15);
+  }
 }
 
 // ---------------------------------------------------------------- defect 5: the safe state near a fixture

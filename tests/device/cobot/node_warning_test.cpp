@@ -3,13 +3,15 @@
 // master-udp.yaml) runs through TeleopNode with its lookahead cut from 50 mm to 2 mm: at the operator's 0.2 m/s and the
 // 20 ms steering time constant, uτ = 4 mm > L, eq 11's bound is broken while the wall tracks, and the guard warns.
 // With the shipped 50 mm (uτ = 4 mm < L = 50 mm) it never does. The node's sinks carry the word to the telemetry CSV
-// (column device_warnings), the events (kDeviceWarning; the DDS sink publishes the same events as `device_warning`)
-// and the summary (text and JSON).
+// (column device_warnings), the events (kDeviceWarning), the summary (text and JSON) and, in a build with DDS, the
+// DDS event stream (`device_warning` on rt/teleop/<pair>/master/events, read by the supervisor over Cyclone DDS on
+// loopback) and the DDS run summary.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -23,6 +25,17 @@
 #include "teleop/node/teleop_node.hpp"
 #include "teleop/transport/emulated_link.hpp"
 #include "test_utilities/temp_dir.hpp"
+
+#if TELEOP_TEST_DDS
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <thread>
+
+#include "teleop/dds/supervisor.hpp"
+#include "teleop/runtime/periodic_loop.hpp"
+#endif
 
 namespace teleop::node {
 namespace {
@@ -65,9 +78,45 @@ struct MasterRun {
   std::vector<std::uint32_t> events;
   std::uint64_t csv_rows_warning = 0;
   std::uint64_t csv_rows = 0;
+  // Over DDS (a build with TELEOP_DDS): the device_warning events the supervisor received, and the summary's JSON.
+  bool dds = false;
+  std::vector<std::uint32_t> dds_events;
+  std::string dds_summary_json;
 };
 
-MasterRun RunMaster(const std::string& lookahead) {
+#if TELEOP_TEST_DDS
+constexpr auto kDiscoveryTimeout = std::chrono::seconds(15);
+
+/// A domain of our own and Cyclone confined to loopback unicast (as tests/dds/bridge_test.cpp).
+int TestDomain() {
+  static const int domain = [] {
+    const char* xml =
+        "<CycloneDDS><Domain id=\"any\"><General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
+        "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
+        "<MaxAutoParticipantIndex>20</MaxAutoParticipantIndex><Peers><Peer address=\"127.0.0.1\"/></Peers>"
+        "</Discovery></Domain></CycloneDDS>";
+    setenv("CYCLONEDDS_URI", xml, 1);
+    return 150 + static_cast<int>((getpid() + 40) % 80);
+  }();
+  return domain;
+}
+
+/// Polls the supervisor until `done(view)` holds for the pair's master, at most kDiscoveryTimeout.
+bool WaitFor(dds::Supervisor& supervisor, const std::string& pair,
+             const std::function<bool(const dds::ProcessView&)>& done) {
+  const auto deadline = std::chrono::steady_clock::now() + kDiscoveryTimeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    supervisor.Poll();
+    for (const dds::ProcessView& v : supervisor.Snapshot(runtime::MonotonicNowNs())) {
+      if (v.pair == pair && v.role == "master" && done(v)) return true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return false;
+}
+#endif
+
+MasterRun RunMaster(const std::string& lookahead, bool with_dds = false) {
   test::ScopedTempDir dir("cobot-warning");
   const std::string csv = dir.File("master.csv");
   std::string yaml = ShippedMaster();
@@ -75,9 +124,24 @@ MasterRun RunMaster(const std::string& lookahead) {
   Replace(yaml, "csv: \"\"", "csv: \"" + csv + "\"");
   Replace(yaml, "lock_memory: true", "lock_memory: false");
   yaml += "safety: {fault_record_dir: \"" + dir.path().string() + "\"}\n";
+  MasterRun run;
+#if TELEOP_TEST_DDS
+  const std::string pair = "cobot_warning_" + std::to_string(getpid());
+  std::unique_ptr<dds::Supervisor> supervisor;
+  if (with_dds) {
+    run.dds = true;
+    yaml += "dds: {enabled: true, domain_id: " + std::to_string(TestDomain()) + ", pair: " + pair + "}\n";
+    dds::Supervisor::Observer observer;
+    observer.on_event = [&run](const dds::ProcessView&, const std::string& kind, std::uint64_t, double value) {
+      if (kind == "device_warning") run.dds_events.push_back(static_cast<std::uint32_t>(value));
+    };
+    supervisor = std::make_unique<dds::Supervisor>(dds::Supervisor::Config{TestDomain(), 1.0}, observer);
+  }
+#else
+  (void)with_dds;
+#endif
   const config::ProcessConfig cfg = config::ParseProcessConfig(yaml, "master-udp.yaml");
   auto medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
-  MasterRun run;
   {
     TeleopNode node(cfg, device::MakeDevice(cfg.device),
                     std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kMaster),
@@ -87,9 +151,27 @@ MasterRun RunMaster(const std::string& lookahead) {
     node.Activate();
     for (std::uint64_t k = 0; k < kCycles; ++k) {
       node.Step(k, kPeriod_s, 1'000'000'000 + static_cast<std::int64_t>(k) * 1'000'000);
+#if TELEOP_TEST_DDS
+      // The events topic is volatile: the supervisor must have matched before the first warning (about 0.8 s in).
+      // Cycle 0 publishes a State; wait until it arrived (the three topics are discovered together). Simulated time
+      // does not advance while the test waits.
+      if (supervisor && k == 0) {
+        EXPECT_TRUE(WaitFor(*supervisor, pair, [](const dds::ProcessView& v) { return v.have_state; }))
+            << "the supervisor never saw the master's State";
+      }
+      if (supervisor && k % 50 == 0) supervisor->Poll();
+#endif
     }
     run.summary = node.Finish();
   }
+#if TELEOP_TEST_DDS
+  if (supervisor) {
+    EXPECT_TRUE(WaitFor(*supervisor, pair, [&run](const dds::ProcessView& v) {
+      if (v.have_summary) run.dds_summary_json = v.summary_json;
+      return v.have_summary;
+    })) << "no run summary over DDS";
+  }
+#endif
   std::ifstream in(csv);
   std::string header;
   EXPECT_TRUE(std::getline(in, header)) << csv;
@@ -109,7 +191,7 @@ MasterRun RunMaster(const std::string& lookahead) {
 }
 
 TEST(CobotNode, TheStabilityGuardsWarningReachesTheCsvTheEventsAndTheSummary) {
-  const MasterRun unstable = RunMaster("0.002");
+  const MasterRun unstable = RunMaster("0.002", /*with_dds=*/true);
   EXPECT_EQ(unstable.csv_rows, kCycles);
   EXPECT_GT(unstable.summary.device_warnings.cycles, 100u) << "uτ = 4 mm > L = 2 mm along the wall: no warning";
   EXPECT_EQ(unstable.csv_rows_warning, unstable.summary.device_warnings.cycles) << "CSV and summary disagree";
@@ -119,6 +201,20 @@ TEST(CobotNode, TheStabilityGuardsWarningReachesTheCsvTheEventsAndTheSummary) {
   EXPECT_EQ(unstable.events.size(), unstable.summary.device_warnings.changes) << "one event per change";
   EXPECT_THAT(FormatSummaryText(unstable.summary), ::testing::HasSubstr("device warnings"));
   EXPECT_THAT(FormatSummaryJson(unstable.summary), ::testing::HasSubstr("\"device_warnings\": {\"changes\": "));
+
+  if (unstable.dds) {
+    // The DDS event stream: the same events, named device_warning, the first raising the guard's bit. The events
+    // topic keeps the last 100 per reader, so at most as many as the node logged arrive.
+    ASSERT_FALSE(unstable.dds_events.empty()) << "no device_warning event over DDS";
+    EXPECT_NE(unstable.dds_events.front() & device::kWarningStabilityGuard, 0u);
+    EXPECT_LE(unstable.dds_events.size(), unstable.events.size());
+    EXPECT_EQ(unstable.dds_events.front(), unstable.events.front());
+    // The DDS run summary carries the same device_warnings object as --summary-json.
+    const std::string expected =
+        "\"device_warnings\": {\"changes\": " + std::to_string(unstable.summary.device_warnings.changes) +
+        ", \"cycles\": " + std::to_string(unstable.summary.device_warnings.cycles);
+    EXPECT_THAT(unstable.dds_summary_json, ::testing::HasSubstr(expected));
+  }
 
   const MasterRun stable = RunMaster("0.05");
   EXPECT_EQ(stable.summary.device_warnings.cycles, 0u) << "uτ = 4 mm < L = 50 mm warned";

@@ -4,7 +4,8 @@
 - cobot-stability --path circle --gain-form circular: eq 7's gains on a circle in closed loop; the simulated boundary
   lies at eq 10 (u tau / rho < tan phi), not at eq 11 (u tau < L), which differs by 9 % at L = rho/2.
 - cobot-stability --integral-scale 1: integral action k_i = 1/L^3 moves the line's boundary from u tau < L to the
-  quartic's Routh-Hurwitz bound u tau < b/a - c/a^2 = L (1 - 1/4) (derived in docs/cobot.md).
+  quartic's Routh-Hurwitz bound u tau < b/a - c/a^2 = L (1 - 1/4) (derived in docs/cobot.md), and the circle's
+  (eq 7's gains) from eq 10's rho tan(phi) to rho tan(phi) - c/(a (a + 1/rho^2)).
 - cobot-turns: Fig. 4's force in sharp low-speed turns: eq 2's speed floor makes the lateral force of a turn at rate
   w M max(u, eps) w instead of a point mass's M u w.
 - cobot-slip: "impossible to push the unicycle past a virtual constraint (unless the wheel slips)": with mu > 0 the
@@ -12,6 +13,7 @@
 - cobot-heading: the bicycle's angular constraint; theta follows e0 (1 + w t) exp(-w t) while the plate translates.
 Each run is a simulation (1 kHz steps, no sleeping); the whole script takes a few seconds."""
 import json
+import math
 import subprocess
 import sys
 import tempfile
@@ -64,6 +66,25 @@ with tempfile.TemporaryDirectory() as out:
           f"integral: linear boundary {pair['u_max_linear_m_per_s']} m/s is not L(1 - 1/4)/tau = {closed}")
     check(abs(pair["u_max_sim_m_per_s"] / closed - 1.0) < 0.02,
           f"integral: simulated boundary {pair['u_max_sim_m_per_s']} m/s is not within 2 % of {closed} m/s")
+
+    # Integral action on the circle, eq 7's gains (rho = 0.2 m, L = 0.1 m, k_i = 1/L^3): the quartic's second
+    # Routh-Hurwitz condition gives u tau < b/a - c/(a (a + 1/rho^2)) (docs/cobot.md), with eq 7's
+    # a = cos(phi)/(rho^2 (1 - cos(phi))) and b/a = rho tan(phi): eq 10's bound less the integral's share.
+    rho, lookahead, tau = 0.2, 0.1, 0.05
+    phi = lookahead / rho
+    a = math.cos(phi) / (rho * rho * (1.0 - math.cos(phi)))
+    closed = (rho * math.tan(phi) - (1.0 / lookahead**3) / (a * (a + 1.0 / rho**2))) / tau
+    circle_integral = run(out, "cobot-stability", "--path", "circle", "--radius-m", str(rho), "--gain-form",
+                          "circular", "--tau-s", str(tau), "--lookahead-m", str(lookahead), "--integral-scale", "1",
+                          "--ratios", "0.7,0.9")
+    pair = circle_integral["pairs"][0]
+    check(abs(pair["u_max_linear_m_per_s"] / closed - 1.0) < 1e-4,
+          f"circle, integral: linear boundary {pair['u_max_linear_m_per_s']} m/s is not the closed form {closed}")
+    check(abs(pair["u_max_sim_m_per_s"] / closed - 1.0) < 0.02,
+          f"circle, integral: simulated boundary {pair['u_max_sim_m_per_s']} m/s is not within 2 % of {closed} m/s")
+    check(pair["u_max_sim_m_per_s"] < 0.9 * pair["u_max_eq10_m_per_s"],
+          f"circle, integral: the boundary {pair['u_max_sim_m_per_s']} m/s is not below eq 10's "
+          f"{pair['u_max_eq10_m_per_s']} m/s")
 
     # Fig. 4: the turn's lateral force against eq 2; below eps it exceeds the point mass's by eps/u.
     turns = run(out, "cobot-turns", "--speeds-m-s", "0.005,0.01,0.05,0.2")

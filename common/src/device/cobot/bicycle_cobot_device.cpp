@@ -1,7 +1,6 @@
 // The simulated bicycle cobot behind the Device interface (BicycleCobotDevice, cobot_backend.hpp).
 
 #include <cmath>
-#include <numbers>
 
 #include "cobot_backend_private.hpp"
 
@@ -33,7 +32,9 @@ BicycleCobotDevice::BicycleCobotDevice(const CobotBackendConfig& config)
     : config_(config),
       capabilities_(CobotCapabilities(3, 0.0)),
       controller_(BicycleWallConfig(config), Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true)),
-      walls_(config.contact_force_threshold_N) {
+      walls_(config.contact_force_threshold_N),
+      sensing_(config.unicycle.sensors, config.unicycle.speed_filter, config.unicycle.steering_rate_filter,
+               config.bicycle.geometry) {
   // One isotropic virtual mass (Colgate et al. §3.1, a rigid body): along its wheels the operator feels the plate's
   // own mass and inertia, so the caster asks for the same across them.
   config_.bicycle_caster.virtual_mass_kg = config_.bicycle.plate_mass_kg;
@@ -43,6 +44,7 @@ BicycleCobotDevice::BicycleCobotDevice(const CobotBackendConfig& config)
   Validate(config_.bicycle_caster);
   state_.pose.position_m = config.initial.position_m;
   state_.pose.angle_rad = config.initial.heading_rad;
+  sensing_.Reset(state_);
 }
 
 const std::string& BicycleCobotDevice::name() const noexcept { return CobotName(); }
@@ -91,31 +93,24 @@ void BicycleCobotDevice::Update(double period_s) noexcept {
       OperatorPush(config_.op, time_s_, Vec2(state_.twist(0), state_.twist(1)), period_s, operator_integral_N_);
   operator_force_N_ = force;
   const Vec2 measured = MeasuredForce();  // the handle force sensor, as the controllers see it
-  // What the controllers see: the position quantized by the position sensing, the steering angles by their
-  // encoders. The plate's twist and the steering rates are taken as estimated without error (no estimator model).
-  const CobotSensorConfig& sensors = config_.unicycle.sensors;
-  BicyclePlantState seen = state_;
-  seen.pose.position_m = {Quantize(state_.pose.position_m.x(), sensors.position_resolution_m),
-                          Quantize(state_.pose.position_m.y(), sensors.position_resolution_m)};
-  const double steer_step = sensors.steering_encoder_counts_per_rev > 0
-                                ? 2.0 * std::numbers::pi / sensors.steering_encoder_counts_per_rev
-                                : 0.0;
-  for (std::size_t i = 0; i < 2; ++i) seen.steer_rad[i] = Quantize(state_.steer_rad[i], steer_step);
+  // What the controllers see (BicycleSensing): the position quantized by the position sensing, the steering angles
+  // by their encoders, the steering rates and the plate's twist estimated from the steering and wheel encoders.
+  const BicyclePlantState seen = sensing_.Measure(state_, period_s);
   BicyclePlantInput in;
   in.handle_force_N = force;
   if (locked_) {
     for (std::size_t i = 0; i < 2; ++i) {
-      in.steering_torque_Nm[i] = -config_.bicycle_caster.k2_Nms_per_rad * state_.steer_rate_rad_per_s[i];
+      in.steering_torque_Nm[i] = -config_.bicycle_caster.k2_Nms_per_rad * seen.steer_rate_rad_per_s[i];
     }
   } else {
     // The reference point as a virtual unicycle: heading ψ_v (the wheels' mean), speed along it, its turn rate.
-    const double omega = state_.twist(2);
+    const double omega = seen.twist(2);
     const double psi = seen.pose.angle_rad + MeanSteer(seen);
     WallControllerInput wall_in;
     wall_in.position_m = seen.pose.position_m;
     wall_in.steering_angle_rad = psi;
-    wall_in.speed_m_per_s = Vec2(state_.twist(0), state_.twist(1)).dot(UnitAt(psi));
-    wall_in.steering_rate_rad_per_s = omega + 0.5 * (state_.steer_rate_rad_per_s[0] + state_.steer_rate_rad_per_s[1]);
+    wall_in.speed_m_per_s = Vec2(seen.twist(0), seen.twist(1)).dot(UnitAt(psi));
+    wall_in.steering_rate_rad_per_s = omega + 0.5 * (seen.steer_rate_rad_per_s[0] + seen.steer_rate_rad_per_s[1]);
     wall_in.handle_force_N = measured;
     last_control_ = controller_.Step(wall_in, period_s);
     if (last_control_.mode == WallMode::kCaster) {
@@ -129,11 +124,12 @@ void BicycleCobotDevice::Update(double period_s) noexcept {
       for (std::size_t i = 0; i < 2; ++i) {
         const double error = 0.5 * WrapAngle(2.0 * (psi - seen.pose.angle_rad - seen.steer_rad[i]));
         const double rate = last_control_.commanded_rate_rad_per_s - omega + alignment_per_s * error;
-        in.steering_torque_Nm[i] = k2 * (rate - state_.steer_rate_rad_per_s[i]);
+        in.steering_torque_Nm[i] = k2 * (rate - seen.steer_rate_rad_per_s[i]);
       }
     }
   }
   Step(config_.bicycle, in, period_s, state_);
+  sensing_.Roll(state_, period_s);
   time_s_ += period_s;
 }
 

@@ -5,6 +5,7 @@
 
 #include "device/cobot/bicycle_caster.hpp"
 #include "device/cobot/bicycle_plant.hpp"
+#include "device/cobot/bicycle_sensing.hpp"
 #include "device/cobot/cobot_fieldbus_config.hpp"
 #include "device/cobot/master_walls.hpp"
 #include "device/cobot/unicycle_cobot.hpp"
@@ -130,6 +131,7 @@ class BicycleCobotDevice final : public Device {
   BicyclePlantState state_{};
   VirtualWallController controller_;
   MasterWalls walls_;
+  BicycleSensing sensing_;  ///< The encoders and the rate estimates the controllers see.
   WallControllerOutput last_control_{};
   Vec2 MeasuredForce() const noexcept;
 

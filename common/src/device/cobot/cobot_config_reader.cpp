@@ -57,9 +57,10 @@ void ReadSteering(const Field& f, CobotFieldbusConfig& c) {
     const std::string mode = v->AsString();
     if (mode == "velocity") {
       v->Fail(
-          "velocity mode (cyclic synchronous velocity, 0x6060 = 9) is not supported by the CiA 402 client, which runs "
-          "cyclic synchronous torque only; use mode: torque (the steering-velocity loop of eq 3c then runs on the "
-          "host, Γ = K2·(ω_c − ω))");
+          "velocity mode (cyclic synchronous velocity, 0x6060 = 9) is not supported by the cobot rig, which steers "
+          "in cyclic synchronous torque (mode 10): the steering-velocity loop of eq 3c runs on the host, "
+          "Γ = K2·(ω_c − ω), so that its time constant τ (steering_time_constant_s) is the one the tracker's eq 10/11 "
+          "bound and its guard use; in mode 9 the drive's own velocity loop would set τ. Use mode: torque");
     }
     if (mode != "torque") v->Fail("must be torque, got '" + mode + "'");
   }
