@@ -253,8 +253,7 @@ TEST(Cia402Modes, AModeDisplayThatFollowsLateIsWaitedFor) {
   late.sim_config.mode_display_delay_ms = 800.0;  // beyond state_timeout_ms (500)
   late.Build();
   const std::string e = ThrownBy([&] { late.drive->Configure(); });
-  EXPECT_NE(e.find("modes of operation display 0x6061 is 0 500 ms after writing 9 to 0x6060"), std::string::npos)
-      << e;
+  EXPECT_NE(e.find("modes of operation display 0x6061 is 0 500 ms after writing 9 to 0x6060"), std::string::npos) << e;
   EXPECT_FALSE(late.drive->active());
 }
 

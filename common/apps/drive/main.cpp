@@ -316,8 +316,7 @@ int Cycle(const Options& o, int node_arg, fb::Cia402Mode mode, double limit, con
     try {
       drive.sdo().Download(cia402::obj301::kConsumerHeartbeatTime, 1, 0, 4);
     } catch (const Error& e) {
-      std::fprintf(stderr, "teleop-drive: node %d: switching the drive's heartbeat consumer off: %s\n", node,
-                   e.what());
+      std::fprintf(stderr, "teleop-drive: node %d: switching the drive's heartbeat consumer off: %s\n", node, e.what());
     }
   };
   drive.Configure();

@@ -47,12 +47,12 @@ class SdoAbortError : public Error {
 /// A blocking, set-up-only SDO client for one server (node): expedited and segmented transfers (CiA 301 §7.2.4.3).
 /// Every call sends its requests on 0x600 + node, waits (Timebase::wait_ns) for each response on 0x580 + node,
 /// retries timed-out attempts with exponential backoff (each timed-out attempt is aborted with 0x05040000, so a
-/// server that began a segmented transfer is idle again; one that times out mid-way is restarted from its initiate), and throws teleop::Error naming the object, the node and the decoded
-/// abort code or the timeout. A protocol error of the server (a toggle bit that did not alternate, a command
-/// specifier that does not fit, more or fewer bytes than indicated) is answered with an abort frame carrying the
-/// standard's code (0x05030000, 0x05040001, 0x06070010, 0x05040005) and reported with it. Frames that are not its
-/// response are passed to `other_frames` (heartbeats, EMCY arriving during set-up must not be lost). Never used in
-/// the control cycle.
+/// server that began a segmented transfer is idle again; one that times out mid-way is restarted from its initiate),
+/// and throws teleop::Error naming the object, the node and the decoded abort code or the timeout. A protocol error of
+/// the server (a toggle bit that did not alternate, a command specifier that does not fit, more or fewer bytes than
+/// indicated) is answered with an abort frame carrying the standard's code (0x05030000, 0x05040001, 0x06070010,
+/// 0x05040005) and reported with it. Frames that are not its response are passed to `other_frames` (heartbeats, EMCY
+/// arriving during set-up must not be lost). Never used in the control cycle.
 class SdoClient {
  public:
   using FrameSink = std::function<void(const proto::can::CanFrame&)>;

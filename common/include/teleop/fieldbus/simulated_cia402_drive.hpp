@@ -204,7 +204,7 @@ class SimulatedCia402Drive {
   std::uint64_t host_heartbeat_ns_ = 0;
   bool host_heartbeat_seen_ = false;
   std::int8_t mode_ = 0;
-  std::int8_t previous_display_ = 0;       ///< 0x6061 until mode_display_at_ns_.
+  std::int8_t previous_display_ = 0;      ///< 0x6061 until mode_display_at_ns_.
   std::uint64_t mode_display_at_ns_ = 0;  ///< From then on 0x6061 shows mode_.
   std::int8_t DisplayedMode() const noexcept { return last_ns_ >= mode_display_at_ns_ ? mode_ : previous_display_; }
   std::uint16_t controlword_ = 0;
