@@ -475,6 +475,21 @@ TEST(SimulatedDriveSdo, SegmentedDownloadAndReadBackOfALabel) {
   EXPECT_EQ(rig.sim->mode_of_operation(), 10);
 }
 
+TEST(SimulatedDriveSdo, PdoCobIdsFollowCia301) {
+  // No RTR on the simulated drive: bit 30 reads 1 and a 0 there is refused (0x06090030), as devices without RTR do;
+  // a new identifier while the PDO is valid is refused too; invalid first, then the new one, is taken.
+  test::Cia402Rig rig;
+  rig.config.read_device_info = false;
+  rig.Build();
+  rig.drive->Configure();
+  EXPECT_EQ(RawExchange(rig, {"601#4000180100000000"}), std::vector<std::string>{"581#4300180181010040"});
+  EXPECT_EQ(RawExchange(rig, {"601#2300180181010000"}), std::vector<std::string>{"581#8000180130000906"});
+  EXPECT_EQ(RawExchange(rig, {"601#2300180191010040"}), std::vector<std::string>{"581#8000180130000906"});
+  EXPECT_EQ(RawExchange(rig, {"601#23001801810100C0", "601#23001801910100C0", "601#2300180191010040"}),
+            (std::vector<std::string>{"581#6000180100000000", "581#6000180100000000", "581#6000180100000000"}));
+  EXPECT_EQ(RawExchange(rig, {"601#4000180100000000"}), std::vector<std::string>{"581#4300180191010040"});
+}
+
 TEST(SimulatedDriveSdo, TheServerAbortsEveryProtocolErrorWithTheStandardsCode) {
   test::Cia402Rig rig;
   rig.config.read_device_info = false;

@@ -440,14 +440,16 @@ void Cia402Drive::WritePdo(const PdoMapping& m, bool tpdo) {
   const std::uint32_t cob = canopen::PdoCobId(m, tpdo, config_.node_id);
   // CiA 301 PDO mapping procedure: invalidate the PDO, clear the count, write the entries, set the count, make it
   // valid.
-  sdo_.Download(comm, 1, cob | canopen::cob::kInvalidBit, 4);
+  // Bit 30 set: no RTR (the client never requests a PDO; a device without RTR may refuse 0, CiA 301 lets it).
+  const std::uint32_t cob_entry = cob | canopen::cob::kNoRtrBit;
+  sdo_.Download(comm, 1, cob_entry | canopen::cob::kInvalidBit, 4);
   sdo_.Download(map, 0, 0, 1);
   for (int k = 0; k < m.entry_count; ++k) {
     sdo_.Download(map, static_cast<std::uint8_t>(k + 1), m.entries[static_cast<std::size_t>(k)].MappingValue(), 4);
   }
   sdo_.Download(map, 0, static_cast<std::uint32_t>(m.entry_count), 1);
   sdo_.Download(comm, 2, m.transmission_type, 1);
-  sdo_.Download(comm, 1, cob, 4);
+  sdo_.Download(comm, 1, cob_entry, 4);
   // Read it back (field notes: factory mappings of the wrong length break decoding).
   const auto what = [&](const std::string& detail) {
     return Error(fmt::format("CiA 402 drive node {}: {}PDO{} read back differs from what was written: {}",
@@ -620,14 +622,16 @@ void Cia402Drive::Configure() {
       // A drive with fewer than four PDOs of a kind (CiA 301 asks for none) has nothing to switch off there.
       if (!rpdo_used) {
         WriteOptional(present, [&] {
-          sdo_.Download(static_cast<std::uint16_t>(obj301::kRpdoCommunication + n - 1), 1,
-                        canopen::cob::kInvalidBit | canopen::cob::DefaultRpdo(n, config_.node_id), 4);
+          sdo_.Download(
+              static_cast<std::uint16_t>(obj301::kRpdoCommunication + n - 1), 1,
+              canopen::cob::kInvalidBit | canopen::cob::kNoRtrBit | canopen::cob::DefaultRpdo(n, config_.node_id), 4);
         });
       }
       if (!tpdo_used) {
         WriteOptional(present, [&] {
-          sdo_.Download(static_cast<std::uint16_t>(obj301::kTpdoCommunication + n - 1), 1,
-                        canopen::cob::kInvalidBit | canopen::cob::DefaultTpdo(n, config_.node_id), 4);
+          sdo_.Download(
+              static_cast<std::uint16_t>(obj301::kTpdoCommunication + n - 1), 1,
+              canopen::cob::kInvalidBit | canopen::cob::kNoRtrBit | canopen::cob::DefaultTpdo(n, config_.node_id), 4);
         });
       }
     }

@@ -721,9 +721,16 @@ std::uint32_t SimulatedCia402Drive::Access(const canopen::SdoMessage& m, std::ui
     const auto i = static_cast<std::size_t>(index - obj301::kRpdoCommunication);
     if (sub == 0) return upload ? reply(2, 1) : abort(abort_code::kReadOnly);
     if (sub == 1) {
-      if (upload) return reply(d.rpdo_cob[i] | (d.rpdo_valid[i] ? 0u : canopen::cob::kInvalidBit), 4);
+      // No RTR here: bit 30 reads 1 and must be written 1 (devices without RTR refuse 0, as CiA 301 lets them); no
+      // 29-bit identifiers; bits 0..29 are not changed while the PDO is valid (CiA 301).
+      if (upload) {
+        return reply(d.rpdo_cob[i] | canopen::cob::kNoRtrBit | (d.rpdo_valid[i] ? 0u : canopen::cob::kInvalidBit), 4);
+      }
       if (const std::uint32_t c = length(4)) return c;
-      d.rpdo_valid[i] = (v & canopen::cob::kInvalidBit) == 0;
+      const bool valid = (v & canopen::cob::kInvalidBit) == 0;
+      if ((v & canopen::cob::kNoRtrBit) == 0 || (v & 0x3FFF'F800u) != 0) return abort(abort_code::kValueRange);
+      if (valid && d.rpdo_valid[i] && (v & 0x7FFu) != d.rpdo_cob[i]) return abort(abort_code::kValueRange);
+      d.rpdo_valid[i] = valid;
       d.rpdo_cob[i] = v & 0x7FFu;
       return ok();
     }
@@ -740,9 +747,16 @@ std::uint32_t SimulatedCia402Drive::Access(const canopen::SdoMessage& m, std::ui
     const auto i = static_cast<std::size_t>(index - obj301::kTpdoCommunication);
     if (sub == 0) return upload ? reply(2, 1) : abort(abort_code::kReadOnly);
     if (sub == 1) {
-      if (upload) return reply(d.tpdo_cob[i] | (d.tpdo_valid[i] ? 0u : canopen::cob::kInvalidBit), 4);
+      // No RTR here: bit 30 reads 1 and must be written 1 (devices without RTR refuse 0, as CiA 301 lets them); no
+      // 29-bit identifiers; bits 0..29 are not changed while the PDO is valid (CiA 301).
+      if (upload) {
+        return reply(d.tpdo_cob[i] | canopen::cob::kNoRtrBit | (d.tpdo_valid[i] ? 0u : canopen::cob::kInvalidBit), 4);
+      }
       if (const std::uint32_t c = length(4)) return c;
-      d.tpdo_valid[i] = (v & canopen::cob::kInvalidBit) == 0;
+      const bool valid = (v & canopen::cob::kInvalidBit) == 0;
+      if ((v & canopen::cob::kNoRtrBit) == 0 || (v & 0x3FFF'F800u) != 0) return abort(abort_code::kValueRange);
+      if (valid && d.tpdo_valid[i] && (v & 0x7FFu) != d.tpdo_cob[i]) return abort(abort_code::kValueRange);
+      d.tpdo_valid[i] = valid;
       d.tpdo_cob[i] = v & 0x7FFu;
       return ok();
     }
