@@ -306,6 +306,71 @@ TEST(CanopenSdoSegmented, ANumericObjectServedSegmentedIsRead) {
   EXPECT_EQ(rig.client->Upload(0x1000, 0, 4), 0x0002'0192u);
 }
 
+TEST(CanopenSdoSegmented, BitsTheStandardLeavesUnusedAreIgnored) {
+  // CiA 301 marks some bits x ("not used, always 0") and n as "only valid if e = 1 and s = 1": a receiver ignores
+  // them, so a peer that sets them is still understood.
+  SdoMessage m{};
+  ASSERT_TRUE(DecodeSdoResponse(Parse("581#7F40600000000000"), m));  // 011 xxxxx: initiate download response
+  EXPECT_EQ(m.kind, SdoMessage::Kind::kDownloadResponse);
+  EXPECT_EQ(m.index, 0x6040);
+  ASSERT_TRUE(DecodeSdoResponse(Parse("581#5D0810000C000000"), m));  // 010 1 11 0 1: segmented, n and x set
+  EXPECT_EQ(m.kind, SdoMessage::Kind::kUploadInitiateSegmented);
+  EXPECT_TRUE(m.size_indicated);
+  EXPECT_EQ(m.value, 12u);
+  ASSERT_TRUE(DecodeSdoResponse(Parse("581#5B41600037020000"), m));  // 0x4B with x (bit 4) set: still 2 bytes
+  EXPECT_EQ(m.kind, SdoMessage::Kind::kUploadResponse);
+  EXPECT_EQ(m.size, 2);
+  EXPECT_EQ(m.value, 0x0237u);
+  ASSERT_TRUE(DecodeSdoResponse(Parse("581#3F00000000000000"), m));  // 001 1 xxxx: download segment response
+  EXPECT_EQ(m.kind, SdoMessage::Kind::kDownloadSegmentResponse);
+  EXPECT_TRUE(m.toggle);
+  ASSERT_TRUE(DecodeSdoResponse(Parse("581#9F60600030000906"), m));  // 100 xxxxx: abort
+  EXPECT_EQ(m.kind, SdoMessage::Kind::kAbort);
+  EXPECT_EQ(m.abort_code, 0x0609'0030u);
+  ASSERT_TRUE(DecodeSdoRequest(Parse("601#5F41600000000000"), m));  // 010 xxxxx: initiate upload request
+  EXPECT_EQ(m.kind, SdoMessage::Kind::kUploadRequest);
+  EXPECT_EQ(m.index, 0x6041);
+  ASSERT_TRUE(DecodeSdoRequest(Parse("601#7F00000000000000"), m));  // 011 1 xxxx: upload segment request
+  EXPECT_EQ(m.kind, SdoMessage::Kind::kUploadSegmentRequest);
+  EXPECT_TRUE(m.toggle);
+  ASSERT_TRUE(DecodeSdoRequest(Parse("601#2D0020000A000000"), m));  // 001 0 11 0 1: segmented, n set
+  EXPECT_EQ(m.kind, SdoMessage::Kind::kDownloadInitiateSegmented);
+  EXPECT_EQ(m.value, 10u);
+}
+
+TEST(CanopenSdoSegmented, ATimedOutRequestIsAbortedBeforeItIsRetried) {
+  // A server whose initiate answer was lost may be in a segmented transfer; the abort (0x05040000) ends it, so the
+  // retried initiate is not refused as a command out of place. An abort is never answered.
+  ScriptedRig rig;
+  rig.script = {{"601#4008100000000000", ""},  // lost
+                {"601#8008100000000405", ""},
+                {"601#4008100000000000", "581#410810000C000000"},
+                {"601#6000000000000000", "581#0074656C656F7020"},
+                {"601#7000000000000000", "581#1564726976650000"}};
+  EXPECT_EQ(rig.client->UploadString(0x1008, 0), "teleop drive");
+  EXPECT_EQ(rig.sent, rig.Requests());
+  EXPECT_EQ(rig.client->counters().timeouts, 1u);
+  EXPECT_EQ(rig.client->counters().aborts_sent, 1u);
+  // A server that never answers: each of the two attempts is aborted.
+  ScriptedRig dead;
+  dead.script = {{"601#4041600000000000", ""},
+                 {"601#8041600000000405", ""},
+                 {"601#4041600000000000", ""},
+                 {"601#8041600000000405", ""}};
+  const std::string e = ErrorOf([&] { (void)dead.client->Upload(0x6041, 0, 2); });
+  dead.Flush();
+  EXPECT_NE(e.find("no response within 5 ms, 2 attempts"), std::string::npos) << e;
+  EXPECT_EQ(dead.sent, dead.Requests());
+}
+
+TEST(CanopenSdoSegmented, AnExpeditedAnswerWithoutTheSizeIsTakenAtTheCallersSize) {
+  // e = 1, s = 0 (0x42): "d contains unspecified number of bytes" (CiA 301); the object is in the low bytes.
+  ScriptedRig rig;
+  rig.script = {{"601#4061600000000000", "581#426160000AEEEEEE"}, {"601#4041600000000000", "581#4241600037020000"}};
+  EXPECT_EQ(rig.client->Upload(0x6061, 0, 1), 0x0Au);
+  EXPECT_EQ(rig.client->Upload(0x6041, 0), 0x0237u);  // no size expected: all 4 bytes
+}
+
 }  // namespace
 }  // namespace teleop::fieldbus::canopen
 
@@ -408,6 +473,21 @@ TEST(SimulatedDriveSdo, SegmentedDownloadAndReadBackOfALabel) {
   const std::uint8_t mode = 10;
   rig.drive->sdo().DownloadBytes(0x6060, 0, std::span<const std::uint8_t>(&mode, 1));
   EXPECT_EQ(rig.sim->mode_of_operation(), 10);
+}
+
+TEST(SimulatedDriveSdo, PdoCobIdsFollowCia301) {
+  // No RTR on the simulated drive: bit 30 reads 1 and a 0 there is refused (0x06090030), as devices without RTR do;
+  // a new identifier while the PDO is valid is refused too; invalid first, then the new one, is taken.
+  test::Cia402Rig rig;
+  rig.config.read_device_info = false;
+  rig.Build();
+  rig.drive->Configure();
+  EXPECT_EQ(RawExchange(rig, {"601#4000180100000000"}), std::vector<std::string>{"581#4300180181010040"});
+  EXPECT_EQ(RawExchange(rig, {"601#2300180181010000"}), std::vector<std::string>{"581#8000180130000906"});
+  EXPECT_EQ(RawExchange(rig, {"601#2300180191010040"}), std::vector<std::string>{"581#8000180130000906"});
+  EXPECT_EQ(RawExchange(rig, {"601#23001801810100C0", "601#23001801910100C0", "601#2300180191010040"}),
+            (std::vector<std::string>{"581#6000180100000000", "581#6000180100000000", "581#6000180100000000"}));
+  EXPECT_EQ(RawExchange(rig, {"601#4000180100000000"}), std::vector<std::string>{"581#4300180191010040"});
 }
 
 TEST(SimulatedDriveSdo, TheServerAbortsEveryProtocolErrorWithTheStandardsCode) {

@@ -131,6 +131,34 @@ TEST(Cia402Drive, SdoTimeoutsAreRetriedWithBackoff) {
   EXPECT_GE(dead.now_ns, 27'000'000u);
 }
 
+TEST(Cia402Drive, ADriveWithTwoPdosOfEachKindAndWithoutTheOptionalObjectsIsBroughtUp) {
+  // CiA 301 asks for no number of PDOs, and 0x1006 (mandatory for a SYNC producer only) and 0x1016 are optional: a
+  // drive that lacks them is switched on all the same; only a consumer asked for (drive_consumer_timeout_ms) needs
+  // 0x1016.
+  const auto lacking = [](Cia402Rig& rig) {
+    for (const int index : {0x1402, 0x1403, 0x1802, 0x1803, 0x1006, 0x1016}) {
+      rig.sim->AbortObject(static_cast<std::uint16_t>(index), canopen::sdo_abort::kNoObject);
+    }
+  };
+  Cia402Rig rig;
+  rig.Build();
+  lacking(rig);
+  rig.BringUp();
+  EXPECT_TRUE(rig.drive->active());
+  Cia402Rig::CycleResult r{};
+  for (int k = 0; k < 20; ++k) r = rig.Cycle(0.1);
+  EXPECT_EQ(r.read, Cia402Status::kOk);
+  EXPECT_EQ(rig.drive->sdo_counters().aborts, 6u);  // one per absent object, none retried
+
+  Cia402Rig consumer;
+  consumer.config.drive_consumer_timeout_ms = 300.0;
+  consumer.Build();
+  lacking(consumer);
+  const std::string what = ThrownBy([&] { consumer.drive->Configure(); });
+  EXPECT_NE(what.find("SDO write of 0x1016:01 on node 1 aborted: 0x06020000"), std::string::npos) << what;
+  EXPECT_FALSE(consumer.drive->active());
+}
+
 TEST(Cia402Drive, SdoAbortIsDecodedAndNamesTheObject) {
   Cia402Rig rig;
   rig.Build();

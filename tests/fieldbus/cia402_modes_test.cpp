@@ -227,6 +227,36 @@ TEST(Cia402Modes, QuickStopOption6HoldsInQuickStopActiveUntilEnabledAgain) {
   EXPECT_NEAR(r.reading.velocity_rad_per_s, 5.0, 2.0 / 4096);
 }
 
+TEST(Cia402Modes, DeactivateInQuickStopActiveDisablesTheVoltage) {
+  // Shutdown is no transition out of Quick Stop Active (options 5..8 stay there): Disable Voltage (12) is.
+  Cia402Rig rig;
+  QuickStopAt5RadPerS(rig, 6);
+  for (int k = 0; k < 20; ++k) (void)rig.Cycle(5.0);
+  ASSERT_EQ(rig.sim->drive_state(), DriveState::kQuickStopActive);
+  EXPECT_TRUE(rig.drive->Deactivate());
+  rig.Advance(2'000'000);
+  EXPECT_EQ(rig.sim->drive_state(), DriveState::kReadyToSwitchOn);
+}
+
+TEST(Cia402Modes, AModeDisplayThatFollowsLateIsWaitedFor) {
+  // A drive switches modes in its own cycle: 0x6061 may show the old mode for a while after 0x6060 is written.
+  Cia402Rig rig;
+  rig.config.mode = Cia402Mode::kCyclicSynchronousVelocity;
+  rig.sim_config.mode_display_delay_ms = 20.0;
+  rig.Build();
+  rig.BringUp();
+  EXPECT_TRUE(rig.drive->active());
+  EXPECT_EQ(rig.sim->mode_of_operation(), 9);
+
+  Cia402Rig late;
+  late.config.mode = Cia402Mode::kCyclicSynchronousVelocity;
+  late.sim_config.mode_display_delay_ms = 800.0;  // beyond state_timeout_ms (500)
+  late.Build();
+  const std::string e = ThrownBy([&] { late.drive->Configure(); });
+  EXPECT_NE(e.find("modes of operation display 0x6061 is 0 500 ms after writing 9 to 0x6060"), std::string::npos) << e;
+  EXPECT_FALSE(late.drive->active());
+}
+
 TEST(Cia402Modes, HaltStopsAndHoldsInOperationEnabledAndResumes) {
   Cia402Rig rig;
   rig.config.mode = Cia402Mode::kCyclicSynchronousVelocity;

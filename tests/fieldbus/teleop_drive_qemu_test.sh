@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # ctest qemu_teleop_drive: teleop-drive and a simulated drive over a real Linux SocketCAN bus (vcan0 in a qemu guest,
 # tests/qemu/run_in_guest.sh): scan, info, a segmented SDO read (0x1008), enable and jog in modes 8, 9 and 10, the
-# sample EDS accepted and a broken one refused, record, fault-reset (teleop_drive_qemu_guest.sh). Each check looks
+# sample EDS accepted and a broken one refused, a segmented SDO write, the hard limit, the deadman (SIGINT), a killed
+# tool faulted by the drive's heartbeat consumer, record, fault-reset (teleop_drive_qemu_guest.sh). Each check looks
 # in its own subcommand's section of drive.log.
 #   tests/fieldbus/teleop_drive_qemu_test.sh TELEOP_DRIVE_BINARY OUT_DIR
 # Exit status: 0 pass, 1 fail, 77 skip (qemu cannot run here).
@@ -41,7 +42,16 @@ expect eds-bad 'bad\.eds: \[6060\] DataType is 0x0005 \(UNSIGNED8\), the client 
 # Nothing was written: the drive is still disabled, in the velocity mode of the last jog (not torque, 10).
 expect info-after-bad-eds 'state +(Switch On Disabled|Ready To Switch On)'
 expect info-after-bad-eds 'mode display +9$'
-expect fault-reset 'after fault reset: '
+expect sdo-write '0x2000:00 written'
+expect sdo-read-back '^left arm joint 3 label$'
+expect jog-limit '--velocity 5 exceeds --limit 3 \(the hard limit\); nothing was sent'
+expect deadman 'stopped after [0-9]+ cycles \(interrupted \(deadman\)\).*disabled'
+expect info-after-deadman 'state +Ready To Switch On'
+expect killed 'Operation Enabled, cyclic synchronous velocity'
+expect info-after-kill 'state +Fault \(statusword 0x0208\)'
+expect info-after-kill 'error +0x8130 heartbeat'
+expect fault-reset 'node 3: Fault \(statusword 0x0208\), error 0x8130'
+expect fault-reset 'after fault reset: Switch On Disabled'
 if grep -q '^FAIL' "${log}"; then
   echo "FAIL: $(grep '^FAIL' "${log}" | tr '\n' ' ')" >&2
   exit 1

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # teleop-drive against simulated drives on the emulated bus, every subcommand as a process (docs/cia402.md,
-# "Bring-up with teleop-drive"): teleop-canbus, `teleop-drive simulate` with nodes 3 and 5 (node 3 faults at 6 s) and
-# 7 (torque mode only),
+# "Bring-up with teleop-drive"): teleop-canbus, `teleop-drive simulate` with nodes 3 (faults at 6 s), 5 and 7 (torque
+# mode only), each in its own process,
 # then scan, info, sdo read/write (a segmented string too), enable, jog in each mode with the hard limit, record,
 # the deadman (SIGINT mid-jog), fault-reset, and the clear errors: a silent node, an abort with its text, a limit.
 # Usage: teleop_drive_test.sh BIN_DIR WORK_DIR
@@ -28,16 +28,19 @@ check() {  # check NAME EXPECTED_RC PATTERN -- command...
 "${bin}/teleop-canbus" --port "${port}" --stats-every-s 0 >"${work}/canbus.log" 2>&1 &
 bus=$!
 sleep 0.3
-"${bin}/teleop-drive" --bus-port "${port}" simulate --node 3 --node 5 --fault-at-s 6 >"${work}/simulate.log" 2>&1 &
+# Node 3 faults at 6 s; node 5 in its own process, so the injected fault never lands in one of its runs.
+"${bin}/teleop-drive" --bus-port "${port}" simulate --node 3 --fault-at-s 6 >"${work}/simulate.log" 2>&1 &
 sim=$!
+"${bin}/teleop-drive" --bus-port "${port}" simulate --node 5 >"${work}/simulate5.log" 2>&1 &
+sim5=$!
 "${bin}/teleop-drive" --bus-port "${port}" simulate --node 7 --supported-modes 0x200 >"${work}/simulate7.log" 2>&1 &
 sim7=$!
-trap 'kill ${sim} ${sim7} ${bus} 2>/dev/null; wait 2>/dev/null' EXIT
+trap 'kill ${sim} ${sim5} ${sim7} ${bus} 2>/dev/null; wait 2>/dev/null' EXIT
 sleep 0.5
 # Generous staleness and heartbeat timeouts: this runs beside the rest of the suite on two cores, where three
 # cycles of a 20 ms gap (the default ten cycles) happen; the stale and heartbeat stops are unit-tested in
 # cia402_drive_test.
-d=("${bin}/teleop-drive" --bus-port "${port}" --stale-ms 250 --heartbeat-timeout-ms 1000)
+d=("${bin}/teleop-drive" --bus-port "${port}" --stale-ms 250 --heartbeat-timeout-ms 1000 --drive-consumer-timeout-ms 1500)
 check "scan finds nodes 3 and 5" 0 "^3 +pre-operational +0x00020192 0x00000A5A.*CiA 402 drive" -- "${d[@]}" scan --to 8 --timeout-ms 10
 check "scan reports the count" 0 "3 nodes found in 1..8" -- "${d[@]}" scan --to 8 --timeout-ms 10
 check "info: device name (segmented)" 0 "device name +teleop simulated CiA 402 drive" -- "${d[@]}" info 5
@@ -89,4 +92,28 @@ done
 check "info: in Fault" 0 "state +Fault \(statusword 0x0208\)" -- "${d[@]}" info 3
 check "fault-reset" 0 "after fault reset: Switch On Disabled \(statusword 0x0240\)" -- "${d[@]}" fault-reset 3
 check "info: error history" 0 "1: 0x2310" -- "${d[@]}" info 3
+# A tool that dies (SIGKILL: no deadman can run) mid-jog: the drive's consumer of the tool's heartbeat (0x1016,
+# --drive-consumer-timeout-ms) faults it (EMCY 0x8130) and the motor stops; fault-reset recovers it.
+"${d[@]}" jog 5 --velocity 1 --limit 2 --for 30 >"${work}/killed.log" 2>&1 &
+jog=$!
+for _ in $(seq 1 50); do
+  grep -q "Operation Enabled" "${work}/killed.log" && break
+  sleep 0.1
+done
+sleep 0.3
+{
+  kill -KILL ${jog}
+  wait ${jog}
+} 2>/dev/null
+check "killed tool: still enabled at first" 0 "0x6041:00 = 0x[0-9A-F]{2}37 " -- "${d[@]}" sdo read 5 0x6041 0 --type u16
+for _ in $(seq 1 60); do
+  "${d[@]}" sdo read 5 0x6041 0 --type u16 2>/dev/null | grep -q "0x0208" && break
+  sleep 0.1
+done
+check "killed tool: the drive faulted itself (heartbeat)" 0 "error +0x8130 heartbeat" -- "${d[@]}" info 5
+check "killed tool: fault-reset" 0 "after fault reset: Switch On Disabled" -- "${d[@]}" fault-reset 5
+# A clean stop switches the consumer off again: no fault after the tool has gone.
+check "clean stop" 0 "stopped after .*disabled" -- "${d[@]}" jog 5 --velocity 1 --limit 2 --for 0.3
+sleep 2.0
+check "clean stop: no fault after the tool has gone" 0 "state +Ready To Switch On" -- "${d[@]}" info 5
 exit ${fail}

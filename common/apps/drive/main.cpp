@@ -68,6 +68,9 @@ struct Options {
   std::string eds_file;
   double stale_ms = 0.0;  ///< 0: ten cycles, at least 10 ms
   double heartbeat_timeout_ms = 200.0;
+  /// The drive's consumer of the tool's heartbeat (0x1016:01, 0: off): a tool that dies (SIGKILL, a crash, a cable)
+  /// cannot run its deadman, so the drive stops itself this long after the tool's last heartbeat.
+  double drive_consumer_timeout_ms = 500.0;
 };
 
 fb::CanPortConfig PortConfig(const Options& o) {
@@ -114,6 +117,7 @@ fb::Cia402DriveConfig DriveConfig(const Options& o, std::uint8_t node, fb::Cia40
   c.scaling.velocity_rad_per_s_per_unit = o.velocity_rad_per_s_per_unit;
   c.drive_heartbeat_period_ms = 50.0;
   c.heartbeat_timeout_ms = o.heartbeat_timeout_ms;
+  c.drive_consumer_timeout_ms = o.drive_consumer_timeout_ms;
   c.stale_after_ms = o.stale_ms > 0.0 ? o.stale_ms : std::max(10.0, 10.0 * o.period_ms);
   c.eds_file = o.eds_file;
   if (mode == fb::Cia402Mode::kCyclicSynchronousTorque) {
@@ -305,8 +309,24 @@ int Cycle(const Options& o, int node_arg, fb::Cia402Mode mode, double limit, con
     if (csv == nullptr) throw Error(fmt::format("--csv {}: cannot open for writing", run.csv));
     std::fprintf(csv, "t_s,status,state,statusword,position_rad,velocity_rad_per_s,torque_Nm,command\n");
   }
+  // The tool's heartbeat stops when it exits: the drive's consumer is switched off again after a clean stop, so
+  // only a tool that died leaves it to fire.
+  const auto consumer_off = [&] {
+    if (c.drive_consumer_timeout_ms <= 0.0) return;
+    try {
+      drive.sdo().Download(cia402::obj301::kConsumerHeartbeatTime, 1, 0, 4);
+    } catch (const Error& e) {
+      std::fprintf(stderr, "teleop-drive: node %d: switching the drive's heartbeat consumer off: %s\n", node, e.what());
+    }
+  };
   drive.Configure();
-  drive.Activate();
+  try {
+    drive.Activate();
+  } catch (const Error&) {
+    (void)drive.Deactivate();  // a half-done enable is undone: nothing is left switched on
+    consumer_off();
+    throw;
+  }
   std::printf("node %d: Operation Enabled, %s, limit %g\n", node, fb::ToString(mode), limit);
   std::fflush(stdout);
   const double start_position = drive.position_target_rad();
@@ -356,6 +376,7 @@ int Cycle(const Options& o, int node_arg, fb::Cia402Mode mode, double limit, con
     }
   }
   const bool off = drive.Deactivate();
+  consumer_off();
   if (csv != nullptr) std::fclose(csv);
   std::printf(
       "node %d: stopped after %d cycles (%s); last reading: position %.4f rad, velocity %.4f rad/s, torque "
@@ -455,6 +476,11 @@ int Main(int argc, char** argv) {
                  "the drive's heartbeat (produced every 50 ms) missing this long stops enable/jog/record")
       ->capture_default_str()
       ->check(CLI::Range(60.0, 10000.0));
+  app.add_option("--drive-consumer-timeout-ms", o.drive_consumer_timeout_ms,
+                 "enable/jog/record: the drive faults itself when the tool's heartbeat (every 100 ms) is missing this "
+                 "long, e.g. the tool was killed (0x1016:01; 0: off)")
+      ->capture_default_str()
+      ->check(CLI::Number);
   app.add_option("--eds", o.eds_file, "the drive's EDS/DCF: checked before the drive is touched (enable, jog, record)");
 
   int from = 1, to = 127;

@@ -197,72 +197,71 @@ CanFrame EncodeSdoUploadSegment(std::uint8_t node_id, bool toggle, std::span<con
 
 bool DecodeSdoRequest(const CanFrame& frame, SdoMessage& out) noexcept {
   if (!Common(frame, out)) return false;
+  // The bits CiA 301 marks x ("not used, always 0") and n where it is "only valid if e = 1 and s = 1" are ignored,
+  // as a receiver must: a client that sets them is still understood.
   const std::uint8_t c = frame.data[0];
   const int ccs = c >> 5;
-  if (c == 0x80) {
+  const bool expedited = (c & 0x02) != 0;
+  const bool size_indicated = (c & 0x01) != 0;
+  if (ccs == 4) {  // 100 xxxxx
     out.kind = SdoMessage::Kind::kAbort;
     out.abort_code = GetValue(frame);
-  } else if (ccs == 2 && (c & 0x1F) == 0) {
+  } else if (ccs == 2) {  // 010 xxxxx
     out.kind = SdoMessage::Kind::kUploadRequest;
-  } else if (ccs == 1 && (c & 0x13) == 0x03) {  // expedited, size indicated (bit 4 reserved 0)
+  } else if (ccs == 1 && expedited) {  // 001 x nn 1 s
     out.kind = SdoMessage::Kind::kDownloadRequest;
-    out.size = static_cast<std::uint8_t>(4 - ((c >> 2) & 0x3));
+    out.size = size_indicated ? static_cast<std::uint8_t>(4 - ((c >> 2) & 0x3)) : 4;  // s = 0: all 4 bytes
     out.value = Masked(GetValue(frame), out.size);
-    out.size_indicated = true;
-  } else if (ccs == 1 && (c & 0x13) == 0x02) {  // expedited, size not indicated: all 4 bytes (§7.2.4.3.3)
-    out.kind = SdoMessage::Kind::kDownloadRequest;
-    out.size = 4;
-    out.value = GetValue(frame);
-  } else if (ccs == 1 && (c & 0x1E) == 0) {  // segmented: e = 0, n not used
+    out.size_indicated = size_indicated;
+  } else if (ccs == 1) {  // 001 x xx 0 s: segmented
     out.kind = SdoMessage::Kind::kDownloadInitiateSegmented;
-    out.size_indicated = (c & 0x01) != 0;
+    out.size_indicated = size_indicated;
     out.value = out.size_indicated ? GetValue(frame) : 0;
-  } else if (ccs == 0) {
+  } else if (ccs == 0) {  // 000 t nnn c
     out.kind = SdoMessage::Kind::kDownloadSegmentRequest;
     DecodeSegment(frame, out);
-  } else if (ccs == 3 && (c & 0x0F) == 0) {
+  } else if (ccs == 3) {  // 011 t xxxx
     out.kind = SdoMessage::Kind::kUploadSegmentRequest;
     out.index = 0;
     out.subindex = 0;
     out.toggle = (c & 0x10) != 0;
   } else {
-    out.kind = SdoMessage::Kind::kUnsupported;
+    out.kind = SdoMessage::Kind::kUnsupported;  // block transfers (ccs 5, 6), ccs 7
   }
   return true;
 }
 
 bool DecodeSdoResponse(const CanFrame& frame, SdoMessage& out) noexcept {
   if (!Common(frame, out)) return false;
+  // As for requests: x bits and an n that is not valid are ignored.
   const std::uint8_t c = frame.data[0];
   const int scs = c >> 5;
-  if (c == 0x80) {
+  const bool expedited = (c & 0x02) != 0;
+  const bool size_indicated = (c & 0x01) != 0;
+  if (scs == 4) {  // 100 xxxxx
     out.kind = SdoMessage::Kind::kAbort;
     out.abort_code = GetValue(frame);
-  } else if (scs == 3 && (c & 0x1F) == 0) {
+  } else if (scs == 3) {  // 011 xxxxx
     out.kind = SdoMessage::Kind::kDownloadResponse;
-  } else if (scs == 2 && (c & 0x13) == 0x03) {
+  } else if (scs == 2 && expedited) {  // 010 x nn 1 s
     out.kind = SdoMessage::Kind::kUploadResponse;
-    out.size = static_cast<std::uint8_t>(4 - ((c >> 2) & 0x3));
+    out.size = size_indicated ? static_cast<std::uint8_t>(4 - ((c >> 2) & 0x3)) : 4;  // s = 0: all 4 bytes
     out.value = Masked(GetValue(frame), out.size);
-    out.size_indicated = true;
-  } else if (scs == 2 && (c & 0x13) == 0x02) {  // expedited, size not indicated: all 4 bytes
-    out.kind = SdoMessage::Kind::kUploadResponse;
-    out.size = 4;
-    out.value = GetValue(frame);
-  } else if (scs == 2 && (c & 0x1E) == 0) {  // segmented: e = 0
+    out.size_indicated = size_indicated;
+  } else if (scs == 2) {  // 010 x xx 0 s: segmented
     out.kind = SdoMessage::Kind::kUploadInitiateSegmented;
-    out.size_indicated = (c & 0x01) != 0;
+    out.size_indicated = size_indicated;
     out.value = out.size_indicated ? GetValue(frame) : 0;
-  } else if (scs == 0) {
+  } else if (scs == 0) {  // 000 t nnn c
     out.kind = SdoMessage::Kind::kUploadSegmentResponse;
     DecodeSegment(frame, out);
-  } else if (scs == 1 && (c & 0x0F) == 0) {
+  } else if (scs == 1) {  // 001 t xxxx
     out.kind = SdoMessage::Kind::kDownloadSegmentResponse;
     out.index = 0;
     out.subindex = 0;
     out.toggle = (c & 0x10) != 0;
   } else {
-    out.kind = SdoMessage::Kind::kUnsupported;  // block transfers (scs 5, 6), reserved specifiers
+    out.kind = SdoMessage::Kind::kUnsupported;  // block transfers (scs 5, 6), scs 7
   }
   return true;
 }

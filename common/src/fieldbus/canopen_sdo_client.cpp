@@ -39,7 +39,11 @@ SdoClient::SdoClient(transport::CanPort& port, std::uint8_t node_id, SdoClientCo
 }
 
 std::uint32_t SdoClient::Upload(std::uint16_t index, std::uint8_t subindex, std::uint8_t expected_size) {
-  const std::vector<std::uint8_t> bytes = UploadBytes(index, subindex, 4);
+  bool size_unknown = false;
+  std::vector<std::uint8_t> bytes = UploadImpl(index, subindex, 4, size_unknown);
+  // An expedited answer without the size (e = 1, s = 0: "d contains unspecified number of bytes", CiA 301) holds
+  // the object in its low bytes: a caller that knows the type takes that many.
+  if (size_unknown && expected_size != 0 && expected_size < bytes.size()) bytes.resize(expected_size);
   if (bytes.empty()) {
     throw Error(
         fmt::format("SDO read of {} on node {}: the drive sent 0 bytes", FormatObject(index, subindex), node_id_));
@@ -66,10 +70,18 @@ void SdoClient::Download(std::uint16_t index, std::uint8_t subindex, std::uint32
 }
 
 std::vector<std::uint8_t> SdoClient::UploadBytes(std::uint16_t index, std::uint8_t subindex, std::size_t max_bytes) {
+  bool size_unknown = false;
+  return UploadImpl(index, subindex, max_bytes, size_unknown);
+}
+
+std::vector<std::uint8_t> SdoClient::UploadImpl(std::uint16_t index, std::uint8_t subindex, std::size_t max_bytes,
+                                                bool& expedited_size_unknown) {
+  expedited_size_unknown = false;
   double backoff_ms = config_.backoff_initial_ms;
   for (int attempt = 0;; ++attempt) {
     const SdoMessage m = Transfer(EncodeSdoUploadRequest(node_id_, index, subindex), index, subindex, "read");
     if (m.kind == SdoMessage::Kind::kUploadResponse) {
+      expedited_size_unknown = !m.size_indicated;
       std::vector<std::uint8_t> bytes(m.size);
       for (std::size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<std::uint8_t>(m.value >> (8 * i));
       return bytes;
@@ -316,6 +328,9 @@ SdoMessage SdoClient::Transfer(const proto::can::CanFrame& request, std::uint16_
       timebase_.wait_ns(kPollStep_ns);
     }
     ++counters_.timeouts;
+    // End whatever the server may have begun (a segmented transfer whose initiate answer was lost would make it
+    // refuse the next initiate): CiA 301 lets either side abort, and stacks abort a timed-out request (0x05040000).
+    SendAbort(index, subindex, sdo_abort::kTimeout);
   }
   throw Error(
       fmt::format("SDO {} of {} on node {}: no response within {:g} ms, {} attempts (is the drive powered, "

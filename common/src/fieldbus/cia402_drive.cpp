@@ -78,6 +78,19 @@ void ReadOptional(bool& present, F&& read) {
   }
 }
 
+/// Runs `write` to an object CiA 301 makes optional; an abort saying the object or sub-index does not exist leaves
+/// `present` false (a read-only or refused value is still an error).
+template <typename F>
+void WriteOptional(bool& present, F&& write) {
+  try {
+    write();
+    present = true;
+  } catch (const canopen::SdoAbortError& e) {
+    if (e.code() != canopen::sdo_abort::kNoObject && e.code() != canopen::sdo_abort::kNoSubindex) throw;
+    present = false;
+  }
+}
+
 }  // namespace
 
 const char* ToString(Cia402Status status) noexcept {
@@ -427,14 +440,16 @@ void Cia402Drive::WritePdo(const PdoMapping& m, bool tpdo) {
   const std::uint32_t cob = canopen::PdoCobId(m, tpdo, config_.node_id);
   // CiA 301 PDO mapping procedure: invalidate the PDO, clear the count, write the entries, set the count, make it
   // valid.
-  sdo_.Download(comm, 1, cob | canopen::cob::kInvalidBit, 4);
+  // Bit 30 set: no RTR (the client never requests a PDO; a device without RTR may refuse 0, CiA 301 lets it).
+  const std::uint32_t cob_entry = cob | canopen::cob::kNoRtrBit;
+  sdo_.Download(comm, 1, cob_entry | canopen::cob::kInvalidBit, 4);
   sdo_.Download(map, 0, 0, 1);
   for (int k = 0; k < m.entry_count; ++k) {
     sdo_.Download(map, static_cast<std::uint8_t>(k + 1), m.entries[static_cast<std::size_t>(k)].MappingValue(), 4);
   }
   sdo_.Download(map, 0, static_cast<std::uint32_t>(m.entry_count), 1);
   sdo_.Download(comm, 2, m.transmission_type, 1);
-  sdo_.Download(comm, 1, cob, 4);
+  sdo_.Download(comm, 1, cob_entry, 4);
   // Read it back (field notes: factory mappings of the wrong length break decoding).
   const auto what = [&](const std::string& detail) {
     return Error(fmt::format("CiA 402 drive node {}: {}PDO{} read back differs from what was written: {}",
@@ -575,10 +590,19 @@ void Cia402Drive::Configure() {
                                        ? (std::uint32_t{config_.host_node_id} << 16) |
                                              static_cast<std::uint32_t>(std::lround(config_.drive_consumer_timeout_ms))
                                        : 0u;
-    sdo_.Download(obj301::kConsumerHeartbeatTime, 1, consumer, 4);
+    // The consumer heartbeat 0x1016 and the cycle period 0x1006 are optional in CiA 301 (0x1006 is mandatory only
+    // for a SYNC producer, which the drive is not): a drive without them is fine unless a consumer is asked for.
+    bool present = true;
+    if (consumer != 0) {
+      sdo_.Download(obj301::kConsumerHeartbeatTime, 1, consumer, 4);
+    } else {
+      WriteOptional(present, [&] { sdo_.Download(obj301::kConsumerHeartbeatTime, 1, 0, 4); });
+    }
     sdo_.Download(obj301::kCobIdSync, 0, config_.sync_cob_id, 4);
-    sdo_.Download(obj301::kCommunicationCyclePeriod, 0,
-                  static_cast<std::uint32_t>(std::llround(config_.cycle_period_s * 1e6)), 4);
+    WriteOptional(present, [&] {
+      sdo_.Download(obj301::kCommunicationCyclePeriod, 0,
+                    static_cast<std::uint32_t>(std::llround(config_.cycle_period_s * 1e6)), 4);
+    });
     // PDOs: the configured ones written and read back, the others switched off.
     for (int n = 1; n <= 4; ++n) {
       bool rpdo_used = false;
@@ -595,27 +619,41 @@ void Cia402Drive::Configure() {
           tpdo_used = true;
         }
       }
+      // A drive with fewer than four PDOs of a kind (CiA 301 asks for none) has nothing to switch off there.
       if (!rpdo_used) {
-        sdo_.Download(static_cast<std::uint16_t>(obj301::kRpdoCommunication + n - 1), 1,
-                      canopen::cob::kInvalidBit | canopen::cob::DefaultRpdo(n, config_.node_id), 4);
+        WriteOptional(present, [&] {
+          sdo_.Download(
+              static_cast<std::uint16_t>(obj301::kRpdoCommunication + n - 1), 1,
+              canopen::cob::kInvalidBit | canopen::cob::kNoRtrBit | canopen::cob::DefaultRpdo(n, config_.node_id), 4);
+        });
       }
       if (!tpdo_used) {
-        sdo_.Download(static_cast<std::uint16_t>(obj301::kTpdoCommunication + n - 1), 1,
-                      canopen::cob::kInvalidBit | canopen::cob::DefaultTpdo(n, config_.node_id), 4);
+        WriteOptional(present, [&] {
+          sdo_.Download(
+              static_cast<std::uint16_t>(obj301::kTpdoCommunication + n - 1), 1,
+              canopen::cob::kInvalidBit | canopen::cob::kNoRtrBit | canopen::cob::DefaultTpdo(n, config_.node_id), 4);
+        });
       }
     }
     sdo_.Download(obj::kModesOfOperation, 0, static_cast<std::uint8_t>(mode), 1);
-    const auto display = static_cast<std::int8_t>(sdo_.Upload(obj::kModesOfOperationDisplay, 0, 1));
+    // A drive switches modes in its own cycle: 0x6061 may show the old mode for a while (polled up to
+    // state_timeout_ms).
+    const std::uint64_t mode_deadline = timebase_.now_ns() + MsToNs(config_.state_timeout_ms);
+    auto display = static_cast<std::int8_t>(sdo_.Upload(obj::kModesOfOperationDisplay, 0, 1));
+    while (display != mode && timebase_.now_ns() < mode_deadline) {
+      timebase_.wait_ns(kSetupPoll_ns);
+      display = static_cast<std::int8_t>(sdo_.Upload(obj::kModesOfOperationDisplay, 0, 1));
+    }
     if (display != mode) {
-      throw Error(
-          fmt::format("{}: modes of operation display 0x6061 is {} after writing {} to 0x6060", where, display, mode));
+      throw Error(fmt::format("{}: modes of operation display 0x6061 is {} {:g} ms after writing {} to 0x6060", where,
+                              display, config_.state_timeout_ms, mode));
     }
     const auto max_torque =
         static_cast<std::uint32_t>(std::lround(config_.max_torque_Nm / config_.scaling.rated_torque_Nm * 1000.0));
     if (torque_mode) {
       sdo_.Download(obj::kMaxTorque, 0, max_torque, 2);
     } else {  // the torque limit of the drive's loops, where it has one
-      bool present = false;
+      present = false;
       ReadOptional(present, [&] { sdo_.Download(obj::kMaxTorque, 0, max_torque, 2); });
     }
     if (config_.quick_stop_option_code) {
@@ -845,6 +883,9 @@ bool Cia402Drive::Deactivate() noexcept {
     const DriveState state = cia402::DecodeStatusword(static_cast<std::uint16_t>(sdo_.Upload(obj::kStatusword, 0, 2)));
     if (state == DriveState::kOperationEnabled) {
       sdo_.Download(obj::kControlword, 0, cia402::cw::kCmdSwitchOn, 2);  // 5: disable operation
+    } else if (state == DriveState::kQuickStopActive) {
+      // Shutdown is no transition out of Quick Stop Active (0x605A 5..8 holds there): Disable Voltage is (12).
+      sdo_.Download(obj::kControlword, 0, cia402::cw::kCmdDisableVoltage, 2);
     }
     sdo_.Download(obj::kControlword, 0, cia402::cw::kCmdShutdown, 2);  // 6/8: to Ready To Switch On
     controlword_ = cia402::cw::kCmdShutdown;

@@ -156,8 +156,16 @@ void SimulatedCia402Drive::SetSilent(bool silent) noexcept { silent_ = silent; }
 void SimulatedCia402Drive::SetHeartbeatMuted(bool muted) noexcept { heartbeat_muted_ = muted; }
 void SimulatedCia402Drive::DropSdoResponses(int count) noexcept { drop_sdo_ = std::max(0, count); }
 void SimulatedCia402Drive::AbortObject(std::uint16_t index, std::uint32_t code) noexcept {
-  abort_index_ = code == 0 ? 0 : index;
-  abort_code_ = code;
+  for (AbortedObject& a : aborted_) {
+    if (a.index == index) a = AbortedObject{};
+  }
+  if (code == 0 || index == 0) return;
+  for (AbortedObject& a : aborted_) {
+    if (a.index == 0) {
+      a = AbortedObject{index, code};
+      return;
+    }
+  }
 }
 void SimulatedCia402Drive::SetJointState(double position_rad, double velocity_rad_per_s) noexcept {
   position_rad_ = position_rad;
@@ -360,6 +368,8 @@ void SimulatedCia402Drive::HandleFrame(const CanFrame& frame, std::uint64_t now_
         dict_->max_torque = max_torque;
         machine_ = cia402::DriveStateMachine{};
         mode_ = 0;
+        previous_display_ = 0;
+        mode_display_at_ns_ = 0;
         target_torque_ = 0;
         target_position_ = 0;
         target_velocity_ = 0;
@@ -480,7 +490,7 @@ void SimulatedCia402Drive::HandleSync() noexcept {
           v = static_cast<std::uint32_t>(RoundToI32(applied_torque_Nm_ / (config_.rated_torque_mNm * 1e-6)));
           break;
         case obj::kModesOfOperationDisplay:
-          v = static_cast<std::uint8_t>(mode_);
+          v = static_cast<std::uint8_t>(DisplayedMode());
           break;
         default:
           break;
@@ -572,7 +582,9 @@ void SimulatedCia402Drive::HandleSdo(const CanFrame& frame, std::uint64_t now_ns
   }
   if (ignore_index_ != 0 && m.index == ignore_index_) return;
   transfer_.phase = Phase::kIdle;  // a new initiate ends a transfer the client gave up
-  if (abort_index_ != 0 && m.index == abort_index_) return SendSdoAbort(m.index, m.subindex, abort_code_);
+  for (const AbortedObject& a : aborted_) {
+    if (a.index != 0 && m.index == a.index) return SendSdoAbort(m.index, m.subindex, a.code);
+  }
   std::span<const std::uint8_t> bytes;
   bool writable = false;
   const bool is_bytes = ByteObject(m.index, m.subindex, bytes, writable);
@@ -709,9 +721,16 @@ std::uint32_t SimulatedCia402Drive::Access(const canopen::SdoMessage& m, std::ui
     const auto i = static_cast<std::size_t>(index - obj301::kRpdoCommunication);
     if (sub == 0) return upload ? reply(2, 1) : abort(abort_code::kReadOnly);
     if (sub == 1) {
-      if (upload) return reply(d.rpdo_cob[i] | (d.rpdo_valid[i] ? 0u : canopen::cob::kInvalidBit), 4);
+      // No RTR here: bit 30 reads 1 and must be written 1 (devices without RTR refuse 0, as CiA 301 lets them); no
+      // 29-bit identifiers; bits 0..29 are not changed while the PDO is valid (CiA 301).
+      if (upload) {
+        return reply(d.rpdo_cob[i] | canopen::cob::kNoRtrBit | (d.rpdo_valid[i] ? 0u : canopen::cob::kInvalidBit), 4);
+      }
       if (const std::uint32_t c = length(4)) return c;
-      d.rpdo_valid[i] = (v & canopen::cob::kInvalidBit) == 0;
+      const bool valid = (v & canopen::cob::kInvalidBit) == 0;
+      if ((v & canopen::cob::kNoRtrBit) == 0 || (v & 0x3FFF'F800u) != 0) return abort(abort_code::kValueRange);
+      if (valid && d.rpdo_valid[i] && (v & 0x7FFu) != d.rpdo_cob[i]) return abort(abort_code::kValueRange);
+      d.rpdo_valid[i] = valid;
       d.rpdo_cob[i] = v & 0x7FFu;
       return ok();
     }
@@ -728,9 +747,16 @@ std::uint32_t SimulatedCia402Drive::Access(const canopen::SdoMessage& m, std::ui
     const auto i = static_cast<std::size_t>(index - obj301::kTpdoCommunication);
     if (sub == 0) return upload ? reply(2, 1) : abort(abort_code::kReadOnly);
     if (sub == 1) {
-      if (upload) return reply(d.tpdo_cob[i] | (d.tpdo_valid[i] ? 0u : canopen::cob::kInvalidBit), 4);
+      // No RTR here: bit 30 reads 1 and must be written 1 (devices without RTR refuse 0, as CiA 301 lets them); no
+      // 29-bit identifiers; bits 0..29 are not changed while the PDO is valid (CiA 301).
+      if (upload) {
+        return reply(d.tpdo_cob[i] | canopen::cob::kNoRtrBit | (d.tpdo_valid[i] ? 0u : canopen::cob::kInvalidBit), 4);
+      }
       if (const std::uint32_t c = length(4)) return c;
-      d.tpdo_valid[i] = (v & canopen::cob::kInvalidBit) == 0;
+      const bool valid = (v & canopen::cob::kInvalidBit) == 0;
+      if ((v & canopen::cob::kNoRtrBit) == 0 || (v & 0x3FFF'F800u) != 0) return abort(abort_code::kValueRange);
+      if (valid && d.tpdo_valid[i] && (v & 0x7FFu) != d.tpdo_cob[i]) return abort(abort_code::kValueRange);
+      d.tpdo_valid[i] = valid;
       d.tpdo_cob[i] = v & 0x7FFu;
       return ok();
     }
@@ -867,7 +893,9 @@ std::uint32_t SimulatedCia402Drive::Access(const canopen::SdoMessage& m, std::ui
       if (mode != 0 && (config_.supported_modes & cia402::SupportedModeBit(mode)) == 0) {
         return abort(abort_code::kValueRange);  // a mode 0x6502 does not list
       }
+      previous_display_ = DisplayedMode();
       mode_ = mode;
+      mode_display_at_ns_ = last_ns_ + static_cast<std::uint64_t>(std::max(0.0, config_.mode_display_delay_ms) * 1e6);
       return ok();
     }
     case obj::kTargetPosition:
@@ -897,7 +925,7 @@ std::uint32_t SimulatedCia402Drive::Access(const canopen::SdoMessage& m, std::ui
       return ok();
     }
     case obj::kModesOfOperationDisplay:
-      return upload ? reply(static_cast<std::uint8_t>(mode_), 1) : abort(abort_code::kReadOnly);
+      return upload ? reply(static_cast<std::uint8_t>(DisplayedMode()), 1) : abort(abort_code::kReadOnly);
     case obj::kPositionActual:
       return upload ? reply(static_cast<std::uint32_t>(RoundToI32(position_rad_ / config_.position_rad_per_count)), 4)
                     : abort(abort_code::kReadOnly);

@@ -95,8 +95,8 @@ TEST(AdmittanceKeys, TheEdsKeysDefaultIsTheStructsAndAPathIsRead) {
   EXPECT_EQ(Read(head + ", eds: drive.eds}]}").axes.at(0).drive.eds_file, "drive.eds");
 }
 
-// mode: the table's default word is the default-constructed config's mode, absent reads as it, velocity is read, and a
-// wrong word (torque included: the drives follow the virtual mass) is refused naming the key and both words.
+// mode: the table's default word is the default-constructed config's mode, absent reads as it, velocity and torque
+// are read, and a wrong word is refused naming the key and the three words.
 TEST(AdmittanceKeys, TheModeKeysDefaultIsTheStructsAndAWrongWordIsRefused) {
   namespace keys = admittance_keys;
   const AdmittanceConfig code{};
@@ -106,12 +106,13 @@ TEST(AdmittanceKeys, TheModeKeysDefaultIsTheStructsAndAWrongWordIsRefused) {
       "virtual_mass_kg: 2, virtual_damping_Ns_per_m: 8, can: {interface: can0}, drives: [{node_id: 3}]";
   EXPECT_EQ(Read("{" + base + "}").mode, code.mode);
   EXPECT_EQ(Read("{mode: velocity, " + base + "}").mode, fieldbus::Cia402Mode::kCyclicSynchronousVelocity);
-  for (const char* word : {"torque", "current"}) {
+  EXPECT_EQ(Read("{mode: torque, " + base + "}").mode, fieldbus::Cia402Mode::kCyclicSynchronousTorque);
+  for (const char* word : {"current", "csp"}) {
     try {
       (void)Read("{mode: " + std::string(word) + ", " + base + "}");
       ADD_FAILURE() << "accepted mode: " << word;
     } catch (const Error& e) {
-      EXPECT_NE(std::string(e.what()).find("'device.admittance.mode': must be position or velocity, got '" +
+      EXPECT_NE(std::string(e.what()).find("'device.admittance.mode': must be position, velocity or torque, got '" +
                                            std::string(word) + "'"),
                 std::string::npos)
           << e.what();

@@ -223,6 +223,47 @@ TEST(Admittance, AFaultedDriveIsReportedAndNaNIsRefused) {
 
 // Velocity mode: the virtual position is anchored to the joint's at the first fresh reading (the joint starts at
 // 0.3 rad here, not 0), and the tracking check follows the joint integrating the virtual velocity.
+// Torque mode: no virtual mass; the law's force is the drive's torque through the transmission (τ = F · r) and the
+// reading is the joint as the drive measures it. The simulated joint (J = 1e-3 kg·m², b = 2e-3 N·m·s/rad,
+// τc = 5 mN·m) under F = 1 N at r = 10 mm: τ = 10 mN·m, the net 5 mN·m accelerates it towards ω∞ = 2.5 rad/s with
+// J/b = 0.5 s. The stability model is (m_v, b_v) as given, the axis's own J/r² = 10 kg and b/r² = 20 N·s/m, with no
+// loop-bandwidth assumption.
+TEST(Admittance, TorqueModeSendsTheForceAsTorqueAndReadsTheJoint) {
+  Rig rig(1, 10.0, 20.0);
+  rig.config.mode = fieldbus::Cia402Mode::kCyclicSynchronousTorque;
+  rig.config.position_loop_bandwidth_rad_per_s = 0.0;  // not needed in torque mode
+  rig.config.axes[0].transmission_m_per_rad = 0.01;
+  const AnalysisModel model = AdmittanceModel(rig.config);
+  ASSERT_TRUE(model.applicable) << model.reason;
+  EXPECT_EQ(model.mass_kg[0], 10.0);
+  EXPECT_EQ(model.damping_Ns_per_m[0], 20.0);
+  rig.Build();
+  rig.device->Configure();
+  rig.device->Activate();
+  EXPECT_EQ(rig.sims[0]->mode_of_operation(), 10);
+  const DofVector F = DofVector::Constant(1, 1.0);
+  Reading r;
+  for (int k = 0; k < 500; ++k) {
+    r = rig.Cycle(F);
+    ASSERT_EQ(r.faults, kFaultNone) << k;
+  }
+  EXPECT_NEAR(rig.sims[0]->commanded_torque_Nm(), 0.01, 1e-6);
+  EXPECT_EQ(r.rendered_force_N[0], 1.0);
+  // The reading is the joint (sampled a cycle before it is read: within one cycle of motion, ω · r · 1 ms).
+  const double omega = rig.sims[0]->velocity_rad_per_s();
+  EXPECT_NEAR(omega, 2.5 * (1.0 - std::exp(-0.5 / 0.5)), 0.05);  // 0.5 s of the first-order response
+  EXPECT_NEAR(r.position_m[0], rig.sims[0]->position_rad() * 0.01, std::abs(omega) * 0.01 * 2e-3 + 1e-6);
+  EXPECT_NEAR(r.velocity_m_per_s[0], omega * 0.01, 0.01 * 0.05);
+  // The safe state sends zero torque.
+  rig.device->SetSafe();
+  rig.device->Update(rig.config.cycle_period_s);  // the RPDO with τ = 0
+  rig.device->Read(r);                            // the SYNC that applies it
+  rig.Advance(1'000'000);
+  EXPECT_EQ(r.rendered_force_N[0], 0.0);
+  EXPECT_EQ(rig.sims[0]->commanded_torque_Nm(), 0.0);
+  rig.device->Deactivate();
+}
+
 TEST(Admittance, VelocityModeAnchorsTheVirtualPositionToTheJoint) {
   Rig rig(1, 0.5, 5.0, 100.0);
   rig.config.mode = fieldbus::Cia402Mode::kCyclicSynchronousVelocity;
@@ -465,12 +506,12 @@ TEST(Admittance, ConfigErrorsNameTheKey) {
   c.axes.resize(1);
   EXPECT_THROW(AdmittanceDevice d(c), Error);
   c.virtual_mass_kg[0] = 1.0;
-  c.mode = fieldbus::Cia402Mode::kCyclicSynchronousTorque;
+  c.mode = static_cast<fieldbus::Cia402Mode>(3);  // profile velocity: not a cyclic synchronous mode
   try {
     AdmittanceDevice d(c);
     ADD_FAILURE();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("mode must be position or velocity"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("mode must be position, velocity or torque"), std::string::npos) << e.what();
   }
   c.mode = fieldbus::Cia402Mode::kCyclicSynchronousPosition;
   c.tracking_error_cycles = 0;

@@ -46,13 +46,13 @@ class SdoAbortError : public Error {
 
 /// A blocking, set-up-only SDO client for one server (node): expedited and segmented transfers (CiA 301 §7.2.4.3).
 /// Every call sends its requests on 0x600 + node, waits (Timebase::wait_ns) for each response on 0x580 + node,
-/// retries timed-out attempts with exponential backoff (a segmented transfer that times out mid-way is aborted with
-/// 0x05040000 and restarted from its initiate), and throws teleop::Error naming the object, the node and the decoded
-/// abort code or the timeout. A protocol error of the server (a toggle bit that did not alternate, a command
-/// specifier that does not fit, more or fewer bytes than indicated) is answered with an abort frame carrying the
-/// standard's code (0x05030000, 0x05040001, 0x06070010, 0x05040005) and reported with it. Frames that are not its
-/// response are passed to `other_frames` (heartbeats, EMCY arriving during set-up must not be lost). Never used in
-/// the control cycle.
+/// retries timed-out attempts with exponential backoff (each timed-out attempt is aborted with 0x05040000, so a
+/// server that began a segmented transfer is idle again; one that times out mid-way is restarted from its initiate),
+/// and throws teleop::Error naming the object, the node and the decoded abort code or the timeout. A protocol error of
+/// the server (a toggle bit that did not alternate, a command specifier that does not fit, more or fewer bytes than
+/// indicated) is answered with an abort frame carrying the standard's code (0x05030000, 0x05040001, 0x06070010,
+/// 0x05040005) and reported with it. Frames that are not its response are passed to `other_frames` (heartbeats, EMCY
+/// arriving during set-up must not be lost). Never used in the control cycle.
 class SdoClient {
  public:
   using FrameSink = std::function<void(const proto::can::CanFrame&)>;
@@ -61,7 +61,8 @@ class SdoClient {
             FrameSink other_frames = {});
 
   /// Reads an object of 1..4 bytes (the server may answer expedited or segmented). `expected_size` 0 accepts any
-  /// size; otherwise a different size is an error.
+  /// size; otherwise a different size is an error (an expedited answer without the size, 0x42, gives its low
+  /// `expected_size` bytes).
   std::uint32_t Upload(std::uint16_t index, std::uint8_t subindex, std::uint8_t expected_size = 0);
   /// Writes `size` (1..4) bytes of `value` (expedited).
   void Download(std::uint16_t index, std::uint8_t subindex, std::uint32_t value, std::uint8_t size);
@@ -77,6 +78,9 @@ class SdoClient {
   std::uint8_t node_id() const noexcept { return node_id_; }
 
  private:
+  /// UploadBytes; `expedited_size_unknown` is set when the answer was expedited without the size (4 bytes taken).
+  std::vector<std::uint8_t> UploadImpl(std::uint16_t index, std::uint8_t subindex, std::size_t max_bytes,
+                                       bool& expedited_size_unknown);
   SdoMessage Transfer(const proto::can::CanFrame& request, std::uint16_t index, std::uint8_t subindex,
                       const char* what);
   /// The segment phase of an upload after its initiate response `initiate`; false when a segment timed out (the

@@ -81,6 +81,8 @@ struct SimulatedCia402DriveConfig {
   std::string software_version = "teleop 1.0";
   /// The SDO server aborts a segmented transfer with 0x05040000 when the client is silent this long.
   double sdo_server_timeout_ms = 1000.0;
+  /// 0x6061 shows a new 0x6060 this long after the write (drives switch modes in their own cycle; 0: at once).
+  double mode_display_delay_ms = 0.0;
 };
 
 /// What the simulated drive counted (for tests).
@@ -130,7 +132,8 @@ class SimulatedCia402Drive {
   void SetHeartbeatMuted(bool muted) noexcept;
   /// The next `count` SDO requests get no response (the client must retry).
   void DropSdoResponses(int count) noexcept;
-  /// Every SDO access to `index` is aborted with `abort_code` (0 clears).
+  /// Every SDO access to `index` is aborted with `abort_code` (0 clears; up to 8 objects at a time, e.g. the
+  /// objects a smaller drive lacks, with 0x06020000).
   void AbortObject(std::uint16_t index, std::uint32_t abort_code) noexcept;
   /// SDO requests for `index` get no answer at all (a node that answers only some SDOs; 0 clears).
   void IgnoreObject(std::uint16_t index) noexcept { ignore_index_ = index; }
@@ -189,15 +192,21 @@ class SimulatedCia402Drive {
   bool silent_ = false;
   bool heartbeat_muted_ = false;
   int drop_sdo_ = 0;
-  std::uint16_t abort_index_ = 0;
+  struct AbortedObject {
+    std::uint16_t index = 0;  ///< 0: unused.
+    std::uint32_t code = 0;
+  };
+  std::array<AbortedObject, 8> aborted_{};
   std::uint16_t ignore_index_ = 0;
-  std::uint32_t abort_code_ = 0;
   std::uint64_t boot_at_ns_ = 0;
   std::uint64_t last_ns_ = 0;
   std::uint64_t next_heartbeat_ns_ = 0;
   std::uint64_t host_heartbeat_ns_ = 0;
   bool host_heartbeat_seen_ = false;
   std::int8_t mode_ = 0;
+  std::int8_t previous_display_ = 0;      ///< 0x6061 until mode_display_at_ns_.
+  std::uint64_t mode_display_at_ns_ = 0;  ///< From then on 0x6061 shows mode_.
+  std::int8_t DisplayedMode() const noexcept { return last_ns_ >= mode_display_at_ns_ ? mode_ : previous_display_; }
   std::uint16_t controlword_ = 0;
   std::int16_t target_torque_ = 0;
   std::int16_t pending_target_torque_ = 0;

@@ -85,6 +85,12 @@ AdmittanceConfig ReadAdmittance(const Field& f, int dof) {
 /// position loop is much faster than the virtual dynamics (position_loop_bandwidth_rad_per_s ≥ bandwidth_ratio ·
 /// b_v/m_v); otherwise, or when the bandwidth is not given, "not applicable" with the reason.
 AnalysisModel AdmittanceModel(const AdmittanceConfig& a) {
+  if (a.mode == fieldbus::Cia402Mode::kCyclicSynchronousTorque) {  // the axis itself: no loop to be faster than
+    AnalysisModel m;
+    m.mass_kg = a.virtual_mass_kg;
+    m.damping_Ns_per_m = a.virtual_damping_Ns_per_m;
+    return m;
+  }
   if (!(a.position_loop_bandwidth_rad_per_s > 0.0)) {
     return AnalysisModel::NotApplicable(
         "device.admittance.position_loop_bandwidth_rad_per_s is not set: the virtual mass-damper models the slave only "
@@ -118,7 +124,7 @@ DeviceBackend AdmittanceBackend() {
   b.name = "admittance";
   b.description =
       "position- or velocity-controlled CiA 402 drives behind a virtual mass-damper (m_v, b_v) driven by the law's "
-      "force";
+      "force, or torque-controlled ones driven by it directly";
   b.nominal.dof = 1;
   b.nominal.rendering = Rendering::kActiveForce;
   b.nominal.measures_velocity = true;

@@ -71,8 +71,9 @@ AdmittanceDevice::AdmittanceDevice(const AdmittanceConfig& config, AdmittancePor
       fail(fmt::format("virtual_damping_Ns_per_m[{}] must be >= 0", i));
     }
   }
-  if (config.mode != Cia402Mode::kCyclicSynchronousPosition && config.mode != Cia402Mode::kCyclicSynchronousVelocity) {
-    fail("mode must be position or velocity (the drives take the virtual mass's position or velocity)");
+  if (config.mode != Cia402Mode::kCyclicSynchronousPosition && config.mode != Cia402Mode::kCyclicSynchronousVelocity &&
+      config.mode != Cia402Mode::kCyclicSynchronousTorque) {
+    fail("mode must be position, velocity or torque");
   }
   if (static_cast<int>(config.axes.size()) != n)
     fail(fmt::format("drives: {} entries, dof is {}", config.axes.size(), n));
@@ -161,6 +162,11 @@ void AdmittanceDevice::Deactivate() noexcept {
   if (active_) {
     for (int i = 0; i < config_.dof; ++i) {
       const AdmittanceTracking& a = tracking_[static_cast<std::size_t>(i)];
+      if (config_.mode == Cia402Mode::kCyclicSynchronousTorque) {
+        spdlog::info("device.admittance: axis {}: torque mode, the drive's measured position {:.6f} m", i,
+                     a.measured_position_m);
+        continue;
+      }
       spdlog::info(
           "device.admittance: axis {}: drive's measured position {:.6f} m, virtual {:.6f} m; tracking error max {:.3f} "
           "mm (bound {:.3f} mm), {} cycles beyond, {} tracking faults",
@@ -189,7 +195,12 @@ void AdmittanceDevice::Read(Reading& out) noexcept {
     const Cia402Status s = drives_[static_cast<std::size_t>(i)]->Read(r);
     const auto k = static_cast<std::size_t>(i);
     const double t = config_.axes[k].transmission_m_per_rad;
-    if (s == Cia402Status::kOk) {
+    if (config_.mode == Cia402Mode::kCyclicSynchronousTorque) {
+      // Torque mode: no virtual dynamics; the law closes on the joint as the drive measures it.
+      tracking_[k].measured_position_m = r.position_rad * t;
+      out.position_m[i] = r.position_rad * t;
+      out.velocity_m_per_s[i] = r.velocity_rad_per_s * t;
+    } else if (s == Cia402Status::kOk) {
       const double measured = r.position_rad * t;
       AdmittanceTracking& a = tracking_[k];
       a.measured_position_m = measured;
@@ -215,8 +226,10 @@ void AdmittanceDevice::Read(Reading& out) noexcept {
       }
     }
     // The admittance's commanded state: the law and the fixture close their loop on the virtual mass.
-    out.position_m[i] = models_[k].position_m();
-    out.velocity_m_per_s[i] = models_[k].velocity_m_per_s();
+    if (config_.mode != Cia402Mode::kCyclicSynchronousTorque) {
+      out.position_m[i] = models_[k].position_m();
+      out.velocity_m_per_s[i] = models_[k].velocity_m_per_s();
+    }
     switch (s) {
       case Cia402Status::kOk:
       case Cia402Status::kNoNewData:
@@ -254,6 +267,17 @@ void AdmittanceDevice::Update(double period_s) noexcept {
     const auto k = static_cast<std::size_t>(i);
     const double t = config_.axes[k].transmission_m_per_rad;
     VirtualAdmittance& m = models_[k];
+    if (config_.mode == Cia402Mode::kCyclicSynchronousTorque) {
+      // The law's force is the drive's torque through the transmission (F ẋ = τ θ̇: τ = F · r); the safe state 0.
+      rendered_N_[i] = safe_ ? 0.0 : force_N_[i];
+      const Cia402Status s = drives_[k]->Write(rendered_N_[i] * t);
+      if (s == Cia402Status::kWriteFailed || s == Cia402Status::kBusOff || s == Cia402Status::kHeartbeatLost) {
+        faults_ |= kFaultCommunication;
+      } else if (s == Cia402Status::kFault) {
+        faults_ |= kFaultDriver;
+      }
+      continue;
+    }
     if (safe_) {
       m.Reset(m.position_m());  // hold: the mass stops where it is
       rendered_N_[i] = 0.0;

@@ -15,6 +15,11 @@
 // max_tracking_error_m for tracking_error_cycles consecutive cycles (a stalled, blocked or too slow drive) is
 // kFaultDriver, and the pair goes to the safe state. The measured positions and the largest tracking error are in
 // measured_position_m / tracking() and in the log at Deactivate.
+//
+// Torque mode (10), for a torque-controlled axis on the same drives: no virtual mass; the law's force goes to the
+// drive as torque through the transmission and the reading is the drive's measured position and velocity; the
+// stability model is then the axis itself, (virtual_mass_kg, virtual_damping_Ns_per_m) as its mass and damping at the
+// tool; no tracking check.
 
 #include <array>
 #include <cstdint>
@@ -57,7 +62,10 @@ struct AdmittanceConfig {
   int dof = 1;
   DofVector virtual_mass_kg;           ///< m_v per axis, > 0.
   DofVector virtual_damping_Ns_per_m;  ///< b_v per axis, >= 0 (> 0 in velocity mode is not required).
-  fieldbus::Cia402Mode mode = fieldbus::Cia402Mode::kCyclicSynchronousPosition;  ///< 8 or 9.
+  /// 8 or 9: the drives follow the virtual mass-damper. 10 (torque): no virtual dynamics; the law's force is the
+  /// drives' torque (τ = F · transmission), the reading their measured state, and (virtual_mass_kg,
+  /// virtual_damping_Ns_per_m) are the axis's own mass and damping at the tool (J/r², b/r²), the stability model.
+  fieldbus::Cia402Mode mode = fieldbus::Cia402Mode::kCyclicSynchronousPosition;
   double max_force_N = 50.0;          ///< The law's force is clamped to it (the virtual actuator's limit).
   double max_velocity_m_per_s = 0.5;  ///< The virtual mass's speed limit (and the drives' target limit).
   /// The drives' position-loop bandwidth (rad/s, from their tuning), for the assumption check of the model; 0: not

@@ -20,14 +20,18 @@ inline const AdmittanceConfig kDefaults{};
 
 /// `mode`: the modes its words name, in the order of kMode's choices.
 inline constexpr std::array kModes{fieldbus::Cia402Mode::kCyclicSynchronousPosition,
-                                   fieldbus::Cia402Mode::kCyclicSynchronousVelocity};
+                                   fieldbus::Cia402Mode::kCyclicSynchronousVelocity,
+                                   fieldbus::Cia402Mode::kCyclicSynchronousTorque};
 inline const KeySpec kMode{.key = "mode",
                            .type = KeyType::kChoice,
                            .meaning =
-                               "The target the drives take: position (CiA 402 mode 8) or velocity (9); not "
-                               "torque (the drives follow the virtual mass).",
-                           .choices = {"position", "velocity"},
-                           .default_choice = kDefaults.mode == kModes[1] ? 1 : 0};
+                               "The target the drives take: position (CiA 402 mode 8) or velocity (9) of the virtual "
+                               "mass; torque (10): the law's force through the transmission, no virtual mass (m_v, "
+                               "b_v are then the axis's own mass and damping at the tool).",
+                           .choices = {"position", "velocity", "torque"},
+                           .default_choice = kDefaults.mode == kModes[2]   ? 2
+                                             : kDefaults.mode == kModes[1] ? 1
+                                                                           : 0};
 
 inline const KeySpec kVirtualMass{.key = "virtual_mass_kg",
                                   .type = KeyType::kDofValue,
