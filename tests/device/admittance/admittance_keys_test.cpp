@@ -17,8 +17,7 @@
 namespace teleop::device {
 namespace {
 
-AdmittanceConfig Read(const std::string& yaml) {
-  static const std::string file = "admittance.yaml";
+AdmittanceConfig Read(const std::string& yaml, const std::string& file = "admittance.yaml") {
   const YAML::Node node = YAML::Load(yaml);
   const config::Field field(node, "device.admittance", &file);
   return std::any_cast<AdmittanceConfig>(FindDevice("admittance")->read(&field, SectionContext{Role::kSlave, 1}));
@@ -93,6 +92,13 @@ TEST(AdmittanceKeys, TheEdsKeysDefaultIsTheStructsAndAPathIsRead) {
       "{virtual_mass_kg: 2, virtual_damping_Ns_per_m: 8, can: {interface: can0}, drives: [{node_id: 3";
   EXPECT_EQ(Read(head + "}]}").axes.at(0).drive.eds_file, code.drive.eds_file);
   EXPECT_EQ(Read(head + ", eds: drive.eds}]}").axes.at(0).drive.eds_file, "drive.eds");
+  // A relative path is beside the config file (as link.security.key_file), an absolute one is kept.
+  EXPECT_EQ(Read(head + ", eds: drive.eds}]}", "/rigs/lab/slave.yaml").axes.at(0).drive.eds_file,
+            "/rigs/lab/drive.eds");
+  EXPECT_EQ(Read(head + ", eds: eds/x.dcf}]}", "/rigs/lab/slave.yaml").axes.at(0).drive.eds_file,
+            "/rigs/lab/eds/x.dcf");
+  EXPECT_EQ(Read(head + ", eds: /opt/drives/a.eds}]}", "/rigs/lab/slave.yaml").axes.at(0).drive.eds_file,
+            "/opt/drives/a.eds");
 }
 
 // mode: the table's default word is the default-constructed config's mode, absent reads as it, velocity and torque

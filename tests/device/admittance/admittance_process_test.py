@@ -52,7 +52,7 @@ def main():
             text = text.replace('"127.0.0.1:47052"', f'"127.0.0.1:{link[1]}"')
             text = text.replace('"127.0.0.1:47300"', f'"127.0.0.1:{bus_port}"')
             text = text.replace("timeout_ms: 50\n", "timeout_ms: 500\n")
-            text = text.replace("eds: deploy/configs/admittance/", f"eds: {cfg}/")
+            text = text.replace("eds: simulated-cia402-drive.eds", f"eds: {cfg}/simulated-cia402-drive.eds")
             text = re.sub(r'(?m)^(\s*csv:).*$', lambda m: f'{m.group(1)} "{os.path.join(tmp, role + ".csv")}"', text)
             paths[role] = os.path.join(tmp, f"{role}.yaml")
             open(paths[role], "w").write(text)

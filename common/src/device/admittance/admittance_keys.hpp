@@ -152,12 +152,14 @@ inline const KeySpec kDriveStaleAfter{.key = "drives[].stale_after_ms",
                                       .default_value = kAxis.drive.stale_after_ms,
                                       .meaning = "TPDO data older than this is a fault."};
 
-inline const KeySpec kDriveEds{.key = "drives[].eds",
-                               .type = KeyType::kText,
-                               .meaning =
-                                   "The drive's EDS/DCF file, checked at configure (docs/cia402.md, \"EDS / DCF\"); "
-                                   "\"\" = none.",
-                               .default_text = kAxis.drive.eds_file.c_str()};
+inline const KeySpec kDriveEds{
+    .key = "drives[].eds",
+    .type = KeyType::kText,
+    .meaning =
+        "The drive's EDS/DCF file (a relative path is beside the config file), checked at configure "
+        "(docs/cia402.md, \"EDS / DCF\"); "
+        "\"\" = none.",
+    .default_text = kAxis.drive.eds_file.c_str()};
 
 /// Every key of the table, built at its first use (after static initialisation: its elements are dynamically
 /// initialised constants, and a copy made during static initialisation could read one not yet initialised).
