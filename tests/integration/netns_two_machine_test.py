@@ -25,6 +25,7 @@ CAP_SYS_ADMIN, no iproute2). The namespaces are deleted on every exit path, fail
 process id so that parallel runs never collide.
 """
 import argparse
+import atexit
 import json
 import os
 import re
@@ -32,6 +33,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 import teleop_keys  # noqa: E402  (tests/test_utilities)
@@ -116,7 +118,7 @@ UNIT_USER = 65534  # nobody: stands in for the unit's transient DynamicUser= use
 class AsShipped:
     """One process as its unit starts it, in a staged root (see --units)."""
 
-    def __init__(self, units, role, workdir, config_text, key_text):
+    def __init__(self, units, role, stage, binary, config_text, key_text):
         self.role = role
         service = parse_unit(os.path.join(units, f"teleop-{role}.service"))["Service"]
         check(service.get("DynamicUser") == ["yes"], f"teleop-{role}.service: DynamicUser=yes")
@@ -126,16 +128,21 @@ class AsShipped:
         name = creds[0][0]
         check(service.get("WorkingDirectory") == ["/var/lib/teleop"] and service.get("StateDirectory") == ["teleop"],
               f"teleop-{role}.service: works in its state directory /var/lib/teleop")
-        self.root = os.path.join(workdir, f"root-{role}")
-        if os.path.exists(self.root):
-            shutil.rmtree(self.root)
+        # The root is outside the build tree (which may sit in a private 0700 directory, as a mktemp clone does, that
+        # the unit's user cannot enter), and the binary is copied into it as the package installs it.
+        self.root = os.path.join(stage, f"root-{role}")
         etc, self.state = os.path.join(self.root, "etc/teleop"), os.path.join(self.root, "var/lib/teleop")
         self.creds = os.path.join(self.root, f"run/credentials/teleop-{role}.service")
-        for d in (etc, self.state, self.creds):
+        bindir = os.path.join(self.root, "usr/bin")
+        for d in (etc, self.state, self.creds, bindir):
             os.makedirs(d)
         for d in (self.root, os.path.dirname(etc), etc, os.path.dirname(os.path.dirname(self.state)),
-                  os.path.dirname(self.state), os.path.dirname(self.creds), os.path.join(self.root, "run")):
+                  os.path.dirname(self.state), os.path.dirname(self.creds), os.path.join(self.root, "run"),
+                  os.path.dirname(bindir), bindir):
             os.chmod(d, 0o755)
+        self.binary = os.path.join(bindir, f"teleop-{role}")
+        shutil.copy2(binary, self.binary)
+        os.chmod(self.binary, 0o755)
         with open(os.path.join(etc, f"{role}.yaml"), "w") as f:
             f.write(config_text)
         os.chmod(os.path.join(etc, f"{role}.yaml"), 0o644)
@@ -156,11 +163,11 @@ class AsShipped:
         check(f"--summary-json {self.summary}" in " ".join(self.argv),
               f"teleop-{role}.service writes its summary to /var/lib/teleop/{role}-summary.json")
 
-    def command(self, ns, binary, extra, with_credentials=True):
+    def command(self, ns, extra, with_credentials=True):
         env = ["env", "-u", "CREDENTIALS_DIRECTORY"] + ([f"CREDENTIALS_DIRECTORY={self.creds}"] if with_credentials
                                                         else [])
         drop = ["setpriv", f"--reuid={UNIT_USER}", f"--regid={UNIT_USER}", "--clear-groups", "--"]
-        return ns.exec(ns.master if self.role == "master" else ns.slave, env + drop + [binary] + self.argv + extra)
+        return ns.exec(ns.master if self.role == "master" else ns.slave, env + drop + [self.binary] + self.argv + extra)
 
 
 def to_emulated_bus(text, bus):
@@ -255,7 +262,11 @@ def run_pair(args, ns, procs):
         if shutil.which("setpriv") is None:
             raise Failure("setpriv (util-linux) is missing: it runs the processes as the units' unprivileged user")
         key_text = open(key).read()
-        shipped = {role: AsShipped(args.units, role, args.workdir, open(cfgs[role]).read(), key_text)
+        stage = tempfile.mkdtemp(prefix="teleop-units-", dir="/tmp")  # /tmp: every user may pass through it
+        atexit.register(shutil.rmtree, stage, True)
+        os.chmod(stage, 0o755)
+        binaries = {"master": args.master, "slave": args.slave}
+        shipped = {role: AsShipped(args.units, role, stage, binaries[role], open(cfgs[role]).read(), key_text)
                    for role in ("master", "slave")}
         for role in ("master", "slave"):
             st = os.stat(shipped[role].root_key)
@@ -282,13 +293,13 @@ def run_pair(args, ns, procs):
         # The deployment's old defect: the unit's user cannot open root's key. Without the credential the slave must
         # refuse to start, naming the key file (the check can fail: this is what the units did before).
         s = shipped["slave"]
-        r = subprocess.run(s.command(ns, args.slave, ["--duration", "0.2"], with_credentials=False),
+        r = subprocess.run(s.command(ns, ["--duration", "0.2"], with_credentials=False),
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=60, cwd=s.state)
         check(r.returncode == 2 and "teleop.key" in r.stdout and "Permission denied" in r.stdout,
               f"as the unit's user without $CREDENTIALS_DIRECTORY the slave cannot open root's key and refuses to "
               f"start (status {r.returncode}): {r.stdout.strip().splitlines()[-1] if r.stdout.strip() else ''}")
-        slave_cmd = s.command(ns, args.slave, ["--duration", "10"])
-        master_cmd = shipped["master"].command(ns, args.master, ["--duration", "3"])
+        slave_cmd = s.command(ns, ["--duration", "10"])
+        master_cmd = shipped["master"].command(ns, ["--duration", "3"])
         print(f"as shipped: {' '.join(slave_cmd)}")
     else:
         slave_cmd = ns.exec(ns.slave, [args.slave, "--config", cfgs["slave"], "--duration", "10",
