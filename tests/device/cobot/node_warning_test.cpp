@@ -149,6 +149,17 @@ MasterRun RunMaster(const std::string& lookahead, bool with_dds = false) {
     node.AddSink(std::make_unique<WarningEvents>(run.events));
     node.Configure();
     node.Activate();
+#if TELEOP_TEST_DDS
+    // The State and Events topics are volatile: what is written before the writers know the supervisor's readers is
+    // lost, and cycle 0 writes the only State until simulated time moves. Wait until the supervisor's State reader
+    // has matched the bridge's writer, then give the other direction (the writers learning of the readers; the
+    // three topics are discovered together) a moment: under the sanitizers discovery is slower than Configure.
+    if (supervisor) {
+      EXPECT_TRUE(WaitFor(*supervisor, pair, [](const dds::ProcessView& v) { return v.writer_matched; }))
+          << "the supervisor never discovered the master's writers";
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    }
+#endif
     for (std::uint64_t k = 0; k < kCycles; ++k) {
       node.Step(k, kPeriod_s, 1'000'000'000 + static_cast<std::int64_t>(k) * 1'000'000);
 #if TELEOP_TEST_DDS
