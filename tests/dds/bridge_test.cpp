@@ -21,6 +21,7 @@
 
 #include "teleop/dds/supervisor.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
+#include "test_utilities/dds_test_domain.hpp"
 #include "test_utilities/limit_malloc.hpp"
 
 namespace teleop::dds {
@@ -28,19 +29,7 @@ namespace {
 
 constexpr auto kDiscoveryTimeout = std::chrono::seconds(15);
 
-/// A domain of our own (other test runs on this machine use others) and Cyclone confined to loopback unicast.
-int TestDomain() {
-  static const int domain = [] {
-    const char* xml =
-        "<CycloneDDS><Domain id=\"any\"><General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
-        "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
-        "<MaxAutoParticipantIndex>20</MaxAutoParticipantIndex><Peers><Peer address=\"127.0.0.1\"/></Peers>"
-        "</Discovery></Domain></CycloneDDS>";
-    setenv("CYCLONEDDS_URI", xml, 1);
-    return 150 + static_cast<int>(getpid() % 80);
-  }();
-  return domain;
-}
+int TestDomain() { return test::LoopbackDdsDomain(0); }
 
 BridgeConfig TestConfig(const std::string& pair) {
   BridgeConfig c;

@@ -27,22 +27,8 @@ import tempfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 from teleop_keys import write_key  # noqa: E402
-from teleop_process import Failure, check, free_udp_port, relax_realtime, run, run_test, set_ports  # noqa: E402
-
-
-def parse_unit(path):
-    sections, current = {}, None
-    for raw in open(path):
-        line = raw.strip()
-        if not line or line.startswith("#"):
-            continue
-        m = re.match(r"\[(\w+)\]$", line)
-        if m:
-            current = sections.setdefault(m.group(1), {})
-            continue
-        key, _, value = line.partition("=")
-        current.setdefault(key.strip(), []).append(value.strip())
-    return sections
+from teleop_process import (Failure, check, free_udp_port, parse_unit, relax_realtime, run, run_test,  # noqa: E402
+                            set_ports)
 
 
 def exit_codes(header):

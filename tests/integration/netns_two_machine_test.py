@@ -34,10 +34,9 @@ import signal
 import subprocess
 import sys
 import tempfile
-import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 import teleop_keys  # noqa: E402  (tests/test_utilities)
-from teleop_process import Failure, Output, check  # noqa: E402
+from teleop_process import Failure, Output, check, parse_unit  # noqa: E402
 
 SKIP = 77
 MASTER_ADDR = "10.77.0.1"
@@ -94,22 +93,6 @@ def relax_realtime(text):
     text = re.sub(r"(?m)^(\s*fifo_priority:)\s*\d+", r"\1 0", text)
     text = re.sub(r"(?m)^(\s*lock_memory:)\s*\w+", r"\1 false", text)
     return re.sub(r"(?m)^(\s*cpu:)\s*-?\d+", r"\1 -1", text)
-
-
-def parse_unit(path):
-    """[Section] -> {key: [values]} of a systemd unit file (comments and blank lines skipped)."""
-    sections, current = {}, None
-    for raw in open(path):
-        line = raw.strip()
-        if not line or line.startswith("#"):
-            continue
-        m = re.match(r"\[(\w+)\]$", line)
-        if m:
-            current = sections.setdefault(m.group(1), {})
-            continue
-        key, _, value = line.partition("=")
-        current.setdefault(key.strip(), []).append(value.strip())
-    return sections
 
 
 UNIT_USER = 65534  # nobody: stands in for the unit's transient DynamicUser= user

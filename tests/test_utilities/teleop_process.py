@@ -243,3 +243,19 @@ def stop_capture(cap, timeout_s=20):
     except subprocess.TimeoutExpired:
         cap.kill()
         cap.wait()
+
+
+def parse_unit(path):
+    """[Section] -> {key: [values]} of a systemd unit file (comments and blank lines skipped)."""
+    sections, current = {}, None
+    for raw in open(path):
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        m = re.match(r"\[(\w+)\]$", line)
+        if m:
+            current = sections.setdefault(m.group(1), {})
+            continue
+        key, _, value = line.partition("=")
+        current.setdefault(key.strip(), []).append(value.strip())
+    return sections

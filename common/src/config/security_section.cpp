@@ -1,6 +1,5 @@
 // The `link.security` section (docs/configuration.md, docs/security.md).
 
-#include <filesystem>
 #include <string>
 
 #include "sections.hpp"
@@ -43,12 +42,11 @@ void ParseSecurity(const Map& link, const std::string& transport, int dof, trans
   }
   security.mode = transport::LinkSecurityMode::kPsk;
   const Field key = map.Required("key_file");
-  std::filesystem::path path(key.AsString());
+  const std::string path = key.AsString();
   if (path.empty()) key.Fail("must name the pre-shared key file; " + std::string(kHowTo));
   // Beside the config, unless it names a systemd credential (credential:NAME, resolved when the link opens).
-  const bool credential = key.AsString().rfind(transport::kCredentialPrefix, 0) == 0;
-  if (path.is_relative() && !credential) path = std::filesystem::path(key.file()).parent_path() / path;
-  security.key_file = path.string();
+  const bool credential = path.rfind(transport::kCredentialPrefix, 0) == 0;
+  security.key_file = credential ? path : BesideConfigFile(key.file(), path);
   transport::SecureSessionConfig& s = security.session;
   s.dof = dof;
   if (auto v = map.Optional("max_speed_m_per_s")) s.max_speed_m_per_s = Positive(*v, "m/s");

@@ -4,10 +4,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <sstream>
 
 #include "teleop/analysis/human_bounds.hpp"
+#include "teleop/config/yaml_reader.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
 #include "teleop/proto/can/bus_load.hpp"
@@ -185,11 +185,8 @@ SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis) {
 std::vector<analysis::HumanModel> StabilityOperators(const ProcessConfig& config) {
   const StabilityConfig& st = config.stability;
   if (st.human_bounds.empty()) return analysis::MakeHumanGrid(analysis::DefaultFingerBounds(), st.human_grid_steps);
-  std::filesystem::path path(st.human_bounds);
-  if (path.is_relative() && !config.source_path.empty()) {
-    path = std::filesystem::path(config.source_path).parent_path() / path;
-  }
-  return analysis::MakeHumanGrid(analysis::LoadHumanBounds(path.string()), st.human_grid_steps);
+  return analysis::MakeHumanGrid(analysis::LoadHumanBounds(BesideConfigFile(config.source_path, st.human_bounds)),
+                                 st.human_grid_steps);
 }
 
 std::string StabilityNotApplicable(const ProcessConfig& config) {

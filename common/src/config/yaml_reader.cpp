@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <sstream>
 #include <string>
 
@@ -146,6 +147,12 @@ std::optional<Field> Map::Optional(std::string_view key) const {
   const Entry* e = Find(key);
   if (e == nullptr) return std::nullopt;
   return Field(e->value, PathOf(key), &self_.file());
+}
+
+std::string BesideConfigFile(const std::string& config_file, const std::string& path) {
+  const std::filesystem::path p(path);
+  if (p.empty() || !p.is_relative() || config_file.empty()) return path;
+  return (std::filesystem::path(config_file).parent_path() / p).string();
 }
 
 // ---- value checks -----------------------------------------------------------------------------------------------

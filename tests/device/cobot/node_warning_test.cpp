@@ -24,6 +24,7 @@
 #include "teleop/node/cycle_sink.hpp"
 #include "teleop/node/teleop_node.hpp"
 #include "teleop/transport/emulated_link.hpp"
+#include "test_utilities/dds_test_domain.hpp"
 #include "test_utilities/temp_dir.hpp"
 
 #if TELEOP_TEST_DDS
@@ -87,19 +88,7 @@ struct MasterRun {
 #if TELEOP_TEST_DDS
 constexpr auto kDiscoveryTimeout = std::chrono::seconds(15);
 
-/// A domain of our own and Cyclone confined to loopback unicast (as tests/dds/bridge_test.cpp).
-int TestDomain() {
-  static const int domain = [] {
-    const char* xml =
-        "<CycloneDDS><Domain id=\"any\"><General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
-        "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
-        "<MaxAutoParticipantIndex>20</MaxAutoParticipantIndex><Peers><Peer address=\"127.0.0.1\"/></Peers>"
-        "</Discovery></Domain></CycloneDDS>";
-    setenv("CYCLONEDDS_URI", xml, 1);
-    return 150 + static_cast<int>((getpid() + 40) % 80);
-  }();
-  return domain;
-}
+int TestDomain() { return test::LoopbackDdsDomain(40); }
 
 /// Polls the supervisor until `done(view)` holds for the pair's master, at most kDiscoveryTimeout.
 bool WaitFor(dds::Supervisor& supervisor, const std::string& pair,

@@ -82,6 +82,11 @@ std::string Located(const std::string& file, const YAML::Mark& mark, const std::
 /// The closest of `candidates` to `word` when it is a plausible typo (teleop/closest_match.hpp).
 using teleop::ClosestMatch;
 
+/// A file a config names, as the config means it: a relative `path` is beside `config_file` (the file the key was
+/// read from: Field::file()); an absolute one, an empty one, or any path when the config was not read from a file
+/// (config_file empty) is returned as it is. link.security.key_file, stability.human_bounds, drives[].eds.
+std::string BesideConfigFile(const std::string& config_file, const std::string& path);
+
 // ---- value checks shared by every section reader: each throws at the value with its unit in the message ----------
 
 /// `value` as text the way messages print numbers.

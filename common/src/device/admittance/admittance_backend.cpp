@@ -4,7 +4,6 @@
 #include <fmt/format.h>
 
 #include <cmath>
-#include <filesystem>
 #include <memory>
 
 #include "admittance_device.hpp"
@@ -41,14 +40,8 @@ AdmittanceAxisConfig ReadDrive(const Field& f) {
   d.drive_heartbeat_period_ms = config::ReadNumber(map, keys::kDriveHeartbeatPeriod);
   d.heartbeat_timeout_ms = config::ReadNumber(map, keys::kDriveHeartbeatTimeout);
   d.stale_after_ms = config::ReadNumber(map, keys::kDriveStaleAfter);
-  d.eds_file = config::ReadText(map, keys::kDriveEds);
   // Beside the config file, as link.security.key_file: a rig's configs and its drives' EDS files move together.
-  if (auto v = map.Optional("eds"); v && !d.eds_file.empty()) {
-    const std::filesystem::path path(d.eds_file);
-    if (path.is_relative() && !v->file().empty()) {
-      d.eds_file = (std::filesystem::path(v->file()).parent_path() / path).string();
-    }
-  }
+  d.eds_file = config::BesideConfigFile(map.self().file(), config::ReadText(map, keys::kDriveEds));
   return a;
 }
 
