@@ -1,11 +1,13 @@
 // Kwon & Song, "Force display using a hybrid haptic device composed of motors and brakes": the FME map (§2.2),
 // the wall contact of §4 (Figs. 8, 9, Table 1) and the friction display of §5 (Figs. 11, 12) on the simulated rig.
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <utility>
 
 #include "device/hybrid/force_manipulability.hpp"
 #include "hybrid/contact_scenarios.hpp"
@@ -168,7 +170,10 @@ void PrintMetrics(const hy::ContactMetrics& m, bool json, bool friction, const s
   }
 }
 
-void PlotContact(const std::string& prefix, const std::string& title, bool friction) {
+/// depth_range_mm: the depth axis of a wall plot (lower, upper); the approach is cut off so that a bounce of a
+/// fraction of a millimetre shows (empty for the friction plot).
+void PlotContact(const std::string& prefix, const std::string& title, bool friction,
+                 std::pair<double, double> depth_range_mm = {0.0, 0.0}) {
   const std::string csv = prefix + ".csv";
   std::ostringstream gp;
   // Each panel's key sits below its axes (the bottom margin is set so that gnuplot does not draw the key over the
@@ -191,15 +196,20 @@ void PlotContact(const std::string& prefix, const std::string& title, bool frict
        << "external force (Fig. 10(b))'\nplot '" << csv << "' skip 1 using 11:12 w l lc rgb '#9400d3' notitle\n"
        << "unset multiplot\n";
   } else {
-    gp << "set ylabel 'depth (mm)'\nset title 'position (depth into the wall)'\nplot '" << csv
-       << "' skip 1 using 1:6 w l lc rgb '#9400d3' t 'depth', 0 w l dt 2 lc rgb 'gray' t 'surface'\n"
-       << "set ylabel 'velocity (mm/s)'\nset title 'velocity'\nplot '" << csv
-       << "' skip 1 using 1:5 w l lc rgb '#9400d3' t 'v_y'\n"
-       << "set ylabel 'force (N)'\nset title 'force'\nplot '" << csv
+    const bool ranged = depth_range_mm.second > depth_range_mm.first;
+    std::ostringstream range;
+    range << "[" << depth_range_mm.first << ":" << depth_range_mm.second << "]";
+    if (ranged) gp << "set yrange " << range.str() << "\n";
+    gp << "set ylabel 'depth (mm)'\nset title 'position (depth into the wall; the approach is off the axis)'\nplot '"
+       << csv << "' skip 1 using 1:6 w l lc rgb '#9400d3' t 'depth', 0 w l dt 2 lc rgb 'gray' t 'surface'\n"
+       << "set autoscale y\nset ylabel 'velocity (mm/s)'\nset title 'velocity'\nplot '" << csv
+       << "' skip 1 using 1:5 w l lc rgb '#9400d3' t 'v_y'\n";
+    gp << "set ylabel 'force (N)'\nset title 'force'\nplot '" << csv
        << "' skip 1 using 1:7 w l lw 2 lc rgb '#9400d3' t 'wall (rendered)', '" << csv
        << "' skip 1 using 1:8 w l lc rgb '#0072b2' t 'motors', '" << csv
        << "' skip 1 using 1:9 w l lc rgb '#e51e10' t 'brakes', '" << csv
        << "' skip 1 using 1:10 w l lc rgb '#e69f00' t 'hand'\n"
+       << (ranged ? "set xrange " + range.str() + "\n" : std::string())
        << "set xlabel 'depth (mm)'\nset ylabel 'force (N)'\nset title 'force vs position'\nplot '" << csv
        << "' skip 1 using 6:7 w l lc rgb '#9400d3' t 'wall (rendered)'\nunset multiplot\n";
   }
@@ -215,6 +225,9 @@ struct WallOptions {
   double speed_mm_s = 250.0;
   bool at_contact_speed = false;
   bool no_brakes = false;
+  double hybrid_spring_N_per_mm = 0.0;
+  double release_at_s = -1.0;
+  double linear_damper_Ns_per_m = hy::WallConfig{}.linear_damper_Ns_per_m;
   std::string output;
   bool json = false;
   bool no_plot = false;
@@ -225,7 +238,7 @@ hy::WallScenarioConfig WallConfigFrom(const WallOptions& o) {
   hy::WallKind kind{};
   if (!hy::ParseWallKind(o.model.c_str(), kind)) throw Error("--model must be spring, popc, hybrid or linear-damper");
   if (!(o.speed_mm_s > 0.0 && o.speed_mm_s <= 3000.0)) throw Error("--speed-mm-s must be in (0, 3000]");
-  hy::WallScenarioConfig config = hy::PaperWallScenario(kind, o.speed_mm_s * 1e-3);
+  hy::WallScenarioConfig config = hy::ScenarioForModel(kind, o.speed_mm_s * 1e-3);
   config.rig.motor.time_constant_s = o.motor_time_constant_ms * 1e-3;
   config.rig.brake.time_constant_s = o.brake_time_constant_ms * 1e-3;
   config.allocation.motor = config.rig.motor;
@@ -234,6 +247,9 @@ hy::WallScenarioConfig WallConfigFrom(const WallOptions& o) {
   config.wall.popc.actuator_time_constant_s = config.rig.motor.time_constant_s;
   config.hand_mass_kg = o.hand_mass_kg;
   if (o.no_brakes) config.allocation.use_brakes = false;
+  config.wall.hybrid_stiffness_N_per_m = o.hybrid_spring_N_per_mm * 1e3;
+  config.hand.release_s = o.release_at_s;
+  config.wall.linear_damper_Ns_per_m = o.linear_damper_Ns_per_m;
   if (o.at_contact_speed) hy::CalibrateContactSpeed(config, o.speed_mm_s * 1e-3);
   return config;
 }
@@ -242,6 +258,8 @@ std::string ModelNote(const WallOptions& o) {
   std::ostringstream s;
   s << "motor torque lag " << o.motor_time_constant_ms << " ms (current loop), brake lag " << o.brake_time_constant_ms
     << " ms, hand mass " << o.hand_mass_kg << " kg" << (o.no_brakes ? ", no brakes" : "");
+  if (o.hybrid_spring_N_per_mm > 0.0) s << ", hybrid spring " << o.hybrid_spring_N_per_mm << " N/mm";
+  if (o.release_at_s >= 0.0) s << ", hand lets go at " << o.release_at_s << " s";
   return s.str();
 }
 
@@ -254,7 +272,11 @@ int RunWall(const WallOptions& o) {
   WriteSamples(prefix + ".csv", r);
   std::ostringstream label;
   label << "hybrid-wall " << o.model << " " << o.speed_mm_s << " mm/s" << (o.at_contact_speed ? " at contact" : "");
-  if (!o.no_plot) PlotContact(prefix, label.str() + " (" + ModelNote(o) + ")", false);
+  if (!o.no_plot) {
+    const hy::ContactMetrics& m = r.metrics;
+    PlotContact(prefix, label.str() + " (" + ModelNote(o) + ")", false,
+                {-std::max(1.0, 1.5 * m.largest_bounce_mm), std::max(0.5, 1.2 * m.max_depth_mm)});
+  }
   if (o.json) {
     std::ostringstream extra;
     extra << ", \"model\": \"" << o.model << "\", \"motor_torque_lag_ms\": " << o.motor_time_constant_ms
@@ -423,6 +445,14 @@ void AddHybridScenarios(CLI::App& app) {
                 "The allocation's brake model: lag x (1 - m), torque x (1 + m/2), no remanence (0.2; 0 = exact)")
       ->check(CLI::Range(0.0, 0.9));
   w->add_flag("--no-brakes", wall.no_brakes, "Motors only (for the damper walls)");
+  w->add_option("--hybrid-spring-N-per-mm", wall.hybrid_spring_N_per_mm,
+                "The hybrid wall's spring (Fig. 6(a); N/mm; 0 = damper + brake as Table 1)")
+      ->check(CLI::Range(0.0, 1000.0));
+  w->add_option("--linear-damper-Ns-per-m", wall.linear_damper_Ns_per_m,
+                "The linear damper of --model linear-damper (N s/m; 2500: 100 N at 40 mm/s)")
+      ->check(CLI::Range(0.0, 1e5));
+  w->add_option("--release-at-s", wall.release_at_s, "The hand lets go at this time (s; -1 = never)")
+      ->check(CLI::Range(-1.0, 10.0));
   w->add_option("--output", wall.output, "Output prefix (default hybrid_wall_<model>_<speed>)");
   w->add_flag("--json", wall.json, "One JSON object on stdout");
   w->add_flag("--no-plot", wall.no_plot, "CSV only");

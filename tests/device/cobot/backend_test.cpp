@@ -33,7 +33,7 @@ TEST(CobotBackend, RegisteredAsAPassiveSteeredDevice) {
   ASSERT_NE(backend, nullptr);
   EXPECT_EQ(backend->nominal.rendering, Rendering::kSteeredConstraints);
   EXPECT_FALSE(backend->nominal.can_push());
-  DeviceConfig config = DeviceConfig::Of("cobot", 2, ReadSection("{virtual_mass_kg: 5}", 2));
+  DeviceConfig config = DeviceConfig::Of("cobot", 2, ReadSection("{cart_mass_kg: 5}", 2));
   const std::unique_ptr<Device> device = MakeDevice(config);
   EXPECT_EQ(device->name(), "cobot");
   EXPECT_EQ(device->capabilities().rendering, Rendering::kSteeredConstraints);
@@ -45,15 +45,15 @@ TEST(CobotBackend, RegisteredAsAPassiveSteeredDevice) {
 
 TEST(CobotBackend, SectionReaderChecksKeysRangesAndDof) {
   const auto c = std::any_cast<CobotBackendConfig>(
-      ReadSection("{virtual_mass_kg: 5, steering_time_constant_s: 0.05, lookahead_m: 0.03, overlay: false}", 2));
-  EXPECT_DOUBLE_EQ(c.unicycle.controller.caster.k1_per_kg, 0.2);
+      ReadSection("{cart_mass_kg: 5, steering_time_constant_s: 0.05, lookahead_m: 0.03, overlay: false}", 2));
+  EXPECT_DOUBLE_EQ(c.unicycle.controller.caster.k1_per_kg, 0.2);  // 1/K1 is the cart's mass
   EXPECT_NEAR(SteeringTimeConstant_s(c.unicycle.plant, c.unicycle.controller.tracker.k2_Nms_per_rad), 0.05, 1e-12);
   EXPECT_FALSE(c.unicycle.controller.overlay_enabled);
-  EXPECT_THROW(ReadSection("{virtual_mas_kg: 5}", 2), Error);        // unknown key
-  EXPECT_THROW(ReadSection("{virtual_mass_kg: -1}", 2), Error);      // range
-  EXPECT_THROW(ReadSection("{kind: tricycle}", 2), Error);           // enum
-  EXPECT_THROW(ReadSection("{kind: unicycle}", 3), Error);           // a unicycle is planar
-  EXPECT_THROW(ReadSection("{stability_action: brake}", 2), Error);  // no brake configured
+  EXPECT_THROW(ReadSection("{virtual_mas_kg: 5}", 2), Error);                      // unknown key
+  EXPECT_THROW(ReadSection("{virtual_mass_kg: -1, cart_mass_kg: -1}", 2), Error);  // range
+  EXPECT_THROW(ReadSection("{kind: tricycle}", 2), Error);                         // enum
+  EXPECT_THROW(ReadSection("{kind: unicycle}", 3), Error);                         // a unicycle is planar
+  EXPECT_THROW(ReadSection("{stability_action: brake}", 2), Error);                // no brake configured
   EXPECT_NO_THROW(ReadSection("{kind: bicycle, bicycle: {half_wheelbase_m: 0.3}}", 3));
   try {
     ReadSection("{lookahead_m: 0}", 2);
@@ -61,6 +61,24 @@ TEST(CobotBackend, SectionReaderChecksKeysRangesAndDof) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("lookahead_m"), std::string::npos) << e.what();
   }
+}
+
+// The unicycle's caster renders one mass in every direction: along the wheel the operator pushes the cart itself
+// (cart_mass_kg), so the caster's 1/K1 across it is the same mass. A virtual_mass_kg that differs (20 kg cart, 10 kg
+// caster: 20 kg along, 10 across) is refused with the reason, as the bicycle refuses the key; an equal one is accepted
+// (the shipped configs name it), and without it 1/K1 follows the cart.
+TEST(CobotBackend, UnicycleVirtualMassIsTheCartMass) {
+  const auto follows = std::any_cast<CobotBackendConfig>(ReadSection("{cart_mass_kg: 20}", 2));
+  EXPECT_DOUBLE_EQ(1.0 / follows.unicycle.controller.caster.k1_per_kg, 20.0);
+  const auto same = std::any_cast<CobotBackendConfig>(ReadSection("{cart_mass_kg: 20, virtual_mass_kg: 20}", 2));
+  EXPECT_DOUBLE_EQ(1.0 / same.unicycle.controller.caster.k1_per_kg, 20.0);
+  try {
+    ReadSection("{cart_mass_kg: 20, virtual_mass_kg: 10}", 2);
+    FAIL() << "an anisotropic caster was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("must equal cart_mass_kg"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(ReadSection("{virtual_mass_kg: 5}", 2), Error);  // the default cart is 10 kg
 }
 
 CobotBackendConfig PushingAt(double direction_deg) {

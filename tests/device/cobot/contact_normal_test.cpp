@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "device/cobot/cobot_backend.hpp"
+#include "device/cobot/master_walls.hpp"
 
 namespace teleop::device::cobot {
 namespace {
@@ -133,6 +134,26 @@ TEST(CobotContactNormal, BlockedSlaveWallIsNormalToTheSlaveWallOverSeededRuns) {
               worst_drift_m);
   EXPECT_LT(worst_deg, 1.0);  // the former estimator (a 0.2 s low-pass, no re-estimation): 7.2°, 30 mm
   EXPECT_LT(worst_drift_m, 0.008);
+}
+
+// A bicycle master's fixture plane n·(x, y, θ) ≥ offset with a θ component is rendered as its slice at the plate's
+// angle: the line n_xy·(x, y) = offset − n_θ·θ. Plane (0, 1, 0.1), offset 0: at θ = 0 the wall is y = 0, at θ = 0.5
+// rad it is y = −0.05 m, so a point at y = −0.04 is outside the first and 10 mm inside the second.
+TEST(CobotMasterWalls, AThetaComponentMovesTheWallWithThePlateAngle) {
+  Command command = Command::Force(DofVector::Zero(3));
+  command.constraint_count = 1;
+  command.constraints[0].normal = DofVector::Zero(3);
+  command.constraints[0].normal << 0.0, 1.0, 0.1;
+  command.constraints[0].offset_m = 0.0;
+  const Vec2 position(0.0, -0.04);
+  for (const double angle : {0.0, 0.5}) {
+    MasterWalls walls(2.0);
+    VirtualWallController controller(VirtualWallConfig{}, Constraint::Line({0.0, 0.0}, {1.0, 0.0}, true));
+    walls.Apply(command, position, Vec2::Zero(), controller, angle);
+    ASSERT_EQ(walls.source(), 0) << angle;
+    const double expected_m = angle == 0.0 ? -0.04 : 0.01;
+    EXPECT_NEAR(controller.wall().Evaluate(position).penetration_m, expected_m, 1e-12) << angle;
+  }
 }
 
 }  // namespace

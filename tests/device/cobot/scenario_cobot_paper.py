@@ -48,6 +48,17 @@ with tempfile.TemporaryDirectory() as out:
     check(abs(sim / eq10 - 1.0) < 0.02, f"circle: simulated boundary {sim} m/s is not within 2 % of eq 10 ({eq10})")
     check(sim / eq11 - 1.0 > 0.05, f"circle: simulated boundary {sim} m/s does not separate from eq 11 ({eq11})")
 
+    # Eq 10 at small and middling lookahead (issue 31: a limit cycle of 25-40 mm once counted as converged and put the
+    # boundary at 3x eq 10 at L = 0.02 m; a noise-level run was labelled unstable at 0.25x the bound at L = 50 mm).
+    for rho, tau, lookahead in ((0.2, 0.05, 0.02), (0.3, 0.1, 0.05)):
+        small = run(out, "cobot-stability", "--path", "circle", "--radius-m", str(rho), "--gain-form", "circular",
+                    "--tau-s", str(tau), "--lookahead-m", str(lookahead), "--ratios", "0.25")
+        pair = small["pairs"][0]
+        eq10, sim = pair["u_max_eq10_m_per_s"], pair["u_max_sim_m_per_s"]
+        check(abs(eq10 / (rho * math.tan(lookahead / rho) / tau) - 1.0) < 1e-6, f"eq 10 bound {eq10} m/s")
+        check(abs(sim / eq10 - 1.0) < 0.02,
+              f"circle rho {rho} tau {tau} L {lookahead}: simulated boundary {sim} m/s not within 2 % of eq 10 ({eq10})")
+
     # The eq 11 residual (docs/cobot.md): the simulated boundary lies above eq 11 by what the sampled loop itself
     # predicts (explicit steering update, filtered rate feedback), not below it as a continuous delay model says.
     line = run(out, "cobot-stability", "--tau-s", "0.1", "--lookahead-m", "0.05", "--ratios", "1")

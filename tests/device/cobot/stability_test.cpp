@@ -73,5 +73,25 @@ TEST(CobotStability, GuardWarnsLengthensOrBrakes) {
   EXPECT_LT(s.brake_command, 1.0);
 }
 
+// With eq 7's gains on a circle the bound is eq 10's ρ·tan(L/ρ)/τ, not proportional to L: the guard's lengthened
+// lookahead puts |u| exactly at margin of the bound it gives (scaling L in proportion, as for eq 11, overshoots: at
+// ρ = 0.2 m, τ = 0.1 s, u = 2 m/s it asked 0.229 m where 0.179 m suffices).
+TEST(CobotStability, LengthenedLookaheadOnACircleMeetsEq10) {
+  ConstraintTrackerConfig tracker;
+  tracker.gain_form = ConstraintTrackerConfig::GainForm::kCircular;
+  tracker.lookahead_m = 0.1;
+  StabilityGuardConfig guard;
+  guard.margin = 0.8;
+  guard.action = StabilityGuardConfig::Action::kLengthenLookahead;
+  const double tau = 0.1;
+  const double kappa = 1.0 / 0.2;
+  for (const double speed : {1.5, 2.0, 2.5}) {
+    const StabilityStatus s = EvaluateStability(guard, tracker, tau, kappa, speed);
+    ASSERT_TRUE(s.warning) << speed;
+    EXPECT_NEAR(speed, guard.margin * s.max_stable_speed_m_per_s, 1e-9) << speed;
+    EXPECT_NEAR(s.lookahead_m, 0.2 * std::atan(speed * tau / guard.margin / 0.2), 1e-12) << speed;
+  }
+}
+
 }  // namespace
 }  // namespace teleop::device::cobot

@@ -60,6 +60,27 @@ TEST(CobotUnicycle, SlipVelocityFollowsTheLateralLoad) {
   EXPECT_NEAR(s.slip_velocity_m_per_s, std::abs(s.speed_m_per_s) * 5.0 / 500.0, 1e-9);
 }
 
+// Rolling backwards the wheel still gives way to the push, never against it: a passive device never pushes the
+// hand. The slip velocity has the sign of the lateral load whichever way the wheel rolls (|u|·F⊥/C), so the hand's
+// force does non-negative work through it. (Slip ∝ u instead of |u| would move the cart into a backwards-rolling
+// operator's hand: −0.2 mm/s against a 5 N push.)
+TEST(CobotUnicycle, SlipGivesWayToThePushRollingEitherWay) {
+  UnicyclePlantConfig c;
+  c.cornering_stiffness_N_per_rad = 500.0;
+  for (const double speed : {0.2, -0.2}) {
+    for (const double push : {5.0, -5.0}) {
+      UnicyclePlantState s;
+      s.speed_m_per_s = speed;
+      UnicyclePlantInput in;
+      in.handle_force_N = {0.0, push};  // across the wheel, heading +x
+      Step(c, in, kPeriod_s, s);
+      EXPECT_NEAR(s.slip_velocity_m_per_s, std::abs(s.speed_m_per_s) * push / 500.0, 1e-9)
+          << "u " << speed << " push " << push;
+      EXPECT_GT(push * s.slip_velocity_m_per_s, 0.0) << "u " << speed << " push " << push;  // the hand does work
+    }
+  }
+}
+
 // The point of a cobot (§2): the steering motor turns the wheel about its contact point and cannot push the
 // operator. With no operator force, any steering torque sequence leaves the cart's kinetic energy non-increasing.
 TEST(CobotUnicycle, SteeringIsPassiveInThePlane) {

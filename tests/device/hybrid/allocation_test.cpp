@@ -136,6 +136,35 @@ TEST(MotorBrakeAllocation, DamperOnTheMotorsAndHoldOnTheBrakesAdd) {
   EXPECT_TRUE(out.brake_engaged[0] && out.brake_engaged[1]);
 }
 
+// A shared request (the law's force, Fig. 5(a)) and a brakes-only request (the hold) both opposing the motion: the
+// brake is asked for both, |τ_d| + |τ_r| per joint (they act in parallel on the joint and add), and once built up motor
+// + brake give τ_total. An allocation that merged the two asks with max(|τ_d|, |τ_r|) would leave the smaller one
+// unrendered (here 15 N of the 40 N hold): the forces do not add.
+TEST(MotorBrakeAllocation, SharedAndBrakeOnlyAsksAddOnTheBrake) {
+  const Eigen::Matrix2d jac = JacobianAt({0.0, 0.25});
+  MotorBrakeAllocator alloc{AllocationConfig{}};
+  AllocationInput in;
+  in.jacobian_m_per_rad = jac;
+  in.joint_velocity_rad_per_s = jac.inverse() * Eigen::Vector2d{0.0, 0.2};  // moving into the wall
+  in.hand_force_N = {0.0, 30.0};
+  in.desired_force_N = {0.0, -25.0};      // shared: brake first, motor the rest
+  in.dissipative_force_N = {0.0, -15.0};  // brakes only
+  const Eigen::Vector2d tau_d = jac.transpose() * in.desired_force_N;
+  const Eigen::Vector2d tau_r = jac.transpose() * in.dissipative_force_N;
+  AllocationOutput out;
+  for (int k = 0; k < 400; ++k) out = alloc.Step(in, 1e-3);  // 8 brake time constants
+  const double capacity = alloc.config().brake.MaxJointTorqueNm();
+  for (int i = 0; i < 2; ++i) {
+    ASSERT_TRUE(out.brake_engaged[i]) << "joint " << i;
+    ASSERT_LT(std::abs(tau_d(i)) + std::abs(tau_r(i)), capacity) << "joint " << i;  // within what the brake does
+    EXPECT_NEAR(out.brake_ask_joint_Nm(i), std::abs(tau_d(i)) + std::abs(tau_r(i)), 1e-9) << "joint " << i;
+  }
+  const Eigen::Matrix2d jt_inv = jac.transpose().inverse();
+  // Tolerance: e⁻⁸ of the 40 N the brake builds up, 0.013 N.
+  EXPECT_NEAR((jt_inv * out.brake_estimate_joint_Nm).y(), -40.0, 0.02);
+  EXPECT_NEAR((jt_inv * (out.motor_joint_Nm + out.brake_estimate_joint_Nm)).y(), -40.0, 0.02);
+}
+
 // The allocation computes with a brake model that is not the brake (docs/hybrid.md, Realism): by default it believes
 // the brake 20 % faster and 10 % stronger, without remanence or static torque. Under a shared request that opposes
 // the motion (Fig. 5(a)) the motor gives τ_d minus the *model's* estimate; the real brake, slower, has built up less,

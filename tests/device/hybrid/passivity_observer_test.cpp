@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "device/hybrid/wall_model.hpp"
+
 namespace teleop::device::hybrid {
 namespace {
 
@@ -116,6 +118,37 @@ TEST(PassivityObserver, ActiveEnvironmentIsHeldToNonNegativeEnergyWithinOneStep)
     ASSERT_LE(0.5 * m * v * v, ke0 + max_step_energy) << "step " << k;
   }
   EXPECT_GT(po.dissipated_J(), 0.0);
+}
+
+// The observer books the work with the measured displacement (the encoders' Δx), not with the velocity it is given
+// for the controller (an estimate, possibly filtered and lagging): 50 N over 0.4 mm is 0.02 J, whatever the velocity
+// estimate says (0.2 m/s × 1 ms would book 0.01 J). The controller's damping uses the velocity.
+TEST(PassivityObserver, BooksTheMeasuredDisplacementNotVelocityTimesPeriod) {
+  PassivityObserver po{Ideal()};
+  (void)po.Step({0.0, -50.0}, {0.0, 0.0}, {0.0, 0.2}, 1e-3);
+  (void)po.Step({0.0, -50.0}, {0.0, 0.4e-3}, {0.0, 0.2}, 1e-3);  // moved 0.4 mm while the estimate says 0.2 m/s
+  EXPECT_NEAR(po.energy_J(), 50.0 * 0.4e-3, 1e-12);
+  // Moved against the estimate: the booked sign follows the displacement.
+  PassivityObserver back{Ideal()};
+  (void)back.Step({0.0, -50.0}, {0.0, 0.0}, {0.0, 0.2}, 1e-3);
+  (void)back.Step({0.0, -50.0}, {0.0, -0.1e-3}, {0.0, 0.2}, 1e-3);
+  EXPECT_NEAR(back.energy_J(), -50.0 * 0.1e-3, 1e-12);
+}
+
+// The PO/PC wall gives its observer the displacement between the positions it is handed (the encoders), not the
+// velocity it is handed (the rig's filtered estimate) times the period: here the handle moves 0.4 mm in 1 ms while
+// the estimate still says 0.2 m/s (0.2 mm per period).
+TEST(PassivityObserver, WallBooksTheEncoderDisplacement) {
+  WallConfig cfg;
+  cfg.kind = WallKind::kSpringPoPc;
+  cfg.popc.actuator_time_constant_s = 0.0;
+  WallModel wall{cfg};
+  const Eigen::Vector2d v{0.0, 0.2};
+  (void)wall.Step({0.0, 0.2502}, v, 1e-3);  // 0.2 mm deep: 30 N out of the wall
+  const Eigen::Vector2d applied = wall.observer().applied_force_N();
+  ASSERT_NEAR(applied.y(), -30.0, 1e-9);
+  (void)wall.Step({0.0, 0.2506}, v, 1e-3);
+  EXPECT_NEAR(wall.observer().energy_J(), 30.0 * 0.4e-3, 1e-12);
 }
 
 TEST(PassivityObserver, NonFiniteInputGivesZeroAndBooksNothing) {

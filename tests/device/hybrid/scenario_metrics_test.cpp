@@ -77,11 +77,30 @@ TEST(HybridScenarios, HybridWallMotorsAndBrakesAdd) {
   EXPECT_GT(r.metrics.peak_force_N, 130.0);
 }
 
-// Fig. 9(a): "The pure active system suffered unstable oscillation and big bounces" (150 N/mm, 1500 mm/s).
+// The paper gives neither the operator's hand mass nor the motors' torque lag; the statements below are checked over a
+// small grid of both (docs/hybrid.md, sensitivity): hand 0.2, 0.5, 1.0 kg × lag 0.5, 2 ms, at 1500 mm/s.
+WallScenarioConfig Varied(WallKind kind, double hand_mass_kg, double motor_lag_s) {
+  WallScenarioConfig c = PaperWallScenario(kind, 1.5);
+  c.hand_mass_kg = hand_mass_kg;
+  c.rig.motor.time_constant_s = motor_lag_s;
+  c.allocation.motor = c.rig.motor;
+  c.wall.popc.actuator_time_constant_s = motor_lag_s;
+  return c;
+}
+
+constexpr double kHandMasses_kg[] = {0.2, 0.5, 1.0};
+constexpr double kMotorLags_s[] = {0.5e-3, 2e-3};
+
+// Fig. 9(a): "The pure active system suffered unstable oscillation and big bounces" (150 N/mm, 1500 mm/s): over the
+// grid it bounces more than once by over 1 mm. (Whether the motors' net work over the run is positive depends on the
+// hand mass, lag and contact speed, so it is not a statement to check.)
 TEST(HybridScenarios, ActiveSpringWallBouncesAtHighSpeed) {
-  const ContactMetrics m = Wall(WallKind::kSpring, 1.5);
-  EXPECT_GE(m.big_bounces, 2);
-  EXPECT_GT(m.motor_energy_J, 0.0);  // the sampled, lagging spring does net work on the hand
+  for (double hand : kHandMasses_kg) {
+    for (double lag : kMotorLags_s) {
+      const ContactMetrics m = RunWallScenario(Varied(WallKind::kSpring, hand, lag)).metrics;
+      EXPECT_GE(m.big_bounces, 2) << hand << " kg, " << lag << " s";
+    }
+  }
 }
 
 // Fig. 8(b)/9(b): "For the PO/PC based system, only one bounce occurred at the initial contact and a small steady-state
@@ -98,9 +117,30 @@ TEST(HybridScenarios, PoPcOneBounceAndSmallErrorAtBothSpeeds) {
     EXPECT_LT(std::abs(m.steady_state_error_mm), 2.0) << speed;
     EXPECT_LT(m.motor_energy_J, 0.05) << speed;
   }
-  EXPECT_EQ(Wall(WallKind::kSpringPoPc, 1.5).big_bounces, 1);
-  EXPECT_LT(std::abs(Wall(WallKind::kSpringPoPc, 1.5).steady_state_error_mm),
-            Wall(WallKind::kHybrid, 1.5).steady_state_error_mm);
+}
+
+// "One big bounce, then stable; small steady-state error" at 1500 mm/s, over the hand-mass × lag grid: the count of
+// big bounces moves with the hand and the lag (0 to 3: exactly one holds at the defaults only), what holds is that it
+// settles (no separation in the last 0.1 s of the 0.8 s run; with a 1 kg hand the last is at 0.65 s) with a small
+// error (under 2 mm, under a quarter of the hybrid's). Passivity (no net motor work) is checked at the defaults above;
+// over the grid it is not a paper statement and does not hold everywhere (+0.066 J with a 0.2 kg hand and 2 ms lag,
+// docs/hybrid.md).
+TEST(HybridScenarios, PoPcSettlesPassivelyWithASmallErrorOverTheGrid) {
+  for (double hand : kHandMasses_kg) {
+    for (double lag : kMotorLags_s) {
+      const ScenarioResult r = RunWallScenario(Varied(WallKind::kSpringPoPc, hand, lag));
+      const ContactMetrics& m = r.metrics;
+      const ContactMetrics hybrid = RunWallScenario(Varied(WallKind::kHybrid, hand, lag)).metrics;
+      double last_out_s = 0.0;
+      for (const ScenarioSample& s : r.samples) {
+        if (s.depth_m < -0.1e-3 && m.contact_time_s >= 0.0 && s.time_s > m.contact_time_s) last_out_s = s.time_s;
+      }
+      EXPECT_LT(last_out_s, 0.7) << hand << " kg, " << lag << " s";
+      EXPECT_LE(m.big_bounces, 3) << hand << " kg, " << lag << " s";
+      EXPECT_LT(std::abs(m.steady_state_error_mm), 2.0) << hand << " kg, " << lag << " s";
+      EXPECT_LT(std::abs(m.steady_state_error_mm), 0.25 * hybrid.steady_state_error_mm) << hand << " kg, " << lag;
+    }
+  }
 }
 
 // Fig. 7(a), §4: "the unstable condition was observed in the velocity range of 20–40 mm/s when the damper model with
@@ -113,6 +153,45 @@ TEST(HybridScenarios, Fig7aLinearDamperIsUnstableAtTwentyToFortyMillimetresPerSe
     EXPECT_GE(linear.bounces, 3) << speed;
     EXPECT_LE(cubic.bounces, 1) << speed;
   }
+}
+
+// The documented Fig. 7(a) command, `hybrid-wall --model linear-damper --speed-mm-s 30 --no-brakes`, meets the
+// damper wall (it used to run the §4 contact, 50 mm away for 0.8 s at 30 mm/s: contact_time_s −1) and chatters on it.
+TEST(HybridScenarios, LinearDamperModelRunsTheFig7aContact) {
+  WallScenarioConfig c = ScenarioForModel(WallKind::kLinearDamper, 0.030);
+  c.allocation.use_brakes = false;
+  const ContactMetrics m = RunWallScenario(c).metrics;
+  EXPECT_GE(m.contact_time_s, 0.0);
+  EXPECT_GT(m.velocity_reversals, 0);
+  EXPECT_GE(m.bounces, 3);
+}
+
+// Fig. 5(b) on the wall (§3: "when the reaction force of the virtual wall is larger than the force exerted by the human
+// operator and the end-effector is released ... the brake can exert only a reaction force against its outward
+// motion"). The hybrid wall with Fig. 6(a)'s spring (20 N/mm, below the 25 N push at the hybrid's 0.5 mm stop): held,
+// the brakes resist the push and the handle stays; when the hand lets go (0.4 s) the spring's reaction is the larger,
+// the allocation releases the brakes and the motors push the handle back towards the surface. Without the spring (Table
+// 1's damper + brake) nothing pushes it out: it stays where the brakes stopped it.
+TEST(HybridScenarios, Fig5bTheSpringPushesTheHandleOutWhenTheHandLetsGo) {
+  const auto at = [](const ScenarioResult& r, double t_s) {
+    return r.samples[static_cast<std::size_t>(std::lround(t_s / 0.001)) - 1];
+  };
+  const ScenarioResult spring = RunWallScenario(PaperReleaseScenario(20e3));
+  const ScenarioResult plain = RunWallScenario(PaperReleaseScenario(0.0));
+  const ScenarioSample held = at(spring, 0.39);
+  ASSERT_GT(held.depth_m, 0.2e-3);                                      // stopped inside the wall
+  EXPECT_GT(held.brake_capacity_1_Nm + held.brake_capacity_2_Nm, 5.0);  // the brakes hold against the hand
+  double spring_end_min = held.depth_m;
+  double plain_end_min = at(plain, 0.39).depth_m;
+  for (double t = 0.45; t <= 0.8; t += 0.001) {
+    spring_end_min = std::min(spring_end_min, at(spring, t).depth_m);
+    plain_end_min = std::min(plain_end_min, at(plain, t).depth_m);
+  }
+  EXPECT_LT(spring_end_min, 0.6 * held.depth_m);  // pushed back: 0.49 → 0.24 mm (friction and remanence stop it)
+  const ScenarioSample late = at(spring, 0.6);
+  EXPECT_LT(late.brake_capacity_1_Nm + late.brake_capacity_2_Nm,
+            0.2 * (held.brake_capacity_1_Nm + held.brake_capacity_2_Nm));  // released: remanence and drag only
+  EXPECT_GT(plain_end_min, 0.8 * at(plain, 0.39).depth_m);                 // no spring: it stays
 }
 
 // The nominal contact speed: the hand's arm overshoots (1500 mm/s intended reaches the wall faster); calibrated, the

@@ -248,6 +248,18 @@ WallScenarioConfig PaperDamperScenario(WallKind kind, double speed_m_per_s, bool
   return c;
 }
 
+WallScenarioConfig PaperReleaseScenario(double hybrid_stiffness_N_per_m) {
+  WallScenarioConfig c = PaperWallScenario(WallKind::kHybrid, 0.25);
+  c.wall.hybrid_stiffness_N_per_m = hybrid_stiffness_N_per_m;
+  c.hand.release_s = 0.4;
+  return c;
+}
+
+WallScenarioConfig ScenarioForModel(WallKind kind, double speed_m_per_s) {
+  return kind == WallKind::kLinearDamper ? PaperDamperScenario(kind, speed_m_per_s, true)
+                                         : PaperWallScenario(kind, speed_m_per_s);
+}
+
 FrictionScenarioConfig PaperFrictionScenario(FrictionDisplay display, double normal_force_N) {
   FrictionScenarioConfig c;
   c.friction.display = display;

@@ -85,6 +85,17 @@ void CalibrateContactSpeed(WallScenarioConfig& c, double contact_speed_m_per_s);
 /// (20–40 mm/s, the range where §4 saw the linear damper unstable), with up to 25 N, for 1 s; brakes as asked.
 [[nodiscard]] WallScenarioConfig PaperDamperScenario(WallKind kind, double speed_m_per_s, bool brakes);
 
+/// Fig. 5(b) on the wall: the weak contact (250 mm/s, 25 N) with the hybrid wall and its spring (Fig. 6(a),
+/// hybrid_stiffness_N_per_m); the hand lets go at 0.4 s and the run lasts 0.8 s. Held, the brakes resist the hand's
+/// push; let go, the spring's reaction is larger than the hand's force, the allocation releases the brakes and the
+/// motors push the handle back out (with stiffness 0 nothing does).
+[[nodiscard]] WallScenarioConfig PaperReleaseScenario(double hybrid_stiffness_N_per_m);
+
+/// The scenario `hybrid-wall --model M --speed-mm-s V` runs: the damper wall met 5 mm ahead (PaperDamperScenario,
+/// brakes on; `--no-brakes` turns them off) for linear-damper, whose figure is Fig. 7(a); the §4 contact
+/// (PaperWallScenario) for the others.
+[[nodiscard]] WallScenarioConfig ScenarioForModel(WallKind kind, double speed_m_per_s);
+
 struct FrictionScenarioConfig {
   HybridRigConfig rig{};
   AllocationConfig allocation{};

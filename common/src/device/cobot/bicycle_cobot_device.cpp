@@ -81,7 +81,8 @@ void BicycleCobotDevice::Write(const Command& command) noexcept {
   }
   safe_ = false;
   locked_ = false;
-  walls_.Apply(command, state_.pose.position_m, Vec2(state_.twist(0), state_.twist(1)), controller_);
+  walls_.Apply(command, state_.pose.position_m, Vec2(state_.twist(0), state_.twist(1)), controller_,
+               state_.pose.angle_rad);
 }
 
 void BicycleCobotDevice::Update(double period_s) noexcept {

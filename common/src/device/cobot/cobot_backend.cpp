@@ -25,8 +25,8 @@ DeviceBackend CobotBackend() {
   b.nominal = CobotCapabilities(2, 0.0);
   b.keys = {
       {"virtual_mass_kg",
-       "1/K1 of the virtual caster (eq 2) (kg), > 0; default 10 (unicycle only: the bicycle's is "
-       "its plate mass)"},
+       "1/K1 of the virtual caster (eq 2) (kg): equal to cart_mass_kg (the default) or refused, one mass in every "
+       "direction (unicycle only: the bicycle's is its plate mass)"},
       {"initial_position_m", "start position [x, y] (m); default [0, 0]"},
       {"initial_heading_deg", "start heading (deg from +x); default 0"},
       {"operator", "simulated operator (master without a human)"},

@@ -1,6 +1,7 @@
 // The `device.cobot` section reader (docs/cobot.md, docs/configuration.md): every key, its range and the checks
 // that span keys (dof, role, rig, fieldbus node ids).
 
+#include <cmath>
 #include <string>
 
 #include "cobot_backend_private.hpp"
@@ -209,7 +210,9 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
     s.position_resolution_m = config::ReadNumber(map, keys::kPositionResolution);
     s.force_resolution_N = config::ReadNumber(map, keys::kForceResolution);
     tau_s = config::ReadNumber(map, keys::kSteeringTimeConstant);
-    if (auto v = map.Optional("virtual_mass_kg")) w.caster.k1_per_kg = 1.0 / Positive(*v, "kg");
+    // One mass in every direction (as the bicycle): along the wheel the operator feels the cart itself, so the caster
+    // asks for the same mass across it (eq 2 with 1/K1 = m, above the speed floor).
+    w.caster.k1_per_kg = 1.0 / p.cart_mass_kg;
     w.caster.speed_floor_m_per_s = config::ReadNumber(map, keys::kSpeedFloor);
     w.tracker.lookahead_m = config::ReadNumber(map, keys::kLookahead);
     w.tracker.gain_form = config::ReadChoiceAs<ConstraintTrackerConfig::GainForm>(map, keys::kGainForm);
@@ -236,8 +239,17 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
             "plate's own mass, so the caster must ask for the same mass across them or force and acceleration are not "
             "collinear (Colgate et al. §3.1: a point mass)");
       }
-    } else if (auto v = map.Optional("bicycle")) {
-      v->Fail("only for kind: bicycle");
+    } else {
+      if (auto v = map.Optional("bicycle")) v->Fail("only for kind: bicycle");
+      if (auto v = map.Optional("virtual_mass_kg")) {
+        const double mass_kg = Positive(*v, "kg");
+        if (std::abs(mass_kg - p.cart_mass_kg) > 1e-9 * p.cart_mass_kg) {
+          v->Fail("must equal cart_mass_kg (" + std::to_string(p.cart_mass_kg) +
+                  " kg; or leave it out): along the wheel the operator feels the cart's own mass, so a different "
+                  "virtual mass across it makes force and acceleration not collinear (Colgate et al. §3.1: a point "
+                  "mass; the bicycle refuses the key for the same reason)");
+        }
+      }
     }
     c.rig = config::ReadChoiceAs<CobotBackendConfig::Rig>(map, keys::kRig);
     if (c.rig == CobotBackendConfig::Rig::kFieldbus) {

@@ -39,14 +39,19 @@ void MasterWalls::LearnFreeMotion(const Vec2& c, const Vec2& v) noexcept {
 }
 
 void MasterWalls::Apply(const Command& command, const Vec2& position, const Vec2& velocity_in,
-                        VirtualWallController& controller) noexcept {
+                        VirtualWallController& controller, double angle_rad) noexcept {
   const Vec2 velocity = velocity_in.allFinite() ? velocity_in : Vec2::Zero();
+  const double angle = std::isfinite(angle_rad) ? angle_rad : 0.0;
+  // A plane's offset in (x, y) at this θ: the θ component moves the line.
+  const auto planar_offset = [angle](const device::Constraint& c) {
+    return c.normal.size() >= 3 ? c.offset_m - c.normal[2] * angle : c.offset_m;
+  };
   // The most penetrated fixture plane.
   int best = -1;
   double best_penetration = -std::numeric_limits<double>::infinity();
   for (int i = 0; i < command.constraint_count; ++i) {
     const device::Constraint& c = command.constraints[static_cast<std::size_t>(i)];
-    const double penetration = Vec2(c.normal[0], c.normal[1]).dot(position) - c.offset_m;
+    const double penetration = Vec2(c.normal[0], c.normal[1]).dot(position) - planar_offset(c);
     if (penetration > best_penetration) {
       best_penetration = penetration;
       best = i;
@@ -90,7 +95,7 @@ void MasterWalls::Apply(const Command& command, const Vec2& position, const Vec2
     source = kContactWall;
   } else if (best >= 0) {
     const device::Constraint& c = command.constraints[static_cast<std::size_t>(best)];
-    if (Constraint::TryHalfPlane(Vec2(c.normal[0], c.normal[1]), c.offset_m, wall)) source = best;
+    if (Constraint::TryHalfPlane(Vec2(c.normal[0], c.normal[1]), planar_offset(c), wall)) source = best;
   }
   if (source < 0) {
     controller.SetWallActive(false);

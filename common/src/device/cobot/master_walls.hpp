@@ -26,9 +26,11 @@ class MasterWalls {
   explicit MasterWalls(double contact_force_threshold_N) noexcept;
 
   /// One cycle: picks the wall for `command` (which must be usable: sizes and finiteness checked by the caller)
-  /// and sets it on `controller`. Real-time safe.
+  /// and sets it on `controller`. Real-time safe. A plane with a θ component (a bicycle's n·(x, y, θ) ≥ offset) is
+  /// rendered as its slice at the plate's angle `angle_rad`: n_xy·(x, y) ≥ offset − n_θ·θ, a line that moves as the
+  /// plate turns (the wheels constrain the reference point, not θ; a plane with no x, y part cannot be a wall).
   void Apply(const Command& command, const Vec2& position_m, const Vec2& velocity_m_per_s,
-             VirtualWallController& controller) noexcept;
+             VirtualWallController& controller, double angle_rad = 0.0) noexcept;
 
   /// -1 none, 0..kMaxConstraints-1 a fixture plane, kContactWall the contact wall.
   int source() const noexcept { return source_; }

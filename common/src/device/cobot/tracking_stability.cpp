@@ -54,9 +54,16 @@ StabilityStatus EvaluateStability(const StabilityGuardConfig& guard, const Const
     case StabilityGuardConfig::Action::kWarn:
       break;
     case StabilityGuardConfig::Action::kLengthenLookahead: {
-      // Eq 11 solved for L: the lookahead that puts |u|·τ at margin of the bound (b/a ∝ L for both gain forms).
-      const double bound_per_lookahead = s.max_stable_speed_m_per_s * steering_time_constant_s / tracker.lookahead_m;
-      s.lookahead_m = std::max(tracker.lookahead_m, s.speed_tau_m / (guard.margin * bound_per_lookahead));
+      // The bound solved for L: the lookahead that puts |u|·τ at margin of it. Eq 8's gains (and eq 7's on a line):
+      // b/a = L (eq 11). Eq 7's on a circle: b/a = ρ·tan(L/ρ) (eq 10), not ∝ L, so L = ρ·atan(b/a / ρ), within the
+      // gains' φ ≤ 1.4 rad. The gain scales multiply b/a by theta_scale/p_scale.
+      const double wanted_b_over_a = s.speed_tau_m * tracker.p_gain_scale / (guard.margin * tracker.theta_gain_scale);
+      const double kappa = std::isfinite(curvature_per_m) ? std::abs(curvature_per_m) : 0.0;
+      double wanted_lookahead_m = wanted_b_over_a;
+      if (tracker.gain_form == ConstraintTrackerConfig::GainForm::kCircular && kappa > 0.0) {
+        wanted_lookahead_m = std::min(std::atan(wanted_b_over_a * kappa), 1.4) / kappa;
+      }
+      s.lookahead_m = std::max(tracker.lookahead_m, wanted_lookahead_m);
       s.max_stable_speed_m_per_s =
           MaxStableSpeed_m_per_s(tracker, steering_time_constant_s, curvature_per_m, s.lookahead_m);
       break;

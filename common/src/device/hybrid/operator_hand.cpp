@@ -28,18 +28,23 @@ Eigen::Vector2d OperatorHand::Force(double t_s, const Eigen::Vector2d& position_
   Reference(t_s, p_ref, v_ref);
   Eigen::Vector2d f =
       config_.stiffness_N_per_m * (p_ref - position_m) + config_.damping_Ns_per_m * (v_ref - velocity_m_per_s);
+  double grip = 1.0;  // 1 holding, 0 let go
+  if (config_.release_s >= 0.0 && t_s >= config_.release_s) {
+    grip = config_.release_ramp_s > 0.0 ? std::clamp(1.0 - (t_s - config_.release_s) / config_.release_ramp_s, 0.0, 1.0)
+                                        : 0.0;
+  }
   if (config_.side_speed_m_per_s <= 0.0) {
     const double n = f.norm();
     if (n > config_.max_force_N && n > 0.0) {
       f *= config_.max_force_N / n;
     }
-    return f;
+    return grip * f;
   }
   // Push and slide saturate separately (a person presses and drags with separate effort); directions orthogonal.
   const double push = std::clamp(f.dot(config_.direction), -config_.max_force_N, config_.max_force_N);
   const double side = std::clamp(f.dot(config_.side_direction), -config_.side_max_force_N, config_.side_max_force_N);
   f = push * config_.direction + side * config_.side_direction;
-  return f;
+  return grip * f;
 }
 
 }  // namespace teleop::device::hybrid

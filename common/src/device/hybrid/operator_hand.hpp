@@ -23,6 +23,11 @@ struct OperatorHandConfig {
   double side_start_s = 0.0;
   double side_travel_m = 0.0;
   double side_max_force_N = 40.0;
+  /// The hand lets go at this time (s; < 0: never): its force falls to zero over release_ramp_s and stays there
+  /// (its mass stays on the handle: a relaxed hand resting on it). Figs. 8–9's force–position plots end with the
+  /// release of the wall; Fig. 5(b) is that release.
+  double release_s = -1.0;
+  double release_ramp_s = 0.02;
 };
 
 class OperatorHand {

@@ -22,6 +22,7 @@ void WallConfig::Validate() const {
   if (!(std::isfinite(stiffness_N_per_m) && stiffness_N_per_m >= 0.0) ||
       !(std::isfinite(damper_coefficient) && damper_coefficient >= 0.0) ||
       !(std::isfinite(linear_damper_Ns_per_m) && linear_damper_Ns_per_m >= 0.0) ||
+      !(std::isfinite(hybrid_stiffness_N_per_m) && hybrid_stiffness_N_per_m >= 0.0) ||
       !(std::isfinite(max_force_N) && max_force_N > 0.0) || !(std::isfinite(hold_force_N) && hold_force_N >= 0.0)) {
     throw Error("hybrid wall: stiffness, damper coefficient and hold force must be >= 0, max_force_N > 0");
   }
@@ -73,6 +74,7 @@ WallOutput WallModel::Step(const Eigen::Vector2d& position_m, const Eigen::Vecto
         if (v_in > 0.0) {
           out.motor_force_N = Saturate(-config_.damper_coefficient * v_in * v_in * v_in * n, config_.max_force_N);
         }
+        out.desired_force_N = Saturate(-config_.hybrid_stiffness_N_per_m * out.depth_m * n, config_.max_force_N);
         out.dissipative_force_N = -config_.hold_force_N * n;
       }
       break;

@@ -13,9 +13,10 @@ namespace teleop::device::hybrid {
 /// - kSpringPoPc: the same spring through a passivity observer/controller, motors only.
 /// - kHybrid (Fig. 6(a)): the nonlinear damper on the motors, F = −c·v_n³·n while penetrating and moving in
 ///   (c = 1.6·10⁶ N·s³/m³), and in parallel the brakes engaged to hold against the push into the wall (a brakes-only
-///   request of hold_force_N). §4: "The instant the contact with the virtual wall occurs, the brakes are activated
-///   and the motors generate the damping force as a function of the end-effector velocity": the damper goes to
-///   WallOutput::motor_force_N (motors only), the hold to dissipative_force_N (brakes only); their forces add.
+///   request of hold_force_N), with an optional spring (hybrid_stiffness_N_per_m, Fig. 6(a)). §4: "The instant the
+///   contact with the virtual wall occurs, the brakes are activated and the motors generate the damping force as a
+///   function of the end-effector velocity": the damper goes to WallOutput::motor_force_N (motors only), the hold to
+///   dissipative_force_N (brakes only); their forces add.
 /// Every motor force is saturated to max_force_N (the actuators' limit; 100 N: the paper's damper reaches it at
 /// 40 mm/s, Fig. 7). The PO/PC observer saturates at the same limit before it observes (popc.max_force_N is set from
 /// max_force_N).
@@ -32,6 +33,10 @@ struct WallConfig {
   double stiffness_N_per_m = 150.0e3;
   double damper_coefficient = 1.6e6;       ///< N per (m/s)³.
   double linear_damper_Ns_per_m = 2500.0;  ///< kLinearDamper only.
+  /// kHybrid only: the spring of Fig. 6(a) ("a spring, a damper and a brake"), F = −k_h·d·n as a shared request
+  /// (desired_force_N: the brakes take it where it resists the motion, the motors the rest, and the allocation's
+  /// Fig. 5(b) rule releases the brakes when it pushes the handle out). 0 (default): Table 1's "damper + brake".
+  double hybrid_stiffness_N_per_m = 0.0;
   double max_force_N = 100.0;
   double hold_force_N = 1000.0;  ///< Brake hold request (clamped by what the brakes can do).
   PassivityObserverConfig popc{};
