@@ -14,6 +14,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "teleop/dds/dashboard_server.hpp"
 #include "teleop/dds/process_view.hpp"
@@ -110,6 +111,20 @@ int Run(int argc, char** argv) {
   app.add_option("--http", http,
                  "Serve the live dashboard on [ADDRESS:]PORT (ADDRESS 127.0.0.1 unless given, e.g. 127.0.0.1:8080)");
   app.add_option("--http-dygraphs", dygraphs_dir, "Where dygraph.min.js is (libjs-dygraphs)")->capture_default_str();
+  std::vector<std::string> allowed_hosts;
+  app.add_option("--http-allow-host", allowed_hosts,
+                 "A host name the dashboard answers to besides its address and localhost (repeatable; any other "
+                 "name in Host is refused, against DNS rebinding)");
+  double history_s = teleop::dds::DashboardServer::kDefaultHistory_s;
+  app.add_option("--http-history", history_s,
+                 "Seconds of each pair's traces and events the dashboard keeps and shows a page that opens")
+      ->check(CLI::Range(0.0, 3600.0))
+      ->capture_default_str();
+  std::size_t max_pairs = teleop::dds::Supervisor::Config{}.max_pairs;
+  app.add_option("--max-pairs", max_pairs,
+                 "Follow at most this many pairs (the first discovered); further ones are counted and ignored")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{100000}))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   spdlog::set_pattern("[%H:%M:%S.%e] [teleop-supervise] [%^%l%$] %v");
 
@@ -128,6 +143,8 @@ int Run(int argc, char** argv) {
       teleop::dds::DashboardServer::Config config;
       config.endpoint = teleop::dds::ParseHttpEndpoint(http);
       config.dygraphs_dir = dygraphs_dir;
+      config.allowed_hosts = allowed_hosts;
+      config.history_s = history_s;
       dashboard.emplace(config);
     }
     teleop::dds::Supervisor::Observer observer;
@@ -137,7 +154,11 @@ int Run(int argc, char** argv) {
       observer.on_summary = [&](const teleop::dds::ProcessView& v) { recorder->Summary(v, since_start_s()); };
     }
     if (dashboard) AttachDashboard(observer, *dashboard, since_start_s);
-    teleop::dds::Supervisor supervisor({domain_id, stale_after_s}, observer);
+    teleop::dds::Supervisor::Config supervisor_config;
+    supervisor_config.domain_id = domain_id;
+    supervisor_config.stale_after_s = stale_after_s;
+    supervisor_config.max_pairs = max_pairs;
+    teleop::dds::Supervisor supervisor(supervisor_config, observer);
 
     struct sigaction action {};
     action.sa_handler = HandleStopSignal;
@@ -174,9 +195,14 @@ int Run(int argc, char** argv) {
     }
     if (dashboard) {
       const auto st = dashboard->stats();
-      spdlog::info("dashboard: {} connections ({} refused), {} clients dropped as too slow, {} samples dropped",
-                   st.connections_accepted, st.connections_refused, st.clients_dropped_slow, st.samples_dropped);
+      spdlog::info(
+          "dashboard: {} connections ({} refused), {} requests for a foreign Host, {} clients dropped as too slow, "
+          "{} as idle, {} samples dropped",
+          st.connections_accepted, st.connections_refused, st.requests_foreign_host, st.clients_dropped_slow,
+          st.clients_dropped_idle, st.samples_dropped);
     }
+    if (supervisor.topics_ignored() > 0)
+      spdlog::warn("{} topics of pairs beyond --max-pairs {} were ignored", supervisor.topics_ignored(), max_pairs);
     if (recorder && !recorder->ok()) throw teleop::Error("writing the record file '" + record_path + "' failed");
     return 0;
   } catch (const teleop::Error& e) {

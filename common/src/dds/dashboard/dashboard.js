@@ -1,9 +1,11 @@
 // teleop-supervise's live dashboard (docs/dds.md, "The dashboard"). Messages from /ws, one JSON object each:
 //   hello      {version, t_s}
-//   processes  {t_s, processes: [{pair, role, status, engagement, age_s, rtt_ms, ...}]}   every refresh
+//   processes  {t_s, total, offset, processes: [{pair, role, status, engagement, age_s, ...}], chosen: [...]}
+//              every refresh: the rows of the table from `offset` ("table <offset>") and those of this page's pair
 //   state      {t_s, pair, role, engagement, dof, position_m[], command_N[], force_sensor_N[], ..., clutch?}
 //   event      {t_s, pair, role, kind, cycle, value}
-// state and event only for the pair this page subscribed to ("subscribe <pair>"). Text from DDS is only ever set
+// state and event only for the pair this page subscribed to ("subscribe <pair>"). The page repeats its subscription
+// every KEEPALIVE_MS: the server drops a page that says nothing for two minutes. Text from DDS is only ever set
 // with textContent; class names come from the fixed tables below, never from a message.
 'use strict';
 (function () {
@@ -11,6 +13,7 @@
   const MAX_ROWS = 4000;      // rows per plot at most (20 Hz x 2 processes x 30 s = 1200)
   const MAX_EVENTS = 50;
   const REDRAW_MS = 250;
+  const KEEPALIVE_MS = 15000;
   const ROLES = ['master', 'slave'];
   const KNOWN_STATUS = ['discovered', 'live', 'stale', 'gone', 'finished'];
   const KNOWN_ENGAGEMENT = ['waiting', 'coupled', 'peer_lost', 'peer_shutdown', 'fault', 'stopping', 'aligning'];
@@ -54,6 +57,9 @@
     axis: document.getElementById('axis'),
     events: document.getElementById('events'),
     noDygraphs: document.getElementById('no-dygraphs'),
+    tableRange: document.getElementById('table-range'),
+    tablePrev: document.getElementById('table-prev'),
+    tableNext: document.getElementById('table-next'),
   };
   document.getElementById('window-s').textContent = String(WINDOW_S);
   const haveDygraphs = typeof window.Dygraph === 'function';
@@ -61,7 +67,7 @@
 
   // What the page shows, also read by the browser test (tests/dds/dashboard_browser_test.py).
   const dash = {
-    pair: '', axis: 0, dof: 1, tNow: 0,
+    pair: '', axis: 0, dof: 1, tNow: 0, tableOffset: 0, tableTotal: 0, tableRows: 0,
     rows: {}, graphs: {}, dirty: {},
     statesReceived: 0, processesReceived: 0, eventsReceived: 0,
     latest: {master: null, slave: null},   // newest state of the chosen pair
@@ -138,15 +144,39 @@
     dash.tNow = m.t_s;
     ui.clock.textContent = 't = ' + fixed(m.t_s, 1) + ' s';
     renderTable(m.processes);
-    const pairs = [...new Set(m.processes.map((p) => p.pair))].filter((p) => PAIR_NAME.test(p)).sort();
+    renderTableRange(m);
+    const chosen = Array.isArray(m.chosen) ? m.chosen : [];
+    const names = m.processes.map((p) => p.pair).concat(dash.pair ? [dash.pair] : []);
+    const pairs = [...new Set(names)].filter((p) => PAIR_NAME.test(p)).sort();
     renderPairChoice(pairs);
-    const mine = m.processes.filter((p) => p.pair === dash.pair);
+    const mine = chosen.concat(m.processes).filter((p) => p.pair === dash.pair);
     for (const p of mine) if (ROLES.indexOf(p.role) >= 0) dash.view[p.role] = p;
     for (const role of ROLES) {
       const p = mine.find((x) => x.role === role);
       if (p) addRow('age', m.t_s, role, [finiteOrNull(PLOTS.age.series.find((x) => x[1] === role)[2](p))]);
     }
     renderBadges();
+  }
+
+  // The table comes a page of rows at a time (the server's bound): "rows a-b of N" and the buttons to turn pages.
+  function renderTableRange(m) {
+    dash.tableTotal = Number(m.total) || m.processes.length;
+    dash.tableRows = Math.max(dash.tableRows, m.processes.length);
+    const first = Number(m.offset) || 0;
+    const paged = dash.tableTotal > m.processes.length || first > 0;
+    ui.tableRange.hidden = !paged;
+    ui.tablePrev.hidden = !paged;
+    ui.tableNext.hidden = !paged;
+    ui.tableRange.textContent = 'rows ' + (m.processes.length ? first + 1 : 0) + '-' + (first + m.processes.length) +
+        ' of ' + dash.tableTotal;
+    ui.tablePrev.disabled = first === 0;
+    ui.tableNext.disabled = first + m.processes.length >= dash.tableTotal;
+  }
+
+  function turnTable(direction) {
+    const step = dash.tableRows || 50;
+    dash.tableOffset = Math.max(0, Math.min(dash.tableOffset + direction * step, dash.tableTotal - 1));
+    if (socket && socket.readyState === WebSocket.OPEN) socket.send('table ' + dash.tableOffset);
   }
 
   function renderPairChoice(pairs) {
@@ -175,7 +205,7 @@
   }
 
   function subscribe() {
-    if (socket && socket.readyState === WebSocket.OPEN && dash.pair) socket.send('subscribe ' + dash.pair);
+    if (socket && socket.readyState === WebSocket.OPEN) socket.send(dash.pair ? 'subscribe ' + dash.pair : 'subscribe');
   }
 
   function cell(tr, text, cls) {
@@ -287,6 +317,7 @@
       ui.connection.textContent = 'live';
       ui.connection.className = 'connection live';
       subscribe();
+      if (dash.tableOffset > 0) socket.send('table ' + dash.tableOffset);
     };
     socket.onclose = () => {
       ui.connection.textContent = 'disconnected, retrying';
@@ -310,7 +341,10 @@
       if (dash.graphs[name]) { dash.graphs[name].destroy(); delete dash.graphs[name]; }
     }
   });
+  ui.tablePrev.addEventListener('click', () => turnTable(-1));
+  ui.tableNext.addEventListener('click', () => turnTable(1));
   resetTraces();
   setInterval(redraw, REDRAW_MS);
+  setInterval(subscribe, KEEPALIVE_MS);
   connect();
 })();
