@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -208,9 +209,32 @@ TEST(DashboardMessages, PageRequests) {
   ASSERT_TRUE(table);
   EXPECT_EQ(table->kind, DashboardRequest::Kind::kTable);
   EXPECT_EQ(table->offset, 150U);
-  for (const char* bad : {"", "subscribe ", "subscribe rig 1", "subscribe ../x", "subscribex", "subscribe 1rig",
-                          "subscribe a__b", "unsubscribe rig1", "subscribe rig1\n", "table", "table ", "table -1",
-                          "table 1e3", "table 1234567890", "table 5 "})
+  const auto command = ParseDashboardRequest(
+      "command 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef slave gain kp_N_per_m 300 0.5");
+  ASSERT_TRUE(command);
+  EXPECT_EQ(command->kind, DashboardRequest::Kind::kCommand);
+  EXPECT_EQ(command->role, "slave");
+  EXPECT_EQ(command->line, "gain kp_N_per_m 300 0.5");
+  for (const char* bad : {"",
+                          "subscribe ",
+                          "subscribe rig 1",
+                          "subscribe ../x",
+                          "subscribex",
+                          "subscribe 1rig",
+                          "subscribe a__b",
+                          "unsubscribe rig1",
+                          "subscribe rig1\n",
+                          "table",
+                          "table ",
+                          "table -1",
+                          "table 1e3",
+                          "table 1234567890",
+                          "table 5 ",
+                          "command",
+                          "command abc master clutch on",
+                          "command 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef master shutdown",
+                          "command 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef peer clutch on",
+                          "command 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef master clutch;on"})
     EXPECT_FALSE(ParseDashboardRequest(bad)) << "'" << bad << "'";
   EXPECT_FALSE(ParseDashboardRequest("subscribe " + std::string(65, 'a'))) << "longer than a pair name may be";
 }
@@ -622,6 +646,70 @@ TEST(DashboardServer, TheHistoryIsBoundedInBytes) {
   EXPECT_GT(states, 10U);
   EXPECT_LE(bytes, 16U * 1024U);
   EXPECT_LT(states, 2000U);
+}
+
+// Commands from the page (issue 30 item 3): only with a token configured (teleop-supervise --allow-commands), only
+// with that token, only the coupling commands, at a bounded rate; each goes to the process's command channel (here
+// a recording handler) and comes back, with who sent it, to every page of the pair.
+TEST(DashboardServer, CommandsNeedTheFlagAndTheTokenAndAreEvents) {
+  const std::string token(64, 'a');
+  const std::string command = "command " + token + " master clutch on";
+  {
+    DashboardServer server(TestConfig());  // no --allow-commands: read-only
+    Client page(server.port());
+    const auto hello = page.ReadType("hello");
+    ASSERT_TRUE(hello);
+    EXPECT_EQ(hello->get<std::string>("commands"), "false");
+    page.Send("subscribe rig1");
+    page.Send(command);
+    const auto reply = page.ReadType("command");
+    ASSERT_TRUE(reply);
+    EXPECT_NE(reply->get<std::string>("reply").find("commands are off"), std::string::npos);
+    EXPECT_EQ(server.stats().commands_forwarded, 0U);
+  }
+  std::mutex mutex;
+  std::vector<std::string> forwarded;
+  auto config = TestConfig();
+  config.command_token = token;
+  config.commands_per_s = 2.0;
+  config.command_handler = [&](const std::string& pair, const std::string& role, const std::string& line) {
+    const std::lock_guard<std::mutex> lock(mutex);
+    forwarded.push_back(pair + "/" + role + ": " + line);
+    return std::string("ok: ") + line;
+  };
+  DashboardServer server(config);
+  Client page(server.port());
+  Client watcher(server.port());
+  const auto hello = page.ReadType("hello");
+  ASSERT_TRUE(hello);
+  EXPECT_EQ(hello->get<std::string>("commands"), "true");
+  ASSERT_TRUE(watcher.ReadType("hello"));
+  watcher.Send("subscribe rig1");
+  page.Send("subscribe rig1");
+  page.Send("command " + std::string(64, 'b') + " master clutch on");
+  const auto wrong = page.ReadType("command");
+  ASSERT_TRUE(wrong);
+  EXPECT_EQ(wrong->get<std::string>("reply"), "error: wrong token");
+  page.Send("command " + token + " master shutdown");  // not a command a page may send: malformed
+  page.Send(command);
+  const auto done = watcher.ReadType("command");
+  ASSERT_TRUE(done) << "the other page of the pair sees the command";
+  EXPECT_EQ(done->get<std::string>("text"), "clutch on");
+  EXPECT_EQ(done->get<std::string>("reply"), "ok: clutch on");
+  EXPECT_EQ(done->get<std::string>("from").rfind("127.0.0.1:", 0), 0U) << "who sent it";
+  page.Send(command);
+  page.Send(command);  // the third within a second of two allowed per second
+  std::optional<pt::ptree> refused;
+  for (int i = 0; i < 5 && !refused; ++i) {
+    const auto m = page.ReadType("command");
+    if (m && m->get<std::string>("reply").rfind("error: more than", 0) == 0) refused = m;
+  }
+  EXPECT_TRUE(refused) << "over the rate";
+  const std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_EQ(forwarded.size(), 2U);
+  EXPECT_EQ(forwarded[0], "rig1/master: clutch on");
+  EXPECT_EQ(server.stats().commands_refused, 2U);
+  EXPECT_EQ(server.stats().requests_malformed, 1U);
 }
 
 }  // namespace

@@ -27,9 +27,15 @@ std::string Axes(const StateTrace::Axes& values, std::uint8_t dof) {
 
 }  // namespace
 
-std::string EncodeHello(double t_s, double history_s) {
-  return fmt::format(R"({{"type":"hello","version":{},"t_s":{},"history_s":{}}})", kDashboardProtocolVersion, Num(t_s),
-                     Num(history_s));
+std::string EncodeHello(double t_s, double history_s, bool commands) {
+  return fmt::format(R"({{"type":"hello","version":{},"t_s":{},"history_s":{},"commands":{}}})",
+                     kDashboardProtocolVersion, Num(t_s), Num(history_s), commands ? "true" : "false");
+}
+
+std::string EncodeCommand(std::string_view pair, std::string_view role, std::string_view text, std::string_view from,
+                          std::string_view reply, double t_s) {
+  return fmt::format(R"({{"type":"command","t_s":{},"pair":{},"role":{},"text":{},"from":{},"reply":{}}})", Num(t_s),
+                     JsonString(pair), JsonString(role), JsonString(text), JsonString(from), JsonString(reply));
 }
 
 namespace {
@@ -96,7 +102,30 @@ std::string EncodeEvent(std::string_view pair, std::string_view role, std::strin
 std::optional<DashboardRequest> ParseDashboardRequest(std::string_view message) {
   constexpr std::string_view kSubscribe = "subscribe";
   constexpr std::string_view kTable = "table ";
+  constexpr std::string_view kCommand = "command ";
   DashboardRequest r;
+  if (message.substr(0, kCommand.size()) == kCommand) {
+    message.remove_prefix(kCommand.size());
+    const std::size_t token_end = message.find(' ');
+    if (token_end != 64) return std::nullopt;
+    r.token = std::string(message.substr(0, token_end));
+    if (r.token.find_first_not_of("0123456789abcdef") != std::string::npos) return std::nullopt;
+    message.remove_prefix(token_end + 1);
+    const std::size_t role_end = message.find(' ');
+    if (role_end == std::string_view::npos) return std::nullopt;
+    r.role = std::string(message.substr(0, role_end));
+    if (r.role != "master" && r.role != "slave") return std::nullopt;
+    message.remove_prefix(role_end + 1);
+    if (message.empty() || message.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789 "
+                                                     ".:_+-") != std::string_view::npos)
+      return std::nullopt;
+    const std::string_view verb = message.substr(0, message.find(' '));
+    if (std::find(std::begin(kDashboardCommands), std::end(kDashboardCommands), verb) == std::end(kDashboardCommands))
+      return std::nullopt;
+    r.kind = DashboardRequest::Kind::kCommand;
+    r.line = std::string(message);
+    return r;
+  }
   if (message.substr(0, kTable.size()) == kTable) {
     message.remove_prefix(kTable.size());
     if (message.empty() || message.size() > 9 || message.find_first_not_of("0123456789") != std::string_view::npos)

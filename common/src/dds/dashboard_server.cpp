@@ -2,6 +2,7 @@
 // of its own. Everything below the Publish* functions runs on that thread only, so the sessions need no locks.
 #include "teleop/dds/dashboard_server.hpp"
 
+#include <sodium.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -10,7 +11,9 @@
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wnull-dereference"
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
+#include <boost/asio/thread_pool.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
@@ -167,6 +170,11 @@ struct ServerState {
   std::atomic<std::uint64_t> websocket_refused{0};
   std::atomic<std::uint64_t> requests_malformed{0};
   std::atomic<std::uint64_t> messages_sent{0};
+  std::atomic<std::uint64_t> commands_forwarded{0};
+  std::atomic<std::uint64_t> commands_refused{0};
+  net::io_context* io = nullptr;             ///< The server's, to post command replies back to its thread.
+  net::thread_pool* command_pool = nullptr;  ///< One thread: the command handler runs there, one at a time.
+  LogLimiter refuse_log{kLogInterval_ns};    ///< Server thread only.
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
 };
 
@@ -259,7 +267,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     peer_ = remote.address().to_string(ignored) + ":" + std::to_string(remote.port());
     s_.clients.push_back(weak_from_this());
     const double t_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - s_.start).count();
-    Send(std::make_shared<const std::string>(EncodeHello(t_s, s_.config.history_s)));
+    Send(std::make_shared<const std::string>(EncodeHello(
+        t_s, s_.config.history_s, !s_.config.command_token.empty() && static_cast<bool>(s_.config.command_handler))));
     last_heard_ns_ = NowNs();
     if (s_.latest_views)
       Send(std::make_shared<const std::string>(
@@ -282,6 +291,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       last_heard_ns_ = NowNs();
       if (request->kind == DashboardRequest::Kind::kTable) {
         table_offset_ = request->offset;
+      } else if (request->kind == DashboardRequest::Kind::kCommand) {
+        Command(*request);
       } else if (request->pair != pair_) {
         pair_ = std::move(request->pair);
         // The pair's last seconds first: a page opened mid-run shows them at once.
@@ -292,6 +303,57 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       s_.requests_malformed.fetch_add(1);
     }
     Read();
+  }
+
+  /// A command from this page: refused (and said so) unless commands are on, the token matches, a pair is chosen and
+  /// the page is within its rate; else handed to the command thread, and the reply, with who sent it, goes to every
+  /// page of the pair and to the log.
+  void Command(const DashboardRequest& request) {
+    const double t_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - s_.start).count();
+    std::string refusal;
+    const std::string& token = s_.config.command_token;
+    if (token.empty() || !s_.config.command_handler) {
+      refusal = "error: commands are off (teleop-supervise --allow-commands)";
+    } else if (request.token.size() != token.size() ||
+               sodium_memcmp(request.token.data(), token.data(), token.size()) != 0) {
+      refusal = "error: wrong token";
+    } else if (pair_.empty()) {
+      refusal = "error: no pair chosen";
+    } else {
+      const double per_s = s_.config.commands_per_s;
+      command_credit_ = std::min(per_s, command_credit_ + (t_s - command_t_s_) * per_s);
+      command_t_s_ = t_s;
+      if (command_credit_ < 1.0) {
+        refusal = "error: more than " + std::to_string(static_cast<int>(per_s)) + " commands per second";
+      } else {
+        command_credit_ -= 1.0;
+      }
+    }
+    if (!refusal.empty()) {
+      s_.commands_refused.fetch_add(1);
+      std::uint64_t suppressed = 0;
+      if (s_.refuse_log.Allow(NowNs(), suppressed))
+        spdlog::warn("dashboard: command from {} refused: {} ({} more refused in the last {} s)", peer_, refusal,
+                     suppressed, kLogInterval_ns / 1'000'000'000);
+      Send(std::make_shared<const std::string>(EncodeCommand(pair_, request.role, request.line, peer_, refusal, t_s)));
+      return;
+    }
+    s_.commands_forwarded.fetch_add(1);
+    ServerState& s = s_;
+    net::post(*s_.command_pool, [&s, pair = pair_, role = request.role, line = request.line, from = peer_, t_s] {
+      std::string reply;
+      try {
+        reply = s.config.command_handler(pair, role, line);
+      } catch (const std::exception& e) {
+        reply = std::string("error: ") + e.what();
+      }
+      net::post(*s.io, [&s, pair, role, line, from, reply, t_s] {
+        spdlog::info("dashboard: command from {} to {}/{}: '{}' -> {}", from, pair, role, line, reply);
+        const auto message = std::make_shared<const std::string>(EncodeCommand(pair, role, line, from, reply, t_s));
+        for (const auto& weak : s.clients)
+          if (const auto c = weak.lock(); c && c->open() && c->pair() == pair) c->Send(message);
+      });
+    });
   }
 
   void Write() {
@@ -336,6 +398,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   bool open_ = false;
   std::string pair_;
   std::size_t table_offset_ = 0;
+  double command_credit_ = 1e9;  ///< Commands this page may still send now (clamped to commands_per_s).
+  double command_t_s_ = 0.0;
   std::int64_t last_heard_ns_ = 0;
   std::string peer_;
 };
@@ -485,6 +549,8 @@ struct DashboardServer::Impl {
 
   explicit Impl(Config config) {
     state.config = std::move(config);
+    state.io = &io;
+    state.command_pool = &command_pool;
     const std::string dir = state.config.dygraphs_dir;
     auto js = ReadFile(dir + "/dygraph.min.js");
     auto css = ReadFile(dir + "/dygraph.min.css");
@@ -523,6 +589,7 @@ struct DashboardServer::Impl {
   }
 
   ~Impl() {
+    command_pool.join();  // a command in flight completes; its reply is posted to the io, stopped next
     io.stop();
     if (thread.joinable()) thread.join();
   }
@@ -654,6 +721,7 @@ struct DashboardServer::Impl {
 
   ServerState state;  // before io: the sessions the io_context still holds refer to it when it is destroyed
   net::io_context io{1};
+  net::thread_pool command_pool{1};
   tcp::acceptor acceptor{io};
   net::steady_timer timer{io};
   std::uint16_t bound_port = 0;
@@ -708,6 +776,8 @@ DashboardServer::Stats DashboardServer::stats() const {
   out.websocket_refused = s.websocket_refused.load();
   out.requests_malformed = s.requests_malformed.load();
   out.messages_sent = s.messages_sent.load();
+  out.commands_forwarded = s.commands_forwarded.load();
+  out.commands_refused = s.commands_refused.load();
   {
     const std::lock_guard<std::mutex> lock(impl_->mutex);
     out.samples_dropped = impl_->samples_dropped;

@@ -2,6 +2,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -70,6 +71,14 @@ class DashboardServer {
     /// Bytes of one pair's history at most (the oldest go first): under client_queue_bytes, so that a page that
     /// subscribes gets all of it without being dropped as slow.
     std::size_t history_bytes = 768U << 10U;
+    /// Commands from the page (teleop-supervise --allow-commands; docs/dds.md "Commands from the dashboard"): the
+    /// token a page must send with each (64 hex digits); empty: the page is read-only and every command refused.
+    std::string command_token;
+    /// Forwards a command line to the process (pair, role) and returns its reply ("ok ..." or "error: ..."); called
+    /// on a thread of its own, one command at a time, never on the server thread.
+    std::function<std::string(const std::string& pair, const std::string& role, const std::string& line)>
+        command_handler;
+    double commands_per_s = 5.0;  ///< Per page at most (a burst of as many); more are refused.
   };
   struct Stats {
     std::uint64_t connections_accepted = 0;
@@ -82,6 +91,8 @@ class DashboardServer {
     std::uint64_t requests_malformed = 0;     ///< Bad HTTP, or a page message that is not a request.
     std::uint64_t samples_dropped = 0;        ///< Publish* calls that found the queue full.
     std::uint64_t messages_sent = 0;          ///< WebSocket messages written, all clients.
+    std::uint64_t commands_forwarded = 0;     ///< Commands handed to command_handler.
+    std::uint64_t commands_refused = 0;       ///< Commands off, a wrong token, no pair chosen, or over the rate.
   };
 
   /// Listens on config.endpoint and starts the server thread. Throws teleop::Error when it cannot listen.

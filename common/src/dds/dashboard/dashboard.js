@@ -214,7 +214,31 @@
     ui.axis.value = String(Math.max(0, keep));
   }
 
+  // Commands (teleop-supervise --allow-commands): the token comes in the address's fragment (#token=..., never sent
+  // to a server or logged); the server checks it, forwards the command to the process's command channel (its
+  // stability gate and bounded rates) and sends the reply, with who sent it, to every page of the pair.
+  const TOKEN = /^[0-9a-f]{64}$/;
+  const commandToken = new URLSearchParams(window.location.hash.slice(1)).get('token') || '';
+  function sendCommand(line) {
+    const reply = document.getElementById('command-reply');
+    if (!TOKEN.test(commandToken)) { reply.textContent = 'no token: open the address teleop-supervise printed'; return; }
+    if (!socket || socket.readyState !== WebSocket.OPEN || !dash.pair) return;
+    const role = document.getElementById('command-role').value;
+    socket.send('command ' + commandToken + ' ' + role + ' ' + line.trim());
+  }
+  function onCommand(m) {
+    if (m.pair !== dash.pair) return;
+    document.getElementById('command-reply').textContent = m.role + ' ' + m.text + ': ' + m.reply;
+    onEvent({pair: m.pair, role: m.role, kind: 'command ' + m.text + ' from ' + m.from + ': ' + m.reply,
+             t_s: m.t_s, cycle: '-', value: 0});
+  }
+  for (const b of document.querySelectorAll('#commands button[data-command]'))
+    b.addEventListener('click', () => sendCommand(b.dataset.command));
+  document.getElementById('command-send').addEventListener('click',
+    () => sendCommand(document.getElementById('command-line').value));
+
   function onHello(m) {
+    document.getElementById('commands').hidden = m.commands !== true;
     if (typeof m.history_s === 'number' && isFinite(m.history_s) && m.history_s > WINDOW_S) {
       WINDOW_S = Math.min(m.history_s, 3600);
       document.getElementById('window-s').textContent = String(WINDOW_S);
@@ -427,6 +451,7 @@
     else if (m.type === 'hello') onHello(m);
     else if (m.type === 'processes') onProcesses(m);
     else if (m.type === 'event') onEvent(m);
+    else if (m.type === 'command') onCommand(m);
   }
   dash.dispatch = dispatch;  // the browser test feeds a synthetic event storm through it
 
