@@ -11,10 +11,18 @@ chromium-driver) opens it. Checks:
   - the clutch: `teleop-ctl clutch on` on the master's command socket shows both sides clutched (the master by its
     command, the slave by the peer's flag) and the pair no longer coupled; `clutch off` shows both released and
     coupled again (the State's `clutch` field, docs/dds.md);
+    while clutched both sides show the state "clutched" (not "aligning"), in the badges and the table;
+  - the master's tracking error after the re-index excludes the index offset (the `reindexed` event's value);
+  - the history: the page reloaded mid-run shows the last seconds of every trace at once;
   - cutting the pair (SIGKILL of the slave, no goodbye on DDS) changes the state shown within a bound: the master's
-    engagement becomes peer_lost, the slave's status stale, and the slave's data-age trace grows past the stale limit;
+    engagement becomes peer_lost, the slave's status stale and its engagement "unknown" (not its last "coupled"),
+    the slave's data-age trace grows past the stale limit, and the master's round-trip trace has a gap from the cut
+    on (no frozen last value) while its position trace goes on;
+  - events fold: a storm of 40 `overrun` events is one line with its count;
+  - the series of every plot keep distinct colours for colour-blind readers (protan, deutan, tritan simulation,
+    Machado et al. 2009, CIE76 distance at least COLOUR_DELTA_E), sensor traces dashed;
   - the browser logged no script error.
-Screenshots before and after the cut are written to the work directory (paths printed).
+Screenshots (coupled, clutched, reloaded, after the cut) are written to the work directory (paths printed).
 
 Skips (77, with the reason) only when the browser cannot be started: python3-selenium, chromium or chromium-driver
 missing or failing. Cyclone DDS is confined to loopback unicast on a domain derived from the test's pid.
@@ -50,7 +58,7 @@ STALE_AFTER_S = 1.0
 # The cut must show within this long: the stale limit, the master's 50 ms watchdog, one 0.1 s dashboard refresh
 # and one 0.25 s redraw, with slack for a loaded 2-core machine.
 CUT_VISIBLE_WITHIN_S = STALE_AFTER_S + 4.0
-MASTER_DURATION_S = 25.0  # longer than the test needs; the master is stopped at the end
+MASTER_DURATION_S = 60.0  # longer than the test needs (on a loaded machine too); the master is stopped at the end
 SINE = ("      script:\n"
         "        - {type: sine, axis: 0, start_s: 0.0, amplitude_N: 1.0, frequency_hz: 1.0}\n")
 
@@ -103,13 +111,23 @@ if (!d) return null;
 const graphs = {};
 for (const [name, g] of Object.entries(d.graphs)) {
   const series = g.getLabels().slice(1);
-  const columns = {};
+  const columns = {}, gaps = {}, lastFiniteX = {}, lastX = {}, dashed = {};
   series.forEach((label, i) => {
     const values = [];
-    for (let r = 0; r < g.numRows(); r++) { const v = g.getValue(r, i + 1); if (v !== null) values.push(v); }
+    gaps[label] = 0;
+    for (let r = 0; r < g.numRows(); r++) {
+      const v = g.getValue(r, i + 1);
+      if (v === null) continue;
+      lastX[label] = g.getValue(r, 0);
+      if (Number.isNaN(v)) { gaps[label]++; continue; }
+      values.push(v);
+      lastFiniteX[label] = g.getValue(r, 0);
+    }
     columns[label] = values;
+    dashed[label] = Boolean(g.getOption('strokePattern', label));
   });
-  graphs[name] = {x: g.xAxisRange(), rows: g.numRows(), columns: columns,
+  graphs[name] = {x: g.xAxisRange(), rows: g.numRows(), columns: columns, gaps: gaps, lastFiniteX: lastFiniteX,
+                  lastX: lastX, colors: g.getColors(), labels: series, dashed: dashed,
                   canvas: g.graphDiv.querySelectorAll('canvas').length};
 }
 const badge = (role) => { const b = document.getElementById('badge-' + role);
@@ -117,12 +135,46 @@ const badge = (role) => { const b = document.getElementById('badge-' + role);
           text: b.textContent.replace(/\\s+/g, ' ')}; };
 const rows = [...document.querySelectorAll('#processes tbody tr')].map(
   (tr) => [...tr.querySelectorAll('td')].map((td) => td.textContent));
-return {pair: d.pair, states: d.statesReceived, processes: d.processesReceived, graphs: graphs,
+return {pair: d.pair, states: d.statesReceived, processes: d.processesReceived, graphs: graphs, events: d.eventList(),
         master: badge('master'), slave: badge('slave'), table: rows, tNow: d.tNow,
         connection: document.getElementById('connection').textContent};
 """
 
-PLOTS = ("position", "force", "penetration", "age", "rtt")
+PLOTS = ("position", "force", "penetration", "tracking", "age", "rtt")
+FOLD_S = 10.0  # dashboard.js: events of one kind from one side within this long are one line
+COLOUR_DELTA_E = 12.0  # CIE76 distance two series' colours keep under each simulated colour-vision deficiency
+# Machado, Oliveira & Fernandes (2009), severity 1.0, on linear RGB.
+CVD = {
+    "protan": ((0.152286, 1.052583, -0.204868), (0.114503, 0.786281, 0.099216), (-0.003882, -0.048116, 1.051998)),
+    "deutan": ((0.367322, 0.860646, -0.227968), (0.280085, 0.672501, 0.047413), (-0.011820, 0.042940, 0.968881)),
+    "tritan": ((1.255528, -0.076749, -0.178779), (-0.078411, 0.930809, 0.147602), (0.004733, 0.691367, 0.303900)),
+}
+
+
+def lab(rgb_hex, matrix=None):
+    """CIE L*a*b* (D65) of an sRGB colour '#rrggbb' (or 'rgb(r,g,b)'), seen through a CVD matrix if given."""
+    if rgb_hex.startswith("rgb"):
+        c = [int(v) / 255 for v in re.findall(r"\d+", rgb_hex)[:3]]
+    else:
+        c = [int(rgb_hex[i:i + 2], 16) / 255 for i in (1, 3, 5)]
+    lin = [v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4 for v in c]
+    if matrix:
+        lin = [min(1.0, max(0.0, sum(m * v for m, v in zip(row, lin)))) for row in matrix]
+    x = (0.4124 * lin[0] + 0.3576 * lin[1] + 0.1805 * lin[2]) / 0.95047
+    y = 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
+    z = (0.0193 * lin[0] + 0.1192 * lin[1] + 0.9505 * lin[2]) / 1.08883
+    f = [t ** (1 / 3) if t > 0.008856 else 7.787 * t + 16 / 116 for t in (x, y, z)]
+    return (116 * f[1] - 16, 500 * (f[0] - f[1]), 200 * (f[1] - f[2]))
+
+
+def require(cond, what):
+    """check() without the "ok" line, for checks made many times over."""
+    if not cond:
+        raise Failure(what)
+
+
+def delta_e(a, b):
+    return sum((p - q) ** 2 for p, q in zip(a, b)) ** 0.5
 
 
 def main():
@@ -245,12 +297,14 @@ def browse(driver, procs, base, pair, work, ctl):
     def clutched():
         s = state()
         rows = {(row[0], row[1]): row for row in s["table"]}
-        ok = all(s[r]["clutch"] == "clutched" and s[r]["engagement"] != "coupled" for r in ("master", "slave"))
+        ok = all(s[r]["clutch"] == "clutched" and s[r]["engagement"] == "clutched" for r in ("master", "slave"))
         clutch_column = {r: rows.get((pair, r), [""] * 5)[4] for r in ("master", "slave")}
+        engagement_column = {r: rows.get((pair, r), [""] * 5)[3] for r in ("master", "slave")}
         ok = ok and clutch_column == {"master": "command", "slave": "peer"}
+        ok = ok and engagement_column == {"master": "clutched", "slave": "clutched"}
         return s if ok else None
-    on = wait_until(clutched, 5, "both sides shown clutched and not coupled; the table's clutch column: master "
-                    "'command', slave 'peer'", interval_s=0.1)
+    on = wait_until(clutched, 5, "both sides shown in the state 'clutched' (badges and table, not 'aligning'); the "
+                    "table's clutch column: master 'command', slave 'peer'", interval_s=0.1)
     print(f"  clutch on shown: master '{on['master']['text'].strip()}', slave '{on['slave']['text'].strip()}'")
     shot = os.path.join(work, "dashboard_clutched.png")
     driver.save_screenshot(shot)
@@ -263,6 +317,48 @@ def browse(driver, procs, base, pair, work, ctl):
         return s if ok else None
     wait_until(released, 10, "both sides shown released and coupled again (re-indexed through aligning)",
                interval_s=0.1)
+    time.sleep(1.0)  # a second of coupled motion at the new index
+    second = state()
+    reindex = [e for e in second["events"] if e["role"] == "master" and e["kind"] == "reindexed"]
+    check(reindex, "the master's reindexed event is listed")
+    offset_mm = abs(reindex[0]["value"]) * 1e3
+    t_coupled = second["tNow"] - 1.0
+    master_track = [v for v in second["graphs"]["tracking"]["columns"]["master"]][-15:]
+    check(master_track and max(master_track) < max(0.5 * offset_mm, 0.3) and max(master_track) < 2.0,
+          f"the master's tracking error after the re-index excludes the index offset ({offset_mm:.2f} mm): at most "
+          f"{max(master_track):.3f} mm over its last {len(master_track)} samples (t > {t_coupled:.1f} s)")
+
+    # The history: the page reloaded mid-run shows the last seconds at once (not empty plots).
+    reloaded_at = time.monotonic()
+    driver.get(f"{base}/?pair={pair}")
+
+    def history_shown():
+        s = state()
+        if not s or not all(p in s["graphs"] for p in PLOTS if p != "age"):
+            return None
+        span = s["graphs"]["position"]["x"][1] - s["graphs"]["position"]["x"][0]
+        return s if span >= 8.0 else None
+    hist = wait_until(history_shown, 5, "the reloaded page showing at least 8 s of traces", interval_s=0.1)
+    span = hist["graphs"]["position"]["x"][1] - hist["graphs"]["position"]["x"][0]
+    check(time.monotonic() - reloaded_at < 5.0,
+          f"the reloaded page shows {span:.1f} s of history {time.monotonic() - reloaded_at:.2f} s after loading")
+    shot = os.path.join(work, "dashboard_reloaded.png")
+    driver.save_screenshot(shot)
+    print(f"  screenshot (reloaded, with history): {shot}")
+
+    # Colours: every plot's series distinguishable for colour-blind readers; sensor traces dashed.
+    for name in PLOTS:
+        g = hist["graphs"][name]
+        colours = dict(zip(g["labels"], g["colors"]))
+        for kind, matrix in CVD.items():
+            for i, a in enumerate(g["labels"]):
+                for b in g["labels"][i + 1:]:
+                    d = delta_e(lab(colours[a], matrix), lab(colours[b], matrix))
+                    require(d >= COLOUR_DELTA_E, f"{name}: '{a}' {colours[a]} and '{b}' {colours[b]} stay apart "
+                            f"for {kind} readers (CIE76 {d:.1f} >= {COLOUR_DELTA_E})")
+    check(all(hist["graphs"]["force"]["dashed"][f"{r} sensor"] for r in ("master", "slave"))
+          and not any(hist["graphs"]["force"]["dashed"][f"{r} command"] for r in ("master", "slave")),
+          "every plot's series keep distinct colours under protan, deutan and tritan simulation; sensor traces dashed")
     second = state()
 
     t_cut = second["tNow"]
@@ -272,9 +368,13 @@ def browse(driver, procs, base, pair, work, ctl):
 
     def cut_shown():
         s = state()
-        return s if s["master"]["engagement"] == "peer_lost" and s["slave"]["status"] == "stale" else None
-    after = wait_until(cut_shown, CUT_VISIBLE_WITHIN_S + 2, "the cut shown (master peer_lost, slave stale)",
-                       interval_s=0.1)
+        return s if (s["master"]["engagement"] == "peer_lost" and s["slave"]["status"] == "stale"
+                     and s["slave"]["engagement"] == "unknown") else None
+    after = wait_until(cut_shown, CUT_VISIBLE_WITHIN_S + 2,
+                       "the cut shown (master peer_lost, slave stale with engagement unknown)", interval_s=0.1)
+    rows = {(row[0], row[1]): row for row in after["table"]}
+    check(rows[(pair, "slave")][3] == "unknown",
+          f"the table shows the stale slave's engagement as unknown, not its last value ({rows[(pair, 'slave')][3]})")
     shown_after = time.monotonic() - cut_wall
     check(shown_after <= CUT_VISIBLE_WITHIN_S,
           f"the cut is shown {shown_after:.2f} s after the kill (bound {CUT_VISIBLE_WITHIN_S} s): master "
@@ -285,6 +385,28 @@ def browse(driver, procs, base, pair, work, ctl):
         ages = s["graphs"]["age"]["columns"]["slave"]
         return s if ages and ages[-1] > STALE_AFTER_S else None
     aged = wait_until(age_grown, 5, "the slave's data age past the stale limit", interval_s=0.1)
+    rtt = aged["graphs"]["rtt"]
+    position = aged["graphs"]["position"]
+    check(rtt["gaps"]["master"] > 0 and rtt["lastFiniteX"]["master"] <= t_cut + 0.5
+          and position["lastX"]["master x"] > t_cut + 1.0,
+          f"the master's round-trip trace has a gap from the cut (last value at t = {rtt['lastFiniteX']['master']:.2f}"
+          f" s, cut at {t_cut:.2f} s) while its position trace goes on (t = {position['lastX']['master x']:.2f} s)")
+
+    # Events fold: a storm of one kind from one side is one line with its count.
+    driver.execute_script("""
+const d = window.teleopDashboard;
+for (let i = 0; i < 40; i++)
+  d.dispatch({type: 'event', t_s: d.tNow + 0.001 * i, pair: d.pair, role: 'master', kind: 'overrun', cycle: i,
+              value: 0});""")
+    events = state()["events"]
+    storm = [e for e in events if e["role"] == "master" and e["kind"] == "overrun"]
+    check(len(storm) == 1 and storm[0]["count"] >= 40,
+          f"40 overrun events are one line ({len(storm)} lines, count {storm[0]['count'] if storm else 0})")
+    for i, a in enumerate(events):
+        for b in events[i + 1:]:
+            require(not (a["role"] == b["role"] and a["kind"] == b["kind"] and abs(a["last"] - b["first"]) <= FOLD_S
+                         and abs(b["last"] - a["first"]) <= FOLD_S),
+                    f"no two lines of {a['role']} {a['kind']} within {FOLD_S} s")
     ages = aged["graphs"]["age"]["columns"]["slave"]
     check(ages[-1] > STALE_AFTER_S, f"the slave's data-age trace grows after the cut (now {ages[-1]:.2f} s; "
           f"cut at supervisor t = {t_cut:.1f} s)")

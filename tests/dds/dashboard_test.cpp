@@ -1,16 +1,21 @@
 // teleop-supervise's dashboard (docs/dds.md, "The dashboard"): the WebSocket messages and their escaping, the page's
 // requests, the --http endpoint, and the server over real sockets on 127.0.0.1 (page, dygraphs, WebSocket, the
 // pair filter, the Origin check, a slow client dropped while publishing goes on).
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
+#include <tuple>
+#include <vector>
 // Asio and property_tree's multi_index trip -Wnull-dereference in their own inlined code (GCC 12), as in
 // transport/udp_link.cpp.
 #pragma GCC diagnostic push
@@ -27,6 +32,8 @@
 #include "teleop/dds/dashboard_messages.hpp"
 #include "teleop/dds/dashboard_server.hpp"
 #include "teleop/error.hpp"
+#include "teleop/json_text.hpp"
+#include "teleop/types.hpp"
 
 namespace {
 
@@ -36,7 +43,7 @@ namespace http = beast::http;
 namespace websocket = beast::websocket;
 namespace net = boost::asio;
 using tcp = net::ip::tcp;
-using teleop::dds::DashboardJsonString;
+using teleop::JsonString;
 using teleop::dds::DashboardServer;
 
 pt::ptree ParseJson(const std::string& text) {
@@ -46,21 +53,21 @@ pt::ptree ParseJson(const std::string& text) {
   return tree;
 }
 
-/// What a JSON parser reads back from DashboardJsonString(text).
+/// What a JSON parser reads back from JsonString(text).
 std::string RoundTrip(const std::string& text) {
-  return ParseJson("{\"s\":" + DashboardJsonString(text) + "}").get<std::string>("s");
+  return ParseJson("{\"s\":" + JsonString(text) + "}").get<std::string>("s");
 }
 
-TEST(DashboardJson, EscapesQuotesBackslashesAndControlCharacters) {
-  EXPECT_EQ(DashboardJsonString("a\"b\\c"), R"("a\"b\\c")");
-  EXPECT_EQ(DashboardJsonString("x\ny\tz\r"), R"("x\ny\tz\r")");
-  EXPECT_EQ(DashboardJsonString(std::string("\x01\x1f\x7f", 3)), R"("\u0001\u001f\u007f")");
-  EXPECT_EQ(DashboardJsonString(std::string("a\0b", 3)), R"("a\u0000b")");
+TEST(JsonText, EscapesQuotesBackslashesAndControlCharacters) {
+  EXPECT_EQ(JsonString("a\"b\\c"), R"("a\"b\\c")");
+  EXPECT_EQ(JsonString("x\ny\tz\r"), R"("x\ny\tz\r")");
+  EXPECT_EQ(JsonString(std::string("\x01\x1f\x7f", 3)), R"("\u0001\u001f\u007f")");
+  EXPECT_EQ(JsonString(std::string("a\0b", 3)), R"("a\u0000b")");
 }
 
-TEST(DashboardJson, HtmlSpecialCharactersAreEscapedSoNoMarkupSurvives) {
+TEST(JsonText, HtmlSpecialCharactersAreEscapedSoNoMarkupSurvives) {
   const std::string attack = "</script><img src=x onerror='alert(1)'>&amp;";
-  const std::string encoded = DashboardJsonString(attack);
+  const std::string encoded = JsonString(attack);
   EXPECT_EQ(encoded.find('<'), std::string::npos) << encoded;
   EXPECT_EQ(encoded.find('>'), std::string::npos) << encoded;
   EXPECT_EQ(encoded.find('&'), std::string::npos) << encoded;
@@ -69,23 +76,23 @@ TEST(DashboardJson, HtmlSpecialCharactersAreEscapedSoNoMarkupSurvives) {
   EXPECT_EQ(RoundTrip(attack), attack);  // the text itself is unchanged for the page, only inert in transit
 }
 
-TEST(DashboardJson, ValidUtf8IsKeptAndLineSeparatorsEscaped) {
+TEST(JsonText, ValidUtf8IsKeptAndLineSeparatorsEscaped) {
   const std::string text = "F\xc3\xbc\xc3\x9f \xe2\x86\x92 \xf0\x9f\xa4\x96";  // "Füß → 🤖"
-  EXPECT_EQ(DashboardJsonString(text), "\"" + text + "\"");
+  EXPECT_EQ(JsonString(text), "\"" + text + "\"");
   EXPECT_EQ(RoundTrip(text), text);
-  EXPECT_EQ(DashboardJsonString("a\xe2\x80\xa8"
-                                "b\xe2\x80\xa9"),
+  EXPECT_EQ(JsonString("a\xe2\x80\xa8"
+                       "b\xe2\x80\xa9"),
             R"("a\u2028b\u2029")");
 }
 
-TEST(DashboardJson, InvalidUtf8BecomesReplacementCharacters) {
+TEST(JsonText, InvalidUtf8BecomesReplacementCharacters) {
   // RFC 3629: a stray continuation byte, a truncated sequence, an overlong '/', a surrogate, beyond U+10FFFF, 0xFF.
-  EXPECT_EQ(DashboardJsonString("a\x80z"), R"("a\ufffdz")");
-  EXPECT_EQ(DashboardJsonString("a\xe2\x82"), R"("a\ufffd\ufffd")");
-  EXPECT_EQ(DashboardJsonString("\xc0\xaf"), R"("\ufffd\ufffd")");
-  EXPECT_EQ(DashboardJsonString("\xed\xa0\x80"), R"("\ufffd\ufffd\ufffd")");
-  EXPECT_EQ(DashboardJsonString("\xf4\x90\x80\x80"), R"("\ufffd\ufffd\ufffd\ufffd")");
-  EXPECT_EQ(DashboardJsonString("\xff"), R"("\ufffd")");
+  EXPECT_EQ(JsonString("a\x80z"), R"("a\ufffdz")");
+  EXPECT_EQ(JsonString("a\xe2\x82"), R"("a\ufffd\ufffd")");
+  EXPECT_EQ(JsonString("\xc0\xaf"), R"("\ufffd\ufffd")");
+  EXPECT_EQ(JsonString("\xed\xa0\x80"), R"("\ufffd\ufffd\ufffd")");
+  EXPECT_EQ(JsonString("\xf4\x90\x80\x80"), R"("\ufffd\ufffd\ufffd\ufffd")");
+  EXPECT_EQ(JsonString("\xff"), R"("\ufffd")");
   // What remains is valid UTF-8 and parses.
   EXPECT_EQ(RoundTrip("ok\xff"), "ok\xef\xbf\xbd");
 }
@@ -189,13 +196,101 @@ TEST(DashboardMessages, EventAndHello) {
 }
 
 TEST(DashboardMessages, PageRequests) {
+  using teleop::dds::DashboardRequest;
   using teleop::dds::ParseDashboardRequest;
-  EXPECT_EQ(ParseDashboardRequest("subscribe rig1"), std::optional<std::string>("rig1"));
-  EXPECT_EQ(ParseDashboardRequest("subscribe"), std::optional<std::string>(""));
-  for (const char* bad : {"", "subscribe ", "subscribe rig 1", "subscribe ../x", "subscribex", "subscribe 1rig",
-                          "subscribe a__b", "unsubscribe rig1", "subscribe rig1\n"})
+  const auto rig1 = ParseDashboardRequest("subscribe rig1");
+  ASSERT_TRUE(rig1);
+  EXPECT_EQ(rig1->kind, DashboardRequest::Kind::kSubscribe);
+  EXPECT_EQ(rig1->pair, "rig1");
+  const auto none = ParseDashboardRequest("subscribe");
+  ASSERT_TRUE(none);
+  EXPECT_EQ(none->pair, "");
+  const auto table = ParseDashboardRequest("table 150");
+  ASSERT_TRUE(table);
+  EXPECT_EQ(table->kind, DashboardRequest::Kind::kTable);
+  EXPECT_EQ(table->offset, 150U);
+  const auto command = ParseDashboardRequest(
+      "command 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef slave gain kp_N_per_m 300 0.5");
+  ASSERT_TRUE(command);
+  EXPECT_EQ(command->kind, DashboardRequest::Kind::kCommand);
+  EXPECT_EQ(command->role, "slave");
+  EXPECT_EQ(command->line, "gain kp_N_per_m 300 0.5");
+  for (const char* bad : {"",
+                          "subscribe ",
+                          "subscribe rig 1",
+                          "subscribe ../x",
+                          "subscribex",
+                          "subscribe 1rig",
+                          "subscribe a__b",
+                          "unsubscribe rig1",
+                          "subscribe rig1\n",
+                          "table",
+                          "table ",
+                          "table -1",
+                          "table 1e3",
+                          "table 1234567890",
+                          "table 5 ",
+                          "command",
+                          "command abc master clutch on",
+                          "command 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef master shutdown",
+                          "command 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef peer clutch on",
+                          "command 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef master clutch;on"})
     EXPECT_FALSE(ParseDashboardRequest(bad)) << "'" << bad << "'";
   EXPECT_FALSE(ParseDashboardRequest("subscribe " + std::string(65, 'a'))) << "longer than a pair name may be";
+}
+
+// One DOF limit (teleop::kMaxDof): a State carries the first kStateAxes axes (the IDL's arrays), which is no limit of
+// its own; a 12-DOF trace shows its first kStateAxes.
+TEST(DashboardMessages, StateAxesAreTheIdlArraysNotASecondDofLimit) {
+  static_assert(std::tuple_size_v<teleop::dds::StateTrace::Axes> == teleop::dds::kStateAxes);
+  EXPECT_LE(teleop::dds::kStateAxes, static_cast<std::size_t>(teleop::kMaxDof));
+  auto t = MakeTrace("rig1", "master");
+  t.dof = static_cast<std::uint8_t>(teleop::kMaxDof);
+  EXPECT_EQ(Array(ParseJson(teleop::dds::EncodeState(t, 0)), "position_m").size(), teleop::dds::kStateAxes);
+}
+
+// 2400 pairs once made a 698 KB table message ten times a second per page: the table goes out a page of rows at a
+// time (plus the page's own pair, wherever it sits), so a message's size does not grow with the domain.
+TEST(DashboardMessages, TheTableIsPagedAndCarriesThePagesOwnPair) {
+  std::vector<teleop::dds::ProcessView> views;
+  for (int i = 0; i < 2400; ++i) {
+    teleop::dds::ProcessView v;
+    v.pair = fmt::format("p{:04d}", i / 2);
+    v.role = i % 2 == 0 ? "master" : "slave";
+    v.age_s = 0.1;
+    views.push_back(v);
+  }
+  const std::string text = teleop::dds::EncodeProcesses(views, 1.0, 50, 50, "p1100");
+  EXPECT_LT(text.size(), 40'000U) << "52 rows, not 2400";
+  const pt::ptree m = ParseJson(text);
+  EXPECT_EQ(m.get<std::size_t>("total"), 2400U);
+  EXPECT_EQ(m.get<std::size_t>("offset"), 50U);
+  const auto& rows = m.get_child("processes");
+  ASSERT_EQ(rows.size(), 50U);
+  EXPECT_EQ(rows.begin()->second.get<std::string>("pair"), "p0025");
+  const auto& chosen = m.get_child("chosen");
+  ASSERT_EQ(chosen.size(), 2U);
+  EXPECT_EQ(chosen.begin()->second.get<std::string>("pair"), "p1100");
+  const pt::ptree past = ParseJson(teleop::dds::EncodeProcesses(views, 1.0, 5000, 50, ""));
+  EXPECT_EQ(past.get_child("processes").size(), 0U);
+  EXPECT_EQ(past.get_child("chosen").size(), 0U);
+}
+
+// DNS rebinding: a page of another site whose name was rebound to 127.0.0.1 sends its own name in Host.
+TEST(DashboardHost, OnlyTheBoundAddressLocalhostAndAllowedNames) {
+  using teleop::dds::HostHeaderAllowed;
+  const std::vector<std::string> none;
+  for (const char* ok : {"127.0.0.1:8080", "localhost:8080", "LocalHost:8080", "[::1]:8080", "127.0.0.2:8080"})
+    EXPECT_TRUE(HostHeaderAllowed(ok, "127.0.0.1", 8080, none)) << ok;
+  for (const char* bad :
+       {"evil.example:8080", "evil.example", "127.0.0.1:8081", "127.0.0.1", "127.0.0.1:", "", "10.0.0.5:8080",
+        "localhost.evil.example:8080", "[::1", "[::1]x", "::1:8080", "127.0.0.1:8080x", "127.0.0.1:99999999"})
+    EXPECT_FALSE(HostHeaderAllowed(bad, "127.0.0.1", 8080, none)) << "'" << bad << "'";
+  EXPECT_TRUE(HostHeaderAllowed("127.0.0.1", "127.0.0.1", 80, none)) << "no port means 80";
+  EXPECT_TRUE(HostHeaderAllowed("10.0.0.5:8080", "10.0.0.5", 8080, none));
+  EXPECT_TRUE(HostHeaderAllowed("10.0.0.5:8080", "0.0.0.0", 8080, none)) << "every interface: any address";
+  EXPECT_FALSE(HostHeaderAllowed("labpc:8080", "0.0.0.0", 8080, none)) << "a name only when allowed";
+  EXPECT_TRUE(HostHeaderAllowed("labpc:8080", "0.0.0.0", 8080, {"labpc"}));
 }
 
 TEST(DashboardEndpoint, ParsesPortAddressAndIpv6) {
@@ -233,13 +328,15 @@ DashboardServer::Config TestConfig() {
   return c;
 }
 
-http::response<http::string_body> Get(std::uint16_t port, const std::string& target,
-                                      http::verb verb = http::verb::get) {
+http::response<http::string_body> Get(std::uint16_t port, const std::string& target, http::verb verb = http::verb::get,
+                                      const std::string& host = "", const std::string& from = "127.0.0.1") {
   net::io_context io;
   tcp::socket socket(io);
+  socket.open(tcp::v4());
+  socket.bind({net::ip::make_address(from), 0});
   socket.connect({net::ip::make_address("127.0.0.1"), port});
   http::request<http::empty_body> request(verb, target, 11);
-  request.set(http::field::host, "127.0.0.1:" + std::to_string(port));
+  request.set(http::field::host, host.empty() ? "127.0.0.1:" + std::to_string(port) : host);
   request.keep_alive(false);
   http::write(socket, request);
   beast::flat_buffer buffer;
@@ -388,6 +485,10 @@ TEST(DashboardServer, AWebSocketFromAnotherSiteIsRefused) {
   DashboardServer server(TestConfig());
   EXPECT_THROW(Client(server.port(), "http://evil.example"), boost::system::system_error);
   EXPECT_EQ(server.stats().websocket_refused, 1U);
+  // The scheme counts too: the page is served over http only.
+  EXPECT_THROW(Client(server.port(), "https://127.0.0.1:" + std::to_string(server.port())),
+               boost::system::system_error);
+  EXPECT_EQ(server.stats().websocket_refused, 2U);
   Client own(server.port(), "http://127.0.0.1:" + std::to_string(server.port()));
   EXPECT_TRUE(own.ReadType("hello")) << "the server's own page may";
 }
@@ -434,6 +535,181 @@ TEST(DashboardServer, AFullQueueDropsAndCountsSamples) {
   const auto dropped = server.stats().samples_dropped;
   EXPECT_GT(dropped, 900U);
   EXPECT_LE(dropped, 990U);
+}
+
+TEST(DashboardServer, AForeignHostGets403EvenForThePage) {
+  DashboardServer server(TestConfig());
+  const std::string port = std::to_string(server.port());
+  EXPECT_EQ(Get(server.port(), "/", http::verb::get, "localhost:" + port).result(), http::status::ok);
+  const auto rebound = Get(server.port(), "/", http::verb::get, "evil.example:" + port);
+  EXPECT_EQ(rebound.result(), http::status::forbidden);
+  EXPECT_EQ(rebound.body().find("<html"), std::string::npos);
+  EXPECT_EQ(Get(server.port(), "/dashboard.js", http::verb::get, "evil.example:" + port).result(),
+            http::status::forbidden);
+  EXPECT_EQ(server.stats().requests_foreign_host, 2U);
+}
+
+// 32 connections that answered pings once held every new page off for good: one address gets at most
+// max_connections_per_peer, and a page that says nothing for page_idle_timeout_s is dropped.
+TEST(DashboardServer, OnePeerCannotTakeEveryConnection) {
+  auto config = TestConfig();
+  config.max_connections_per_peer = 3;
+  DashboardServer server(config);
+  net::io_context io;
+  std::vector<tcp::socket> held;
+  for (int i = 0; i < 3; ++i) {
+    held.emplace_back(io);
+    held.back().connect({net::ip::make_address("127.0.0.1"), server.port()});
+  }
+  // Accepted on the server thread: wait until it holds all three.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+  while (server.stats().connections_accepted < 3 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_THROW(Get(server.port(), "/"), boost::system::system_error) << "a fourth from the same address";
+  EXPECT_EQ(server.stats().connections_refused, 1U);
+  EXPECT_EQ(Get(server.port(), "/", http::verb::get, "", "127.0.0.2").result(), http::status::ok)
+      << "another address is still served";
+}
+
+TEST(DashboardServer, APageThatSaysNothingIsDropped) {
+  auto config = TestConfig();
+  config.page_idle_timeout_s = 0.3;
+  DashboardServer server(config);
+  Client silent(server.port());
+  Client talking(server.port());
+  ASSERT_TRUE(silent.ReadType("hello"));
+  ASSERT_TRUE(talking.ReadType("hello"));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+  while (server.stats().clients_dropped_idle == 0 && std::chrono::steady_clock::now() < deadline) {
+    talking.Send("subscribe rig1");
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(server.stats().clients_dropped_idle, 1U);
+  EXPECT_EQ(server.stats().websocket_clients, 1U) << "the page that speaks stays";
+}
+
+// A page opened mid-run showed empty plots: on subscribing it gets the pair's last history_s seconds at once (states
+// and events, oldest first), bounded in time and bytes, and nothing of other pairs.
+TEST(DashboardServer, ANewPageGetsThePairsHistoryAtOnce) {
+  auto config = TestConfig();
+  config.history_s = 10.0;
+  DashboardServer server(config);
+  for (int i = 0; i <= 200; ++i) {
+    const double t_s = 0.1 * i;
+    server.PublishState(MakeTrace("rig1", i % 2 == 0 ? "master" : "slave"), t_s);
+    server.PublishState(MakeTrace("rig2", "master"), t_s);
+  }
+  server.PublishEvent("rig1", "master", "overrun", 7, 0, 20.0);
+  // Queued for the server thread, which drains every 50 ms: wait until the event is in the history.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  Client client(server.port());
+  const auto hello = client.ReadType("hello");
+  ASSERT_TRUE(hello);
+  EXPECT_DOUBLE_EQ(hello->get<double>("history_s"), 10.0);
+  client.Send("subscribe rig1");
+  std::vector<double> times;
+  bool event = false;
+  while (const auto text = client.Read(std::chrono::milliseconds(500))) {
+    const pt::ptree m = ParseJson(*text);
+    const auto type = m.get<std::string>("type");
+    if (type == "state") {
+      EXPECT_EQ(m.get<std::string>("pair"), "rig1");
+      times.push_back(m.get<double>("t_s"));
+    }
+    if (type == "event") event = true;
+  }
+  ASSERT_FALSE(times.empty()) << "no history sent";
+  EXPECT_TRUE(event) << "the event is in the history";
+  EXPECT_NEAR(times.front(), 10.0, 0.05) << "the last 10 s, not more";
+  EXPECT_NEAR(times.back(), 20.0, 1e-9);
+  EXPECT_EQ(times.size(), 101U);
+  EXPECT_TRUE(std::is_sorted(times.begin(), times.end())) << "oldest first";
+}
+
+TEST(DashboardServer, TheHistoryIsBoundedInBytes) {
+  auto config = TestConfig();
+  config.history_s = 1e6;
+  config.history_bytes = 16 * 1024;
+  DashboardServer server(config);
+  for (int i = 0; i < 2000; ++i) server.PublishState(MakeTrace("rig1", "master"), 0.01 * i);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  Client client(server.port());
+  ASSERT_TRUE(client.ReadType("hello"));
+  client.Send("subscribe rig1");
+  std::size_t bytes = 0;
+  std::size_t states = 0;
+  while (const auto text = client.Read(std::chrono::milliseconds(500))) {
+    if (ParseJson(*text).get<std::string>("type") != "state") continue;
+    bytes += text->size();
+    ++states;
+  }
+  EXPECT_GT(states, 10U);
+  EXPECT_LE(bytes, 16U * 1024U);
+  EXPECT_LT(states, 2000U);
+}
+
+// Commands from the page (issue 30 item 3): only with a token configured (teleop-supervise --allow-commands), only
+// with that token, only the coupling commands, at a bounded rate; each goes to the process's command channel (here
+// a recording handler) and comes back, with who sent it, to every page of the pair.
+TEST(DashboardServer, CommandsNeedTheFlagAndTheTokenAndAreEvents) {
+  const std::string token(64, 'a');
+  const std::string command = "command " + token + " master clutch on";
+  {
+    DashboardServer server(TestConfig());  // no --allow-commands: read-only
+    Client page(server.port());
+    const auto hello = page.ReadType("hello");
+    ASSERT_TRUE(hello);
+    EXPECT_EQ(hello->get<std::string>("commands"), "false");
+    page.Send("subscribe rig1");
+    page.Send(command);
+    const auto reply = page.ReadType("command");
+    ASSERT_TRUE(reply);
+    EXPECT_NE(reply->get<std::string>("reply").find("commands are off"), std::string::npos);
+    EXPECT_EQ(server.stats().commands_forwarded, 0U);
+  }
+  std::mutex mutex;
+  std::vector<std::string> forwarded;
+  auto config = TestConfig();
+  config.command_token = token;
+  config.commands_per_s = 2.0;
+  config.command_handler = [&](const std::string& pair, const std::string& role, const std::string& line) {
+    const std::lock_guard<std::mutex> lock(mutex);
+    forwarded.push_back(pair + "/" + role + ": " + line);
+    return std::string("ok: ") + line;
+  };
+  DashboardServer server(config);
+  Client page(server.port());
+  Client watcher(server.port());
+  const auto hello = page.ReadType("hello");
+  ASSERT_TRUE(hello);
+  EXPECT_EQ(hello->get<std::string>("commands"), "true");
+  ASSERT_TRUE(watcher.ReadType("hello"));
+  watcher.Send("subscribe rig1");
+  page.Send("subscribe rig1");
+  page.Send("command " + std::string(64, 'b') + " master clutch on");
+  const auto wrong = page.ReadType("command");
+  ASSERT_TRUE(wrong);
+  EXPECT_EQ(wrong->get<std::string>("reply"), "error: wrong token");
+  page.Send("command " + token + " master shutdown");  // not a command a page may send: malformed
+  page.Send(command);
+  const auto done = watcher.ReadType("command");
+  ASSERT_TRUE(done) << "the other page of the pair sees the command";
+  EXPECT_EQ(done->get<std::string>("text"), "clutch on");
+  EXPECT_EQ(done->get<std::string>("reply"), "ok: clutch on");
+  EXPECT_EQ(done->get<std::string>("from").rfind("127.0.0.1:", 0), 0U) << "who sent it";
+  page.Send(command);
+  page.Send(command);  // the third within a second of two allowed per second
+  std::optional<pt::ptree> refused;
+  for (int i = 0; i < 5 && !refused; ++i) {
+    const auto m = page.ReadType("command");
+    if (m && m->get<std::string>("reply").rfind("error: more than", 0) == 0) refused = m;
+  }
+  EXPECT_TRUE(refused) << "over the rate";
+  const std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_EQ(forwarded.size(), 2U);
+  EXPECT_EQ(forwarded[0], "rig1/master: clutch on");
+  EXPECT_EQ(server.stats().commands_refused, 2U);
+  EXPECT_EQ(server.stats().requests_malformed, 1U);
 }
 
 }  // namespace

@@ -1,19 +1,26 @@
 // teleop-supervise: every master/slave pair on a DDS domain, live in the terminal, optionally recorded to a file
 // (docs/dds.md). Reads what the processes' DDS bridges publish; never talks to the processes otherwise.
+#include <sodium.h>
 #include <spdlog/spdlog.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <map>
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "teleop/dds/dashboard_server.hpp"
 #include "teleop/dds/process_view.hpp"
@@ -74,6 +81,32 @@ void AttachDashboard(teleop::dds::Supervisor::Observer& observer, teleop::dds::D
   };
 }
 
+/// One command line to a process's command socket (the one teleop-ctl uses) and its reply; at most 2 s each way.
+std::string ForwardCommand(const std::string& path, const std::string& line) {
+  sockaddr_un addr{};
+  if (path.size() >= sizeof(addr.sun_path)) return "error: command socket path too long";
+  addr.sun_family = AF_UNIX;
+  std::memcpy(addr.sun_path, path.c_str(), path.size());
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  if (fd < 0) return "error: no socket";
+  const timeval timeout{2, 0};
+  (void)::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof(timeout));
+  (void)::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &timeout, sizeof(timeout));
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {  // NOLINT
+    ::close(fd);
+    return "error: cannot connect to the process's command socket " + path;
+  }
+  const std::string text = line + "\n";
+  (void)::send(fd, text.data(), text.size(), MSG_NOSIGNAL);
+  std::string reply;
+  char buf[512];
+  for (ssize_t n = 0; reply.size() < 4096 && (n = ::recv(fd, buf, sizeof(buf), 0)) > 0;)
+    reply.append(buf, static_cast<std::size_t>(n));
+  ::close(fd);
+  while (!reply.empty() && (reply.back() == '\n' || reply.back() == '\r')) reply.pop_back();
+  return reply.empty() ? "error: no reply from the process" : reply;
+}
+
 bool EndsWith(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
@@ -110,6 +143,27 @@ int Run(int argc, char** argv) {
   app.add_option("--http", http,
                  "Serve the live dashboard on [ADDRESS:]PORT (ADDRESS 127.0.0.1 unless given, e.g. 127.0.0.1:8080)");
   app.add_option("--http-dygraphs", dygraphs_dir, "Where dygraph.min.js is (libjs-dygraphs)")->capture_default_str();
+  std::vector<std::string> allowed_hosts;
+  app.add_option("--http-allow-host", allowed_hosts,
+                 "A host name the dashboard answers to besides its address and localhost (repeatable; any other "
+                 "name in Host is refused, against DNS rebinding)");
+  bool allow_commands = false;
+  app.add_flag("--allow-commands", allow_commands,
+               "Let the dashboard send clutch, fixture, stiffness, gain and plane commands to the processes named "
+               "with --command-socket (a page needs the token printed at start)");
+  std::vector<std::string> command_socket_args;
+  app.add_option("--command-socket", command_socket_args,
+                 "PAIR/ROLE=PATH: the command socket of a process (its --command-socket), repeatable");
+  double history_s = teleop::dds::DashboardServer::kDefaultHistory_s;
+  app.add_option("--http-history", history_s,
+                 "Seconds of each pair's traces and events the dashboard keeps and shows a page that opens")
+      ->check(CLI::Range(0.0, 3600.0))
+      ->capture_default_str();
+  std::size_t max_pairs = teleop::dds::Supervisor::Config{}.max_pairs;
+  app.add_option("--max-pairs", max_pairs,
+                 "Follow at most this many pairs (the first discovered); further ones are counted and ignored")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{100000}))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   spdlog::set_pattern("[%H:%M:%S.%e] [teleop-supervise] [%^%l%$] %v");
 
@@ -124,11 +178,41 @@ int Run(int argc, char** argv) {
       return static_cast<double>(teleop::runtime::MonotonicNowNs() - start_ns) * 1e-9;
     };
     std::optional<teleop::dds::DashboardServer> dashboard;
+    if (allow_commands && http.empty()) throw teleop::Error("--allow-commands needs --http (the dashboard)");
+    std::map<std::string, std::string> command_sockets;  // "pair/role" -> path
+    for (const std::string& arg : command_socket_args) {
+      const std::size_t eq = arg.find('=');
+      const std::size_t slash = arg.find('/');
+      if (eq == std::string::npos || slash == std::string::npos || slash > eq || eq + 1 == arg.size())
+        throw teleop::Error("--command-socket '" + arg + "': expected PAIR/ROLE=PATH (e.g. rigA/master=/run/m.sock)");
+      command_sockets[arg.substr(0, eq)] = arg.substr(eq + 1);
+    }
     if (!http.empty()) {
       teleop::dds::DashboardServer::Config config;
       config.endpoint = teleop::dds::ParseHttpEndpoint(http);
       config.dygraphs_dir = dygraphs_dir;
+      config.allowed_hosts = allowed_hosts;
+      config.history_s = history_s;
+      if (allow_commands) {
+        if (sodium_init() < 0) throw teleop::Error("libsodium failed to initialise");
+        std::array<unsigned char, 32> key{};
+        randombytes_buf(key.data(), key.size());
+        std::array<char, 65> hex{};
+        sodium_bin2hex(hex.data(), hex.size(), key.data(), key.size());
+        config.command_token = hex.data();
+        config.command_handler = [command_sockets](const std::string& pair, const std::string& role,
+                                                   const std::string& line) {
+          const auto it = command_sockets.find(pair + "/" + role);
+          if (it == command_sockets.end())
+            return "error: no --command-socket " + pair + "/" + role + "=PATH given to teleop-supervise";
+          return ForwardCommand(it->second, line);
+        };
+      }
       dashboard.emplace(config);
+      if (allow_commands)
+        std::cout << "dashboard commands allowed: open http://" << config.endpoint.address << ":" << dashboard->port()
+                  << "/#token=" << config.command_token << "\n"
+                  << std::flush;
     }
     teleop::dds::Supervisor::Observer observer;
     if (recorder) {
@@ -137,7 +221,11 @@ int Run(int argc, char** argv) {
       observer.on_summary = [&](const teleop::dds::ProcessView& v) { recorder->Summary(v, since_start_s()); };
     }
     if (dashboard) AttachDashboard(observer, *dashboard, since_start_s);
-    teleop::dds::Supervisor supervisor({domain_id, stale_after_s}, observer);
+    teleop::dds::Supervisor::Config supervisor_config;
+    supervisor_config.domain_id = domain_id;
+    supervisor_config.stale_after_s = stale_after_s;
+    supervisor_config.max_pairs = max_pairs;
+    teleop::dds::Supervisor supervisor(supervisor_config, observer);
 
     struct sigaction action {};
     action.sa_handler = HandleStopSignal;
@@ -174,9 +262,14 @@ int Run(int argc, char** argv) {
     }
     if (dashboard) {
       const auto st = dashboard->stats();
-      spdlog::info("dashboard: {} connections ({} refused), {} clients dropped as too slow, {} samples dropped",
-                   st.connections_accepted, st.connections_refused, st.clients_dropped_slow, st.samples_dropped);
+      spdlog::info(
+          "dashboard: {} connections ({} refused), {} requests for a foreign Host, {} clients dropped as too slow, "
+          "{} as idle, {} samples dropped",
+          st.connections_accepted, st.connections_refused, st.requests_foreign_host, st.clients_dropped_slow,
+          st.clients_dropped_idle, st.samples_dropped);
     }
+    if (supervisor.topics_ignored() > 0)
+      spdlog::warn("{} topics of pairs beyond --max-pairs {} were ignored", supervisor.topics_ignored(), max_pairs);
     if (recorder && !recorder->ok()) throw teleop::Error("writing the record file '" + record_path + "' failed");
     return 0;
   } catch (const teleop::Error& e) {

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <optional>
 #include <thread>
+#include <type_traits>
 
 #include "dds_entities.hpp"
 #include "teleop/dds/topic_names.hpp"
@@ -36,12 +37,13 @@ builtin_interfaces_msg_dds__Time_ WallClockNow() noexcept {
   return {static_cast<int32_t>(ts.tv_sec), static_cast<uint32_t>(ts.tv_nsec)};
 }
 
-/// The IDL's State arrays hold 6 axes (one Cartesian device); a pair of more DOF (up to kMaxDof, 12) shows its first
-/// 6 on DDS (docs/dds.md); the full vectors are in the telemetry CSV.
-void CopyArray(const double (&in)[kMaxDof], double (&out)[6]) noexcept {
-  static_assert(kMaxDof >= 6, "the IDL arrays hold 6 entries");
-  std::copy(std::begin(in), std::begin(in) + 6, std::begin(out));
+/// The IDL's State arrays hold kStateAxes axes (one Cartesian device); a pair of more DOF (up to kMaxDof) shows its
+/// first kStateAxes on DDS (docs/dds.md); the full vectors are in the telemetry CSV.
+void CopyArray(const double (&in)[kMaxDof], double (&out)[kStateAxes]) noexcept {
+  std::copy(std::begin(in), std::begin(in) + kStateAxes, std::begin(out));
 }
+static_assert(std::extent_v<decltype(teleop_msgs_msg_dds__State_::position_m)> == kStateAxes,
+              "kStateAxes is the IDL's State array size");
 
 /// DDS wants `char*` in the generated structs; it only reads them while writing.
 char* Text(const std::string& s) noexcept { return const_cast<char*>(s.c_str()); }  // NOLINT

@@ -2,6 +2,7 @@
 // of its own. Everything below the Publish* functions runs on that thread only, so the sessions need no locks.
 #include "teleop/dds/dashboard_server.hpp"
 
+#include <sodium.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -10,7 +11,9 @@
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wnull-dereference"
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
+#include <boost/asio/thread_pool.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
@@ -19,6 +22,7 @@
 #include <deque>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <sstream>
@@ -26,6 +30,7 @@
 
 #include "dashboard_assets.hpp"
 #include "teleop/dds/dashboard_messages.hpp"
+#include "teleop/dds/log_limiter.hpp"
 #include "teleop/error.hpp"
 #include "teleop/runtime/background_thread.hpp"
 
@@ -43,6 +48,7 @@ constexpr auto kTick = std::chrono::milliseconds(50);
 constexpr auto kHttpTimeout = std::chrono::seconds(10);
 constexpr std::uint32_t kHeaderLimit = 8192;
 constexpr std::size_t kPageMessageMax = 256;
+constexpr std::size_t kHistoryPairs = 256;  // pairs with a history at most (the supervisor follows 64 by default)
 
 std::optional<std::string> ReadFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -52,15 +58,58 @@ std::optional<std::string> ReadFile(const std::string& path) {
   return s.str();
 }
 
-/// "host[:port]" of an Origin header ("http://host:port") or of a Host header ("host:port").
-std::string_view OriginAuthority(std::string_view origin) {
-  const std::size_t scheme = origin.find("://");
-  if (scheme != std::string_view::npos) origin.remove_prefix(scheme + 3);
-  const std::size_t path = origin.find('/');
-  return origin.substr(0, path);
+constexpr std::int64_t kLogInterval_ns = 10'000'000'000;  // lines a client can cause: at most one per 10 s each
+
+std::int64_t NowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
 }
 
+bool IEquals(std::string_view a, std::string_view b) {
+  return beast::iequals(beast::string_view(a.data(), a.size()), beast::string_view(b.data(), b.size()));
+}
+
+bool IsLocalhostName(std::string_view name) { return IEquals(name, "localhost") || IEquals(name, "localhost."); }
+
 }  // namespace
+
+bool HostHeaderAllowed(std::string_view host, const std::string& bound_address, std::uint16_t bound_port,
+                       const std::vector<std::string>& allowed_hosts) {
+  std::string_view name = host;
+  std::string_view port_text;
+  if (!host.empty() && host.front() == '[') {
+    const std::size_t close = host.find(']');
+    if (close == std::string_view::npos) return false;
+    name = host.substr(1, close - 1);
+    const std::string_view rest = host.substr(close + 1);
+    if (!rest.empty()) {
+      if (rest.front() != ':') return false;
+      port_text = rest.substr(1);
+      if (port_text.empty()) return false;
+    }
+  } else if (const std::size_t colon = host.find(':'); colon != std::string_view::npos) {
+    name = host.substr(0, colon);
+    port_text = host.substr(colon + 1);
+    if (port_text.empty()) return false;
+  }
+  if (name.empty()) return false;
+  if (port_text.empty()) {
+    if (bound_port != 80) return false;
+  } else if (port_text.size() > 5 || port_text.find_first_not_of("0123456789") != std::string_view::npos ||
+             std::stoul(std::string(port_text)) != bound_port) {
+    return false;
+  }
+  if (IsLocalhostName(name)) return true;
+  for (const std::string& allowed : allowed_hosts)
+    if (IEquals(name, allowed)) return true;
+  boost::system::error_code ec;
+  const auto address = net::ip::make_address(std::string(name), ec);
+  if (ec) return false;  // a name: only localhost and the allowed ones (a rebound name must not reach us)
+  if (host.front() != '[' && address.is_v6()) return false;
+  const auto bound = net::ip::make_address(bound_address, ec);
+  if (ec) return false;
+  return address == bound || address.is_loopback() || bound.is_unspecified();
+}
 
 HttpEndpoint ParseHttpEndpoint(std::string_view text) {
   const std::string shown(text);
@@ -97,33 +146,59 @@ struct ServerState {
   std::string dygraph_js;
   std::string dygraph_css;
   bool have_dygraphs = false;
-  std::shared_ptr<const std::string> latest_processes;  ///< Sent to a client as soon as it connects.
-  std::vector<std::weak_ptr<WsSession>> clients;        ///< Server thread only.
-  std::atomic<std::uint64_t> connections{0};            ///< Open HTTP + WebSocket connections.
+  std::uint16_t bound_port = 0;
+  /// The newest process table (sorted by pair, role) and its time; a client gets its rows as soon as it connects.
+  std::shared_ptr<const std::vector<ProcessView>> latest_views;
+  double latest_views_t_s = 0.0;
+  std::vector<std::weak_ptr<WsSession>> clients;  ///< Server thread only.
+  /// The last seconds of each pair's state and event messages, already encoded (server thread only): a page that
+  /// subscribes gets them at once. Bounded by Config::history_s and history_bytes per pair, and kHistoryPairs pairs.
+  struct PairHistory {
+    std::deque<std::pair<double, std::shared_ptr<const std::string>>> messages;  ///< (t_s, message), oldest first.
+    std::size_t bytes = 0;
+  };
+  std::map<std::string, PairHistory> history;
+  std::map<std::string, std::size_t> per_peer;  ///< Open connections by remote address; server thread only.
+  LogLimiter drop_log{kLogInterval_ns};         ///< Server thread only.
+  std::atomic<std::uint64_t> connections{0};    ///< Open HTTP + WebSocket connections.
   std::atomic<std::uint64_t> connections_accepted{0};
   std::atomic<std::uint64_t> connections_refused{0};
+  std::atomic<std::uint64_t> requests_foreign_host{0};
   std::atomic<std::uint64_t> websocket_clients{0};
   std::atomic<std::uint64_t> clients_dropped_slow{0};
+  std::atomic<std::uint64_t> clients_dropped_idle{0};
   std::atomic<std::uint64_t> websocket_refused{0};
   std::atomic<std::uint64_t> requests_malformed{0};
   std::atomic<std::uint64_t> messages_sent{0};
+  std::atomic<std::uint64_t> commands_forwarded{0};
+  std::atomic<std::uint64_t> commands_refused{0};
+  net::io_context* io = nullptr;             ///< The server's, to post command replies back to its thread.
+  net::thread_pool* command_pool = nullptr;  ///< One thread: the command handler runs there, one at a time.
+  LogLimiter refuse_log{kLogInterval_ns};    ///< Server thread only.
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
 };
 
-/// Counts one open connection for as long as it lives.
+/// Counts one open connection, in all and of its peer address, for as long as it lives (server thread).
 class ConnectionSlot {
  public:
-  explicit ConnectionSlot(ServerState& s) : s_(&s) { s_->connections.fetch_add(1); }
-  ~ConnectionSlot() {
-    if (s_ != nullptr) s_->connections.fetch_sub(1);
+  ConnectionSlot(ServerState& s, std::string peer) : s_(&s), peer_(std::move(peer)) {
+    s_->connections.fetch_add(1);
+    ++s_->per_peer[peer_];
   }
-  ConnectionSlot(ConnectionSlot&& other) noexcept : s_(other.s_) { other.s_ = nullptr; }
+  ~ConnectionSlot() {
+    if (s_ == nullptr) return;
+    s_->connections.fetch_sub(1);
+    const auto it = s_->per_peer.find(peer_);
+    if (it != s_->per_peer.end() && --it->second == 0) s_->per_peer.erase(it);
+  }
+  ConnectionSlot(ConnectionSlot&& other) noexcept : s_(other.s_), peer_(std::move(other.peer_)) { other.s_ = nullptr; }
   ConnectionSlot(const ConnectionSlot&) = delete;
   ConnectionSlot& operator=(const ConnectionSlot&) = delete;
   ConnectionSlot& operator=(ConnectionSlot&&) = delete;
 
  private:
   ServerState* s_;
+  std::string peer_;
 };
 
 /// One WebSocket client: a bounded queue of encoded messages, written one at a time.
@@ -155,8 +230,10 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   void Send(const std::shared_ptr<const std::string>& message) {
     if (!open_) return;
     if (queued_bytes_ + message->size() > s_.config.client_queue_bytes) {
-      spdlog::warn("dashboard: client {} is {} bytes behind (limit {}): dropped", peer_, queued_bytes_,
-                   s_.config.client_queue_bytes);
+      std::uint64_t suppressed = 0;
+      if (s_.drop_log.Allow(NowNs(), suppressed))
+        spdlog::warn("dashboard: client {} is {} bytes behind (limit {}): dropped ({} more dropped in the last {} s)",
+                     peer_, queued_bytes_, s_.config.client_queue_bytes, suppressed, kLogInterval_ns / 1'000'000'000);
       Close();
       s_.clients_dropped_slow.fetch_add(1);  // after Close: whoever sees the drop sees the client gone too
       return;
@@ -168,7 +245,17 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
 
   /// The pair this client's page asked for ("" = none).
   const std::string& pair() const { return pair_; }
+  /// The first row of the process table this client's page shows.
+  std::size_t table_offset() const { return table_offset_; }
   bool open() const { return open_; }
+
+  /// Drops the client when its page sent nothing for page_idle_timeout_s (server thread).
+  void DropIfIdle(std::int64_t now_ns) {
+    if (!open_) return;
+    if (static_cast<double>(now_ns - last_heard_ns_) * 1e-9 <= s_.config.page_idle_timeout_s) return;
+    Close();
+    s_.clients_dropped_idle.fetch_add(1);
+  }
 
  private:
   void OnAccept(beast::error_code ec) {
@@ -180,8 +267,12 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     peer_ = remote.address().to_string(ignored) + ":" + std::to_string(remote.port());
     s_.clients.push_back(weak_from_this());
     const double t_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - s_.start).count();
-    Send(std::make_shared<const std::string>(EncodeHello(t_s)));
-    if (s_.latest_processes) Send(s_.latest_processes);
+    Send(std::make_shared<const std::string>(EncodeHello(
+        t_s, s_.config.history_s, !s_.config.command_token.empty() && static_cast<bool>(s_.config.command_handler))));
+    last_heard_ns_ = NowNs();
+    if (s_.latest_views)
+      Send(std::make_shared<const std::string>(
+          EncodeProcesses(*s_.latest_views, s_.latest_views_t_s, 0, s_.config.table_rows, {})));
     Read();
   }
 
@@ -196,12 +287,73 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     }
     const std::string text = beast::buffers_to_string(in_.data());
     in_.consume(in_.size());
-    if (auto pair = ParseDashboardRequest(text)) {
-      pair_ = std::move(*pair);
+    if (auto request = ParseDashboardRequest(text)) {
+      last_heard_ns_ = NowNs();
+      if (request->kind == DashboardRequest::Kind::kTable) {
+        table_offset_ = request->offset;
+      } else if (request->kind == DashboardRequest::Kind::kCommand) {
+        Command(*request);
+      } else if (request->pair != pair_) {
+        pair_ = std::move(request->pair);
+        // The pair's last seconds first: a page opened mid-run shows them at once.
+        if (const auto h = s_.history.find(pair_); h != s_.history.end())
+          for (const auto& entry : h->second.messages) Send(entry.second);
+      }
     } else {
       s_.requests_malformed.fetch_add(1);
     }
     Read();
+  }
+
+  /// A command from this page: refused (and said so) unless commands are on, the token matches, a pair is chosen and
+  /// the page is within its rate; else handed to the command thread, and the reply, with who sent it, goes to every
+  /// page of the pair and to the log.
+  void Command(const DashboardRequest& request) {
+    const double t_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - s_.start).count();
+    std::string refusal;
+    const std::string& token = s_.config.command_token;
+    if (token.empty() || !s_.config.command_handler) {
+      refusal = "error: commands are off (teleop-supervise --allow-commands)";
+    } else if (request.token.size() != token.size() ||
+               sodium_memcmp(request.token.data(), token.data(), token.size()) != 0) {
+      refusal = "error: wrong token";
+    } else if (pair_.empty()) {
+      refusal = "error: no pair chosen";
+    } else {
+      const double per_s = s_.config.commands_per_s;
+      command_credit_ = std::min(per_s, command_credit_ + (t_s - command_t_s_) * per_s);
+      command_t_s_ = t_s;
+      if (command_credit_ < 1.0) {
+        refusal = "error: more than " + std::to_string(static_cast<int>(per_s)) + " commands per second";
+      } else {
+        command_credit_ -= 1.0;
+      }
+    }
+    if (!refusal.empty()) {
+      s_.commands_refused.fetch_add(1);
+      std::uint64_t suppressed = 0;
+      if (s_.refuse_log.Allow(NowNs(), suppressed))
+        spdlog::warn("dashboard: command from {} refused: {} ({} more refused in the last {} s)", peer_, refusal,
+                     suppressed, kLogInterval_ns / 1'000'000'000);
+      Send(std::make_shared<const std::string>(EncodeCommand(pair_, request.role, request.line, peer_, refusal, t_s)));
+      return;
+    }
+    s_.commands_forwarded.fetch_add(1);
+    ServerState& s = s_;
+    net::post(*s_.command_pool, [&s, pair = pair_, role = request.role, line = request.line, from = peer_, t_s] {
+      std::string reply;
+      try {
+        reply = s.config.command_handler(pair, role, line);
+      } catch (const std::exception& e) {
+        reply = std::string("error: ") + e.what();
+      }
+      net::post(*s.io, [&s, pair, role, line, from, reply, t_s] {
+        spdlog::info("dashboard: command from {} to {}/{}: '{}' -> {}", from, pair, role, line, reply);
+        const auto message = std::make_shared<const std::string>(EncodeCommand(pair, role, line, from, reply, t_s));
+        for (const auto& weak : s.clients)
+          if (const auto c = weak.lock(); c && c->open() && c->pair() == pair) c->Send(message);
+      });
+    });
   }
 
   void Write() {
@@ -245,6 +397,10 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   bool writing_ = false;
   bool open_ = false;
   std::string pair_;
+  std::size_t table_offset_ = 0;
+  double command_credit_ = 1e9;  ///< Commands this page may still send now (clamped to commands_per_s).
+  double command_t_s_ = 0.0;
+  std::int64_t last_heard_ns_ = 0;
   std::string peer_;
 };
 
@@ -274,6 +430,13 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       return;
     }
     http::request<http::empty_body> request = parser_->release();
+    if (!OwnHost(request)) {
+      s_.requests_foreign_host.fetch_add(1);
+      request.keep_alive(false);
+      Respond(request, http::status::forbidden, "text/plain; charset=utf-8",
+              "this server answers only to its own address (Host): open it by its address or localhost\n");
+      return;
+    }
     if (websocket::is_upgrade(request)) {
       if (request.target() != "/ws" || !SameOrigin(request)) {
         s_.websocket_refused.fetch_add(1);
@@ -309,8 +472,19 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     }
   }
 
+  /// Host names this server (DNS rebinding: a page of another site whose name now resolves to this address sends
+  /// that name). HTTP/1.1 requires Host.
+  bool OwnHost(const http::request<http::empty_body>& request) const {
+    const auto host = request.find(http::field::host);
+    if (host == request.end()) return false;
+    const auto h = host->value();
+    return HostHeaderAllowed(std::string_view(h.data(), h.size()), s_.config.endpoint.address, s_.bound_port,
+                             s_.config.allowed_hosts);
+  }
+
   /// A browser names the page that opens a WebSocket in Origin: only this server's own page may (another site open
-  /// in the same browser must not read the telemetry). A client that is not a browser sends no Origin.
+  /// in the same browser must not read the telemetry), and it is served over http: exactly "http://" + Host. A
+  /// client that is not a browser sends no Origin.
   static bool SameOrigin(const http::request<http::empty_body>& request) {
     const auto origin = request.find(http::field::origin);
     if (origin == request.end()) return true;
@@ -318,7 +492,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     if (host == request.end()) return false;
     const auto o = origin->value();
     const auto h = host->value();
-    return OriginAuthority(std::string_view(o.data(), o.size())) == std::string_view(h.data(), h.size());
+    return IEquals(std::string_view(o.data(), o.size()), "http://" + std::string(h.data(), h.size()));
   }
 
   void Respond(const http::request<http::empty_body>& request, http::status status, const char* type,
@@ -375,6 +549,8 @@ struct DashboardServer::Impl {
 
   explicit Impl(Config config) {
     state.config = std::move(config);
+    state.io = &io;
+    state.command_pool = &command_pool;
     const std::string dir = state.config.dygraphs_dir;
     auto js = ReadFile(dir + "/dygraph.min.js");
     auto css = ReadFile(dir + "/dygraph.min.css");
@@ -398,6 +574,7 @@ struct DashboardServer::Impl {
     if (acceptor.bind(endpoint, ec)) fail("listen on");
     if (acceptor.listen(net::socket_base::max_listen_connections, ec)) fail("listen on");
     bound_port = acceptor.local_endpoint(ec).port();
+    state.bound_port = bound_port;
 
     Accept();
     Tick();
@@ -412,6 +589,7 @@ struct DashboardServer::Impl {
   }
 
   ~Impl() {
+    command_pool.join();  // a command in flight completes; its reply is posted to the io, stopped next
     io.stop();
     if (thread.joinable()) thread.join();
   }
@@ -422,13 +600,17 @@ struct DashboardServer::Impl {
     acceptor.async_accept([this](beast::error_code ec, tcp::socket socket) {
       if (ec == net::error::operation_aborted) return;
       if (!ec) {
-        if (state.connections.load() >= state.config.max_connections) {
+        boost::system::error_code ignored;
+        std::string peer = socket.remote_endpoint(ignored).address().to_string(ignored);
+        const auto mine = state.per_peer.find(peer);
+        const std::size_t of_peer = mine == state.per_peer.end() ? 0 : mine->second;
+        if (state.connections.load() >= state.config.max_connections ||
+            of_peer >= state.config.max_connections_per_peer) {
           state.connections_refused.fetch_add(1);
-          boost::system::error_code ignored;
           socket.close(ignored);
         } else {
           state.connections_accepted.fetch_add(1);
-          std::make_shared<HttpSession>(std::move(socket), state, ConnectionSlot(state))->Read();
+          std::make_shared<HttpSession>(std::move(socket), state, ConnectionSlot(state, std::move(peer)))->Read();
         }
       }
       Accept();
@@ -462,29 +644,61 @@ struct DashboardServer::Impl {
                                    return !s || !s->open();
                                  }),
                   clients.end());
+    const std::int64_t now_ns = NowNs();
+    ForEachClient([&](WsSession& c) { c.DropIfIdle(now_ns); });
     if (processes) {
-      state.latest_processes =
-          std::make_shared<const std::string>(EncodeProcesses(processes->first, processes->second));
-      ForEachClient([&](WsSession& c) { c.Send(state.latest_processes); });
+      state.latest_views = std::make_shared<const std::vector<ProcessView>>(std::move(processes->first));
+      state.latest_views_t_s = processes->second;
+      // Each page gets its rows of the table and its pair's: encoded once per distinct (offset, pair).
+      std::map<std::pair<std::size_t, std::string>, std::shared_ptr<const std::string>> encoded;
+      ForEachClient([&](WsSession& c) {
+        auto& message = encoded[{c.table_offset(), c.pair()}];
+        if (!message)
+          message = std::make_shared<const std::string>(EncodeProcesses(
+              *state.latest_views, state.latest_views_t_s, c.table_offset(), state.config.table_rows, c.pair()));
+        c.Send(message);
+      });
     }
     for (const auto& entry : states) {
       const StateTrace& trace = entry.first;  // not a structured binding: a lambda captures it below
       const double t_s = entry.second;
-      std::shared_ptr<const std::string> message;
+      const auto message = std::make_shared<const std::string>(EncodeState(trace, t_s));
+      Remember(trace.pair, t_s, message);
       ForEachClient([&](WsSession& c) {
-        if (c.pair() != trace.pair) return;
-        if (!message) message = std::make_shared<const std::string>(EncodeState(trace, t_s));
-        c.Send(message);
+        if (c.pair() == trace.pair) c.Send(message);
       });
     }
     for (const PendingEvent& e : events) {
-      std::shared_ptr<const std::string> message;
+      const auto message =
+          std::make_shared<const std::string>(EncodeEvent(e.pair, e.role, e.kind, e.cycle, e.value, e.t_s));
+      Remember(e.pair, e.t_s, message);
       ForEachClient([&](WsSession& c) {
-        if (c.pair() != e.pair) return;
-        if (!message)
-          message = std::make_shared<const std::string>(EncodeEvent(e.pair, e.role, e.kind, e.cycle, e.value, e.t_s));
-        c.Send(message);
+        if (c.pair() == e.pair) c.Send(message);
       });
+    }
+  }
+
+  /// Appends to the pair's history and trims it to history_s and history_bytes; past kHistoryPairs pairs, the one
+  /// whose newest message is oldest is forgotten.
+  void Remember(const std::string& pair, double t_s, const std::shared_ptr<const std::string>& message) {
+    if (state.config.history_s <= 0.0) return;
+    auto& history = state.history;
+    if (history.find(pair) == history.end() && history.size() >= kHistoryPairs) {
+      auto oldest = history.begin();
+      for (auto it = history.begin(); it != history.end(); ++it) {
+        const double newest = it->second.messages.empty() ? -1e300 : it->second.messages.back().first;
+        const double oldest_newest = oldest->second.messages.empty() ? -1e300 : oldest->second.messages.back().first;
+        if (newest < oldest_newest) oldest = it;
+      }
+      history.erase(oldest);
+    }
+    ServerState::PairHistory& h = history[pair];
+    h.messages.emplace_back(t_s, message);
+    h.bytes += message->size();
+    while (!h.messages.empty() &&
+           (h.messages.front().first < t_s - state.config.history_s || h.bytes > state.config.history_bytes)) {
+      h.bytes -= h.messages.front().second->size();
+      h.messages.pop_front();
     }
   }
 
@@ -507,6 +721,7 @@ struct DashboardServer::Impl {
 
   ServerState state;  // before io: the sessions the io_context still holds refer to it when it is destroyed
   net::io_context io{1};
+  net::thread_pool command_pool{1};
   tcp::acceptor acceptor{io};
   net::steady_timer timer{io};
   std::uint16_t bound_port = 0;
@@ -554,11 +769,15 @@ DashboardServer::Stats DashboardServer::stats() const {
   Stats out;
   out.connections_accepted = s.connections_accepted.load();
   out.connections_refused = s.connections_refused.load();
+  out.requests_foreign_host = s.requests_foreign_host.load();
+  out.clients_dropped_idle = s.clients_dropped_idle.load();
   out.websocket_clients = s.websocket_clients.load();
   out.clients_dropped_slow = s.clients_dropped_slow.load();
   out.websocket_refused = s.websocket_refused.load();
   out.requests_malformed = s.requests_malformed.load();
   out.messages_sent = s.messages_sent.load();
+  out.commands_forwarded = s.commands_forwarded.load();
+  out.commands_refused = s.commands_refused.load();
   {
     const std::lock_guard<std::mutex> lock(impl_->mutex);
     out.samples_dropped = impl_->samples_dropped;

@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include "dds_entities.hpp"
+#include "teleop/dds/log_limiter.hpp"
 #include "teleop/dds/topic_names.hpp"
 #include "teleop/error.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
@@ -20,6 +21,8 @@ namespace teleop::dds {
 namespace {
 
 constexpr std::uint32_t kTakeBatch = 32;
+/// Lines about what the domain sends (foreign types, pairs over the bound): at most one per this interval each.
+constexpr std::int64_t kDomainLogInterval_ns = 10'000'000'000;
 
 /// dds_take with loaned samples; calls `each(sample, info)` for every sample, then returns the loan.
 template <typename Sample, typename Each>
@@ -50,7 +53,7 @@ StateTrace TraceOf(const teleop_msgs_msg_dds__State_& s, const ProcessView& v) {
   t.time_s = s.time_s;
   t.engagement = v.engagement;
   t.device_faults = s.device_faults;
-  t.dof = std::min<std::uint8_t>(s.dof, StateTrace::kMaxDof);
+  t.dof = static_cast<std::uint8_t>(std::min<std::size_t>(s.dof, kStateAxes));
   for (std::size_t i = 0; i < t.dof; ++i) {
     t.position_m[i] = s.position_m[i];
     t.peer_position_m[i] = s.peer_position_m[i];
@@ -102,11 +105,24 @@ struct Supervisor::Impl {
   std::map<std::tuple<std::string, std::string>, ProcessView> views;  ///< By (pair, role).
   std::map<std::tuple<std::string, std::string>, Readers> readers;
   std::set<std::string> subscribed;  ///< Topic names with a reader.
+  std::set<std::string> pairs;       ///< Pairs followed (at most config.max_pairs).
+  std::uint64_t topics_ignored = 0;
+  LogLimiter type_log{kDomainLogInterval_ns};
+  LogLimiter bound_log{kDomainLogInterval_ns};
 };
 
 void Supervisor::Impl::Subscribe(const TopicParts& parts) {
   const std::string name = TopicName(parts.pair, parts.role, parts.leaf);
   if (subscribed.count(name) != 0) return;
+  if (pairs.count(parts.pair) == 0 && pairs.size() >= config.max_pairs) {
+    ++topics_ignored;
+    std::uint64_t suppressed = 0;
+    if (bound_log.Allow(runtime::MonotonicNowNs(), suppressed))
+      spdlog::warn("dds: {} ignored: already following {} pairs (--max-pairs); {} topics ignored so far", name,
+                   config.max_pairs, topics_ignored);
+    return;
+  }
+  pairs.insert(parts.pair);
   const dds_topic_descriptor_t* type = &teleop_msgs_msg_dds__State__desc;
   WriterQos qos_kind = WriterQos::kState;
   if (parts.leaf == kEventsLeaf) {
@@ -145,7 +161,11 @@ void Supervisor::Impl::Discover() {
                                           : parts->leaf == kEventsLeaf ? kEventTypeName
                                                                        : kSummaryTypeName;
         if (type != expected) {
-          spdlog::warn("dds: {} carries type '{}', expected '{}': ignored", Str(e.topic_name), type, expected);
+          std::uint64_t suppressed = 0;
+          if (type_log.Allow(runtime::MonotonicNowNs(), suppressed))
+            spdlog::warn("dds: {} carries type '{}', expected '{}': ignored ({} more such topics in the last {} s)",
+                         SafeText(Str(e.topic_name)), SafeText(type), expected, suppressed,
+                         kDomainLogInterval_ns / 1'000'000'000);
           return;
         }
         found.push_back(std::move(*parts));
@@ -253,5 +273,7 @@ std::vector<ProcessView> Supervisor::Snapshot(std::int64_t now_ns) const {
   }
   return out;
 }
+
+std::uint64_t Supervisor::topics_ignored() const noexcept { return impl_->topics_ignored; }
 
 }  // namespace teleop::dds

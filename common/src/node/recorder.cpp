@@ -39,9 +39,10 @@ void Recorder::Step(const Sensed& sensed, const PeerView& peer, const Applied& a
   record.overruns = facts.overruns;
   record.watchdog_trips = facts.watchdog_trips;
   record.link = facts.link;
+  // The law's own position (a re-indexed master's reading + its index offset): the offset is not an error.
   record.tracking_error_m =
       peer.usable
-          ? (sensed.reading->position_m - config_.peer_position_scale * applied.law_input->peer_position_m).norm()
+          ? (applied.law_input->position_m - config_.peer_position_scale * applied.law_input->peer_position_m).norm()
           : 0.0;
   sinks_.OnCycle(record);  // every cycle: the fault ring; decimated by the CSV and the DDS sinks
   TriggerFaults(sensed, peer, applied, facts);
@@ -55,7 +56,7 @@ void Recorder::Count(const Sensed& sensed, const PeerView& peer, const Applied& 
   if (peer.usable) ++s.cycles_with_peer;
   if (applied.engagement == EngagementState::kEngaged) {
     ++s.engaged_cycles;
-    const double e = (sensed.reading->position_m - applied.peer_local_m).norm();
+    const double e = (applied.law_input->position_m - applied.peer_local_m).norm();  // index offset excluded
     s.tracking_sq_sum += e * e;
     s.tracking_max = std::max(s.tracking_max, e);
   }

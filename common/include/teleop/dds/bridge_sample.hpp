@@ -1,12 +1,20 @@
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <type_traits>
 
 #include "teleop/runtime/telemetry.hpp"
 #include "teleop/transport/link.hpp"
+#include "teleop/types.hpp"
 
 namespace teleop::dds {
+
+/// How many axes each array of the DDS State message holds (`position_m[6]` ... in teleop_msgs.idl; the bridge and
+/// the supervisor check it against the generated type): one Cartesian device. Not a DOF limit -- the one DOF limit is
+/// teleop::kMaxDof -- a pair of more DOF shows its first kStateAxes on DDS (docs/dds.md).
+inline constexpr std::size_t kStateAxes = 6;
+static_assert(kStateAxes <= static_cast<std::size_t>(kMaxDof), "a State array cannot be wider than a DOF vector");
 
 /// Where a process stands with its peer, as the State message carries it (`engagement`, docs/dds.md).
 enum class Engagement : std::uint8_t {

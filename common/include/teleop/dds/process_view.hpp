@@ -92,7 +92,7 @@ std::string JsonSummaryLine(const ProcessView& view, double t_s);
 /// An event record ({"type":"event", ...}).
 std::string JsonEventLine(const std::string& pair, const std::string& role, const std::string& kind_name,
                           std::uint64_t cycle, double value, double t_s);
-/// `text` as a JSON string literal (quotes included); control characters escaped (teleop/json_text.hpp).
+/// `text` as a JSON string literal (quotes included): the project's one escaper (teleop/json_text.hpp).
 using teleop::JsonString;
 
 }  // namespace teleop::dds

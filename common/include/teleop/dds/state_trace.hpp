@@ -11,10 +11,10 @@ namespace teleop::dds {
 
 /// The traces of one State sample as teleop-supervise's dashboard plots them (docs/dds.md, "The dashboard"): what
 /// the State carries of the devices and the link, copied out of the DDS sample by dds::Supervisor for every sample
-/// taken (Supervisor::Observer::on_state). Plain data; `dof` entries of each array are valid, the rest 0.
+/// taken (Supervisor::Observer::on_state). Plain data; the first min(`dof`, kStateAxes) entries of each array are
+/// valid, the rest 0.
 struct StateTrace {
-  static constexpr std::size_t kMaxDof = 6;
-  using Axes = std::array<double, kMaxDof>;
+  using Axes = std::array<double, kStateAxes>;  ///< What the State carries (the first kStateAxes of the DOF).
 
   std::string pair;
   std::string role;

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -29,6 +30,9 @@ class Supervisor {
   struct Config {
     int domain_id = 0;
     double stale_after_s = 1.0;  ///< No State for this long (at least three state periods): stale.
+    /// Pairs followed at most (the first discovered); the topics of any further pair are counted and ignored, so
+    /// that whoever can publish on the domain cannot grow the supervisor's memory or its messages without bound.
+    std::size_t max_pairs = 64;
   };
   /// Called from Poll() for every event and every run summary as it arrives (for recording).
   struct Observer {
@@ -49,6 +53,8 @@ class Supervisor {
   void Poll();
   /// Every process seen so far, sorted by pair then role, with status and age at `now_ns` (monotonic clock).
   std::vector<ProcessView> Snapshot(std::int64_t now_ns) const;
+  /// Topics discovered but not followed: of pairs beyond Config::max_pairs.
+  std::uint64_t topics_ignored() const noexcept;
 
  private:
   struct Impl;
