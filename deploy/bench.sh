@@ -226,13 +226,13 @@ fi
       [[ ${first} -eq 0 ]] && echo ","
       first=0
       "${bin}/teleop-analyze" max-stiffness --side "${side}" --kp 600 --kd 2 --rate 1000 --threads 1 \
-        --peer-delay-fraction "${f}" --json
+        --velocity-filter-hz 0 --peer-delay-samples 0 --peer-delay-fraction "${f}" --json
     done
   done
   if [[ ${smoke} -eq 0 ]]; then
     echo ","
     "${bin}/teleop-analyze" max-stiffness --side slave --kp 600 --kd 2 --rate 1000 --threads 1 \
-      --peer-delay-samples 1 --json
+      --velocity-filter-hz 0 --peer-delay-samples 1 --json
     # A triggered pair: the master sees the slave's reply one sample late, the slave the master's sample late by the
     # data age measured above (p99 of the 1 kHz triggered slave, real-time run if there was one) and by the
     # start-up check's default assumption (100 us).
@@ -257,7 +257,7 @@ PY
     for f in "${fractions[@]}"; do
       echo ","
       "${bin}/teleop-analyze" max-stiffness --side slave --kp 600 --kd 2 --rate 1000 --threads 1 \
-        --velocity-filter-hz 200 --peer-delay-fraction "${f}" --json
+        --velocity-filter-hz 200 --peer-delay-samples 0 --peer-delay-fraction "${f}" --json
     done
   fi
   echo "]"

@@ -52,6 +52,18 @@ cp "${work}/sweep-rate.png" "${out}/analyze-sweep-rate.png"
 cp "${work}/sweep-kp.png" "${out}/analyze-sweep-kp.png"
 echo "analyze-sweep-rate.png ${work}/sweep-rate.png.gp" >> "${scripts}"
 echo "analyze-sweep-kp.png ${work}/sweep-kp.png.gp" >> "${scripts}"
+# The shipped pair's fixtures (deploy/configs/{slave,master}.yaml: K_p 600, K_d 2, 200 Hz filter, the master's peer
+# fixture 2000 N/m) against the link's one-way delay on top of the pair's one sample (issue 32, docs/stability.md,
+# "Delay"): 0 where the coupling itself is unstable.
+delays=0,0.5,1,1.5,2,2.5,3,3.5,4,4.5,5,6,8,10
+"${bin}/teleop-analyze" sweep --side slave --kp 600 --kd 2 --over delay --values "${delays}" \
+  --output "${work}/sweep-delay-slave" > "${work}/sweep-delay-slave.log"
+"${bin}/teleop-analyze" sweep --side master --kp 600 --kd 2 --other-fixture 2000 --over delay --values "${delays}" \
+  --output "${work}/sweep-delay-master" > "${work}/sweep-delay-master.log"
+for side in slave master; do
+  cp "${work}/sweep-delay-${side}.png" "${out}/analyze-sweep-delay-${side}.png"
+  echo "analyze-sweep-delay-${side}.png ${work}/sweep-delay-${side}.png.gp" >> "${scripts}"
+done
 
 # Every scenario with its defaults, in a directory of its own (each writes its PNG to the working directory).
 table_only=(hybrid-table)

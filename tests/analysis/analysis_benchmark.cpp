@@ -34,6 +34,35 @@ void BM_OneModelEigenvalues(benchmark::State& state) {
 }
 BENCHMARK(BM_OneModelEigenvalues);
 
+// Issue 32: one model with d samples of peer delay each way (the delay-line model, 8 + 2d states): assemble A and its
+// spectral radius. Arg: d (10 ms, 40 ms, 100 ms at 1 kHz). O(n³): the counter `states` is n.
+void BM_DelayLineModel(benchmark::State& state) {
+  SampledTeleoperator system = Fig7System(0);
+  system.gains = LawGains::Symmetric(50.0, 1.0);
+  system.peer_delay_samples = static_cast<int>(state.range(0));
+  const ZohBlock master = DiscretizeMasterWithHuman(system, HumanModel{0.006, 1.5, 300.0, 5.0});
+  const ZohBlock slave = DiscretizeSlave(system);
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(SpectralRadius(AssembleDelayedStateMatrix(system, master, slave)));
+  }
+  state.counters["states"] = DelayedStateDimension(system);
+}
+BENCHMARK(BM_DelayLineModel)->ArgName("d")->Arg(2)->Arg(10)->Arg(40)->Arg(100)->Unit(benchmark::kMillisecond);
+
+// One limit over 64 operators (steps 2) with d samples of delay each way, 1 thread: what the run-time re-check costs.
+void BM_DelayedLimit64(benchmark::State& state) {
+  const auto humans = MakeHumanGrid(DefaultFingerBounds(), 2);
+  SampledTeleoperator system = Fig7System(0);
+  system.gains = LawGains::Symmetric(50.0, 1.0);
+  system.peer_delay_samples = static_cast<int>(state.range(0));
+  LimitOptions options;
+  options.threads = 1;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(FindMaxStableStiffness(system, FixtureSide::kSlave, humans, options));
+  }
+}
+BENCHMARK(BM_DelayedLimit64)->ArgName("d")->Arg(10)->Arg(40)->Unit(benchmark::kMillisecond)->Iterations(1);
+
 // One worst-case limit over the default 512 operators; arg 0: side (0 master, 1 slave), arg 1: threads,
 // arg 2: peer delay.
 void BM_WorstCaseLimit512(benchmark::State& state) {

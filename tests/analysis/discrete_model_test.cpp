@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <complex>
+#include <optional>
 
 #include "teleop/analysis/damping_ratio.hpp"
 #include "teleop/analysis/state_eigen_solver.hpp"
@@ -109,8 +110,14 @@ TEST(Validation, BadSystemsThrowNamingTheField) {
   s.rate_hz = std::nan("");
   EXPECT_NE(message(s).find("rate_hz"), std::string::npos);
   s = {};
-  s.peer_delay_samples = 2;
+  s.peer_delay_samples = kMaxPeerDelaySamples + 1;
   EXPECT_NE(message(s).find("peer_delay_samples"), std::string::npos);
+  s = {};
+  s.peer_delay_samples = 2;  // valid, but beyond the 8 states: the delay-line model's
+  EXPECT_NE(message(s).find("delay-line model"), std::string::npos);
+  s = {};
+  s.slave_peer_delay_samples = -1;
+  EXPECT_NE(message(s).find("slave_peer_delay_samples"), std::string::npos);
   s = {};
   s.velocity_filter_hz = 600.0;  // above Nyquist at 1 kHz
   EXPECT_NE(message(s).find("Nyquist"), std::string::npos);
@@ -120,6 +127,64 @@ TEST(Validation, BadSystemsThrowNamingTheField) {
   s = {};
   EXPECT_THROW((void)BuildStateMatrix(s, HumanModel{0.0, 1.0, 1.0, 0.0}), Error);
   EXPECT_THROW((void)BuildStateMatrix(s, HumanModel{0.01, -1.0, 1.0, 0.0}), Error);
+}
+
+// The delay-line model (any delay) against the 8-state one where both apply: the same spectral radius (the lines
+// only add zero eigenvalues), for the paper's model, a fraction, one sample, and a triggered pair.
+TEST(DelayLineModel, MatchesTheEightStateModelWhereBothApply) {
+  const HumanModel human{0.003, 0.62, 230.0, 2.0};
+  SampledTeleoperator base;
+  base.gains = LawGains::Symmetric(600.0, 2.0);
+  base.gains.slave_fixture_N_per_m = 3000.0;
+  base.velocity_filter_hz = 200.0;
+  struct Case {
+    int samples;
+    double fraction;
+    std::optional<double> slave_fraction;
+    int dimension;
+  };
+  for (const Case& c : {Case{0, 0.0, std::nullopt, 8}, Case{0, 0.4, std::nullopt, 10}, Case{1, 0.0, std::nullopt, 10},
+                        Case{1, 0.0, 0.1, 10}}) {
+    SampledTeleoperator s = base;
+    s.peer_delay_samples = c.samples;
+    s.peer_delay_fraction = c.fraction;
+    s.slave_peer_delay_fraction = c.slave_fraction;
+    ASSERT_FALSE(NeedsDelayLines(s));
+    EXPECT_EQ(DelayedStateDimension(s), c.dimension);
+    const double eight = SpectralRadius(BuildStateMatrix(s, human));
+    const Eigen::MatrixXd lines = BuildDelayedStateMatrix(s, human);
+    EXPECT_EQ(lines.rows(), c.dimension);
+    EXPECT_NEAR(SpectralRadius(lines), eight, 1e-9) << c.samples << " + " << c.fraction;
+  }
+}
+
+// Whole-sample delays enter a scalar loop (master -> line -> slave -> line -> master): the characteristic polynomial
+// depends on the round trip d_sm + d_ms only, so 3 + 7 and 5 + 5 have the same eigenvalues; a fraction on one
+// direction does not commute (it acts through that side's plant). The dimension is 8 + the lines' lengths.
+TEST(DelayLineModel, WholeSampleDelaysCountAsTheRoundTrip) {
+  const HumanModel human{0.003, 0.62, 230.0, 2.0};
+  SampledTeleoperator s;
+  s.gains = LawGains::Symmetric(100.0, 1.0);
+  s.gains.slave_fixture_N_per_m = 1000.0;
+  SetPeerDelays(s, 3.0, 7.0);
+  ASSERT_TRUE(NeedsDelayLines(s));
+  EXPECT_EQ(DelayedStateDimension(s), 8 + 3 + 7);
+  const double a = SpectralRadius(BuildDelayedStateMatrix(s, human));
+  SetPeerDelays(s, 5.0, 5.0);
+  const double b = SpectralRadius(BuildDelayedStateMatrix(s, human));
+  EXPECT_NEAR(a, b, 1e-9);
+  SetPeerDelays(s, 40.5, 10.0);
+  EXPECT_EQ(DelayedStateDimension(s), 8 + 41 + 10);
+  EXPECT_EQ(PeerDelaysOf(s).slave_to_master_samples, 40);
+  EXPECT_DOUBLE_EQ(PeerDelaysOf(s).slave_to_master_fraction, 0.5);
+  EXPECT_EQ(DescribePeerDelay(s), "peer delay slave->master 40.5 samples, master->slave 10 samples");
+  // A link delay adds to both directions: 1 sample + 4.25 ms at 1 kHz.
+  SampledTeleoperator t;
+  t.peer_delay_samples = 1;
+  AddLinkDelay(t, 4.25e-3);
+  EXPECT_DOUBLE_EQ(PeerDelaysOf(t).slave_to_master(), 5.25);
+  EXPECT_DOUBLE_EQ(PeerDelaysOf(t).master_to_slave(), 5.25);
+  EXPECT_THROW(AddLinkDelay(t, 1.0), Error);  // 1000 samples, beyond the bound
 }
 
 }  // namespace

@@ -101,7 +101,9 @@ TEST(FractionalDelay, SlaveLimitFallsMonotonicallyFromTheUndelayedToTheOneSample
   EXPECT_GT(limit(0, 0.5), one * 1.002);
 }
 
-TEST(FractionalDelay, ValidationRejectsOutOfRangeAndCombinedDelays) {
+// Out-of-range fractions are refused; a fraction on top of whole samples is a delay of 1.5 samples, which the 8
+// states cannot hold: the delay-line model's (issue 32; before it, the combination was refused).
+TEST(FractionalDelay, ValidationRejectsOutOfRangeDelays) {
   SampledTeleoperator system;
   for (double bad : {-0.1, 1.5, std::nan("")}) {
     system.peer_delay_fraction = bad;
@@ -109,9 +111,12 @@ TEST(FractionalDelay, ValidationRejectsOutOfRangeAndCombinedDelays) {
   }
   system.peer_delay_fraction = 0.5;
   system.peer_delay_samples = 1;
-  EXPECT_THROW(Validate(system), Error);
+  EXPECT_NO_THROW(Validate(system));
+  EXPECT_TRUE(NeedsDelayLines(system));
+  EXPECT_THROW((void)BuildStateMatrix(system, HumanModel{0.003, 0.62, 230.0, 2.0}), Error);
   system.peer_delay_samples = 0;
   EXPECT_NO_THROW(Validate(system));
+  EXPECT_FALSE(NeedsDelayLines(system));
 }
 
 }  // namespace

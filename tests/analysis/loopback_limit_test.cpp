@@ -22,6 +22,10 @@ struct LoopCase {
   LawGains gains;  // fixtures ignored
   bool unilateral;
   int delay;
+  bool small_operator_set = false;  ///< 4 operators instead of 512 (the long delays: ~ms per model, docs/stability.md)
+  /// The operator's push (N). The soft gain sets transmit a tenth of it to the slave: 30 N keeps the slave as deep
+  /// in the region (≥ 0.1 mm) as the shipped gains' 3 N; the system is linear in it.
+  double operator_force_N = 3.0;
 };
 
 std::ostream& operator<<(std::ostream& out, const LoopCase& c) { return out << c.name; }
@@ -46,7 +50,7 @@ test::OneDofSetup MakeSetup(const LoopCase& c, const HumanModel& human, double s
   setup.human_mass_kg = human.mass_kg;
   setup.human_damping_Ns_per_m = human.damping_Ns_per_m;
   setup.human_stiffness_N_per_m = human.stiffness_N_per_m;
-  setup.operator_force_N = 3.0;  // pushes +x, into the region X > 0
+  setup.operator_force_N = c.operator_force_N;  // pushes +x, into the region X > 0
   setup.operator_ramp_s = 0.2;
   return setup;
 }
@@ -60,7 +64,12 @@ TEST_P(LoopbackLimit, SettlesAtNinetyPercentOscillatesAtHundredTenPercent) {
   system.gains = c.gains;
   system.unilateral = c.unilateral;
   system.peer_delay_samples = c.delay;
-  const StabilityLimit limit = FindMaxStableStiffness(system, c.side, MakeHumanGrid(DefaultFingerBounds(), 4));
+  const std::vector<double> masses{0.003, 0.009};
+  const std::vector<double> dampings{0.62};
+  const std::vector<double> stiffnesses{74.0, 830.0};
+  const StabilityLimit limit = FindMaxStableStiffness(
+      system, c.side,
+      c.small_operator_set ? MakeHumanGrid(masses, dampings, stiffnesses) : MakeHumanGrid(DefaultFingerBounds(), 4));
   ASSERT_GT(limit.max_stable_stiffness_N_per_m, 0.0);
   const test::Signal position =
       c.side == FixtureSide::kMaster ? test::Signal::kMasterPosition : test::Signal::kSlavePosition;
@@ -108,6 +117,21 @@ INSTANTIATE_TEST_SUITE_P(
                       LoopCase{"master_unilateral_1000Hz", FixtureSide::kMaster, 1000.0, SlaveOnly(1000, 6), true, 1},
                       LoopCase{"slave_unilateral_500Hz_nodelay", FixtureSide::kSlave, 500.0, SlaveOnly(1000, 6), true,
                                0}),
+    [](const ::testing::TestParamInfo<LoopCase>& param_info) { return param_info.param.name; });
+
+// Issue 32: the delay-line model (d samples of peer delay, 8 + 2d states) against the same closed loop with a
+// d-sample delay line in each direction, d from 0 to 100 samples (100 ms at 1 kHz), three gain sets: the shipped
+// gains (K_p 600, K_d 2), whose limit falls with the delay until the coupling itself goes unstable between 4 and 5
+// samples, and two softer sets stable out to 100 samples.
+INSTANTIATE_TEST_SUITE_P(
+    Delays, LoopbackLimit,
+    ::testing::Values(
+        LoopCase{"slave_kp600_kd2_delay0", FixtureSide::kSlave, 1000.0, Symmetric(600, 2), false, 0, true},
+        LoopCase{"slave_kp600_kd2_delay3", FixtureSide::kSlave, 1000.0, Symmetric(600, 2), false, 3, true},
+        LoopCase{"master_kp600_kd2_delay2", FixtureSide::kMaster, 1000.0, Symmetric(600, 2), false, 2, true},
+        LoopCase{"slave_kp50_kd1_delay10", FixtureSide::kSlave, 1000.0, Symmetric(50, 1), false, 10, true, 30.0},
+        LoopCase{"slave_kp50_kd1_delay40", FixtureSide::kSlave, 1000.0, Symmetric(50, 1), false, 40, true, 30.0},
+        LoopCase{"slave_kp20_kd05_delay100", FixtureSide::kSlave, 1000.0, Symmetric(20, 0.5), false, 100, true, 30.0}),
     [](const ::testing::TestParamInfo<LoopCase>& param_info) { return param_info.param.name; });
 
 }  // namespace

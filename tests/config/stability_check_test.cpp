@@ -386,3 +386,48 @@ TEST(StabilityCheck, ModelOutsideTheAnalysisRangeIsAnError) {
 
 }  // namespace
 }  // namespace teleop::config
+
+namespace teleop::config {
+namespace {
+
+// Issue 32.2: the check assumes the link's expected delay (link.expected_delay_ms, else the emulated link's delay +
+// jitter) on top of the pair's one sample, and says which. The shipped slave fixture (2000 N/m) is stable at one
+// sample (limit ~4120 N/m) and refused over a 4 ms link (5 samples: limit ~680 N/m, teleop-analyze max-stiffness
+// --side slave --kp 600 --kd 2 --link-delay-ms 4), with the reproducing command line in the message.
+TEST(StabilityCheck, RefusesAFixtureStableAtOneSampleButNotAtTheConfiguredDelay) {
+  const std::string shipped = ReadFile(Deploy("slave.yaml"));
+  const ProcessConfig lab = ParseProcessConfig(shipped, "slave.yaml");
+  const StabilityReport at_one = CheckProcessStability(lab);
+  ASSERT_TRUE(at_one.stable());
+  EXPECT_THAT(DescribePass(lab, at_one), HasSubstr("assumed no link delay"));
+
+  const ProcessConfig wan = ParseProcessConfig(
+      Replace(shipped, "  timeout_ms: 50\n", "  timeout_ms: 50\n  expected_delay_ms: 4\n"), "slave.yaml");
+  EXPECT_DOUBLE_EQ(AssumedLinkDelay_s(wan), 4e-3);
+  EXPECT_EQ(analysis::PeerDelaysOf(StabilityModel(wan, 0)).slave_to_master(), 5.0);
+  const StabilityReport at_five = CheckProcessStability(wan);
+  EXPECT_FALSE(at_five.stable());
+  const double limit = at_five.worst().limit.max_stable_stiffness_N_per_m;
+  EXPECT_GT(limit, 300.0);
+  EXPECT_LT(limit, 1000.0);
+  EXPECT_LT(limit, 0.5 * at_one.worst().limit.max_stable_stiffness_N_per_m);
+  const std::string failure = DescribeFailure(wan, at_five);
+  EXPECT_THAT(failure, HasSubstr("peer delay 5 samples"));
+  EXPECT_THAT(failure, HasSubstr("assumed link.expected_delay_ms 4 ms"));
+  EXPECT_THAT(failure, HasSubstr("teleop-analyze max-stiffness --side slave --rate 1000 --kpm 600 --kps 600"));
+  EXPECT_THAT(failure, HasSubstr("--peer-delay-samples 5 --peer-delay-fraction 0 --slave-peer-delay-samples 5"));
+
+  // Without the key, the emulated link's delay + jitter (3 + 1 ms); the key overrides it.
+  const std::string emulated =
+      Replace(shipped, "  timeout_ms: 50\n", "  timeout_ms: 50\n  emulate: {delay_ms: 3, jitter_ms: 1}\n");
+  const ProcessConfig emu = ParseProcessConfig(emulated, "slave.yaml");
+  EXPECT_DOUBLE_EQ(AssumedLinkDelay_s(emu), 4e-3);
+  EXPECT_THAT(DescribeAssumedLinkDelay(emu), HasSubstr("emulated link's delay + jitter 4 ms"));
+  const ProcessConfig emu_override = ParseProcessConfig(
+      Replace(emulated, "  timeout_ms: 50\n", "  timeout_ms: 50\n  expected_delay_ms: 0\n"), "slave.yaml");
+  EXPECT_DOUBLE_EQ(AssumedLinkDelay_s(emu_override), 0.0);
+  EXPECT_TRUE(CheckProcessStability(emu_override).stable());
+}
+
+}  // namespace
+}  // namespace teleop::config

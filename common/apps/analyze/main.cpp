@@ -1,13 +1,19 @@
 // teleop-analyze: stability of forbidden-region virtual fixtures (Abbott & Okamura 2006). docs/stability.md.
 //
 //   teleop-analyze max-stiffness --side slave --rate 500 --kp 600 --kd 2 [--json]
+//   teleop-analyze max-stiffness --side slave --kp 600 --kd 2 --link-delay-ms 40
 //   teleop-analyze sweep --side slave --kp 600 --kd 2 --variable rate --values 250,500,1000 --output fig7
+//   teleop-analyze sweep --side slave --kp 600 --kd 2 --over delay --values 0,10,40,100 --output by-delay
 //   teleop-analyze check --config deploy/configs/slave.yaml
+//
+// The model defaults to what the processes run (peer data one sample old, the shipped configs' 200 Hz velocity
+// filter) and says so; --paper-model gives the paper's (no delay, no filter).
 //
 // Exit codes: 0 success (check: stable), 1 check: unstable, max-stiffness: unstable even without a fixture (no
 // stable stiffness), 2 bad arguments or input (max-stiffness: no limit below the search ceiling of 1e9 N/m).
 
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -19,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "teleop/analysis/discrete_model.hpp"
 #include "teleop/analysis/fixture_check.hpp"
 #include "teleop/analysis/human_bounds.hpp"
 #include "teleop/analysis/limit_sweep.hpp"
@@ -34,12 +41,16 @@ using namespace teleop::analysis;
 constexpr double kUnset = std::numeric_limits<double>::quiet_NaN();
 constexpr int kExitUnstable = 1;
 constexpr int kExitBadInput = 2;
+constexpr double kDefaultRate_hz = 1000.0;
+// The processes' model: the shipped configs' law.velocity_filter_hz (deploy/configs/*.yaml) and one sample of peer
+// delay (stability.peer_delay_samples 1).
+constexpr double kProcessFilter_hz = 200.0;
 
 /// Options shared by the subcommands: the system and the operator set.
 struct SystemOptions {
   std::string side = "slave";
   bool unilateral = false;
-  double rate_hz = 1000.0;
+  double rate_hz = kDefaultRate_hz;
   double kp = 0.0;
   double kd = 0.0;
   double kpm = kUnset, kps = kUnset, kdm = kUnset, kds = kUnset;
@@ -52,10 +63,13 @@ struct SystemOptions {
   std::vector<double> human_mass, human_damping, human_stiffness;
   std::string human_bounds;
   int human_steps = 4;
-  double velocity_filter_hz = 0.0;
-  int peer_delay_samples = 0;
+  double velocity_filter_hz = kProcessFilter_hz;
+  int peer_delay_samples = 1;
   double peer_delay_fraction = 0.0;
   double slave_peer_delay_fraction = -1.0;  // < 0: as the master's
+  int slave_peer_delay_samples = -1;        // < 0: as the master's
+  double link_delay_ms = 0.0;
+  bool paper_model = false;
   int threads = 0;
   bool json = false;
 };
@@ -68,6 +82,9 @@ void AddSystemOptions(CLI::App& app, SystemOptions& o, bool with_side) {
   }
   app.add_flag("--unilateral", o.unilateral,
                "Master actuator renders nothing of the slave (K_pm = K_dm = K_fm = 0; slave side: master saturated)");
+  app.add_flag("--paper-model", o.paper_model,
+               "The paper's model (both laws see the same samples, no velocity filter) instead of the processes' "
+               "(peer data one sample old, 200 Hz filter); excludes the delay and filter options");
   app.add_option("--rate", o.rate_hz, "Sampling rate (Hz)");
   app.add_option("--kp", o.kp, "K_p on both sides (N/m), symmetric law of §4.3");
   app.add_option("--kd", o.kd, "K_d on both sides (N·s/m)");
@@ -78,10 +95,10 @@ void AddSystemOptions(CLI::App& app, SystemOptions& o, bool with_side) {
   app.add_option("--kvm", o.kvm, "K_vm, master velocity damping (N·s/m)");
   app.add_option("--kvs", o.kvs, "K_vs, slave velocity damping (N·s/m)");
   app.add_option("--kf", o.kf, "K_fm, force feed-forward (no effect: F_e = 0 in the analysis)");
-  app.add_option("--master-mass", o.master_mass_kg, "Master mass (kg), default 0.040 (paper §4.1)");
-  app.add_option("--master-damping", o.master_damping, "Master damping (N·s/m), default 0.41");
-  app.add_option("--slave-mass", o.slave_mass_kg, "Slave mass (kg), default 0.036");
-  app.add_option("--slave-damping", o.slave_damping, "Slave damping (N·s/m), default 0.49");
+  app.add_option("--master-mass", o.master_mass_kg, "Master mass (kg; default: paper §4.1)");
+  app.add_option("--master-damping", o.master_damping, "Master damping (N·s/m)");
+  app.add_option("--slave-mass", o.slave_mass_kg, "Slave mass (kg)");
+  app.add_option("--slave-damping", o.slave_damping, "Slave damping (N·s/m)");
   app.add_option("--other-fixture", o.other_fixture, "Stiffness of the other side's fixture, held fixed (N/m)");
   auto* mass = app.add_option("--human-mass", o.human_mass, "Operator masses (kg), comma-separated")->delimiter(',');
   auto* damping =
@@ -95,22 +112,39 @@ void AddSystemOptions(CLI::App& app, SystemOptions& o, bool with_side) {
   damping->needs(mass)->needs(stiffness);
   stiffness->needs(mass)->needs(damping);
   bounds->excludes(mass)->excludes(damping)->excludes(stiffness);
-  app.add_option("--human-steps", o.human_steps, "Grid points per parameter between the bounds (default 4: 512 ops)")
+  app.add_option("--human-steps", o.human_steps, "Grid points per parameter between the bounds (4: 512 operators)")
       ->check(CLI::Range(1, 64));
-  app.add_option("--velocity-filter-hz", o.velocity_filter_hz, "First-order velocity low-pass (Hz), 0 = none");
-  app.add_option("--peer-delay-samples", o.peer_delay_samples,
-                 "0: the paper's model; 1: peer data one sample old, as the processes over a link")
-      ->check(CLI::Range(0, 1));
+  auto* filter = app.add_option("--velocity-filter-hz", o.velocity_filter_hz,
+                                "First-order velocity low-pass (Hz), 0 = none; the shipped configs' 200 Hz");
+  auto* samples = app.add_option("--peer-delay-samples", o.peer_delay_samples,
+                                 "Whole samples of peer data age: 0 the paper's model, 1 the processes over a link, "
+                                 "up to " +
+                                     std::to_string(kMaxPeerDelaySamples) +
+                                     " (slave->master, and master->slave unless --slave-peer-delay-*)")
+                      ->check(CLI::Range(0, kMaxPeerDelaySamples));
+  filter->excludes("--paper-model");
+  samples->excludes("--paper-model");
   if (with_side) {
     app.add_option("--peer-delay-fraction", o.peer_delay_fraction,
-                   "Peer data age as a fraction of the period (0..1, ZOH with a fractional input delay; with "
-                   "--peer-delay-samples 0): a phase-locked pair")
-        ->check(CLI::Range(0.0, 1.0));
+                   "Peer data age beyond the whole samples as a fraction of the period (0..1, ZOH with a "
+                   "fractional input delay; with --peer-delay-samples 0: a phase-locked pair)")
+        ->check(CLI::Range(0.0, 1.0))
+        ->excludes("--paper-model");
+    app.add_option("--slave-peer-delay-samples", o.slave_peer_delay_samples,
+                   "master->slave: the slave sees the master's sample this many whole samples late (-1: as "
+                   "--peer-delay-samples, or 0 with --slave-peer-delay-fraction)")
+        ->check(CLI::Range(-1, kMaxPeerDelaySamples))
+        ->excludes("--paper-model");
     app.add_option("--slave-peer-delay-fraction", o.slave_peer_delay_fraction,
-                   "A triggered pair (sync.mode triggered): the slave sees the master's sample this fraction of a "
-                   "period late (0..1), the master sees the slave's per --peer-delay-samples/--peer-delay-fraction")
-        ->check(CLI::Range(0.0, 1.0));
+                   "master->slave: and this fraction of a period (0..1; a triggered pair, sync.mode triggered, "
+                   "sets only this; -1: as the master's)")
+        ->check(CLI::Range(-1.0, 1.0))
+        ->excludes("--paper-model");
   }
+  app.add_option("--link-delay-ms", o.link_delay_ms,
+                 "A link's one-way delay (ms) added to both directions on top of the model's own (the processes' "
+                 "one sample): what the start-up check does with link.expected_delay_ms")
+      ->check(CLI::Range(0.0, 1000.0));
   app.add_option("--threads", o.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 64));
   app.add_flag("--json", o.json, "Print a JSON object instead of the plain number");
 }
@@ -124,10 +158,11 @@ SampledTeleoperator BuildSystem(const SystemOptions& o, FixtureSide side) {
   s.master = {o.master_mass_kg, o.master_damping};
   s.slave = {o.slave_mass_kg, o.slave_damping};
   s.rate_hz = o.rate_hz;
-  s.velocity_filter_hz = o.velocity_filter_hz;
-  s.peer_delay_samples = o.peer_delay_samples;
-  s.peer_delay_fraction = o.peer_delay_fraction;
+  s.velocity_filter_hz = o.paper_model ? 0.0 : o.velocity_filter_hz;
+  s.peer_delay_samples = o.paper_model ? 0 : o.peer_delay_samples;
+  s.peer_delay_fraction = o.paper_model ? 0.0 : o.peer_delay_fraction;
   if (o.slave_peer_delay_fraction >= 0.0) s.slave_peer_delay_fraction = o.slave_peer_delay_fraction;
+  if (o.slave_peer_delay_samples >= 0) s.slave_peer_delay_samples = o.slave_peer_delay_samples;
   s.unilateral = o.unilateral;
   LawGains& g = s.gains;
   g.kpm_N_per_m = Or(o.kpm, o.kp);
@@ -139,7 +174,27 @@ SampledTeleoperator BuildSystem(const SystemOptions& o, FixtureSide side) {
   g.kfm = o.kf;
   g.fixture(side == FixtureSide::kMaster ? FixtureSide::kSlave : FixtureSide::kMaster) = o.other_fixture;
   Validate(s);
+  if (o.link_delay_ms > 0.0) AddLinkDelay(s, o.link_delay_ms * 1e-3);
   return s;
+}
+
+/// Which model the answer is for, in words (printed with every answer: 30.4, one analysis answer).
+std::string ModelNote(const SystemOptions& o, const SampledTeleoperator& s) {
+  std::ostringstream out;
+  out << (o.paper_model ? "the paper's model (" : "the processes' model (") << DescribePeerDelay(s);
+  if (o.link_delay_ms > 0.0) out << " with a " << o.link_delay_ms << " ms link";
+  out << ", velocity filter ";
+  if (s.velocity_filter_hz > 0.0) {
+    out << s.velocity_filter_hz << " Hz";
+  } else {
+    out << "none";
+  }
+  out << ", " << s.rate_hz << " Hz";
+  if (NeedsDelayLines(s)) out << ", " << DelayedStateDimension(s) << " states";
+  out << ")"
+      << (o.paper_model ? "; without --paper-model: the processes' (one sample of peer delay, 200 Hz filter)"
+                        : "; --paper-model for the paper's (no delay, no filter)");
+  return out.str();
 }
 
 std::vector<HumanModel> BuildHumans(const SystemOptions& o) {
@@ -162,6 +217,9 @@ std::string LimitJson(const StabilityLimit& l, const SampledTeleoperator& s, Fix
   out << "{\n  \"side\": \"" << ToString(side) << "\",\n  \"rate_hz\": " << s.rate_hz
       << ",\n  \"unilateral\": " << (s.unilateral ? "true" : "false")
       << ",\n  \"peer_delay_samples\": " << s.peer_delay_samples
+      << ",\n  \"slave_to_master_delay_samples\": " << PeerDelaysOf(s).slave_to_master()
+      << ",\n  \"master_to_slave_delay_samples\": " << PeerDelaysOf(s).master_to_slave()
+      << ",\n  \"state_dimension\": " << (NeedsDelayLines(s) ? DelayedStateDimension(s) : kModelStates)
       << ",\n  \"peer_delay_fraction\": " << s.peer_delay_fraction << ",\n  \"slave_peer_delay_fraction\": "
       << (s.slave_peer_delay_fraction ? std::to_string(*s.slave_peer_delay_fraction) : std::string("null"))
       << ",\n  \"velocity_filter_hz\": " << s.velocity_filter_hz
@@ -182,7 +240,12 @@ int RunMaxStiffness(const SystemOptions& o) {
   const std::vector<HumanModel> humans = BuildHumans(o);
   LimitOptions options;
   options.threads = o.threads;
+  const auto start = std::chrono::steady_clock::now();
   const StabilityLimit limit = FindMaxStableStiffness(system, side, humans, options);
+  const double elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  // The model on stderr (stdout stays the number a script reads), with the cost of the answer.
+  std::cerr << "teleop-analyze: " << ModelNote(o, system) << "; " << humans.size() << " operators, "
+            << limit.models_evaluated << " models in " << static_cast<long>(std::lround(elapsed_ms)) << " ms\n";
   // Two results that are not a limit: print why instead of a number a script would take for one.
   if (limit.unstable_without_fixture) {
     std::cerr << "teleop-analyze: no fixture stiffness is stable: the coupling alone (no fixture) is predicted "
@@ -200,7 +263,10 @@ int RunMaxStiffness(const SystemOptions& o) {
     return kExitBadInput;
   }
   if (o.json) {
-    std::cout << LimitJson(limit, system, side, humans.size()) << "\n";
+    std::string json = LimitJson(limit, system, side, humans.size());
+    json.insert(json.size() - 2, ",\n  \"model\": \"" + std::string(o.paper_model ? "paper" : "process") +
+                                     "\",\n  \"elapsed_ms\": " + std::to_string(elapsed_ms));
+    std::cout << json << "\n";
   } else {
     std::printf("%.6g\n", limit.max_stable_stiffness_N_per_m);
   }
@@ -220,7 +286,8 @@ void Plot(const std::string& csv, const std::string& png, SweepVariable variable
     std::ofstream gp(script_path);
     const char* xlabel = variable == SweepVariable::kRateHz ? "sampling rate (Hz)"
                          : variable == SweepVariable::kKp   ? "K_p (N/m)"
-                                                            : "K_d (N s/m)";
+                         : variable == SweepVariable::kKd   ? "K_d (N s/m)"
+                                                            : "link delay, one way (ms)";
     // The key below the plot, never over the curves (a K_p sweep rises and falls), one entry a line so that its
     // samples stay inside the canvas, with a bottom margin that holds the tick labels, the x label and the key (else
     // gnuplot draws the key against the x label); the end points clear of the left and right axes; cairo for text.
@@ -258,6 +325,8 @@ int RunSweep(const SystemOptions& o, const SweepOptions& w) {
         << system.gains.kpm_N_per_m << " K_ps " << system.gains.kps_N_per_m << " K_dm " << system.gains.kdm_Ns_per_m
         << " K_ds " << system.gains.kds_Ns_per_m;
   if (variable != SweepVariable::kRateHz) title << ", " << system.rate_hz << " Hz";
+  title << (o.paper_model ? ", paper's model" : ", processes' model");
+  std::cerr << "teleop-analyze: " << ModelNote(o, system) << "\n";
   if (!w.no_plot) Plot(csv, w.output + ".png", variable, title.str());
   WriteSweepCsv(std::cout, variable, points);
   return 0;
@@ -314,6 +383,8 @@ int RunCheck(const SystemOptions& o, const CLI::App& app, const std::string& con
 static int Run(int argc, char** argv) {
   CLI::App app{"Stability of forbidden-region virtual fixtures (Abbott & Okamura 2006): docs/stability.md"};
   app.require_subcommand(1);
+  // Every default in --help (the subcommands inherit this).
+  app.option_defaults()->always_capture_default();
 
   SystemOptions max_options;
   CLI::App* max = app.add_subcommand("max-stiffness", "Maximum stable fixture stiffness over the operator set (N/m)");
@@ -323,8 +394,10 @@ static int Run(int argc, char** argv) {
   SweepOptions sweep;
   CLI::App* sweep_app = app.add_subcommand("sweep", "Limit against rate, K_p or K_d: CSV + PNG (paper Figs. 7-14)");
   AddSystemOptions(*sweep_app, sweep_options, true);
-  sweep_app->add_option("--variable", sweep.variable, "rate, kp or kd")
-      ->check(CLI::IsMember({"rate", "kp", "kd"}))
+  sweep_app
+      ->add_option("--variable,--over", sweep.variable,
+                   "rate, kp, kd or delay (ms of one-way link delay added to both directions)")
+      ->check(CLI::IsMember({"rate", "kp", "kd", "delay"}))
       ->required();
   sweep_app->add_option("--values", sweep.values, "Comma-separated values of the variable")->delimiter(',')->required();
   sweep_app->add_option("--output", sweep.output, "Output prefix: PREFIX.csv and PREFIX.png");

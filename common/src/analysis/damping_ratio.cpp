@@ -11,6 +11,9 @@ template Eigen::EigenSolver<teleop::analysis::StateMatrix>&
 Eigen::EigenSolver<teleop::analysis::StateMatrix>::compute<teleop::analysis::StateMatrix>(
     const Eigen::EigenBase<teleop::analysis::StateMatrix>& matrix, bool computeEigenvectors);
 
+template Eigen::EigenSolver<Eigen::MatrixXd>& Eigen::EigenSolver<Eigen::MatrixXd>::compute<Eigen::MatrixXd>(
+    const Eigen::EigenBase<Eigen::MatrixXd>& matrix, bool computeEigenvectors);
+
 namespace teleop::analysis {
 namespace {
 
@@ -25,8 +28,11 @@ double DampingRatio(std::complex<double> z, double period_s) noexcept {
   return std::sin(std::atan2(-s.real(), std::abs(s.imag())));  // eq. 31
 }
 
-ModalSummary AnalyzeEigenvalues(const StateMatrix& a, double period_s) noexcept {
-  Eigen::EigenSolver<StateMatrix> solver(a, /*computeEigenvectors=*/false);
+namespace {
+
+template <typename Matrix>
+ModalSummary Analyze(const Matrix& a, double period_s) {
+  Eigen::EigenSolver<Matrix> solver(a, /*computeEigenvectors=*/false);
   ModalSummary summary;
   if (solver.info() != Eigen::Success) {
     // Does not happen for finite matrices; report "unstable" rather than a false "stable".
@@ -34,7 +40,7 @@ ModalSummary AnalyzeEigenvalues(const StateMatrix& a, double period_s) noexcept 
     summary.min_damping_ratio = -1.0;
     return summary;
   }
-  for (int i = 0; i < kModelStates; ++i) {
+  for (Eigen::Index i = 0; i < a.rows(); ++i) {
     const std::complex<double> z = solver.eigenvalues()(i);
     summary.spectral_radius = std::max(summary.spectral_radius, std::abs(z));
     const double zeta = DampingRatio(z, period_s);
@@ -46,10 +52,19 @@ ModalSummary AnalyzeEigenvalues(const StateMatrix& a, double period_s) noexcept 
   return summary;
 }
 
-double SpectralRadius(const StateMatrix& a) noexcept {
-  Eigen::EigenSolver<StateMatrix> solver(a, /*computeEigenvectors=*/false);
+template <typename Matrix>
+double Radius(const Matrix& a) {
+  Eigen::EigenSolver<Matrix> solver(a, /*computeEigenvectors=*/false);
   if (solver.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
   return solver.eigenvalues().cwiseAbs().maxCoeff();
 }
+
+}  // namespace
+
+ModalSummary AnalyzeEigenvalues(const StateMatrix& a, double period_s) noexcept { return Analyze(a, period_s); }
+ModalSummary AnalyzeEigenvalues(const Eigen::MatrixXd& a, double period_s) { return Analyze(a, period_s); }
+
+double SpectralRadius(const StateMatrix& a) noexcept { return Radius(a); }
+double SpectralRadius(const Eigen::MatrixXd& a) { return Radius(a); }
 
 }  // namespace teleop::analysis

@@ -27,9 +27,9 @@ FixtureCheck CheckFixture(const SampledTeleoperator& system, FixtureSide side, s
   msg.precision(4);
   msg << ToString(side) << " fixture " << check.stiffness_N_per_m << " N/m is "
       << (check.stable ? "stable" : "UNSTABLE") << ": predicted limit " << check.limit.max_stable_stiffness_N_per_m
-      << " N/m at " << system.rate_hz << " Hz (" << (system.unilateral ? "unilateral" : "bilateral") << ", peer delay "
-      << system.peer_delay_samples << " sample" << (system.peer_delay_samples == 1 ? "" : "s") << ", passivity bound "
-      << check.limit.passivity_bound_N_per_m << " N/m); worst damping ratio " << check.at_configured.min_damping_ratio
+      << " N/m at " << system.rate_hz << " Hz (" << (system.unilateral ? "unilateral" : "bilateral") << ", "
+      << DescribePeerDelay(system) << ", passivity bound " << check.limit.passivity_bound_N_per_m
+      << " N/m); worst damping ratio " << check.at_configured.min_damping_ratio
       << " for operator m=" << check.at_configured.human.mass_kg
       << " kg b=" << check.at_configured.human.damping_Ns_per_m
       << " Ns/m k=" << check.at_configured.human.stiffness_N_per_m << " N/m";

@@ -14,6 +14,8 @@ const char* ToString(SweepVariable variable) noexcept {
       return "kp";
     case SweepVariable::kKd:
       return "kd";
+    case SweepVariable::kLinkDelayMs:
+      return "delay";
   }
   return "?";
 }
@@ -22,7 +24,8 @@ SweepVariable ParseSweepVariable(const std::string& name) {
   if (name == "rate") return SweepVariable::kRateHz;
   if (name == "kp") return SweepVariable::kKp;
   if (name == "kd") return SweepVariable::kKd;
-  throw Error("sweep variable '" + name + "' is unknown; use rate, kp or kd");
+  if (name == "delay") return SweepVariable::kLinkDelayMs;
+  throw Error("sweep variable '" + name + "' is unknown; use rate, kp, kd or delay");
 }
 
 std::vector<SweepPoint> SweepLimit(const SampledTeleoperator& system, FixtureSide side,
@@ -46,6 +49,9 @@ std::vector<SweepPoint> SweepLimit(const SampledTeleoperator& system, FixtureSid
         g.kds_Ns_per_m = value;
         if (!system.unilateral) g.kdm_Ns_per_m = value;
         break;
+      case SweepVariable::kLinkDelayMs:
+        AddLinkDelay(point, value * 1e-3);
+        break;
     }
     points.push_back(SweepPoint{value, FindMaxStableStiffness(point, side, humans, options)});
   }
@@ -55,7 +61,8 @@ std::vector<SweepPoint> SweepLimit(const SampledTeleoperator& system, FixtureSid
 void WriteSweepCsv(std::ostream& out, SweepVariable variable, std::span<const SweepPoint> points) {
   const char* first = variable == SweepVariable::kRateHz ? "rate_hz"
                       : variable == SweepVariable::kKp   ? "kp_N_per_m"
-                                                         : "kd_Ns_per_m";
+                      : variable == SweepVariable::kKd   ? "kd_Ns_per_m"
+                                                         : "link_delay_ms";
   out << first
       << ",max_stable_stiffness_N_per_m,passivity_bound_N_per_m,worst_damping_ratio,"
          "limiting_mass_kg,limiting_damping_Ns_per_m,limiting_stiffness_N_per_m,limiting_force_N\n";

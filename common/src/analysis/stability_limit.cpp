@@ -43,6 +43,9 @@ struct PreparedSystem {
   FixtureSide side = FixtureSide::kMaster;
   std::vector<ZohBlock> master_blocks;
   ZohBlock slave;
+  bool lines = false;  ///< A delay over one sample: the delay-line model (dynamic size, O(n³) per operator).
+  /// Operators per thread below which a scan stays on one thread (an 8×8 model costs ~µs, a delay-line one ~ms).
+  int min_per_thread() const noexcept { return lines ? 2 : 64; }
 };
 
 // `system` as the model should see it (callers apply EffectiveGains when a side is being searched).
@@ -58,16 +61,19 @@ PreparedSystem Prepare(const SampledTeleoperator& system, FixtureSide side, std:
     prepared.master_blocks.push_back(DiscretizeMasterWithHuman(prepared.system, human));
   }
   prepared.slave = DiscretizeSlave(prepared.system);
+  prepared.lines = NeedsDelayLines(prepared.system);
   return prepared;
 }
 
-double Radius(const PreparedSystem& p, int index, double stiffness) noexcept {
+double Radius(const PreparedSystem& p, int index, double stiffness) {
   SampledTeleoperator system = p.system;
   system.gains.fixture(p.side) = stiffness;
-  return SpectralRadius(AssembleStateMatrix(system, p.master_blocks[static_cast<std::size_t>(index)], p.slave));
+  const ZohBlock& master = p.master_blocks[static_cast<std::size_t>(index)];
+  if (p.lines) return SpectralRadius(AssembleDelayedStateMatrix(system, master, p.slave));
+  return SpectralRadius(AssembleStateMatrix(system, master, p.slave));
 }
 
-bool IsUnstable(const PreparedSystem& p, int index, double stiffness) noexcept {
+bool IsUnstable(const PreparedSystem& p, int index, double stiffness) {
   return Radius(p, index, stiffness) > 1.0 + kUnstableMargin;
 }
 
@@ -88,7 +94,7 @@ Probe FindUnstableOperator(const PreparedSystem& p, double stiffness, int first,
       return probe;
     }
   }
-  threads = std::clamp(threads, 1, std::max(1, n / 64));
+  threads = std::clamp(threads, 1, std::max(1, n / p.min_per_thread()));
   std::atomic<int> found{-1};
   std::vector<int> counts(static_cast<std::size_t>(threads), 0);
   std::vector<std::pair<double, int>> critical(static_cast<std::size_t>(threads), {-1.0, -1});
@@ -120,7 +126,7 @@ struct Scan {
 // |z| of every operator at `stiffness`, no early exit; split over `threads` threads.
 Scan ScanAll(const PreparedSystem& p, double stiffness, int threads, int& evaluated) {
   const int n = static_cast<int>(p.master_blocks.size());
-  threads = std::clamp(threads, 1, std::max(1, n / 64));
+  threads = std::clamp(threads, 1, std::max(1, n / p.min_per_thread()));
   std::vector<Scan> partial(static_cast<std::size_t>(threads));
   auto scan = [&](int t) {
     Scan& best = partial[static_cast<std::size_t>(t)];
@@ -140,7 +146,7 @@ WorstCase Worst(const PreparedSystem& p, std::span<const HumanModel> humans, dou
   SampledTeleoperator system = p.system;
   system.gains.fixture(p.side) = stiffness;
   const int n = static_cast<int>(humans.size());
-  threads = std::clamp(threads, 1, std::max(1, n / 64));
+  threads = std::clamp(threads, 1, std::max(1, n / p.min_per_thread()));
   struct Partial {
     double min_zeta = 2.0;
     double max_radius = 0.0;
@@ -150,8 +156,10 @@ WorstCase Worst(const PreparedSystem& p, std::span<const HumanModel> humans, dou
   auto scan = [&](int t) {
     Partial& best = partial[static_cast<std::size_t>(t)];
     for (int i = t; i < n; i += threads) {
-      const ModalSummary modes = AnalyzeEigenvalues(
-          AssembleStateMatrix(system, p.master_blocks[static_cast<std::size_t>(i)], p.slave), system.period_s());
+      const ZohBlock& master = p.master_blocks[static_cast<std::size_t>(i)];
+      const ModalSummary modes =
+          p.lines ? AnalyzeEigenvalues(AssembleDelayedStateMatrix(system, master, p.slave), system.period_s())
+                  : AnalyzeEigenvalues(AssembleStateMatrix(system, master, p.slave), system.period_s());
       best.max_radius = std::max(best.max_radius, modes.spectral_radius);
       if (modes.min_damping_ratio < best.min_zeta) {
         best.min_zeta = modes.min_damping_ratio;

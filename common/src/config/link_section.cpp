@@ -108,8 +108,8 @@ void ParseCan(const Field& f, bool emulated, transport::CanLinkConfig& can) {
 }  // namespace
 
 void ParseLink(const Field& f, Role role, double rate_hz, int dof, link::LinkConfig& link) {
-  const Map map(f, {"transport", "bind", "peer", "timeout_ms", "accept_only_peer_address", "receive_buffer_bytes",
-                    "busy_poll_us", "can", "emulate", "security"});
+  const Map map(f, {"transport", "bind", "peer", "timeout_ms", "expected_delay_ms", "accept_only_peer_address",
+                    "receive_buffer_bytes", "busy_poll_us", "can", "emulate", "security"});
   if (auto v = map.Optional("transport")) {
     link.transport = v->AsString();
     if (link.transport != "udp" && link.transport != "can" && link.transport != "emulated-can") {
@@ -155,6 +155,7 @@ void ParseLink(const Field& f, Role role, double rate_hz, int dof, link::LinkCon
               Num(link.timeout_ms));
     }
   }
+  if (auto v = map.Optional("expected_delay_ms")) link.expected_delay_ms = InRange(*v, 0.0, 1000.0, "ms");
   if (auto v = map.Optional("accept_only_peer_address")) link.udp.accept_only_peer_address = v->AsBool();
   ParseSecurity(map, link.transport, dof, link.security);
   if (auto v = map.Optional("receive_buffer_bytes")) {

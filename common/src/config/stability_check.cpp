@@ -41,6 +41,7 @@ bool SameModel(const SampledTeleoperator& a, const SampledTeleoperator& b) noexc
          g.kfm == h.kfm && g.master_fixture_N_per_m == h.master_fixture_N_per_m &&
          g.slave_fixture_N_per_m == h.slave_fixture_N_per_m && a.rate_hz == b.rate_hz &&
          a.velocity_filter_hz == b.velocity_filter_hz && a.peer_delay_samples == b.peer_delay_samples &&
+         a.peer_delay_fraction == b.peer_delay_fraction && a.slave_peer_delay_samples == b.slave_peer_delay_samples &&
          a.slave_peer_delay_fraction == b.slave_peer_delay_fraction && a.unilateral == b.unilateral;
 }
 
@@ -66,15 +67,16 @@ std::string Short(double value) {
 std::string Assumptions(const ProcessConfig& config, const SampledTeleoperator& system, int operators) {
   const DeviceModel& peer = config.role == Role::kMaster ? system.slave : system.master;
   std::ostringstream out;
-  out << Plain(system.rate_hz) << " Hz, " << (system.unilateral ? "unilateral" : "bilateral") << ", peer delay "
-      << system.peer_delay_samples << " sample" << (system.peer_delay_samples == 1 ? "" : "s");
-  if (system.slave_peer_delay_fraction) {
+  out << Plain(system.rate_hz) << " Hz, " << (system.unilateral ? "unilateral" : "bilateral") << ", "
+      << analysis::DescribePeerDelay(system);
+  if (system.slave_peer_delay_fraction && !system.slave_peer_delay_samples) {
     out << " (triggered: the slave sees the master's sample " << Short(*system.slave_peer_delay_fraction)
         << " of a period late)";
   }
   out << ", peer " << ToString(Other(config.role)) << " " << Short(peer.mass_kg) << " kg "
       << Short(peer.damping_Ns_per_m) << " N·s/m with fixture "
-      << Whole(system.gains.fixture(FixtureSideOf(Other(config.role)))) << " N/m, " << operators << " operators";
+      << Whole(system.gains.fixture(FixtureSideOf(Other(config.role)))) << " N/m, " << operators
+      << " operators; assumed " << DescribeAssumedLinkDelay(config);
   return out.str();
 }
 
@@ -179,7 +181,34 @@ SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis) {
   g.fixture(side) = fixture_on_axis ? law.fixture.stiffness_N_per_m : 0.0;
   g.fixture(peer_side) = st.peer.fixture_stiffness_N_per_m;
   analysis::Validate(s);
+  if (const double link_delay_s = AssumedLinkDelay_s(config); link_delay_s > 0.0) {
+    try {
+      analysis::AddLinkDelay(s, link_delay_s);
+    } catch (const Error& e) {
+      throw Error("stability model: link delay " + Plain(link_delay_s * 1e3) + " ms at " + Plain(s.rate_hz) +
+                  " Hz is beyond the analysis' " + std::to_string(analysis::kMaxPeerDelaySamples) +
+                  " samples: " + e.what());
+    }
+  }
   return s;
+}
+
+double AssumedLinkDelay_s(const ProcessConfig& config) noexcept {
+  if (config.link.expected_delay_ms) return *config.link.expected_delay_ms * 1e-3;
+  if (config.link.emulate.enabled) {
+    const transport::ImpairmentConfig& e = config.link.emulate.impairments;
+    return e.delay_s + e.jitter_s;
+  }
+  return 0.0;
+}
+
+std::string DescribeAssumedLinkDelay(const ProcessConfig& config) {
+  if (config.link.expected_delay_ms) return "link.expected_delay_ms " + Plain(*config.link.expected_delay_ms) + " ms";
+  if (config.link.emulate.enabled) {
+    return "the emulated link's delay + jitter " + Plain(AssumedLinkDelay_s(config) * 1e3) +
+           " ms (link.emulate; link.expected_delay_ms overrides)";
+  }
+  return "no link delay (link.expected_delay_ms absent)";
 }
 
 std::vector<analysis::HumanModel> StabilityOperators(const ProcessConfig& config) {
@@ -295,7 +324,37 @@ std::string DescribeFailure(const ProcessConfig& config, const StabilityReport& 
     out << "Lower fixture.stiffness_N_per_m to at most " << Whole(std::floor(limit))
         << " N/m, or raise rate_hz or law.kd_Ns_per_m";
   }
-  out << " (try it with teleop-analyze check --config " << config.source_path << ")";
+  out << " (try it with teleop-analyze check --config " << config.source_path
+      << "; with these values: " << AnalyzeCommandLine(config, axis) << ")";
+  return out.str();
+}
+
+std::string AnalyzeCommandLine(const ProcessConfig& config, int axis) {
+  const SampledTeleoperator s = StabilityModel(config, axis);
+  const analysis::PeerDelays d = analysis::PeerDelaysOf(s);
+  const analysis::LawGains g = s.gains;
+  const FixtureSide side = FixtureSideOf(config.role);
+  const auto exact = [](double value) {
+    char text[40];
+    std::snprintf(text, sizeof text, "%.10g", value);
+    return std::string(text);
+  };
+  std::ostringstream out;
+  out << "teleop-analyze max-stiffness --side " << analysis::ToString(side) << " --rate " << exact(s.rate_hz)
+      << " --kpm " << exact(g.kpm_N_per_m) << " --kps " << exact(g.kps_N_per_m) << " --kdm " << exact(g.kdm_Ns_per_m)
+      << " --kds " << exact(g.kds_Ns_per_m) << " --kvm " << exact(g.kvm_Ns_per_m) << " --kvs " << exact(g.kvs_Ns_per_m)
+      << " --master-mass " << exact(s.master.mass_kg) << " --master-damping " << exact(s.master.damping_Ns_per_m)
+      << " --slave-mass " << exact(s.slave.mass_kg) << " --slave-damping " << exact(s.slave.damping_Ns_per_m)
+      << " --velocity-filter-hz " << exact(s.velocity_filter_hz) << " --peer-delay-samples "
+      << d.slave_to_master_samples << " --peer-delay-fraction " << exact(d.slave_to_master_fraction)
+      << " --slave-peer-delay-samples " << d.master_to_slave_samples << " --slave-peer-delay-fraction "
+      << exact(d.master_to_slave_fraction) << " --other-fixture "
+      << exact(g.fixture(side == FixtureSide::kMaster ? FixtureSide::kSlave : FixtureSide::kMaster));
+  if (s.unilateral) out << " --unilateral";
+  const StabilityConfig& st = config.stability;
+  if (!st.human_bounds.empty()) out << " --human-bounds " << BesideConfigFile(config.source_path, st.human_bounds);
+  out << " --human-steps " << st.human_grid_steps << "  # the limit; this fixture: " << exact(g.fixture(side))
+      << " N/m";
   return out.str();
 }
 

@@ -20,7 +20,12 @@ struct ModalSummary {
 /// Eigenvalues of A (Eigen's real Schur form, no eigenvectors) mapped to the s-plane. Allocation-free.
 ModalSummary AnalyzeEigenvalues(const StateMatrix& a, double period_s) noexcept;
 
+/// The same for the delay-line model (AssembleDelayedStateMatrix); allocates.
+ModalSummary AnalyzeEigenvalues(const Eigen::MatrixXd& a, double period_s);
+
 /// Spectral radius only: the cheapest stability test (|z| ≤ 1), used by the bisection.
 double SpectralRadius(const StateMatrix& a) noexcept;
+/// The same for the delay-line model; allocates.
+double SpectralRadius(const Eigen::MatrixXd& a);
 
 }  // namespace teleop::analysis

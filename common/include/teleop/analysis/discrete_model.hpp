@@ -34,8 +34,26 @@ ZohBlock DiscretizeSlave(const SampledTeleoperator& system) noexcept;
 StateMatrix AssembleStateMatrix(const SampledTeleoperator& system, const ZohBlock& master_with_human,
                                 const ZohBlock& slave) noexcept;
 
-/// Validates `system` and `human` (throws teleop::Error) and returns A.
+/// Validates `system` and `human` (throws teleop::Error) and returns A. Only for delays the 8 states model (each
+/// direction 0 + a fraction, or exactly 1 sample: !NeedsDelayLines); throws otherwise.
 StateMatrix BuildStateMatrix(const SampledTeleoperator& system, const HumanModel& human);
+
+/// Whether a direction's delay is beyond what the 8 states model (more than one whole sample, or one and a fraction).
+bool NeedsDelayLines(const SampledTeleoperator& system) noexcept;
+
+/// The state dimension of the delay-line model: 8 + L_sm + L_ms, each line L = d + [φ > 0] (d whole samples, φ the
+/// fraction of that direction, PeerDelaysOf).
+int DelayedStateDimension(const SampledTeleoperator& system) noexcept;
+
+/// The same closed loop with any delay: the 8 states above plus one delay line per direction holding the scalar
+/// peer term of that side's law (-K_pm·X_s - K_dm·y_s for the master, K_ps·X_m + K_ds·y_m for the slave) of the last
+/// L samples. The master's force at k uses the line's p(k-d) (and p(k-d-1) during the first φT of the period); the
+/// line shifts by one each sample. For delays the 8 states model it has the same nonzero eigenvalues plus zeros
+/// (tests/analysis/delay_line_test.cpp). Allocates (dynamic size).
+Eigen::MatrixXd AssembleDelayedStateMatrix(const SampledTeleoperator& system, const ZohBlock& master_with_human,
+                                           const ZohBlock& slave);
+/// Validates and returns the delay-line model's A (any delay, also ≤ 1 sample).
+Eigen::MatrixXd BuildDelayedStateMatrix(const SampledTeleoperator& system, const HumanModel& human);
 
 /// Coefficient of the first-order velocity low-pass, a = 1 - exp(-2π·f_c·T); 1 when f_c = 0 (no filter). The same
 /// discretization as control::VelocityEstimator.

@@ -12,3 +12,5 @@
 extern template Eigen::EigenSolver<teleop::analysis::StateMatrix>&
 Eigen::EigenSolver<teleop::analysis::StateMatrix>::compute<teleop::analysis::StateMatrix>(
     const Eigen::EigenBase<teleop::analysis::StateMatrix>& matrix, bool computeEigenvectors);
+extern template Eigen::EigenSolver<Eigen::MatrixXd>& Eigen::EigenSolver<Eigen::MatrixXd>::compute<Eigen::MatrixXd>(
+    const Eigen::EigenBase<Eigen::MatrixXd>& matrix, bool computeEigenvectors);

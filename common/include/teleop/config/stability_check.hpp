@@ -43,6 +43,12 @@ double TriggeredDataAge_s(const ProcessConfig& config);
 /// invalid, or the check does not apply (StabilityNotApplicable).
 analysis::SampledTeleoperator StabilityModel(const ProcessConfig& config, int axis);
 
+/// The link's one-way delay the check assumes on top of the pair's one sample: link.expected_delay_ms, else the
+/// emulated link's delay + jitter when link.emulate is on, else 0 (s). StabilityModel adds it to both directions.
+double AssumedLinkDelay_s(const ProcessConfig& config) noexcept;
+/// Where that delay came from, in words ("link.expected_delay_ms 40 ms"), for the check's messages.
+std::string DescribeAssumedLinkDelay(const ProcessConfig& config);
+
 /// The operator set of `config.stability`: the `human_bounds` CSV (a relative path is relative to the config file's
 /// directory) or the built-in finger table, with `human_grid_steps`. Throws teleop::Error on a bad file.
 std::vector<analysis::HumanModel> StabilityOperators(const ProcessConfig& config);
@@ -73,5 +79,9 @@ std::string DescribePass(const ProcessConfig& config, const StabilityReport& rep
 /// Why it did not pass: the config file, the configured stiffness, the predicted limit (N/m), the assumptions and what
 /// to change. Names the "unstable even without a fixture" case separately. The caller adds its override hint.
 std::string DescribeFailure(const ProcessConfig& config, const StabilityReport& report);
+
+/// The `teleop-analyze max-stiffness` command line that reproduces the check's limit for DOF `axis` of `config`
+/// with its values as they are (the live ones at run time, not the file's): every model input spelled out.
+std::string AnalyzeCommandLine(const ProcessConfig& config, int axis);
 
 }  // namespace teleop::config

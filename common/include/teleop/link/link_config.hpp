@@ -1,6 +1,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "teleop/transport/can_link_config.hpp"
@@ -22,6 +23,9 @@ struct LinkConfig {
   transport::CanLinkConfig can{};  ///< Used by "can" and "emulated-can"; its dof is the process's dof.
   double rate_hz = 1000.0;         ///< The loop rate, for the CAN bus-load budget (set from the process config).
   double timeout_ms = 50.0;        ///< Watchdog: no accepted sample for this long → peer lost → safe state.
+  /// `link.expected_delay_ms`: the link's one-way delay the start-up stability check assumes on top of the pair's
+  /// own one sample (docs/stability.md, "Delay"). Absent: the emulated delay (+ jitter) when emulate is on, else 0.
+  std::optional<double> expected_delay_ms;
   /// `link.emulate` (docs/link-emulation.md): when enabled, the opened link is wrapped in an ImpairedLink that
   /// impairs what this process receives.
   struct Emulation {
