@@ -287,7 +287,6 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
   const timespec timeout{static_cast<time_t>(wait / 1'000'000'000u), static_cast<long>(wait % 1'000'000'000u)};
   if (unix_path_.empty()) {
     ReceiveUdp(timeout);
-    CheckUdpNodes(EmulatedCanBus::SteadyNow_ns());
   } else {
     ReceiveUnix(timeout);
   }
@@ -299,6 +298,7 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
 void CanBusServer::ReceiveUdp(const timespec& timeout) noexcept {
   pollfd pfd{socket_, POLLIN, 0};
   ::ppoll(&pfd, 1, &timeout, nullptr);
+  CheckUdpNodes(EmulatedCanBus::SteadyNow_ns());  // before the drain: what a dead node's successor sent is not its
   std::array<std::uint8_t, 256> buffer{};
   for (int i = 0; i < 1024; ++i) {
     sockaddr_storage source{};
