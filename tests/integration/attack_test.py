@@ -463,10 +463,16 @@ def can_inherit_attack(canbus, master, slave, configs, workdir):
                           stderr=subprocess.STDOUT, text=True)
     sl_out = Output(sl)
     ma = subprocess.Popen([master, "--config", files["master-can.yaml"], "--duration", "0"],
-                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    ma_out = Output(ma)
     position = 0.144
     try:
-        time.sleep(1.2)
+        for _ in range(3000):  # both loops running (after their start-up stability checks)
+            if all(re.search(p + r"\] \[info\] " + p + r": \d+ DOF", o.text()) for p, o in
+                   (("teleop-slave", sl_out), ("teleop-master", ma_out))):
+                break
+            time.sleep(0.01)
+        time.sleep(1.0)
         check(ma.poll() is None and sl.poll() is None, "the pair runs over teleop-canbus")
         port = udp_port_of(ma.pid, bus_port)
         coupled_t0 = wall_now() - 0.5
