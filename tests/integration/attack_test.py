@@ -447,6 +447,8 @@ def can_inherit_attack(canbus, master, slave, configs, workdir):
     files = {n: os.path.join(workdir, n) for n in ("master-can.yaml", "slave-can.yaml", "slave-can.csv")}
     for name in ("master-can.yaml", "slave-can.yaml"):
         text = open(os.path.join(configs, name)).read().replace('"127.0.0.1:47300"', f'"127.0.0.1:{bus_port}"')
+        # The start-up stability check (512 operators, seconds on a loaded CI machine) is not what this row tests.
+        text = re.sub(r"(?m)^(\s*check:) true", r"\1 false", text)
         csv_path = files["slave-can.csv"] if name.startswith("slave") else ""
         text = re.sub(r"(?m)^(\s*csv:).*$", lambda m: f'{m.group(1)} "{csv_path}"', text)
         if not re.search(r"(?m)^safety:", text):
@@ -467,12 +469,14 @@ def can_inherit_attack(canbus, master, slave, configs, workdir):
     ma_out = Output(ma)
     position = 0.144
     try:
-        for _ in range(3000):  # both loops running (after their start-up stability checks)
-            if all(re.search(p + r"\] \[info\] " + p + r": \d+ DOF", o.text()) for p, o in
-                   (("teleop-slave", sl_out), ("teleop-master", ma_out))):
+        for _ in range(2000):  # both attached (their logs reach the pipe only when a buffer fills)
+            try:
+                udp_port_of(ma.pid, bus_port)
+                udp_port_of(sl.pid, bus_port)
                 break
-            time.sleep(0.01)
-        time.sleep(1.0)
+            except (Failure, OSError):
+                time.sleep(0.01)
+        time.sleep(1.5)  # aligned and coupled (about 0.5 s after both attached, more under load)
         check(ma.poll() is None and sl.poll() is None, "the pair runs over teleop-canbus")
         port = udp_port_of(ma.pid, bus_port)
         coupled_t0 = wall_now() - 0.5
