@@ -262,14 +262,14 @@ const GainSignals& TeleopNode::Impl::Signals(const PeerView& view) noexcept {
   s.velocity_m_per_s = coupling->state().last_velocity;  // the law's, measured or estimated
   if (s.velocity_m_per_s.size() != dof) s.velocity_m_per_s = ZeroDof(dof);
   s.position_error_m.setZero(dof);
-  s.velocity_error_m_per_s = s.velocity_m_per_s;
+  s.velocity_error_m_per_s.setZero(dof);
   s.peer_force_N.setZero(dof);
   if (!view.have_peer || reading.position_m.size() != dof) return s;
   for (int i = 0; i < dof; ++i) {
     const auto k = static_cast<std::size_t>(i);
     s.position_error_m[i] = reading.position_m[i] + coupling->state().index_offset_m[i] -
                             law.peer_position_scale * view.sample->position_m[k];
-    s.velocity_error_m_per_s[i] -= law.peer_position_scale * view.sample->velocity_m_per_s[k];
+    s.velocity_error_m_per_s[i] = s.velocity_m_per_s[i] - law.peer_position_scale * view.sample->velocity_m_per_s[k];
     s.peer_force_N[i] = law.peer_force_scale * view.sample->force_N[k];
   }
   return s;
