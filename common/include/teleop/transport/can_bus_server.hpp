@@ -94,6 +94,7 @@ class CanBusServer {
   void ReceiveUdp(const timespec& timeout) noexcept;
   void ReceiveUnix(const timespec& timeout) noexcept;
   void Dispatch(const From& from, std::span<const std::uint8_t> bytes) noexcept;
+  bool Attach(const From& from) noexcept;
   void SendTo(const From& to, const bus_datagram::Message& m) noexcept;
   bool StillOwned(const Peer& peer) const noexcept;
   void CheckUdpNodes(std::uint64_t now_ns) noexcept;

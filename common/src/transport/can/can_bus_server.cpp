@@ -380,34 +380,7 @@ void CanBusServer::Dispatch(const From& from, std::span<const std::uint8_t> byte
         peer = nodes_.end();
       }
       if (peer == nodes_.end()) {
-        if (nodes_.size() == nodes_.capacity()) break;  // full: the node times out and says so
-        Peer p{};
-        p.fd = from.fd;
-        p.last_heard_ns = EmulatedCanBus::SteadyNow_ns();
-        if (from.fd >= 0) {
-          p.uid = from.uid;
-          p.local = from.uid != kNoOwner;
-        } else {
-          p.address = *from.address;
-          p.address_len = from.address_len;
-          sockaddr_in udp_source{};
-          std::memcpy(&udp_source, from.address, sizeof udp_source);
-          const UdpOwner owner = LocalOwner(udp_source);
-          p.uid = owner.uid;
-          p.inode = owner.inode;
-          p.local = owner.uid != kNoOwner;
-        }
-        if (from.fd >= 0 ? !p.local || !Contains(config_.allowed_uids, p.uid, own_uid)
-                         : (p.local ? !Contains(config_.allowed_uids, p.uid, own_uid) : !allow_remote_)) {
-          ++refused_hellos_;  // no welcome: the node times out and says no daemon answered
-          break;
-        }
-        try {
-          p.node = bus_.AddNode();  // a node that said bye keeps its (idle) bus node
-        } catch (...) {
-          break;
-        }
-        nodes_.push_back(p);
+        if (!Attach(from)) break;  // no welcome: the node times out and says no daemon answered
         peer = nodes_.end() - 1;
       }
       bus_datagram::Message w{};
@@ -444,6 +417,42 @@ void CanBusServer::Dispatch(const From& from, std::span<const std::uint8_t> byte
       ++malformed_;
       break;
   }
+}
+
+// A new node for `from` when it may join: who it is (Unix: the kernel's uid; UDP: the owner and inode of the sending
+// socket, or a remote node where the network is the bus) and whether that user is allowed. False (a refusal counted)
+// when not, or when the bus is full.
+bool CanBusServer::Attach(const From& from) noexcept {
+  if (nodes_.size() == nodes_.capacity()) return false;  // full: the node times out and says so
+  Peer p{};
+  p.fd = from.fd;
+  p.last_heard_ns = EmulatedCanBus::SteadyNow_ns();
+  if (from.fd >= 0) {
+    p.uid = from.uid;
+    p.local = from.uid != kNoOwner;
+  } else {
+    p.address = *from.address;
+    p.address_len = from.address_len;
+    sockaddr_in udp_source{};
+    std::memcpy(&udp_source, from.address, sizeof udp_source);
+    const UdpOwner owner = LocalOwner(udp_source);
+    p.uid = owner.uid;
+    p.inode = owner.inode;
+    p.local = owner.uid != kNoOwner;
+  }
+  const auto own_uid = static_cast<std::uint32_t>(::geteuid());
+  const bool allowed = p.local ? Contains(config_.allowed_uids, p.uid, own_uid) : from.fd < 0 && allow_remote_;
+  if (!allowed) {
+    ++refused_hellos_;
+    return false;
+  }
+  try {
+    p.node = bus_.AddNode();  // a node that said bye keeps its (idle) bus node
+  } catch (...) {
+    return false;
+  }
+  nodes_.push_back(p);
+  return true;
 }
 
 void CanBusServer::SendTo(const From& to, const bus_datagram::Message& m) noexcept {
