@@ -7,6 +7,8 @@
 // the pair's offset at release.
 
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
@@ -17,15 +19,18 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/device/loopback.hpp"
+#include "teleop/error.hpp"
 #include "teleop/node/command_server.hpp"
 #include "teleop/node/teleop_node.hpp"
 #include "teleop/transport/can_emulated_bus.hpp"
@@ -717,6 +722,130 @@ TEST(NodeTune, TheCycleAllocatesNothingWhileGainsRampAndAPlaneSlews) {
   EXPECT_DOUBLE_EQ(rig.slave->fixture_plane(0).offset_m, 0.049);
 }
 
+// Issue 31 item 19: `fixture off` then `fixture on`, each with ramp 0, while the slave stands 5 mm inside its wall
+// (a 1000 kg loopback slave alone: it moves < 0.3 mm in the run, so what changes the force is the command). Before,
+// each was a K·d = 10 N step in one cycle; now a ramp shorter than |ΔK|·d / engagement.max_force_rate_N_per_s is
+// stretched to it, so the fixture force changes by at most the bound per cycle (plus K·|Δx|, the slave's own motion).
+struct StiffnessSteps {
+  double max_force_step_N = 0.0;  ///< Largest |ΔF_fixture| in a cycle, from the first command on.
+  double max_excess_N = -1e9;     ///< ... minus rate·T + K·|Δx| (<= 0: the bound held).
+  double off_s = 0.0;             ///< Until the stiffness reached 0.
+  double on_s = 0.0;              ///< Until it was back at 2000 N/m.
+  double off_depth_m = 0.0;       ///< The slave's penetration when `fixture off` reached the cycle.
+  double on_depth_m = 0.0;        ///< ... and `fixture on`.
+};
+
+StiffnessSteps FixtureOffAndOnInsideTheWall(const std::string& max_force_rate, const std::string& gain = "") {
+  const std::string text = R"(role: slave
+dof: 1
+rate_hz: 1000
+link: {security: {mode: insecure}, bind: "127.0.0.1:47006", peer: "127.0.0.1:47005", timeout_ms: 50}
+law: {kp_N_per_m: 600, kd_Ns_per_m: 2, kv_Ns_per_m: 1, max_force_N: 20, velocity_filter_hz: 200}
+fixture: {stiffness_N_per_m: 2000, half_space: {axis: 0, offset_m: -0.005, direction: +1}}
+engagement: {max_force_rate_N_per_s: )" +
+                           max_force_rate + R"(}
+device: {backend: loopback, loopback: {mass_kg: 1000, damping_Ns_per_m: 0.49}}
+stability: {check: false}
+safety: {fault_record_dir: ")" +
+                           ::testing::TempDir() + "\"}\n";
+  const config::ProcessConfig cfg = config::ParseProcessConfig(text, "slave-heavy.yaml");
+  auto medium = std::make_shared<transport::EmulatedMedium>(transport::EmulatedMediumConfig{});
+  RecordingSink::Seen seen;
+  TeleopNode node(cfg, device::MakeDevice(cfg.device),
+                  std::make_unique<transport::EmulatedLink>(medium, proto::SenderRole::kSlave),
+                  TeleopNode::Unconfigured{});
+  node.AddSink(std::make_unique<RecordingSink>(seen));
+  node.Configure();
+  node.Activate();
+  std::uint64_t k = 0;
+  const auto step_until = [&](std::uint64_t end) {
+    for (; k < end; ++k) node.Step(k, kPeriod_s, 1'000'000'000 + static_cast<std::int64_t>(k) * 1'000'000);
+  };
+  StiffnessSteps r;
+  step_until(200);
+  const std::size_t from = seen.fixture_force_N.size();
+  const double rate = std::stod(max_force_rate);
+  if (!gain.empty()) {  // a K_v change with ramp 0 instead, the slave moving (below)
+    EXPECT_TRUE(node.RequestGain(GainName::kKv, -1, std::stod(gain), 0.0).accepted);
+    step_until(600);
+  } else {
+    r.off_depth_m = seen.position_m.back() + 0.005;
+    const TeleopNode::FixtureChange off = node.RequestFixtureEnabled(false, 0.0);
+    EXPECT_TRUE(off.accepted) << off.message;
+    while (k < 500) {
+      step_until(k + 1);
+      if (r.off_s == 0.0 && node.fixture_stiffness_N_per_m() == 0.0) r.off_s = static_cast<double>(k - 200) * kPeriod_s;
+    }
+    r.on_depth_m = seen.position_m.back() + 0.005;
+    const TeleopNode::FixtureChange on = node.RequestFixtureEnabled(true, 0.0);
+    EXPECT_TRUE(on.accepted) << on.message;
+    while (k < 800) {
+      step_until(k + 1);
+      if (r.on_s == 0.0 && node.fixture_stiffness_N_per_m() == 2000.0)
+        r.on_s = static_cast<double>(k - 500) * kPeriod_s;
+    }
+  }
+  (void)node.Finish();
+  for (std::size_t i = std::max<std::size_t>(from, 1); i < seen.fixture_force_N.size(); ++i) {
+    const double step = std::abs(seen.fixture_force_N[i] - seen.fixture_force_N[i - 1]);
+    r.max_force_step_N = std::max(r.max_force_step_N, step);
+    r.max_excess_N = std::max(r.max_excess_N, step - (rate * kPeriod_s * 1.05 +
+                                                      2000.0 * std::abs(seen.position_m[i] - seen.position_m[i - 1])));
+  }
+  std::printf(
+      "fixture off/on with ramp 0 at max_force_rate %s N/s: largest fixture force step %.4f N/cycle, bound "
+      "excess %.3g N, off in %.3f s (at %.2f mm), on in %.3f s (at %.2f mm)\n",
+      max_force_rate.c_str(), r.max_force_step_N, r.max_excess_N, r.off_s, r.off_depth_m * 1e3, r.on_s,
+      r.on_depth_m * 1e3);
+  return r;
+}
+
+TEST(NodeTune, AStiffnessChangeWithRamp0KeepsTheForceRateBounded) {
+  const StiffnessSteps r = FixtureOffAndOnInsideTheWall("100");
+  EXPECT_LE(r.max_excess_N, 0.0) << "the fixture force changed faster than 100 N/s";
+  EXPECT_GT(r.max_force_step_N, 0.05) << "it did change, at about the bound";
+  // The ramp is |ΔK|·d / rate (2000 N/m · 4.8 mm / 100 N/s = 0.096 s off; the slave coasts out while the fixture is
+  // off, so on is shorter), to the cycle.
+  EXPECT_GT(r.off_depth_m, 0.004);
+  EXPECT_NEAR(r.off_s, 2000.0 * r.off_depth_m / 100.0, 2.0 * kPeriod_s);
+  EXPECT_NEAR(r.on_s, 2000.0 * r.on_depth_m / 100.0, 2.0 * kPeriod_s);
+}
+
+TEST(NodeTune, WithoutTheRateBoundAStiffnessChangeWithRamp0Steps) {
+  // The same with a bound that bounds nothing: the 10 N step of the issue (so the test above can fail).
+  const StiffnessSteps r = FixtureOffAndOnInsideTheWall("1e6");
+  EXPECT_GT(r.max_force_step_N, 9.0);
+  EXPECT_LE(r.off_s, 2.0 * kPeriod_s);
+}
+
+// The same for a gain: K_p 600 → 300 with ramp 0 while the engaged pair holds a 1.5 N contact on the slave (a
+// 2.5 mm coupling error): before, a ΔK_p·e = 0.75 N step of the command in one cycle. Returns the largest one-cycle
+// change of the slave's command in the 100 ms after the change.
+double GainStepAgainstAContact(const std::string& max_force_rate) {
+  Rig rig("", "", "max_force_rate_N_per_s: " + max_force_rate, kSlaveFixture);
+  rig.slave_plant->SetDisturbance(DofVector::Constant(1, 1.5));
+  rig.StepUntil(1000);
+  EXPECT_EQ(rig.slave->engagement(), EngagementState::kEngaged);
+  rig.watch = true;
+  rig.StepUntil(1100);
+  const double before_N = rig.slave_step_N;
+  rig.slave_step_N = 0.0;
+  EXPECT_TRUE(rig.slave->RequestGain(GainName::kKp, -1, 300.0, 0.0).accepted);
+  rig.StepUntil(1200);
+  EXPECT_EQ(rig.slave->engagement(), EngagementState::kEngaged);
+  std::printf(
+      "K_p 600 -> 300 with ramp 0 at max_force_rate %s N/s: largest slave command step %.4f N/cycle (%.4f "
+      "before the change)\n",
+      max_force_rate.c_str(), rig.slave_step_N, before_N);
+  EXPECT_DOUBLE_EQ(rig.slave->gain(GainName::kKp, 0), 300.0) << "the change completed";
+  return rig.slave_step_N;
+}
+
+TEST(NodeTune, AGainChangeWithRamp0KeepsTheForceRateBounded) {
+  EXPECT_LE(GainStepAgainstAContact("100"), kMaxStep_N);
+  EXPECT_GT(GainStepAgainstAContact("1e6"), 0.5) << "without the bound it steps (the line above can fail)";
+}
+
 // The command channel (docs/clutch.md, "Run-time commands"): a Unix socket served by its own thread.
 std::string SocketPath(const char* name) {
   return (std::filesystem::path(::testing::TempDir()) / (std::string("teleop-") + name + ".sock")).string();
@@ -842,6 +971,128 @@ TEST(NodeCommand, GainsAndPlanesOverTheSocketAndEveryCommandIsAnEvent) {
   EXPECT_EQ(seen.Count(Event::Kind::kClutchCommanded), 2u);
   EXPECT_EQ(seen.Count(Event::Kind::kCommandMalformed), 6u) << "each malformed command is an event";
   EXPECT_EQ(rig.slave->command_events_dropped(), 0u);
+}
+
+/// A connected client that has sent `partial` (no newline) and nothing more.
+int OpenSlowClient(const std::string& path, const char* partial) {
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, path.c_str(), sizeof(addr.sun_path) - 1);
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {  // NOLINT: sockets API
+    ::close(fd);
+    return -1;
+  }
+  (void)::send(fd, partial, std::strlen(partial), MSG_NOSIGNAL);
+  return fd;
+}
+
+/// Everything the server sends on `fd` until it closes.
+std::string ReadAll(int fd) {
+  std::string got;
+  char buf[256];
+  for (ssize_t n = 0; (n = ::recv(fd, buf, sizeof buf, 0)) > 0;) got.append(buf, static_cast<std::size_t>(n));
+  return got;
+}
+
+// Issue 31 item 18: a client that sends half a command and stops (before: served alone, up to 1 s per byte for
+// 256 bytes) does not delay the operator's `clutch on`: it is answered while the slow client is still open and
+// unanswered (no timeout and no malformed command counted yet; before, the slow client's partial line was executed,
+// as malformed, first). Clients beyond kMaxClients are refused at once; the slow one is closed at its deadline.
+TEST(NodeCommand, ASlowClientDoesNotDelayAnother) {
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
+  rig.StepUntil(100);
+  const std::string path = SocketPath("slow");
+  CommandServer server(*rig.slave, CommandServer::Config{path, 0600, 0.1});
+  const int slow = OpenSlowClient(path, "clutch");
+  ASSERT_GE(slow, 0);
+  EXPECT_EQ(Send(path, "clutch on\n"), "ok: clutch on\n");
+  EXPECT_EQ(server.timed_out(), 0u) << "the slow client was still being served";
+  EXPECT_EQ(server.malformed(), 0u) << "the slow client's half line was not executed first";
+  std::vector<int> idle;
+  for (std::size_t i = 1; i < CommandServer::kMaxClients; ++i) idle.push_back(OpenSlowClient(path, ""));
+  EXPECT_EQ(Send(path, "clutch off\n").rfind("refused: busy", 0), 0u) << "a client beyond kMaxClients";
+  EXPECT_EQ(server.busy(), 1u);
+  const std::string reply = ReadAll(slow);  // until the deadline closes it
+  EXPECT_EQ(reply.rfind("error: no complete command line within", 0), 0u) << reply;
+  for (const int fd : idle) (void)ReadAll(fd);
+  EXPECT_EQ(server.timed_out(), CommandServer::kMaxClients);
+  EXPECT_EQ(server.commands(), 1u) << "only the complete line was executed";
+  ::close(slow);
+  for (const int fd : idle) ::close(fd);
+  EXPECT_EQ(Send(path, "clutch off\n"), "ok: clutch off\n") << "served again once the slow ones are gone";
+}
+
+// Issue 31 item 20: numbers are decimal only (strtod took `0x10` as 16 m), a plane offset is bounded by the
+// workspace (1e308 was accepted), and the command line reaches the log with its control bytes escaped.
+TEST(NodeCommand, HexNumbersAndFarPlanesAreRefusedAndTheLogIsEscaped) {
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
+  rig.StepUntil(100);
+  const std::string path = SocketPath("numbers");
+  CommandServer server(*rig.slave, CommandServer::Config{path, 0600, 0.1});
+  auto log = std::make_shared<std::ostringstream>();
+  auto sink = std::make_shared<spdlog::sinks::ostream_sink_mt>(*log);
+  spdlog::default_logger()->sinks().push_back(sink);
+  EXPECT_EQ(Send(path, "fixture-plane 0x10 1\n").rfind("error: ", 0), 0u) << "hex";
+  EXPECT_EQ(Send(path, "fixture-stiffness 0x3e8\n").rfind("error: ", 0), 0u) << "hex";
+  EXPECT_EQ(Send(path, "fixture-stiffness  +1000\n").rfind("error: ", 0), 0u) << "a sign is not a number";
+  const std::string far = Send(path, "fixture-plane 1e308 1\n");
+  EXPECT_EQ(far.rfind("refused: offset 1e+308 m is outside", 0), 0u) << far;
+  EXPECT_EQ(Send(path, "fixture-plane 1.5 1\n").rfind("refused: ", 0), 0u) << "beyond max_abs_position_m 1 m";
+  EXPECT_EQ(Send(path, "fixture-plane 0.049 1\n").rfind("ok: ", 0), 0u) << "a decimal in range";
+  EXPECT_EQ(Send(path, "clutch \x1b[2J\x1b]0;owned\x07\n").rfind("error: ", 0), 0u);
+  spdlog::default_logger()->sinks().pop_back();
+  EXPECT_EQ(log->str().find('\x1b'), std::string::npos) << "a raw escape reached the log";
+  EXPECT_NE(log->str().find("clutch \\x1b[2J\\x1b]0;owned\\x07"), std::string::npos) << log->str();
+  rig.StepUntil(700);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_plane(0).offset_m, 0.049);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 2000.0);
+}
+
+// Issue 31 item 20: a path somebody else made first (in /tmp anyone can) is refused with its owner named, never
+// removed; a live socket is never taken over; only a stale socket of this user is replaced.
+TEST(NodeCommand, ASocketPathInTheWayIsRefusedUnlessItIsOurStaleSocket) {
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
+  const std::string path = SocketPath("inway");
+  std::filesystem::remove(path);
+  const auto refusal = [&]() -> std::string {
+    try {
+      CommandServer server(*rig.slave, CommandServer::Config{path, 0600, 0.1});
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  {
+    std::ofstream(path) << "a file";
+    EXPECT_NE(refusal().find("exists and is not a socket"), std::string::npos);
+    EXPECT_TRUE(std::filesystem::is_regular_file(path)) << "the file was removed";
+    std::filesystem::remove(path);
+  }
+  {
+    CommandServer live(*rig.slave, CommandServer::Config{path, 0600, 0.1});
+    EXPECT_NE(refusal().find("another process is serving commands on it"), std::string::npos);
+    EXPECT_EQ(Send(path, "clutch off\n"), "ok: clutch off\n") << "the live server kept its socket";
+  }
+  // A stale socket of ours (a process killed before it removed it): replaced.
+  const int stale = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, path.c_str(), sizeof(addr.sun_path) - 1);
+  ASSERT_EQ(::bind(stale, reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0);  // NOLINT: sockets API
+  ::close(stale);
+  EXPECT_EQ(refusal(), "") << "our stale socket is replaced";
+  if (::geteuid() == 0) {  // the issue's case: another user's socket at the path
+    const int other = ::socket(AF_UNIX, SOCK_STREAM, 0);
+    ASSERT_EQ(::bind(other, reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0);  // NOLINT: sockets API
+    ASSERT_EQ(::lchown(path.c_str(), 65534, 65534), 0);
+    const std::string why = refusal();
+    EXPECT_NE(why.find("a socket of uid 65534"), std::string::npos) << why;
+    EXPECT_NE(why.find("not removed"), std::string::npos) << why;
+    EXPECT_TRUE(std::filesystem::is_socket(path)) << "another user's socket was removed";
+    ::close(other);
+    std::filesystem::remove(path);
+  }
 }
 
 /// Forks a child that drops to uid/gid 65534 (nobody) and sends `line`; returns its exit status: 0 the reply began

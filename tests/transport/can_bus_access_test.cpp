@@ -3,22 +3,27 @@
 // refused), and control commands (bus-off, restart, error injection) come only from a controller's nodes. The same
 // over a Unix-domain socket (`unix:PATH`): the socket file's mode and group decide who may connect at all, the
 // kernel names the connecting process (SO_PEERCRED), and a stale socket file is replaced while a live daemon's is not.
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <span>
 #include <string>
 #include <thread>
 
@@ -126,6 +131,142 @@ TEST(CanBusAccess, RemoteNodesOnlyWhereTheNetworkIsTheBus) {
   UdpCanBusPort own("127.0.0.1", bus.server->port(), 2000.0);
   EXPECT_EQ(bus.server->node_count(), 1);
   EXPECT_EQ(bus.server->refused_hellos(), 0u);
+}
+
+// A UDP socket on 127.0.0.1:`own_port` (0: any) connected to the daemon, as a node's; -1 when the port is taken.
+int UdpNode(std::uint16_t bus_port, std::uint16_t own_port = 0) {
+  const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  addr.sin_port = htons(own_port);
+  if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {  // NOLINT: sockets API
+    ::close(fd);
+    return -1;
+  }
+  addr.sin_port = htons(bus_port);
+  (void)::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr);  // NOLINT: sockets API
+  return fd;
+}
+
+std::uint16_t PortOf(int fd) {
+  sockaddr_in addr{};
+  socklen_t len = sizeof addr;
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);  // NOLINT: sockets API
+  return ntohs(addr.sin_port);
+}
+
+void SendMessage(int fd, const bus_datagram::Message& m) {
+  std::array<std::uint8_t, bus_datagram::kMaxSize> out{};
+  (void)::send(fd, out.data(), bus_datagram::Encode(m, out), MSG_DONTWAIT);
+}
+
+/// Frames (not welcomes) waiting on `fd`.
+int FramesWaiting(int fd) {
+  int frames = 0;
+  std::array<std::uint8_t, bus_datagram::kMaxSize> in{};
+  for (ssize_t n = 0; (n = ::recv(fd, in.data(), in.size(), MSG_DONTWAIT)) > 0;) {
+    bus_datagram::Message m{};
+    if (bus_datagram::Decode(std::span<const std::uint8_t>(in.data(), static_cast<std::size_t>(n)), m) &&
+        m.type == bus_datagram::Type::kFrame) {
+      ++frames;
+    }
+  }
+  return frames;
+}
+
+bus_datagram::Message Hello() {
+  bus_datagram::Message m{};
+  m.type = bus_datagram::Type::kHello;
+  return m;
+}
+
+// Issue 31 item 14: a node is the socket that said hello, not its port. The master's node dies without a bye (its
+// socket closes); another socket binds the freed port and sends a frame and a bus-off for node 0. As root the
+// successor is nobody's (the attack: before, its frames went out as the master's and its bus-off was obeyed with
+// the master's controller rights); otherwise our own user's, a different socket all the same. The daemon detaches
+// the dead node at its next look-up (every kOwnerCheckPeriod_ns, before the queue is drained): the frame comes from
+// no node (counted malformed) and reaches no one, the bus-off is refused.
+TEST(CanBusAccess, ADeadNodeIsNotInheritedByTheNextSocketOnItsPort) {
+  Bus bus{CanBusServerConfig{}};  // no thread: the test steps it
+  CanBusServer& server = *bus.server;
+  const int master = UdpNode(server.port());
+  const int listener = UdpNode(server.port());
+  SendMessage(master, Hello());
+  SendMessage(listener, Hello());
+  server.Step(0);
+  ASSERT_EQ(server.node_count(), 2);
+  (void)FramesWaiting(listener);  // the welcome
+  const std::uint16_t port = PortOf(master);
+  ::close(master);  // SIGKILL: no bye
+  int ready[2];
+  int release[2];
+  ASSERT_EQ(::pipe(ready), 0);
+  ASSERT_EQ(::pipe(release), 0);
+  const bool as_nobody = ::geteuid() == 0;
+  const pid_t child = ::fork();
+  if (child == 0) {
+    if (as_nobody && (::setgid(kNobody) != 0 || ::setuid(kNobody) != 0)) ::_exit(2);
+    const int heir = UdpNode(server.port(), port);
+    if (heir < 0) ::_exit(3);
+    bus_datagram::Message frame{};
+    frame.type = bus_datagram::Type::kFrame;
+    frame.frame.id = 0x181;
+    frame.frame.len = 8;
+    SendMessage(heir, frame);
+    bus_datagram::Message bus_off{};
+    bus_off.type = bus_datagram::Type::kControl;
+    bus_off.action = bus_datagram::Action::kBusOff;
+    SendMessage(heir, bus_off);
+    char c = 1;
+    (void)::write(ready[1], &c, 1);
+    (void)::read(release[0], &c, 1);  // keep the socket until the daemon has seen it
+    ::_exit(0);
+  }
+  char c = 0;
+  ASSERT_EQ(::read(ready[0], &c, 1), 1) << "the successor could not bind the freed port";
+  std::this_thread::sleep_for(std::chrono::nanoseconds(CanBusServer::kOwnerCheckPeriod_ns + 1'000'000));
+  for (int i = 0; i < 5; ++i) server.Step(1'000'000);
+  (void)::write(release[1], &c, 1);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "the successor process failed";
+  std::printf("successor %s: orphaned %llu, refused controls %llu, malformed %llu, nodes %d\n",
+              as_nobody ? "nobody" : "own user", static_cast<unsigned long long>(server.orphaned_nodes()),
+              static_cast<unsigned long long>(server.refused_controls()),
+              static_cast<unsigned long long>(server.malformed_datagrams()), server.node_count());
+  EXPECT_EQ(server.orphaned_nodes(), 1u) << "the dead node was detached";
+  EXPECT_EQ(server.node_count(), 1) << "only the listener is attached";
+  EXPECT_EQ(server.refused_controls(), 1u);
+  EXPECT_FALSE(server.bus().is_bus_off(0)) << "the successor's bus-off acted";
+  EXPECT_EQ(server.malformed_datagrams(), 1u) << "its frame came from no node";
+  EXPECT_EQ(FramesWaiting(listener), 0) << "its frame went out on the bus";
+  ::close(listener);
+  for (int fd : {ready[0], ready[1], release[0], release[1]}) ::close(fd);
+}
+
+// A UDP node from which nothing arrives for node_timeout_ms is detached (it died, or its host did); one that sends
+// stays attached.
+TEST(CanBusAccess, ASilentNodeIsDetached) {
+  CanBusServerConfig config;
+  config.node_timeout_ms = 30;
+  Bus bus{config};
+  CanBusServer& server = *bus.server;
+  const int quiet = UdpNode(server.port());
+  const int talking = UdpNode(server.port());
+  SendMessage(quiet, Hello());
+  SendMessage(talking, Hello());
+  server.Step(0);
+  ASSERT_EQ(server.node_count(), 2);
+  for (int i = 0; i < 8; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    SendMessage(talking, Hello());  // what UdpCanBusPort sends when it has sent nothing for kKeepAlive_ms
+    server.Step(0);
+  }
+  EXPECT_EQ(server.silent_nodes(), 1u);
+  EXPECT_EQ(server.node_count(), 1);
+  ::close(quiet);
+  ::close(talking);
 }
 
 // ---- Unix-domain mode -------------------------------------------------------------------------------------------

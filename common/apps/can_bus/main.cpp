@@ -60,6 +60,10 @@ static int Run(int argc, char** argv) {
       ->check(CLI::Range(0.01, 1.0));
   app.add_option("--tx-queue", config.bus.tx_queue_frames, "transmit queue per node, frames")->capture_default_str();
   app.add_option("--max-nodes", config.max_nodes, "nodes that may attach")->capture_default_str();
+  app.add_option("--node-timeout-ms", config.node_timeout_ms,
+                 "UDP: detach a node silent for this long (0: never; nodes send a hello every 500 ms when idle)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 3'600'000));
   app.add_option("--duration-s", duration_s, "stop after this long (0: until SIGINT/SIGTERM)")->capture_default_str();
   app.add_option("--stats-every-s", stats_every_s, "print bus statistics this often (0: only at exit)")
       ->capture_default_str();

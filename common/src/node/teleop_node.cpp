@@ -10,6 +10,7 @@
 #include <mutex>
 #include <string>
 
+#include "change_ramp.hpp"
 #include "coupling.hpp"
 #include "peer_tracker.hpp"
 #include "recorder.hpp"
@@ -138,7 +139,10 @@ struct TeleopNode::Impl {
     command_events_dropped.fetch_add(1, std::memory_order_relaxed);
     return false;
   }
-  void DrainCommands(std::uint64_t cycle) noexcept;
+  void DrainCommands(std::uint64_t cycle, const PeerView& view) noexcept;
+  /// What the law's gains multiply now (change_ramp.hpp), from this cycle's reading and peer (preallocated).
+  const GainSignals& Signals(const PeerView& view) noexcept;
+  GainSignals signals;
   bool published = false;
 };
 
@@ -206,7 +210,7 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s, std::int64_t 
   if (view.shutdown_started && stop_on_peer_shutdown.load(std::memory_order_relaxed)) loop.Stop();
   const std::int64_t law_start_ns = clock.Now();
   coupling->SetCommandClutch(command_clutch.load(std::memory_order_relaxed));
-  DrainCommands(cycle);
+  DrainCommands(cycle, view);
   const Applied& applied = coupling->Step(sensed, view, cycle, t_s, period_s);           // 3. the command applied
   Actuate(applied, period_s);                                                            // 4. → device
   const std::uint8_t flags = transmitter->Send(sensed, view, applied, loop.stopping());  // 5. → peer
@@ -214,21 +218,32 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s, std::int64_t 
   recorder->Step(sensed, view, applied, Facts(cycle, t_s, flags, age_ns, cycle_start_mono_ns, view.usable));  // 6.
 }
 
-void TeleopNode::Impl::DrainCommands(std::uint64_t cycle) noexcept {
+// A stiffness or gain change takes at least the ramp that keeps its own force change within
+// engagement.max_force_rate_N_per_s at this cycle's position (change_ramp.hpp): a ramp of 0 is not a force step.
+void TeleopNode::Impl::DrainCommands(std::uint64_t cycle, const PeerView& view) noexcept {
   using Change = PendingCommand::Change;
   const int dof = config.dof;
+  const double max_rate = config.engagement.max_force_rate_N_per_s;
   for (int n = 0; n < kCommandsPerCycle && command_ring.TryPop(pending); ++n) {
     switch (pending.change) {
       case Change::kNone:
         break;
-      case Change::kStiffness:
-        coupling->RampFixtureStiffness(pending.stiffness_N_per_m, pending.ramp_s);
+      case Change::kStiffness: {
+        const DofVector& x = reading.position_m;
+        const double floor_s =
+            x.size() == dof ? StiffnessRampFloor_s(coupling->law().fixture(), x + coupling->state().index_offset_m,
+                                                   pending.stiffness_N_per_m, max_rate)
+                            : 0.0;
+        coupling->RampFixtureStiffness(pending.stiffness_N_per_m, std::max(pending.ramp_s, floor_s));
         break;
+      }
       case Change::kGains:
         for (int g = 0; g < 4; ++g) {
           for (int i = 0; i < dof; ++i) pending_gains[g][i] = pending.gains[static_cast<std::size_t>(g)][i];
         }
-        coupling->RampGains(pending_gains[0], pending_gains[1], pending_gains[2], pending_gains[3], pending.ramp_s);
+        coupling->RampGains(pending_gains[0], pending_gains[1], pending_gains[2], pending_gains[3],
+                            std::max(pending.ramp_s, GainRampFloor_s(coupling->law().config(), pending_gains,
+                                                                     Signals(view), max_rate)));
         break;
       case Change::kPlane:
         for (int i = 0; i < dof; ++i) pending_normal[i] = pending.normal[static_cast<std::size_t>(i)];
@@ -238,6 +253,26 @@ void TeleopNode::Impl::DrainCommands(std::uint64_t cycle) noexcept {
     }
     events.Push({pending.kind, cycle, pending.value, pending.detail});
   }
+}
+
+const GainSignals& TeleopNode::Impl::Signals(const PeerView& view) noexcept {
+  const int dof = config.dof;
+  const control::ThreeChannelLaw::Config& law = coupling->law().config();
+  GainSignals& s = signals;
+  s.velocity_m_per_s = coupling->state().last_velocity;  // the law's, measured or estimated
+  if (s.velocity_m_per_s.size() != dof) s.velocity_m_per_s = ZeroDof(dof);
+  s.position_error_m.setZero(dof);
+  s.velocity_error_m_per_s.setZero(dof);
+  s.peer_force_N.setZero(dof);
+  if (!view.have_peer || reading.position_m.size() != dof) return s;
+  for (int i = 0; i < dof; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    s.position_error_m[i] = reading.position_m[i] + coupling->state().index_offset_m[i] -
+                            law.peer_position_scale * view.sample->position_m[k];
+    s.velocity_error_m_per_s[i] = s.velocity_m_per_s[i] - law.peer_position_scale * view.sample->velocity_m_per_s[k];
+    s.peer_force_N[i] = law.peer_force_scale * view.sample->force_N[k];
+  }
+  return s;
 }
 
 Sensed TeleopNode::Impl::Sense(double period_s) noexcept {
@@ -345,6 +380,13 @@ void Check(const config::ProcessConfig& candidate, const std::string& what, Tele
   } catch (const Error& e) {
     change.message = what + e.what();
   }
+}
+
+/// The largest |offset| of a plane move: the workspace's corner distance, sqrt(dof)·safety.max_abs_position_m (1000 m,
+/// the key's maximum, when the check is off); any plane farther away is wholly outside a workspace.
+double PlaneOffsetBound_m(const config::ProcessConfig& c) {
+  const double box_m = c.safety.max_abs_position_m > 0.0 ? c.safety.max_abs_position_m : 1e3;
+  return box_m * std::sqrt(static_cast<double>(c.dof));
 }
 
 const char* const kQueueFull = "; not applied: the cycle has not taken the pending commands (queue full)";
@@ -467,6 +509,9 @@ TeleopNode::FixtureChange TeleopNode::RequestFixturePlane(const DofVector& norma
     change.message = "the normal needs dof = " + std::to_string(dof) + " entries, got " + std::to_string(normal.size());
   } else if (!AllFinite(normal) || !std::isfinite(offset_m) || !std::isfinite(rate_m_per_s)) {
     change.message = "the plane's offset, normal and rate must be finite";
+  } else if (std::abs(offset_m) > PlaneOffsetBound_m(s.check_base)) {
+    change.message = "offset " + Num(offset_m) + " m is outside +-" + Num(PlaneOffsetBound_m(s.check_base)) +
+                     " m (safety.max_abs_position_m on every axis: a plane farther away is beyond the workspace)";
   } else if (!(normal.norm() > 1e-9)) {
     change.message = "the normal must not be zero (it points into the forbidden region)";
   } else if (rate > max_rate) {

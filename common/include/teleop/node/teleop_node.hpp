@@ -94,7 +94,9 @@ class TeleopNode {
   /// Runs the start-up stability check (config::CheckProcessStability) with `stiffness_N_per_m` on the CALLER's
   /// thread (never the cycle's) and refuses an unstable value with the predicted limit, a value that is not finite
   /// or negative, and any value when the check does not apply to this device. An accepted change is handed to the
-  /// cycle through a wait-free ring (SPSC) and ramps linearly over `ramp_s`; the cycle logs the outcome as an event
+  /// cycle through a wait-free ring (SPSC) and ramps linearly over `ramp_s`, or over the shortest ramp that keeps
+  /// the force change within engagement.max_force_rate_N_per_s at the position of the cycle that takes it when that
+  /// is longer (a ramp of 0 is never a force step; docs/clutch.md); the cycle logs the outcome as an event
   /// (command_accepted with the stiffness, command_refused with the limit). Serialised between callers.
   FixtureChange RequestFixtureStiffness(double stiffness_N_per_m, double ramp_s);
   /// Fixture off: ramps the stiffness to 0 (checked like any change: a pair unstable without its fixture is
@@ -107,13 +109,15 @@ class TeleopNode {
   /// with the changed gain (the peer keeps the gains the start-up check assumed for it) and the render check
   /// (config::RequireRenderable) on the CALLER's thread; an unstable one is refused with the predicted fixture limit
   /// under the changed gain. A value that is not finite, negative (K_p, K_d, K_v), a K_f on the slave or an axis out
-  /// of range is refused. An accepted change ramps linearly over `ramp_s`. Events: gain_accepted / gain_refused.
+  /// of range is refused. An accepted change ramps linearly over `ramp_s`, at least as long as the force-rate bound
+  /// needs (as for the stiffness). Events: gain_accepted / gain_refused.
   FixtureChange RequestGain(GainName name, int axis, double value, double ramp_s);
   /// Moves fixture plane 0 to (`normal`, normalised; `offset_m`) at a bounded rate: the cycle slews the offset at
   /// `rate_m_per_s` (<= 0: fixture.max_offset_rate_m_per_s; above it: refused) and the normal at
   /// fixture.max_normal_rate_rad_per_s scaled by the same fraction. Refused: no fixture plane, a normal of the wrong
-  /// size, zero or not finite, a non-finite offset, a 1-DOF normal that flips sign. A move that changes which axes the
-  /// normal has a component on runs the stability check first (the plane's position does not enter it, eq. 7).
+  /// size, zero or not finite, a non-finite offset or one beyond the workspace (|offset| > sqrt(dof) ·
+  /// safety.max_abs_position_m; 1000 m when that is 0), a 1-DOF normal that flips sign. A move that changes which axes
+  /// the normal has a component on runs the stability check first (the plane's position does not enter it, eq. 7).
   /// Events: plane_accepted / plane_refused.
   FixtureChange RequestFixturePlane(const DofVector& normal, double offset_m, double rate_m_per_s);
   /// An outcome of the command channel that changes nothing (a malformed command, a refused peer, a clutch

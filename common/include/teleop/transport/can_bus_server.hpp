@@ -4,9 +4,11 @@
 #include <cstdint>
 #include <ctime>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
+#include "teleop/transport/can_bus_datagram.hpp"
 #include "teleop/transport/can_emulated_bus.hpp"
 #include "teleop/transport/can_log.hpp"
 
@@ -38,6 +40,9 @@ struct CanBusServerConfig {
   std::vector<std::uint32_t> controller_uids;
   enum class Remote : std::uint8_t { kByBindAddress, kAllow, kRefuse };
   Remote allow_remote = Remote::kByBindAddress;
+  /// UDP: a node from which nothing (frame, hello, control) arrived for this long is detached (0: never). Nodes
+  /// send a hello at least every UdpCanBusPort::kKeepAlive_ms when they send nothing else.
+  int node_timeout_ms = 2000;
 };
 
 /// The core of teleop-canbus: an EmulatedCanBus on the wall clock, shared by nodes that talk to it over UDP
@@ -68,6 +73,13 @@ class CanBusServer {
   /// from a controller). Read from other threads (tests).
   std::uint64_t refused_hellos() const noexcept { return refused_hellos_.load(); }
   std::uint64_t refused_controls() const noexcept { return refused_controls_.load(); }
+  /// UDP: nodes detached because nothing came from them for node_timeout_ms, and because the socket that said
+  /// hello no longer holds their address (its process died; another socket may have bound the freed port). Read
+  /// from other threads (tests).
+  std::uint64_t silent_nodes() const noexcept { return silent_nodes_.load(); }
+  std::uint64_t orphaned_nodes() const noexcept { return orphaned_nodes_.load(); }
+  /// UDP: how often the sockets of attached local nodes are looked up again (and before every control command).
+  static constexpr std::uint64_t kOwnerCheckPeriod_ns = 10'000'000;
   /// Lines written to the candump log so far (0 without one). Read from other threads (tests).
   std::uint64_t logged_frames() const noexcept { return logged_.load(); }
   std::string Describe() const;
@@ -78,7 +90,14 @@ class CanBusServer {
     int fd = -1;
     std::uint32_t uid = 0;  ///< SO_PEERCRED at accept.
   };
-  void StepUnix(const timespec& timeout) noexcept;
+  struct From;
+  void ReceiveUdp(const timespec& timeout) noexcept;
+  void ReceiveUnix(const timespec& timeout) noexcept;
+  void Dispatch(const From& from, std::span<const std::uint8_t> bytes) noexcept;
+  bool Attach(const From& from) noexcept;
+  void SendTo(const From& to, const bus_datagram::Message& m) noexcept;
+  bool StillOwned(const Peer& peer) const noexcept;
+  void CheckUdpNodes(std::uint64_t now_ns) noexcept;
   void BindUdp();
   void BindUnix();
   void Close() noexcept;
@@ -96,6 +115,9 @@ class CanBusServer {
   std::atomic<std::uint64_t> malformed_{0};
   std::atomic<std::uint64_t> refused_hellos_{0};
   std::atomic<std::uint64_t> refused_controls_{0};
+  std::atomic<std::uint64_t> silent_nodes_{0};
+  std::atomic<std::uint64_t> orphaned_nodes_{0};
+  std::uint64_t last_owner_check_ns_ = 0;
   bool allow_remote_ = false;
   std::atomic<std::uint64_t> logged_{0};  ///< Read from other threads (tests).
   std::uint64_t started_ns_ = 0;

@@ -34,8 +34,16 @@ class UdpCanBusPort final : public CanPort {
   /// Fault injection through the daemon (tests, demos). False when the datagram could not be sent.
   bool SendControl(bus_datagram::Action action, std::uint32_t argument) noexcept;
 
+  /// UDP: a node that has sent nothing for this long sends a hello from Read (the daemon detaches a node silent
+  /// for CanBusServerConfig::node_timeout_ms, 2000 ms by default).
+  static constexpr std::int64_t kKeepAlive_ms = 500;
+
  private:
+  void Sent() noexcept;
+
   int socket_ = -1;
+  bool unix_ = false;
+  std::int64_t last_sent_ns_ = 0;  ///< CLOCK_MONOTONIC of the last datagram sent to the daemon.
   int node_ = -1;
   std::int64_t receive_time_ns_ = 0;
   CanReceiveOptions options_;

@@ -31,19 +31,38 @@ struct CanBusServer::Peer {
   int node = 0;
   bool local = false;  ///< A socket of this host (its owner is `uid`), not a remote node.
   std::uint32_t uid = 0;
+  /// UDP, local: the inode of the socket that said hello. The node is that socket, not its port: when another
+  /// socket holds the address (its owner died and someone bound the freed port) the node is detached.
+  std::uint64_t inode = 0;
+  std::uint64_t last_heard_ns = 0;  ///< UDP: the newest datagram from it (a silent node is detached).
+};
+
+/// Where a message came from: a UDP source address, or (Unix mode) a connection and the uid the kernel gave it.
+struct CanBusServer::From {
+  const sockaddr_storage* address = nullptr;
+  socklen_t address_len = 0;
+  int fd = -1;
+  std::uint32_t uid = 0;
 };
 
 namespace {
 
 constexpr std::uint32_t kNoOwner = 0xFFFFFFFFu;
 
-// The owner (uid) of this host's UDP socket bound to `source` (address or 0.0.0.0, and port), from /proc/net/udp;
-// kNoOwner when there is none (the datagram came from another machine). Set-up path (a hello), not per frame.
-std::uint32_t LocalOwner(const sockaddr_in& source) noexcept try {
+struct UdpOwner {
+  std::uint32_t uid = 0xFFFFFFFFu;  ///< kNoOwner: no socket of this host.
+  std::uint64_t inode = 0;
+};
+
+// The owner (uid) and inode of this host's UDP socket bound to `source` (address or 0.0.0.0, and port), from
+// /proc/net/udp; uid kNoOwner when there is none (the datagram came from another machine, or the socket is gone).
+// A socket bound to the exact address wins over a wildcard one. Set-up path (a hello) and the periodic re-check.
+UdpOwner LocalOwner(const sockaddr_in& source) noexcept try {
   std::ifstream in("/proc/net/udp");
   std::string line;
   std::getline(in, line);  // header
   const unsigned port = ntohs(source.sin_port);
+  UdpOwner found{};
   while (std::getline(in, line)) {
     unsigned sl = 0;
     unsigned local_address = 0;
@@ -57,16 +76,21 @@ std::uint32_t LocalOwner(const sockaddr_in& source) noexcept try {
     unsigned long when = 0;
     unsigned long retransmits = 0;
     unsigned uid = 0;
-    if (std::sscanf(line.c_str(), " %u: %X:%X %X:%X %X %lX:%lX %X:%lX %lX %u", &sl, &local_address, &local_port,
-                    &remote_address, &remote_port, &state, &tx, &rx, &tr, &when, &retransmits, &uid) != 12) {
+    unsigned long timeout = 0;
+    unsigned long inode = 0;
+    if (std::sscanf(line.c_str(), " %u: %X:%X %X:%X %X %lX:%lX %X:%lX %lX %u %lu %lu", &sl, &local_address, &local_port,
+                    &remote_address, &remote_port, &state, &tx, &rx, &tr, &when, &retransmits, &uid, &timeout,
+                    &inode) != 14) {
       continue;
     }
     // The kernel prints the address as the raw (network-order) 32-bit value: compare with s_addr as stored.
-    if (local_port == port && (local_address == source.sin_addr.s_addr || local_address == 0)) return uid;
+    if (local_port != port) continue;
+    if (local_address == source.sin_addr.s_addr) return UdpOwner{uid, inode};
+    if (local_address == 0) found = UdpOwner{uid, inode};
   }
-  return kNoOwner;
+  return found;
 } catch (...) {
-  return kNoOwner;  // cannot read it: treated as not a local socket (refused unless remote nodes are allowed)
+  return UdpOwner{};  // cannot read it: treated as not a local socket (refused unless remote nodes are allowed)
 }
 
 bool Contains(const std::vector<std::uint32_t>& list, std::uint32_t uid, std::uint32_t own) {
@@ -261,16 +285,22 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
   std::uint64_t wait = max_wait_ns;
   if (next != UINT64_MAX) wait = next > now ? std::min(wait, next - now) : 0;
   const timespec timeout{static_cast<time_t>(wait / 1'000'000'000u), static_cast<long>(wait % 1'000'000'000u)};
-  if (!unix_path_.empty()) {
-    StepUnix(timeout);
-    Forward();
-    return;
+  if (unix_path_.empty()) {
+    ReceiveUdp(timeout);
+  } else {
+    ReceiveUnix(timeout);
   }
+  Forward();
+}
+
+// UDP: every datagram names its sender by its source address only; drained without blocking, bounded so the bus
+// keeps time.
+void CanBusServer::ReceiveUdp(const timespec& timeout) noexcept {
   pollfd pfd{socket_, POLLIN, 0};
   ::ppoll(&pfd, 1, &timeout, nullptr);
+  CheckUdpNodes(EmulatedCanBus::SteadyNow_ns());  // before the drain: what a dead node's successor sent is not its
   std::array<std::uint8_t, 256> buffer{};
-  const auto own_uid = static_cast<std::uint32_t>(::geteuid());
-  for (int i = 0; i < 1024; ++i) {  // drain what is queued (non-blocking socket), bounded so the bus keeps time
+  for (int i = 0; i < 1024; ++i) {
     sockaddr_storage source{};
     socklen_t source_len = sizeof(source);
     // The sockets API takes the address as sockaddr*; sockaddr_storage is the documented way to pass it.
@@ -279,82 +309,15 @@ void CanBusServer::Step(std::uint64_t max_wait_ns) noexcept {
                    reinterpret_cast<sockaddr*>(&source),  // NOLINT(cppcoreguidelines-pro-type-reinterpret-cast)
                    &source_len);
     if (n < 0) break;
-    bus_datagram::Message m{};
-    if (!bus_datagram::Decode(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), m)) {
-      ++malformed_;
-      continue;
-    }
-    auto peer = std::find_if(nodes_.begin(), nodes_.end(),
-                             [&](const Peer& p) { return SameAddress(p.address, p.address_len, source, source_len); });
-    std::array<std::uint8_t, bus_datagram::kMaxSize> reply{};
-    switch (m.type) {
-      case bus_datagram::Type::kHello: {
-        if (peer == nodes_.end()) {
-          if (nodes_.size() == nodes_.capacity()) break;  // full: the node times out and says so
-          // Who may join: the owner of the sending socket, or a remote node where the network is the bus.
-          sockaddr_in udp_source{};
-          std::memcpy(&udp_source, &source, sizeof udp_source);
-          const std::uint32_t owner = LocalOwner(udp_source);
-          const bool local = owner != kNoOwner;
-          if (local ? !Contains(config_.allowed_uids, owner, own_uid) : !allow_remote_) {
-            ++refused_hellos_;  // no welcome: the node times out and says no daemon answered
-            break;
-          }
-          int node = 0;
-          try {
-            node = bus_.AddNode();  // a node that said bye keeps its (idle) bus node
-          } catch (...) {
-            break;
-          }
-          nodes_.push_back(Peer{source, source_len, -1, node, local, owner});
-          peer = nodes_.end() - 1;
-        }
-        bus_datagram::Message w{};
-        w.type = bus_datagram::Type::kWelcome;
-        w.node = static_cast<std::uint8_t>(peer->node);
-        const std::size_t size = bus_datagram::Encode(w, reply);
-        ::sendto(socket_, reply.data(), size, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&source),  // NOLINT
-                 source_len);
-        break;
-      }
-      case bus_datagram::Type::kFrame: {
-        if (peer == nodes_.end()) {
-          ++malformed_;
-          break;
-        }
-        const CanWriteStatus status = bus_.Submit(peer->node, m.frame);
-        if (status == CanWriteStatus::kOk) break;
-        // Tell the node its frame was refused, as a controller error frame would.
-        const std::size_t size = bus_datagram::Encode(RefusalFrame(status), reply);
-        ::sendto(socket_, reply.data(), size, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&source),  // NOLINT
-                 source_len);
-        break;
-      }
-      case bus_datagram::Type::kControl:
-        // Only an attached node of a controller's user: anyone else could take the bus down.
-        if (peer == nodes_.end() || !peer->local || !Contains(config_.controller_uids, peer->uid, own_uid)) {
-          ++refused_controls_;
-          break;
-        }
-        if (m.action == bus_datagram::Action::kInjectErrors) bus_.InjectErrors(static_cast<int>(m.argument));
-        if (m.action == bus_datagram::Action::kBusOff) bus_.ForceBusOff(static_cast<int>(m.argument));
-        if (m.action == bus_datagram::Action::kRestart) bus_.Restart(static_cast<int>(m.argument));
-        break;
-      case bus_datagram::Type::kBye:
-        if (peer != nodes_.end()) nodes_.erase(peer);  // the bus node stays (idle); a new hello gets a new one
-        break;
-      default:
-        ++malformed_;
-        break;
-    }
+    Dispatch(From{&source, source_len, -1, kNoOwner},
+             std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)));
   }
-  Forward();
 }
 
 // Unix mode (SOCK_SEQPACKET): one connection per node, its uid from SO_PEERCRED at accept; the socket file's
 // permissions decided who could connect at all. Every connection is read without blocking, at most 256 messages
-// each per step; refusals are counted as in UDP mode.
-void CanBusServer::StepUnix(const timespec& timeout) noexcept {
+// each per step; a connection that closes detaches its node.
+void CanBusServer::ReceiveUnix(const timespec& timeout) noexcept {
   std::array<pollfd, kMaxConnections + 1> fds{};
   fds[0] = pollfd{socket_, POLLIN, 0};
   for (std::size_t i = 0; i < conns_.size(); ++i) fds[i + 1] = pollfd{conns_[i].fd, POLLIN, 0};
@@ -369,12 +332,9 @@ void CanBusServer::StepUnix(const timespec& timeout) noexcept {
     }
     conns_.push_back(Conn{fd, PeerUid(fd)});
   }
-  const auto own_uid = static_cast<std::uint32_t>(::geteuid());
   std::array<std::uint8_t, 256> buffer{};
-  std::array<std::uint8_t, bus_datagram::kMaxSize> reply{};
   for (std::size_t c = 0; c < conns_.size();) {
     const Conn conn = conns_[c];
-    auto peer = std::find_if(nodes_.begin(), nodes_.end(), [&](const Peer& p) { return p.fd == conn.fd; });
     bool closed = false;
     for (int i = 0; i < 256; ++i) {
       const ssize_t n = ::recv(conn.fd, buffer.data(), buffer.size(), MSG_DONTWAIT);
@@ -383,65 +343,11 @@ void CanBusServer::StepUnix(const timespec& timeout) noexcept {
         break;
       }
       if (n < 0) break;
-      bus_datagram::Message m{};
-      if (!bus_datagram::Decode(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), m)) {
-        ++malformed_;
-        continue;
-      }
-      switch (m.type) {
-        case bus_datagram::Type::kHello: {
-          if (peer == nodes_.end()) {
-            if (nodes_.size() == nodes_.capacity()) break;  // full: the node times out and says so
-            if (conn.uid == kNoOwner || !Contains(config_.allowed_uids, conn.uid, own_uid)) {
-              ++refused_hellos_;  // no welcome: the node times out and says no daemon answered
-              break;
-            }
-            int node = 0;
-            try {
-              node = bus_.AddNode();
-            } catch (...) {
-              break;
-            }
-            nodes_.push_back(Peer{sockaddr_storage{}, 0, conn.fd, node, true, conn.uid});
-            peer = nodes_.end() - 1;
-          }
-          bus_datagram::Message w{};
-          w.type = bus_datagram::Type::kWelcome;
-          w.node = static_cast<std::uint8_t>(peer->node);
-          (void)::send(conn.fd, reply.data(), bus_datagram::Encode(w, reply), MSG_DONTWAIT | MSG_NOSIGNAL);
-          break;
-        }
-        case bus_datagram::Type::kFrame: {
-          if (peer == nodes_.end()) {
-            ++malformed_;
-            break;
-          }
-          const CanWriteStatus status = bus_.Submit(peer->node, m.frame);
-          if (status == CanWriteStatus::kOk) break;
-          (void)::send(conn.fd, reply.data(), bus_datagram::Encode(RefusalFrame(status), reply),
-                       MSG_DONTWAIT | MSG_NOSIGNAL);
-          break;
-        }
-        case bus_datagram::Type::kControl:
-          if (peer == nodes_.end() || !Contains(config_.controller_uids, peer->uid, own_uid)) {
-            ++refused_controls_;
-            break;
-          }
-          if (m.action == bus_datagram::Action::kInjectErrors) bus_.InjectErrors(static_cast<int>(m.argument));
-          if (m.action == bus_datagram::Action::kBusOff) bus_.ForceBusOff(static_cast<int>(m.argument));
-          if (m.action == bus_datagram::Action::kRestart) bus_.Restart(static_cast<int>(m.argument));
-          break;
-        case bus_datagram::Type::kBye:
-          if (peer != nodes_.end()) nodes_.erase(peer);
-          peer = nodes_.end();
-          break;
-        default:
-          ++malformed_;
-          break;
-      }
+      Dispatch(From{nullptr, 0, conn.fd, conn.uid},
+               std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)));
     }
     if (closed) {
-      peer = std::find_if(nodes_.begin(), nodes_.end(), [&](const Peer& p) { return p.fd == conn.fd; });
+      const auto peer = std::find_if(nodes_.begin(), nodes_.end(), [&](const Peer& p) { return p.fd == conn.fd; });
       if (peer != nodes_.end()) nodes_.erase(peer);  // the bus node stays (idle)
       ::close(conn.fd);
       conns_.erase(conns_.begin() + static_cast<std::ptrdiff_t>(c));
@@ -451,9 +357,146 @@ void CanBusServer::StepUnix(const timespec& timeout) noexcept {
   }
 }
 
+// One message from one sender, whatever carried it: the same rules for UDP and Unix nodes. Who may join is the
+// sender's uid (Unix: the kernel's; UDP: the owner of the sending socket, or a remote node where the network is the
+// bus); control commands only from an attached local node of a controller's user, its ownership re-checked first.
+void CanBusServer::Dispatch(const From& from, std::span<const std::uint8_t> bytes) noexcept {
+  bus_datagram::Message m{};
+  if (!bus_datagram::Decode(bytes, m)) {
+    ++malformed_;
+    return;
+  }
+  const auto own_uid = static_cast<std::uint32_t>(::geteuid());
+  auto peer = std::find_if(nodes_.begin(), nodes_.end(), [&](const Peer& p) {
+    return from.fd >= 0 ? p.fd == from.fd
+                        : p.fd < 0 && SameAddress(p.address, p.address_len, *from.address, from.address_len);
+  });
+  if (peer != nodes_.end()) peer->last_heard_ns = EmulatedCanBus::SteadyNow_ns();
+  switch (m.type) {
+    case bus_datagram::Type::kHello: {
+      if (peer != nodes_.end() && !StillOwned(*peer)) {  // another socket on a dead node's address: not that node
+        ++orphaned_nodes_;
+        nodes_.erase(peer);
+        peer = nodes_.end();
+      }
+      if (peer == nodes_.end()) {
+        if (!Attach(from)) break;  // no welcome: the node times out and says no daemon answered
+        peer = nodes_.end() - 1;
+      }
+      bus_datagram::Message w{};
+      w.type = bus_datagram::Type::kWelcome;
+      w.node = static_cast<std::uint8_t>(peer->node);
+      SendTo(from, w);
+      break;
+    }
+    case bus_datagram::Type::kFrame: {
+      if (peer == nodes_.end()) {
+        ++malformed_;
+        break;
+      }
+      const CanWriteStatus status = bus_.Submit(peer->node, m.frame);
+      if (status != CanWriteStatus::kOk) SendTo(from, RefusalFrame(status));  // as a controller error frame would
+      break;
+    }
+    case bus_datagram::Type::kControl:
+      // Only an attached node of a controller's user, still the socket that said hello: anyone else could take
+      // the bus down.
+      if (peer == nodes_.end() || !peer->local || !Contains(config_.controller_uids, peer->uid, own_uid) ||
+          !StillOwned(*peer)) {
+        ++refused_controls_;
+        break;
+      }
+      if (m.action == bus_datagram::Action::kInjectErrors) bus_.InjectErrors(static_cast<int>(m.argument));
+      if (m.action == bus_datagram::Action::kBusOff) bus_.ForceBusOff(static_cast<int>(m.argument));
+      if (m.action == bus_datagram::Action::kRestart) bus_.Restart(static_cast<int>(m.argument));
+      break;
+    case bus_datagram::Type::kBye:
+      if (peer != nodes_.end()) nodes_.erase(peer);  // the bus node stays (idle); a new hello gets a new one
+      break;
+    default:
+      ++malformed_;
+      break;
+  }
+}
+
+// A new node for `from` when it may join: who it is (Unix: the kernel's uid; UDP: the owner and inode of the sending
+// socket, or a remote node where the network is the bus) and whether that user is allowed. False (a refusal counted)
+// when not, or when the bus is full.
+bool CanBusServer::Attach(const From& from) noexcept {
+  if (nodes_.size() == nodes_.capacity()) return false;  // full: the node times out and says so
+  Peer p{};
+  p.fd = from.fd;
+  p.last_heard_ns = EmulatedCanBus::SteadyNow_ns();
+  if (from.fd >= 0) {
+    p.uid = from.uid;
+    p.local = from.uid != kNoOwner;
+  } else {
+    p.address = *from.address;
+    p.address_len = from.address_len;
+    sockaddr_in udp_source{};
+    std::memcpy(&udp_source, from.address, sizeof udp_source);
+    const UdpOwner owner = LocalOwner(udp_source);
+    p.uid = owner.uid;
+    p.inode = owner.inode;
+    p.local = owner.uid != kNoOwner;
+  }
+  const auto own_uid = static_cast<std::uint32_t>(::geteuid());
+  const bool allowed = p.local ? Contains(config_.allowed_uids, p.uid, own_uid) : from.fd < 0 && allow_remote_;
+  if (!allowed) {
+    ++refused_hellos_;
+    return false;
+  }
+  try {
+    p.node = bus_.AddNode();  // a node that said bye keeps its (idle) bus node
+  } catch (...) {
+    return false;
+  }
+  nodes_.push_back(p);
+  return true;
+}
+
+void CanBusServer::SendTo(const From& to, const bus_datagram::Message& m) noexcept {
+  std::array<std::uint8_t, bus_datagram::kMaxSize> out{};
+  const std::size_t size = bus_datagram::Encode(m, out);
+  if (to.fd >= 0) {
+    (void)::send(to.fd, out.data(), size, MSG_DONTWAIT | MSG_NOSIGNAL);
+    return;
+  }
+  (void)::sendto(socket_, out.data(), size, MSG_DONTWAIT,
+                 reinterpret_cast<const sockaddr*>(to.address),  // NOLINT: sockets API
+                 to.address_len);
+}
+
+bool CanBusServer::StillOwned(const Peer& peer) const noexcept {
+  if (peer.fd >= 0 || !peer.local) return true;  // a connection is its process's; a remote node has no owner here
+  sockaddr_in address{};
+  std::memcpy(&address, &peer.address, sizeof address);
+  const UdpOwner now = LocalOwner(address);
+  return now.uid == peer.uid && now.inode == peer.inode;
+}
+
+// UDP: a node is the socket that said hello. Every kOwnerCheckPeriod_ns the sockets of local nodes are looked up
+// again and a node whose address another socket now holds (or none) is detached (`orphaned_nodes`); a node silent
+// for node_timeout_ms is detached (`silent_nodes`). A detached node's bus node stays idle; a new hello attaches anew,
+// with the admission check.
+void CanBusServer::CheckUdpNodes(std::uint64_t now_ns) noexcept {
+  const bool check_owners = now_ns - last_owner_check_ns_ >= kOwnerCheckPeriod_ns;
+  if (check_owners) last_owner_check_ns_ = now_ns;
+  const auto timeout_ns = static_cast<std::uint64_t>(config_.node_timeout_ms) * 1'000'000u;
+  for (std::size_t i = nodes_.size(); i-- > 0;) {
+    const Peer& p = nodes_[i];
+    if (config_.node_timeout_ms > 0 && now_ns > p.last_heard_ns && now_ns - p.last_heard_ns > timeout_ns) {
+      ++silent_nodes_;
+      nodes_.erase(nodes_.begin() + static_cast<std::ptrdiff_t>(i));
+    } else if (check_owners && !StillOwned(p)) {
+      ++orphaned_nodes_;
+      nodes_.erase(nodes_.begin() + static_cast<std::ptrdiff_t>(i));
+    }
+  }
+}
+
 void CanBusServer::Forward() noexcept {
   bus_.Run();
-  std::array<std::uint8_t, bus_datagram::kMaxSize> out{};
   bus_datagram::Message m{};
   m.type = bus_datagram::Type::kFrame;
   for (int node = 0; node < bus_.node_count(); ++node) {
@@ -475,13 +518,7 @@ void CanBusServer::Forward() noexcept {
     const auto peer = std::find_if(nodes_.begin(), nodes_.end(), [&](const Peer& p) { return p.node == node; });
     while (bus_.Receive(node, m.frame)) {
       if (peer == nodes_.end()) continue;  // detached node: drain and drop
-      const std::size_t size = bus_datagram::Encode(m, out);
-      if (peer->fd >= 0) {
-        (void)::send(peer->fd, out.data(), size, MSG_DONTWAIT | MSG_NOSIGNAL);
-        continue;
-      }
-      ::sendto(socket_, out.data(), size, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&peer->address),  // NOLINT
-               peer->address_len);
+      SendTo(From{&peer->address, peer->address_len, peer->fd, peer->uid}, m);
     }
   }
 }
@@ -495,10 +532,11 @@ std::string CanBusServer::Describe() const {
   const EmulatedCanBus::Stats& s = bus_.stats();
   return fmt::format(
       "teleop-canbus {}:{}: {} node(s), {} frames, {} error frames, {} refused, {} rx overflows, {} malformed "
-      "datagrams, {} hellos and {} control commands refused (not allowed), mean bus load {:.1f} % over {:.1f} s",
+      "datagrams, {} hellos and {} control commands refused (not allowed), {} nodes detached as silent and {} as "
+      "orphaned (another socket on their address), mean bus load {:.1f} % over {:.1f} s",
       unix_path_.empty() ? config_.bind_address : "unix", unix_path_.empty() ? std::to_string(port_) : unix_path_,
       nodes_.size(), s.frames_delivered, s.error_frames, s.tx_refused, s.rx_overflows, malformed_.load(),
-      refused_hellos_.load(), refused_controls_.load(),
+      refused_hellos_.load(), refused_controls_.load(), silent_nodes_.load(), orphaned_nodes_.load(),
       elapsed_s > 0 ? 100.0 * static_cast<double>(s.busy_ns) * 1e-9 / elapsed_s : 0.0, elapsed_s);
 }
 

@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cstddef>
 #include <cstring>
+#include <ctime>
 #include <utility>
 
 #include "receive_timestamp.hpp"
@@ -38,6 +39,7 @@ UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double
                 std::to_string(kMaxCanFilters));
   }
   const bool unix_mode = host.rfind("unix:", 0) == 0;
+  unix_ = unix_mode;
   if (unix_mode) {
     // A Unix-domain node: the socket file's permissions decide whether this process may send to the daemon at all
     // (connect() fails with EACCES), and the daemon reads the uid from the kernel (docs/security.md).
@@ -114,6 +116,7 @@ UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double
       }
     }
   }
+  Sent();
   if (node_ < 0) {
     ::close(socket_);
     throw Error(
@@ -142,12 +145,31 @@ CanWriteStatus UdpCanBusPort::Write(const proto::can::CanFrame& frame) noexcept 
   const std::size_t size = bus_datagram::Encode(m, out);
   if (size == 0) return CanWriteStatus::kError;
   const ssize_t n = ::send(socket_, out.data(), size, MSG_NOSIGNAL);  // Unix mode: EPIPE, never SIGPIPE
-  if (n == static_cast<ssize_t>(size)) return CanWriteStatus::kOk;
+  if (n == static_cast<ssize_t>(size)) {
+    Sent();
+    return CanWriteStatus::kOk;
+  }
   if (n < 0 && (errno == EAGAIN || errno == ENOBUFS)) return CanWriteStatus::kBufferFull;
   return CanWriteStatus::kError;  // e.g. ECONNREFUSED: the daemon is gone
 }
 
+void UdpCanBusPort::Sent() noexcept {
+  timespec now{};
+  ::clock_gettime(CLOCK_MONOTONIC, &now);
+  last_sent_ns_ = static_cast<std::int64_t>(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
+}
+
 bool UdpCanBusPort::Read(proto::can::CanFrame& frame) noexcept {
+  if (!unix_) {  // a node that only listens still says it is there (the daemon detaches silent UDP nodes)
+    timespec now{};
+    ::clock_gettime(CLOCK_MONOTONIC, &now);
+    const std::int64_t now_ns = static_cast<std::int64_t>(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
+    if (now_ns - last_sent_ns_ > kKeepAlive_ms * 1'000'000) {
+      bus_datagram::Message hello{};
+      hello.type = bus_datagram::Type::kHello;
+      if (SendMessage(socket_, hello)) last_sent_ns_ = now_ns;
+    }
+  }
   std::array<std::uint8_t, bus_datagram::kMaxSize + 1> in{};
   for (;;) {
     std::int64_t received_ns = 0;
@@ -170,7 +192,9 @@ bool UdpCanBusPort::SendControl(bus_datagram::Action action, std::uint32_t argum
   m.type = bus_datagram::Type::kControl;
   m.action = action;
   m.argument = argument;
-  return SendMessage(socket_, m);
+  if (!SendMessage(socket_, m)) return false;
+  Sent();
+  return true;
 }
 
 bool UdpCanBusPort::WaitReadable(std::int64_t deadline_ns) noexcept {
