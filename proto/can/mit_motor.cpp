@@ -94,6 +94,23 @@ EncodeResult EncodeCommand(const Command& command, const MotorRanges& ranges, st
   return result;
 }
 
+bool DecodeCommand(const CanFrame& frame, const MotorRanges& ranges, Command& out) noexcept {
+  if (!IsMitDataFrame(frame) || DecodeSpecial(frame).has_value() || !RangesValid(ranges)) return false;
+  const auto& d = frame.data;
+  const MotorRanges& r = ranges;
+  const std::uint32_t p_int = (static_cast<std::uint32_t>(d[0]) << 8) | d[1];
+  const std::uint32_t v_int = (static_cast<std::uint32_t>(d[2]) << 4) | (d[3] >> 4);
+  const std::uint32_t kp_int = ((static_cast<std::uint32_t>(d[3]) & 0xFU) << 8) | d[4];
+  const std::uint32_t kd_int = (static_cast<std::uint32_t>(d[5]) << 4) | (d[6] >> 4);
+  const std::uint32_t t_int = ((static_cast<std::uint32_t>(d[6]) & 0xFU) << 8) | d[7];
+  out.position_rad = FromFixed(p_int, -r.position_max_rad, r.position_max_rad, kPositionBits);
+  out.velocity_rad_per_s = FromFixed(v_int, -r.velocity_max_rad_per_s, r.velocity_max_rad_per_s, kVelocityBits);
+  out.kp_Nm_per_rad = FromFixed(kp_int, 0.0, r.kp_max_Nm_per_rad, kGainBits);
+  out.kd_Nm_s_per_rad = FromFixed(kd_int, 0.0, r.kd_max_Nm_s_per_rad, kGainBits);
+  out.torque_Nm = FromFixed(t_int, -r.torque_max_Nm, r.torque_max_Nm, kTorqueBits);
+  return true;
+}
+
 bool IsFault(std::uint8_t status_code) noexcept {
   return status_code != static_cast<std::uint8_t>(MotorStatus::kDisabled) &&
          status_code != static_cast<std::uint8_t>(MotorStatus::kEnabled);

@@ -57,6 +57,17 @@ TEST(MitMotorCodec, FieldsSitInTheirNibbles) {
   const EncodeResult r = EncodeCommand(Command{6.25, 15.0, 250.0, 1.25, 5.0}, kDm4310, 0x07, f);
   ASSERT_TRUE(r.ok);
   EXPECT_EQ(Bytes(f), (std::array<std::uint8_t, 8>{0xBF, 0xFF, 0xBF, 0xF7, 0xFF, 0x3F, 0xFB, 0xFF}));
+  // The motor's side: each field back within one step, never above what was sent (truncation).
+  Command back;
+  ASSERT_TRUE(DecodeCommand(f, kDm4310, back));
+  EXPECT_NEAR(back.position_rad, 49151.0 * 25.0 / 65535.0 - 12.5, 1e-12);
+  EXPECT_NEAR(back.velocity_rad_per_s, 3071.0 * 60.0 / 4095.0 - 30.0, 1e-12);
+  EXPECT_NEAR(back.kp_Nm_per_rad, 2047.0 * 500.0 / 4095.0, 1e-12);
+  EXPECT_NEAR(back.kd_Nm_s_per_rad, 1023.0 * 5.0 / 4095.0, 1e-12);
+  EXPECT_NEAR(back.torque_Nm, 3071.0 * 20.0 / 4095.0 - 10.0, 1e-12);
+  CanFrame special;
+  EncodeSpecial(Special::kEnable, 0x07, special);
+  EXPECT_FALSE(DecodeCommand(special, kDm4310, back));
 }
 
 TEST(MitMotorCodec, OutOfRangeIsClampedAndFlaggedNonFiniteIsRefused) {

@@ -78,6 +78,10 @@ struct EncodeResult {
 [[nodiscard]] EncodeResult EncodeCommand(const Command& command, const MotorRanges& ranges, std::uint32_t esc_id,
                                          CanFrame& out, bool fd = false) noexcept;
 
+/// Decodes a command frame as the motor does (the simulated motor, a bus monitor). False for a frame that is not 8
+/// data bytes or spells a special frame.
+[[nodiscard]] bool DecodeCommand(const CanFrame& frame, const MotorRanges& ranges, Command& out) noexcept;
+
 /// The motor's state and error code, the high nibble of a feedback frame's D0.
 enum class MotorStatus : std::uint8_t {
   kDisabled = 0x0,
