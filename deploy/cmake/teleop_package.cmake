@@ -7,6 +7,7 @@
 #   lib/systemd/system/teleop-*.service       the units (they name /usr/bin/teleop-* and /etc/teleop/*.yaml)
 #   share/teleop/configs/**.yaml              every rig config
 #   share/teleop/can-up.sh, rt-check.sh       host scripts
+#   share/teleop/motors/mit-models.yaml       the MIT-mode motor models (teleop-motor, arm joints)
 #   share/teleop/wireshark/teleop.lua         the dissector
 #   share/doc/teleop/*.md                     the docs (and figures/*.png, the gallery's images)
 #   /etc/teleop/{master,slave}.yaml           the loopback rig over UDP, what the units start with (prefix/etc/teleop
@@ -23,6 +24,7 @@ install(PROGRAMS ${TELEOP_DEPLOY_SOURCE}/can-up.sh ${TELEOP_DEPLOY_SOURCE}/rt-ch
         DESTINATION ${CMAKE_INSTALL_DATADIR}/teleop)
 install(PROGRAMS ${TELEOP_DEPLOY_SOURCE}/teleop-plot ${TELEOP_DEPLOY_SOURCE}/teleop-canlog
         DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(FILES ${TELEOP_DEPLOY_SOURCE}/motors/mit-models.yaml DESTINATION ${CMAKE_INSTALL_DATADIR}/teleop/motors)
 install(FILES ${TELEOP_DEPLOY_SOURCE}/wireshark/teleop.lua DESTINATION ${CMAKE_INSTALL_DATADIR}/teleop/wireshark)
 file(GLOB TELEOP_DOCS ${PROJECT_SOURCE_DIR}/docs/*.md)
 install(FILES ${TELEOP_DOCS} DESTINATION ${CMAKE_INSTALL_DOCDIR})
