@@ -26,6 +26,7 @@
 #include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/error.hpp"
+#include "teleop/version.hpp"
 
 namespace {
 
@@ -253,10 +254,19 @@ int RunSweep(const SystemOptions& o, const SweepOptions& w) {
     if (!out) throw teleop::Error(csv + ": cannot write the sweep CSV");
     WriteSweepCsv(out, variable, points);
   }
+  // The swept gain is named as swept (its base value is not used); the other gains with their units.
   std::ostringstream title;
-  title << ToString(side) << " fixture, " << (system.unilateral ? "unilateral" : "bilateral") << ", K_pm "
-        << system.gains.kpm_N_per_m << " K_ps " << system.gains.kps_N_per_m << " K_dm " << system.gains.kdm_Ns_per_m
-        << " K_ds " << system.gains.kds_Ns_per_m;
+  title << ToString(side) << " fixture, " << (system.unilateral ? "unilateral" : "bilateral") << ", ";
+  if (variable == SweepVariable::kKp) {
+    title << "K_p swept";
+  } else {
+    title << "K_pm " << system.gains.kpm_N_per_m << " K_ps " << system.gains.kps_N_per_m << " N/m";
+  }
+  if (variable == SweepVariable::kKd) {
+    title << ", K_d swept";
+  } else {
+    title << ", K_dm " << system.gains.kdm_Ns_per_m << " K_ds " << system.gains.kds_Ns_per_m << " Ns/m";
+  }
   if (variable != SweepVariable::kRateHz) title << ", " << system.rate_hz << " Hz";
   if (!w.no_plot) Plot(csv, w.output + ".png", variable, title.str());
   WriteSweepCsv(std::cout, variable, points);
@@ -313,6 +323,7 @@ int RunCheck(const SystemOptions& o, const CLI::App& app, const std::string& con
 
 static int Run(int argc, char** argv) {
   CLI::App app{"Stability of forbidden-region virtual fixtures (Abbott & Okamura 2006): docs/stability.md"};
+  app.set_version_flag("--version", teleop::VersionText("teleop-analyze"));
   app.require_subcommand(1);
 
   SystemOptions max_options;
