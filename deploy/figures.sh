@@ -46,7 +46,7 @@ echo "demo-cobot.png ${TELEOP_BUILD}/demo-cobot/demo-cobot.gp" >> "${scripts}"
 # The stability analysis (docs/stability.md): the master fixture's limit against the rate and against K_p.
 "${bin}/teleop-analyze" sweep --side master --variable rate --values 250,500,1000,2000,4000 \
   --output "${work}/sweep-rate" > "${work}/sweep-rate.log"
-"${bin}/teleop-analyze" sweep --side master --variable kp --rate 1000 --values 100,200,400,600,800,1000,1600,3200 \
+"${bin}/teleop-analyze" sweep --side master --variable kp --kd 2 --rate 1000 --values 100,200,400,600,800,1000,1600,3200 \
   --output "${work}/sweep-kp" > "${work}/sweep-kp.log"
 cp "${work}/sweep-rate.png" "${out}/analyze-sweep-rate.png"
 cp "${work}/sweep-kp.png" "${out}/analyze-sweep-kp.png"

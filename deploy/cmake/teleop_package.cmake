@@ -22,7 +22,7 @@ install(DIRECTORY ${TELEOP_DEPLOY_SOURCE}/configs/ DESTINATION ${CMAKE_INSTALL_D
         FILES_MATCHING PATTERN "*.yaml" PATTERN "*.csv")
 install(PROGRAMS ${TELEOP_DEPLOY_SOURCE}/can-up.sh ${TELEOP_DEPLOY_SOURCE}/rt-check.sh
         DESTINATION ${CMAKE_INSTALL_DATADIR}/teleop)
-install(PROGRAMS ${TELEOP_DEPLOY_SOURCE}/teleop-plot ${TELEOP_DEPLOY_SOURCE}/teleop-canlog
+install(PROGRAMS ${TELEOP_DEPLOY_SOURCE}/teleop-plot ${TELEOP_DEPLOY_SOURCE}/teleop-canlog ${TELEOP_DEPLOY_SOURCE}/teleop-session
         DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(FILES ${TELEOP_DEPLOY_SOURCE}/motors/mit-models.yaml DESTINATION ${CMAKE_INSTALL_DATADIR}/teleop/motors)
 install(FILES ${TELEOP_DEPLOY_SOURCE}/wireshark/teleop.lua DESTINATION ${CMAKE_INSTALL_DATADIR}/teleop/wireshark)
@@ -81,8 +81,8 @@ set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 set(CPACK_OUTPUT_FILE_PREFIX ${PROJECT_BINARY_DIR}/packages)
 include(CPack)
 
-# build/bin/teleop-plot and build/bin/teleop-canlog beside the executables (links to deploy/, so edits need no rebuild).
-foreach(tool teleop-plot teleop-canlog)
+# build/bin/teleop-plot, teleop-canlog and teleop-session beside the executables (links to deploy/, so edits need no rebuild).
+foreach(tool teleop-plot teleop-canlog teleop-session)
   file(MAKE_DIRECTORY ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
   file(CREATE_LINK ${TELEOP_DEPLOY_SOURCE}/${tool} ${CMAKE_RUNTIME_OUTPUT_DIRECTORY}/${tool} SYMBOLIC)
 endforeach()

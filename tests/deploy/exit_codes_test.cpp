@@ -26,13 +26,27 @@ TEST(ExitCodes, NonFiniteInputIsLatched) {
   EXPECT_EQ(ExitCodeFor(s), kExitFaulted);
 }
 
+TEST(ExitCodes, NeverConnectedHasItsOwnStatus) {
+  RunSummary s;
+  s.cycles = 1000;
+  s.connected = false;
+  EXPECT_EQ(ExitCodeFor(s), kExitNeverConnected);
+  s.device_fault_cycles = 1;  // a fault is the more urgent news
+  EXPECT_EQ(ExitCodeFor(s), kExitFaulted);
+}
+
 TEST(ExitCodes, StatusesAreDistinct) {
   EXPECT_EQ(kExitOk, 0);
-  EXPECT_NE(kExitConfigError, kExitUnexpectedError);
-  EXPECT_NE(kExitConfigError, kExitFaulted);
-  EXPECT_NE(kExitUnexpectedError, kExitFaulted);
+  const int statuses[] = {kExitConfigError, kExitUnexpectedError, kExitFaulted, kExitNeverConnected};
+  for (const int& a : statuses) {
+    for (const int& b : statuses) {
+      if (&a != &b) {
+        EXPECT_NE(a, b);
+      }
+    }
+  }
   // 1 is what a shell or a crashing wrapper reports for anything; CLI11's own errors are >= 100.
-  for (const int s : {kExitConfigError, kExitUnexpectedError, kExitFaulted}) {
+  for (const int s : statuses) {
     EXPECT_GT(s, 1);
     EXPECT_LT(s, 100);
   }

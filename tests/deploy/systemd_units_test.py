@@ -87,7 +87,8 @@ def main():
         check(rc != 0 and "teleop-mastr" in out, "a wrong binary path is reported")
 
     codes = exit_codes(args.exit_codes)
-    check({"kExitOk", "kExitConfigError", "kExitUnexpectedError", "kExitFaulted"} <= codes.keys(),
+    check({"kExitOk", "kExitConfigError", "kExitUnexpectedError", "kExitFaulted",
+           "kExitNeverConnected"} <= codes.keys(),
           f"exit statuses read from exit_codes.hpp: {codes}")
     never = {codes["kExitConfigError"], codes["kExitUnexpectedError"], codes["kExitFaulted"]}
     fifo = [int(p) for c in glob.glob(os.path.join(args.configs, "**/*.yaml"), recursive=True)
@@ -158,7 +159,8 @@ def check_credentials(args):
         check(not os.path.exists(os.path.join(etc, "teleop.key")), "no key beside the config (only the credential)")
         rc, out, err = run(cmd, timeout_s=60, env=env)
         summary = os.path.join(state, "slave-summary.json")
-        ok = rc == 0 and os.path.exists(summary)
+        alone = exit_codes(args.exit_codes)["kExitNeverConnected"]  # alone: it never connects
+        ok = rc == alone and os.path.exists(summary)
         check(ok, f"with CREDENTIALS_DIRECTORY the slave starts on the unit's arguments and reads the credential "
                   f"(status {rc}) {'' if ok else (out + err)[-600:]}")
         mode = json.load(open(summary)).get("security", {}).get("mode")

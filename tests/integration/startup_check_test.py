@@ -5,8 +5,8 @@ Scenarios:
   refuse          slave fixture above the predicted limit: exit 2 before the link is opened (its UDP port is held
                   by this script meanwhile), one critical line naming the limit, the configured stiffness and
                   --allow-unstable; the limit is the one `teleop-analyze check --config` computes for the same file.
-  override        the same config with --allow-unstable --duration 0.3: starts, runs, exits 0, warns loudly.
-  safe            the shipped slave (2000 N/m) and master with --duration 0.3: start, exit 0, one info line with the
+  override        the same config with --allow-unstable --duration 0.3: starts, runs (alone: exit 5), warns loudly.
+  safe            the shipped slave (2000 N/m) and master with --duration 0.3: start, exit 5 (alone), one info line with the
                   limit and the margin.
   slow_coupling   no fixture at all, but 250 Hz: the coupling alone is predicted unstable: refused with its own
                   message.
@@ -52,6 +52,9 @@ def run(cmd, timeout=30):
     print(p.stdout)
     return p.returncode, p.stdout
 
+
+# A process run alone never connects: it exits kExitNeverConnected (teleop/node/exit_codes.hpp) after its run.
+ALONE = 5
 
 LIMIT = r"predicted stability limit (\d+) N/m"
 
@@ -101,7 +104,7 @@ def main():
         check("link udp" not in out and "summary" not in out, "nothing was opened or run")
     elif args.scenario == "override":
         code, out = run([args.slave, "--config", cfg, "--duration", "0.3", "--allow-unstable"])
-        check(code == 0, f"teleop-slave --allow-unstable starts and exits 0 (got {code})")
+        check(code == ALONE, f"teleop-slave --allow-unstable starts, runs alone and exits {ALONE} (got {code})")
         warnings = [l for l in out.splitlines() if "[warning]" in l and "--allow-unstable" in l]
         check(len(warnings) >= 1, "a warning names --allow-unstable")
         check("PREDICTED UNSTABLE" in warnings[0], "the warning is loud")
@@ -116,7 +119,7 @@ def main():
         write_config(master_src, mcfg, ports)
         for name, binary, config, stiffness in (("slave", args.slave, cfg, "2000"), ("master", args.master, mcfg, "0")):
             code, out = run([binary, "--config", config, "--duration", "0.3"])
-            check(code == 0, f"teleop-{name} starts and exits 0 (got {code})")
+            check(code == ALONE, f"teleop-{name} starts, runs alone and exits {ALONE} (got {code})")
             passed = [l for l in out.splitlines() if "[info]" in l and "stability check passed" in l]
             check(len(passed) == 1, f"teleop-{name} logs one 'stability check passed' line")
             m = re.search(rf"{name} fixture {stiffness} N/m, predicted limit (\d+) N/m", passed[0])
@@ -146,7 +149,7 @@ def main():
         check("250 Hz" in line and "Raise rate_hz" in line, "it names the rate and what to change")
         check("--allow-unstable" in line, "it names the override")
         code, out = run([args.slave, "--config", cfg, "--duration", "0.3", "--allow-unstable"])
-        check(code == 0, f"--allow-unstable starts it anyway (got {code})")
+        check(code == ALONE, f"--allow-unstable starts it anyway (exit {ALONE}: alone; got {code})")
 
 
 if __name__ == "__main__":

@@ -223,6 +223,8 @@ def main():
         check(m["cycles_with_peer"] > 0.5 * m["cycles"], "master coupled for most of the run")
         check_physics(read_yaml_scalars(msrc), read_yaml_scalars(ssrc), m, s, read_telemetry(mcsv),
                       read_telemetry(scsv))
+    if args.scenario == "clean_run":
+        check_session(args.workdir, mjson, sjson, m, s)
     if args.scenario == "garbage":
         rej = rejected_on_clean_link(s)
         check(garbage_sent == 200 and rej == 0,
@@ -231,6 +233,61 @@ def main():
         # Not "no watchdog trip": a loaded machine can stall a process for longer than the timeout. What garbage
         # must never do is reach the law: no fault, no non-finite input, no loss of the real samples.
         check(s["packets"]["lost"] == 0 and s["packets"]["accepted"] > 0, "real samples kept flowing")
+
+
+def check_session(workdir, mjson, sjson, m, s):
+    """One record of the session (deploy/teleop-session): both telemetries on the master's clock. Both processes
+    share this host's CLOCK_MONOTONIC, so the true offset is 0 and must lie within the stated uncertainty; the slave
+    started 0.3 s or more before the master, so its rows start before the master's on that axis; and the master's
+    position reaches the slave's peer_position within a few cycles on the merged axis (it was 0.3 s and more off
+    when each side was plotted on its own clock)."""
+    tool = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "deploy", "teleop-session")
+    out = os.path.join(workdir, "session.csv")
+    r = subprocess.run([tool, mjson, sjson, "-o", out], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    print(r.stdout)
+    check(r.returncode == 0, "teleop-session merged the two summaries and telemetries")
+    with open(out) as f:
+        check(f.readline().strip() == "# teleop-session 1", "the session file says what it is")
+        meta = json.loads(f.readline()[1:])
+        rows = list(csv.DictReader(f))
+    for side, x in (("master", m), ("slave", s)):
+        check(meta[side]["config_yaml"].startswith("# ") and f"role: {side}" in meta[side]["config_yaml"],
+              f"the {side}'s config text is in the record")
+        check("stability check passed" in meta[side]["startup_analysis"], f"the {side}'s start-up analysis too")
+        check(meta["software_version"][side] == x["software_version"] != "", f"and its software version")
+    clock = meta["clock"]
+    check(abs(clock["slave_minus_master_ns"]) <= clock["uncertainty_ns"] + 20e3,
+          f"offset {clock['slave_minus_master_ns'] / 1e3:.1f} us within its uncertainty "
+          f"{clock['uncertainty_ns'] / 1e3:.1f} us (+20 us) of the true 0 (one host, one clock)")
+    master = [(float(r["time_s"]), float(r["position_m_0"])) for r in rows if r["side"] == "master"]
+    slave = [(float(r["time_s"]), float(r["peer_position_m_0"])) for r in rows if r["side"] == "slave"]
+    check(len(master) == m["telemetry_records"] and len(slave) == s["telemetry_records"], "every row of both sides")
+    check(slave[0][0] < master[0][0] - 0.2, f"the slave's first row ({slave[0][0]:.3f} s) before the master's "
+                                            f"({master[0][0]:.3f} s): it started first")
+
+    def at(series, t):  # the newest value at or before t (series sorted by time)
+        lo, hi = 0, len(series) - 1
+        if t < series[0][0]:
+            return None
+        while lo < hi:
+            mid = (lo + hi + 1) // 2
+            lo, hi = (mid, hi) if series[mid][0] <= t else (lo, mid - 1)
+        return series[lo][1]
+    moving = [p for p in master[::10] if p[0] > 0.2]
+
+    def mismatch(lag):
+        d = [abs(at(slave, t + lag) - x) for t, x in moving if at(slave, t + lag) is not None]
+        return sum(d) / len(d) if d else float("inf")
+    lags = [i * 0.002 for i in range(-150, 151)]
+    best = min(lags, key=mismatch)
+    check(-0.002 <= best <= 0.02, f"the slave receives the master's position {best * 1e3:.0f} ms later on the merged "
+                                  f"axis (0..20 ms: transport and a cycle or two)")
+    plot = os.path.join(os.path.dirname(tool), "teleop-plot")
+    r = subprocess.run([plot, out, "--out", workdir], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    print(r.stdout)
+    pngs = [os.path.join(workdir, f"session-{v}.png") for v in ("positions", "forces")]
+    check(r.returncode == 0 and all(os.path.getsize(p) > 5000 for p in pngs if os.path.exists(p)) and
+          all(os.path.exists(p) for p in pngs), "teleop-plot draws both sides of the session on one time axis")
 
 
 def check_physics(mc, sc, m, s, mt, st):

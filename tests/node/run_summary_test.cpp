@@ -20,6 +20,10 @@ using ::testing::Not;
 RunSummary Populated() {
   RunSummary s;
   s.role = Role::kSlave;
+  s.software_version = "0.1.0+gabc1234";
+  s.protocol_version = 2;
+  s.connection = "connected";
+  s.link_transport = "udp";
   s.rate_hz = 1000.0;
   s.duration_s = 2.5;
   s.cycles = 2497;
@@ -115,6 +119,13 @@ RunSummary Populated() {
   f2.device_faults = 0x10;
   s.faults = {f1, f2};
   s.fault_records_skipped = 38;
+  s.clock_start_monotonic_ns = 123456789;
+  s.peer_clock_offset_ns = -2500;
+  s.peer_clock_offset_uncertainty_ns = 40000;
+  s.telemetry_csv = "slave.csv";
+  s.config_path = "/etc/teleop/slave.yaml";
+  s.startup_analysis = "stability check passed";
+  s.config_yaml = "role: slave\n";
   return s;
 }
 
@@ -122,13 +133,13 @@ RunSummary Populated() {
 // for NaN, the fault list one per line. Taken from the output before the tables replaced the format strings.
 TEST(RunSummary, JsonLayoutOfEveryField) {
   EXPECT_EQ(FormatSummaryJson(Populated()), R"json({
-  "role": "slave",
-  "stop_reason": "peer shutdown",
+  "role": "slave", "software_version": "0.1.0+gabc1234", "protocol_version": 2,
+  "stop_reason": "peer shutdown", "connected": true, "connection": "connected",
   "rate_hz": 1000, "duration_s": 2.5, "cycles": 2497, "achieved_rate_hz": 998.8, "overruns": 3,
   "period_us": {"count": 2497, "p50": 1000.1, "p99": 1012.5, "max": 1100.25}, "jitter_us": {"count": 2497, "p50": 1.5, "p99": 12.25, "max": 100.5}, "compute_us": {"count": 2497, "p50": 20.5, "p99": 40.25, "max": 80.125},
   "packets": {"sent": 2490, "send_errors": 1, "received": 2480, "accepted": 2470, "lost": 4, "reordered": 2, "duplicates": 5, "rejected": 6, "wrong_sender": 9, "superseded": 10, "bus_errors": 11, "rejected_by_reason": {"too_short": 7, "bad_magic": 8, "bad_version": 0, "bad_type": 0, "bad_dof": 0, "bad_length": 0, "bad_crc": 0, "non_finite": 0, "out_of_range": 0}},
   "security": {"mode": "psk", "sessions": 2, "handshakes_started": 15, "handshake_messages": 14, "send_no_session": 16, "rejected_by_reason": {"rate_limited": 0, "handshake_rate_limited": 0, "insecure": 0, "malformed": 0, "wrong_sender": 0, "unexpected_handshake": 0, "bad_handshake_tag": 0, "no_session": 0, "wrong_session": 0, "replayed": 0, "too_old": 0, "bad_tag": 12, "bad_plaintext": 13, "implausible": 0, "stale_handshake": 0}},
-  "link_detail": "frames 100", "link_fault_cycles": 17,
+  "link_transport": "udp", "link_detail": "frames 100", "link_fault_cycles": 17,
   "link_emulation": {"offered": 1000, "delivered": 990, "dropped_loss": 18, "dropped_burst": 0, "dropped_outage": 0, "dropped_bandwidth": 0, "dropped_overflow": 0, "duplicated": 0, "copies_refused": 0, "reordered": 0, "corrupted": 0, "delayed": 0},
   "rtt_ms": {"count": 2400, "p50": 0.125, "p99": 0.5, "max": 1.75},
   "sync": "triggered", "triggered_cycles": 2400, "trigger_timeouts": 19, "trigger_timeouts_coupled": 20,
@@ -144,17 +155,23 @@ TEST(RunSummary, JsonLayoutOfEveryField) {
     {"kind": "peer lost", "cycle": 1000, "time_s": 1, "reaction": "hold", "peer_sample_age_s": 0.0625, "device_faults": 0, "record": "fault-1.csv"},
     {"kind": "device fault", "cycle": 2000, "time_s": 2, "reaction": "device safe state", "peer_sample_age_s": null, "device_faults": 16, "record": ""}
   ],
-  "fault_records_skipped": 38
+  "fault_records_skipped": 38,
+  "clock": {"start_monotonic_ns": 123456789, "peer_offset_ns": -2500, "peer_offset_uncertainty_ns": 40000},
+  "telemetry_csv": "slave.csv", "config_path": "/etc/teleop/slave.yaml",
+  "startup_analysis": "stability check passed",
+  "config_yaml": "role: slave\n"
 }
 )json");
 }
 
 TEST(RunSummary, TextOfEveryField) {
   EXPECT_EQ(FormatSummaryText(Populated()), R"text(teleop-slave summary (peer shutdown)
+  version           0.1.0+gabc1234, wire protocol 2
+  connection        connected
   cycles            2497 in 2.500 s (998.8 Hz achieved, 1000 Hz configured), overruns 3
   period jitter     p50 1.5 us, p99 12.2 us, max 100.5 us
   compute time      p50 20.5 us, p99 40.2 us, max 80.1 us
-  packets           sent 2490, received 2480, accepted 2470, lost 4, reordered 2, duplicates 5, rejected 6, send errors 1
+  packets           sent 2490, received 2480, accepted 2470, superseded 10, lost 4, reordered 2, duplicates 5, rejected 6, send errors 1
   security          psk: sessions 2, handshakes started 15, handshake messages 14, unsent (no session) 16; refused: bad_tag 12, bad_plaintext 13 (bad_plaintext: authentic samples of another DOF count or role; check both configs' dof)
   link detail       frames 100
   link emulation    offered 1000, delivered 990, dropped loss/burst/outage/bandwidth/overflow 18/0/0/0/0, duplicated 0, reordered 0, corrupted 0, delayed 0
@@ -176,6 +193,20 @@ TEST(RunSummary, TextOfEveryField) {
   fault             device fault at cycle 2000 (t = 2.000 s, peer sample nan ms old) bits 0x10: device safe state; record not written
   fault records     38 not written (writer busy or safety.max_fault_records)
 )text");
+}
+
+// The round-trip line says why there is none, per transport: CAN frames carry no timestamps; a UDP peer that never
+// answered; a UDP peer whose samples never echoed one of ours.
+TEST(RunSummary, RoundTripNotMeasuredSaysWhyPerTransport) {
+  RunSummary s;
+  s.link_transport = "emulated-can";
+  EXPECT_THAT(FormatSummaryText(s), HasSubstr("round trip        not measured (emulated-can: CAN frames carry no"));
+  s.link_transport = "udp";
+  s.connected = false;
+  EXPECT_THAT(FormatSummaryText(s), HasSubstr("round trip        not measured (the peer never answered)\n"));
+  EXPECT_THAT(FormatSummaryText(s), Not(HasSubstr("CAN")));
+  s.connected = true;
+  EXPECT_THAT(FormatSummaryText(s), HasSubstr("not measured (no sample of the peer echoed one of ours)"));
 }
 
 TEST(RunSummary, LinkEmulationIsNullWithoutEmulation) {

@@ -33,6 +33,7 @@
 #include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/error.hpp"
+#include "teleop/version.hpp"
 
 namespace {
 
@@ -320,10 +321,19 @@ int RunSweep(const SystemOptions& o, const SweepOptions& w) {
     if (!out) throw teleop::Error(csv + ": cannot write the sweep CSV");
     WriteSweepCsv(out, variable, points);
   }
+  // The swept gain is named as swept (its base value is not used); the other gains with their units.
   std::ostringstream title;
-  title << ToString(side) << " fixture, " << (system.unilateral ? "unilateral" : "bilateral") << ", K_pm "
-        << system.gains.kpm_N_per_m << " K_ps " << system.gains.kps_N_per_m << " K_dm " << system.gains.kdm_Ns_per_m
-        << " K_ds " << system.gains.kds_Ns_per_m;
+  title << ToString(side) << " fixture, " << (system.unilateral ? "unilateral" : "bilateral") << ", ";
+  if (variable == SweepVariable::kKp) {
+    title << "K_p swept";
+  } else {
+    title << "K_pm " << system.gains.kpm_N_per_m << " K_ps " << system.gains.kps_N_per_m << " N/m";
+  }
+  if (variable == SweepVariable::kKd) {
+    title << ", K_d swept";
+  } else {
+    title << ", K_dm " << system.gains.kdm_Ns_per_m << " K_ds " << system.gains.kds_Ns_per_m << " Ns/m";
+  }
   if (variable != SweepVariable::kRateHz) title << ", " << system.rate_hz << " Hz";
   title << (o.paper_model ? ", paper's model" : ", processes' model");
   std::cerr << "teleop-analyze: " << ModelNote(o, system) << "\n";
@@ -382,6 +392,7 @@ int RunCheck(const SystemOptions& o, const CLI::App& app, const std::string& con
 
 static int Run(int argc, char** argv) {
   CLI::App app{"Stability of forbidden-region virtual fixtures (Abbott & Okamura 2006): docs/stability.md"};
+  app.set_version_flag("--version", teleop::VersionText("teleop-analyze"));
   app.require_subcommand(1);
   // Every default in --help (the subcommands inherit this).
   app.option_defaults()->always_capture_default();

@@ -20,6 +20,7 @@
 #include "teleop/error.hpp"
 #include "teleop/transport/can_bus_server.hpp"
 #include "teleop/transport/can_udp_bus_port.hpp"
+#include "teleop/version.hpp"
 
 namespace {
 
@@ -32,6 +33,8 @@ void OnSignal(int /*signal*/) { g_stop = true; }
 static int Run(int argc, char** argv) {
   using namespace teleop::transport;
   CLI::App app{"teleop-canbus: emulated CAN bus for teleop-master/teleop-slave (transport emulated-can)"};
+  app.set_version_flag("--version", teleop::VersionText("teleop-canbus"));
+  app.option_defaults()->always_capture_default();
   CanBusServerConfig config;
   double duration_s = 0.0;
   double stats_every_s = 5.0;
@@ -48,7 +51,8 @@ static int Run(int argc, char** argv) {
                  "unix: only: the socket file's permission bits, octal (who may join: write permission)")
       ->capture_default_str();
   app.add_option("--socket-group", socket_group, "unix: only: the socket file's group (name or gid)");
-  app.add_option("--port", config.port, "UDP port (the processes' emulated_bus_port)")->capture_default_str();
+  app.add_option("--port", config.port, "UDP port: the PORT of the processes' link.can.bus HOST:PORT")
+      ->capture_default_str();
   app.add_option("--bitrate", config.bus.nominal_bitrate_bit_per_s, "nominal bit rate, bit/s")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);

@@ -13,13 +13,20 @@
 #include <string>
 #include <vector>
 
+#include "teleop/version.hpp"
+
 namespace {
 
 int Run(int argc, char** argv) {
   CLI::App app{
-      "teleop-ctl: a run-time command to teleop-master/teleop-slave (docs/clutch.md): clutch on|off, fixture "
-      "on|off [ramp_s], fixture-stiffness <N/m> [ramp_s], fixture-plane <offset_m> <normal: dof numbers> "
-      "[rate_m_per_s], gain kp_N_per_m|kd_Ns_per_m|kv_Ns_per_m|kf[:<axis>] <value> [ramp_s]"};
+      "teleop-ctl: a run-time command to teleop-master/teleop-slave (docs/clutch.md). Commands:\n"
+      "  clutch on|off\n"
+      "  fixture on|off [ramp_s]\n"
+      "  fixture-stiffness <N/m> [ramp_s]\n"
+      "  fixture-plane <offset_m> <normal: dof numbers> [rate_m_per_s]\n"
+      "  gain kp_N_per_m|kd_Ns_per_m|kv_Ns_per_m|kf[:<axis>] <value> [ramp_s]"};
+  app.set_version_flag("--version", teleop::VersionText("teleop-ctl"));
+  app.option_defaults()->always_capture_default();
   std::string path;
   std::vector<std::string> words;
   app.add_option("--socket", path, "the process's command socket")->required();

@@ -38,6 +38,7 @@
 #include "teleop/fieldbus/cia402_drive.hpp"
 #include "teleop/fieldbus/cia402_eds.hpp"
 #include "teleop/fieldbus/simulated_cia402_drive.hpp"
+#include "teleop/version.hpp"
 
 namespace {
 
@@ -455,6 +456,8 @@ int Simulate(const Options& o, const std::vector<int>& nodes, double for_s, cons
 
 int Main(int argc, char** argv) {
   CLI::App app{"teleop-drive: commissioning of CiA 402 drives (scan, info, sdo, enable, jog, fault-reset, record)"};
+  app.set_version_flag("--version", teleop::VersionText("teleop-drive"));
+  app.option_defaults()->always_capture_default();
   app.require_subcommand(1);
   Options o;
   app.add_option("--can", o.can_interface, "SocketCAN interface (default can0)");

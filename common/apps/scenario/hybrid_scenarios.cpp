@@ -90,6 +90,10 @@ int RunFme(const FmeOptions& o) {
     gp << "set terminal png size 1100,420\nset output '" << o.output << ".png'\nset datafile separator ','\n"
        << "set multiplot layout 1,2\nset size ratio -1\nset xlabel 'x (mm)'\nset ylabel 'y (mm)'\n"
        << "set cblabel 'min force (N)' offset 1.5,0\nset xrange [-200:200]\nset yrange [80:330]\n"
+       // One colour scale for both maps, so that a colour is the same force in each.
+       << "stats '" << csv << "' skip 1 using ($3>0?$4:1/0) name 'MOTOR' nooutput\n"
+       << "stats '" << csv << "' skip 1 using ($3>0?$5:1/0) name 'BRAKE' nooutput\n"
+       << "set cbrange [0:(MOTOR_max > BRAKE_max ? MOTOR_max : BRAKE_max)]\n"
        << "set title 'motors: min force in any direction (FME), ellipses: 1 N = 0.1 mm' noenhanced\n"
        << "plot '" << csv << "' skip 1 using 1:2:($3>0?$4:1/0) with image notitle, '" << ellipses
        << "' skip 1 using 1:2 with lines lc rgb 'black' notitle\n"

@@ -4,11 +4,14 @@
 #include <iostream>
 
 #include "scenarios.hpp"
+#include "teleop/version.hpp"
 
 namespace {
 
 int Run(int argc, char** argv) {
   CLI::App app{"teleop-scenario: the papers' experiments on the simulated rigs (CSV, PNG, metrics)"};
+  app.set_version_flag("--version", teleop::VersionText("teleop-scenario"));
+  app.option_defaults()->always_capture_default();
   app.require_subcommand(1);
   teleop::scenario::AddHybridScenarios(app);
   teleop::scenario::AddCobotScenarios(app);

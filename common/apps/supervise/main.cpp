@@ -27,6 +27,7 @@
 #include "teleop/dds/supervisor.hpp"
 #include "teleop/error.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
+#include "teleop/version.hpp"
 
 namespace {
 
@@ -115,6 +116,8 @@ int Run(int argc, char** argv) {
   CLI::App app{
       "teleop-supervise: every teleop master/slave pair on a DDS domain (rate, loss, round trip, engagement, "
       "faults), live; see docs/dds.md"};
+  app.set_version_flag("--version", teleop::VersionText("teleop-supervise"));
+  app.option_defaults()->always_capture_default();
   int domain_id = 0;
   double interval_s = 0.5;
   double stale_after_s = 1.0;

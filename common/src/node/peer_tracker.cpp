@@ -88,6 +88,11 @@ void PeerTracker::MeasureRoundTrip(std::uint64_t cycle) noexcept {
   s.last_rtt_s = static_cast<double>(rtt.rtt_ns) * 1e-9;
   s.peer_clock_offset_ns = rtt.offset_ns;
   s.have_offset = true;
+  if (!s.have_best_offset || static_cast<std::int64_t>(rtt.rtt_ns) < s.best_rtt_ns) {
+    s.have_best_offset = true;
+    s.best_offset_ns = rtt.offset_ns;
+    s.best_rtt_ns = static_cast<std::int64_t>(rtt.rtt_ns);
+  }
   // Latency gate with 20 % hysteresis (engagement.max_rtt_ms; 0 = off).
   const double limit_s = config_.max_rtt_s;
   if (limit_s > 0.0 && !s.latency_gate_closed && s.last_rtt_s > limit_s) {

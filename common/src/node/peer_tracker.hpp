@@ -66,6 +66,11 @@ class PeerTracker {
     std::uint8_t last_flags = 0;
     std::int64_t peer_rx_ns = 0;
     std::int64_t peer_clock_offset_ns = 0;  ///< Peer clock − ours, from the newest round trip.
+    /// The offset from the round trip with the smallest round trip of the run (its uncertainty is half of it): what
+    /// a session record uses to put both sides on one clock (deploy/teleop-session).
+    bool have_best_offset = false;
+    std::int64_t best_offset_ns = 0;
+    std::int64_t best_rtt_ns = 0;
     double last_rtt_s = std::numeric_limits<double>::quiet_NaN();
     std::uint64_t new_sessions = 0;
     std::uint64_t dof_mismatches = 0;

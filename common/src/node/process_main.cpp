@@ -13,6 +13,8 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <sstream>
+#include <string_view>
 
 #include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
@@ -20,9 +22,11 @@
 #include "teleop/error.hpp"
 #include "teleop/link/link_config.hpp"
 #include "teleop/node/command_server.hpp"
+#include "teleop/node/connection_watch.hpp"
 #include "teleop/node/device_list.hpp"
 #include "teleop/node/exit_codes.hpp"
 #include "teleop/node/teleop_node.hpp"
+#include "teleop/version.hpp"
 
 namespace teleop::node {
 
@@ -36,21 +40,23 @@ extern "C" void HandleStopSignal(int /*signal*/) {
 
 /// The start-up stability check of this process's own fixture (docs/stability.md, "In the processes"): false when
 /// the process must not start. Runs before the device and the link are opened, so a refused start touches nothing.
-bool StabilityAllowsStart(const config::ProcessConfig& config, bool allow_unstable) {
+/// `verdict`: the line it logged (the session record keeps it).
+bool StabilityAllowsStart(const config::ProcessConfig& config, bool allow_unstable, std::string& verdict) {
   if (!config.stability.check) {
-    spdlog::warn(
-        "stability check skipped (stability.check is false in {}): the fixture stiffness is NOT checked "
-        "against the predicted limit",
-        config.source_path);
+    verdict = "stability check skipped (stability.check is false in " + config.source_path +
+              "): the fixture stiffness is NOT checked against the predicted limit";
+    spdlog::warn("{}", verdict);
     return true;
   }
   const config::StabilityReport report = config::CheckProcessStability(config);
   if (!report.applicable()) {
-    spdlog::warn("{}", config::DescribePass(config, report));
+    verdict = config::DescribePass(config, report);
+    spdlog::warn("{}", verdict);
     return true;
   }
   if (report.stable()) {
-    spdlog::info("{}", config::DescribePass(config, report));
+    verdict = config::DescribePass(config, report);
+    spdlog::info("{}", verdict);
     return true;
   }
   const std::string failure = config::DescribeFailure(config, report);
@@ -58,7 +64,8 @@ bool StabilityAllowsStart(const config::ProcessConfig& config, bool allow_unstab
     spdlog::critical("refusing to start: {}; or pass --allow-unstable to start anyway (experiments only)", failure);
     return false;
   }
-  spdlog::warn("--allow-unstable: STARTING A CONFIGURATION PREDICTED UNSTABLE: {}", failure);
+  verdict = "--allow-unstable: STARTING A CONFIGURATION PREDICTED UNSTABLE: " + failure;
+  spdlog::warn("{}", verdict);
   spdlog::warn("--allow-unstable: expect sustained vibration at the fixture; keep a hand on the stop");
   return true;
 }
@@ -78,12 +85,16 @@ void CheckWritable(const std::string& path) {
   if (!existed) std::filesystem::remove(path);
 }
 
-}  // namespace
+/// The text of a file (the config, read again for the session record; it was loaded at start-up).
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
 
-int ProcessMain(int argc, char** argv, Role role) {
-  const std::string program = std::string("teleop-") + ToString(role);
-  CLI::App app{program + ": the " + ToString(role) +
-               " side of a bilateral teleoperator (three-channel law, forbidden-region virtual fixture)"};
+/// The command line (docs/configuration.md, "Command line").
+struct Options {
   std::string config_path;
   double duration_s = -1.0;
   std::string summary_json;
@@ -93,33 +104,51 @@ int ProcessMain(int argc, char** argv, Role role) {
   std::string key_file;
   std::string command_socket;
   double command_ramp_s = 0.5;
-  app.add_option("-c,--config", config_path, "Process configuration (YAML); see docs/configuration.md")
+  double connect_timeout_s = 0.0;
+  double status_interval_s = 2.0;
+};
+
+// CLI::Range lets NaN through (every comparison with NaN is false): "nan" would run forever.
+const CLI::Validator kFinite(
+    [](std::string& text) {
+      return std::isfinite(std::strtod(text.c_str(), nullptr)) ? std::string()
+                                                               : "must be a finite number, got '" + text + "'";
+    },
+    "FINITE");
+
+void AddOptions(CLI::App& app, Options& o) {
+  app.option_defaults()->always_capture_default();
+  app.add_option("-c,--config", o.config_path, "Process configuration (YAML); see docs/configuration.md")
       ->required()
       ->check(CLI::ExistingFile);
-  app.add_option("-d,--duration", duration_s,
-                 "Stop after this many seconds (overrides the config; 0 = run until "
-                 "SIGINT/SIGTERM)")
+  app.add_option("-d,--duration", o.duration_s,
+                 "Stop after this many seconds (overrides loop.duration_s of the config; 0 = run until "
+                 "SIGINT/SIGTERM; default: the config's)")
+      ->default_str("")
       ->check(CLI::Range(0.0, 1e6))
-      ->check(CLI::Validator(
-          [](std::string& text) {
-            // CLI::Range lets NaN through (every comparison with NaN is false): "nan" would run forever.
-            return std::isfinite(std::strtod(text.c_str(), nullptr))
-                       ? std::string()
-                       : "must be a finite number of seconds, got '" + text + "'";
-          },
-          "FINITE"));
-  app.add_option("--summary-json", summary_json, "Also write the end-of-run summary to this file as JSON");
-  app.add_option("--telemetry-csv", telemetry_csv, "Per-cycle telemetry CSV (overrides telemetry.csv in the config)");
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical, off")
+      ->check(kFinite);
+  app.add_option("--summary-json", o.summary_json, "Also write the end-of-run summary to this file as JSON");
+  app.add_option("--telemetry-csv", o.telemetry_csv, "Per-cycle telemetry CSV (overrides telemetry.csv in the config)");
+  app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error, critical, off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
-  app.add_option("--key-file", key_file,
+  app.add_option("--key-file", o.key_file,
                  "Pre-shared key file for link.security.mode psk (overrides link.security.key_file; teleop-keygen "
                  "makes one)");
-  app.add_option("--command-socket", command_socket,
+  app.add_option("--command-socket", o.command_socket,
                  "Serve run-time commands (teleop-ctl) on this Unix socket, mode 0600 (docs/clutch.md)");
-  app.add_option("--command-ramp-s", command_ramp_s, "Ramp of an accepted stiffness change that names none (s)")
+  app.add_option("--command-ramp-s", o.command_ramp_s, "Ramp of an accepted stiffness change that names none (s)")
       ->check(CLI::NonNegativeNumber);
-  app.add_flag("--allow-unstable", allow_unstable,
+  app.add_option("--connect-timeout", o.connect_timeout_s,
+                 "Give up when no usable sample of the peer came within this many seconds of the first cycle "
+                 "(exit status 5; 0 = wait for ever; docs/troubleshooting.md)")
+      ->check(CLI::Range(0.0, 1e6))
+      ->check(kFinite);
+  app.add_option("--status-interval", o.status_interval_s,
+                 "While the peer has not connected, print what this process waits for and sees every this many "
+                 "seconds (0 = never)")
+      ->check(CLI::Range(0.0, 1e6))
+      ->check(kFinite);
+  app.add_flag("--allow-unstable", o.allow_unstable,
                "Start even when the fixture stiffness is above the predicted stability limit (experiments only; "
                "docs/stability.md)");
   app.add_flag_callback(
@@ -129,69 +158,119 @@ int ProcessMain(int argc, char** argv, Role role) {
         throw CLI::Success();
       },
       "List the registered device backends (what they render, their sensors and config keys) and exit");
+}
+
+/// The config with the command line's overrides; throws teleop::Error.
+config::ProcessConfig LoadConfig(const Options& o, Role role, const std::string& program) {
+  config::ProcessConfig config = config::LoadProcessConfig(o.config_path);
+  if (config.role != role) {
+    throw Error(o.config_path + ": role is '" + ToString(config.role) + "' but this is " + program);
+  }
+  if (o.duration_s >= 0.0) config.loop.duration_s = o.duration_s;
+  if (!o.telemetry_csv.empty()) config.telemetry.csv_path = o.telemetry_csv;
+  if (!o.key_file.empty()) {
+    if (config.link.security.mode != transport::LinkSecurityMode::kPsk) {
+      throw Error("--key-file given, but " + o.config_path + " has link.security.mode " +
+                  ToString(config.link.security.mode) + " (the key is used only with mode psk)");
+    }
+    config.link.security.key_file = o.key_file;
+  }
+  if (config.link.security.mode == transport::LinkSecurityMode::kInsecure) {
+    spdlog::warn(
+        "INSECURE LINK (link.security.mode insecure in {}): messages are not authenticated; anyone who can reach "
+        "this link can command the device. Benches and closed buses only (docs/security.md)",
+        o.config_path);
+  }
+  return config;
+}
+
+/// The connection watch (teleop/node/connection_watch.hpp) of this process; `node` is stopped on a give-up.
+std::unique_ptr<ConnectionWatch> MakeConnectionWatch(const config::ProcessConfig& config, const Options& o,
+                                                     TeleopNode& node) {
+  ConnectionWatch::Config c;
+  c.base.role = config.role;
+  c.base.transport = config.link.transport;
+  c.base.peer_address = config.link.udp.peer_address + ":" + std::to_string(config.link.udp.peer_port);
+  c.base.authenticated = config.link.security.mode == transport::LinkSecurityMode::kPsk;
+  c.rate_hz = config.loop.rate_hz;
+  c.status_interval_s = o.status_interval_s;
+  c.connect_timeout_s = o.connect_timeout_s;
+  return std::make_unique<ConnectionWatch>(c, [&node] { node.Stop(); });
+}
+
+/// The summary to stdout and --summary-json; returns the exit status (teleop/node/exit_codes.hpp).
+int Report(const RunSummary& summary, const std::string& summary_json) {
+  std::cout << FormatSummaryText(summary) << std::flush;
+  if (!summary_json.empty()) {
+    std::ofstream out(summary_json);
+    out << FormatSummaryJson(summary);
+    if (!out) throw Error("cannot write the summary to " + summary_json);
+  }
+  const int status = ExitCodeFor(summary);
+  if (status == kExitFaulted) {
+    spdlog::error(
+        "the run saw a fault (device fault cycles {}, non-finite inputs {}): exit status {}, which a systemd unit "
+        "does not restart; find the cause before starting again",
+        summary.device_fault_cycles, summary.nonfinite_inputs, status);
+  } else if (status == kExitNeverConnected) {
+    constexpr std::string_view kPrefix = "NEVER CONNECTED: ";
+    std::string_view why = summary.connection;
+    if (why.starts_with(kPrefix)) why.remove_prefix(kPrefix.size());
+    spdlog::error("the peer never connected (exit status {}): {}", status, why);
+  }
+  return status;
+}
+
+/// Set-up, the run and the report; throws teleop::Error on a set-up failure.
+int Run(const Options& o, Role role, const std::string& program) {
+  const config::ProcessConfig config = LoadConfig(o, role, program);
+  if (!o.summary_json.empty()) CheckWritable(o.summary_json);  // found now, not after the run
+  std::string verdict;
+  if (!StabilityAllowsStart(config, o.allow_unstable, verdict)) return kExitConfigError;
+
+  auto device = device::MakeDevice(config.device);
+  auto link = link::MakeLink(config.link, link::ToSender(role));
+  TeleopNode node(config, std::move(device), std::move(link), TeleopNode::Unconfigured{});
+  // Before Activate: background threads must not inherit the loop's SCHED_FIFO (the check runs there).
+  node.AddSink(MakeConnectionWatch(config, o, node));
+  node.Configure();
+  std::unique_ptr<CommandServer> commands;
+  if (!o.command_socket.empty()) {
+    commands = std::make_unique<CommandServer>(node, CommandServer::Config{o.command_socket, 0600, o.command_ramp_s});
+  }
+  node.Activate();  // real-time settings on this thread, checked, before the device is activated
+
+  g_running_node.store(&node);
+  struct sigaction action {};
+  action.sa_handler = HandleStopSignal;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+  RunSummary summary = node.Run();
+  g_running_node.store(nullptr);
+  // The session record's parts (deploy/teleop-session): what ran, as read at start-up.
+  summary.telemetry_csv = config.telemetry.csv_path;
+  summary.config_path = std::filesystem::absolute(o.config_path).string();
+  summary.config_yaml = ReadText(o.config_path);
+  summary.startup_analysis = verdict;
+  return Report(summary, o.summary_json);
+}
+
+}  // namespace
+
+int ProcessMain(int argc, char** argv, Role role) {
+  const std::string program = std::string("teleop-") + ToString(role);
+  CLI::App app{program + ": the " + ToString(role) +
+               " side of a bilateral teleoperator (three-channel law, forbidden-region virtual fixture)"};
+  app.set_version_flag("--version", VersionText(program));
+  Options options;
+  AddOptions(app, options);
   CLI11_PARSE(app, argc, argv);
 
-  spdlog::set_level(spdlog::level::from_str(log_level));
+  spdlog::set_level(spdlog::level::from_str(options.log_level));
   spdlog::set_pattern("[%H:%M:%S.%e] [" + program + "] [%^%l%$] %v");
-
   try {
-    config::ProcessConfig config = config::LoadProcessConfig(config_path);
-    if (config.role != role) {
-      throw Error(config_path + ": role is '" + ToString(config.role) + "' but this is " + program);
-    }
-    if (duration_s >= 0.0) config.loop.duration_s = duration_s;
-    if (!telemetry_csv.empty()) config.telemetry.csv_path = telemetry_csv;
-    if (!key_file.empty()) {
-      if (config.link.security.mode != transport::LinkSecurityMode::kPsk) {
-        throw Error("--key-file given, but " + config_path + " has link.security.mode " +
-                    ToString(config.link.security.mode) + " (the key is used only with mode psk)");
-      }
-      config.link.security.key_file = key_file;
-    }
-    if (config.link.security.mode == transport::LinkSecurityMode::kInsecure) {
-      spdlog::warn(
-          "INSECURE LINK (link.security.mode insecure in {}): messages are not authenticated; anyone who can reach "
-          "this link can command the device. Benches and closed buses only (docs/security.md)",
-          config_path);
-    }
-    if (!summary_json.empty()) CheckWritable(summary_json);  // found now, not after the run
-    if (!StabilityAllowsStart(config, allow_unstable)) return kExitConfigError;
-
-    auto device = device::MakeDevice(config.device);
-    auto link = link::MakeLink(config.link, link::ToSender(role));
-    TeleopNode node(config, std::move(device), std::move(link), TeleopNode::Unconfigured{});
-    node.Configure();
-    // Before Activate: the server's thread must not inherit the loop's SCHED_FIFO (the check runs there).
-    std::unique_ptr<CommandServer> commands;
-    if (!command_socket.empty()) {
-      commands = std::make_unique<CommandServer>(node, CommandServer::Config{command_socket, 0600, command_ramp_s});
-    }
-    node.Activate();  // real-time settings on this thread, checked, before the device is activated
-
-    g_running_node.store(&node);
-    struct sigaction action {};
-    action.sa_handler = HandleStopSignal;
-    sigemptyset(&action.sa_mask);
-    sigaction(SIGINT, &action, nullptr);
-    sigaction(SIGTERM, &action, nullptr);
-
-    const RunSummary summary = node.Run();
-    g_running_node.store(nullptr);
-
-    std::cout << FormatSummaryText(summary) << std::flush;
-    if (!summary_json.empty()) {
-      std::ofstream out(summary_json);
-      out << FormatSummaryJson(summary);
-      if (!out) throw Error("cannot write the summary to " + summary_json);
-    }
-    const int status = ExitCodeFor(summary);
-    if (status == kExitFaulted) {
-      spdlog::error(
-          "the run saw a fault (device fault cycles {}, non-finite inputs {}): exit status {}, which a systemd unit "
-          "does not restart; find the cause before starting again",
-          summary.device_fault_cycles, summary.nonfinite_inputs, status);
-    }
-    return status;
+    return Run(options, role, program);
   } catch (const Error& e) {
     spdlog::critical("{}", e.what());
     return kExitConfigError;

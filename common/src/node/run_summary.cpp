@@ -75,6 +75,13 @@ std::string SecurityText(const RunSummary& s) {
   return out;
 }
 
+// Why the round trip was not measured, per transport.
+std::string RoundTripMissing(const RunSummary& s) {
+  if (s.link_transport != "udp") return "not measured (" + s.link_transport + ": CAN frames carry no timestamps)";
+  if (!s.connected) return "not measured (the peer never answered)";
+  return "not measured (no sample of the peer echoed one of ours)";
+}
+
 // The JSON: one table per record, its keys in output order. A field of the summary is written here once, by its key
 // and its value; FormatSummaryJson lays the tables out.
 
@@ -194,10 +201,26 @@ std::string DataAgeCyclesJson(const std::array<std::uint64_t, 4>& cycles) {
   return out + "]";
 }
 
+std::string Json(std::int64_t v) { return fmt::format("{}", v); }
+
+constexpr auto kClockFields = std::to_array<Field<S>>({
+    {"start_monotonic_ns", [](const S& s) { return Json(s.clock_start_monotonic_ns); }},
+    {"peer_offset_ns",
+     [](const S& s) { return s.peer_clock_offset_ns ? Json(*s.peer_clock_offset_ns) : std::string("null"); }},
+    {"peer_offset_uncertainty_ns",
+     [](const S& s) {
+       return s.peer_clock_offset_ns ? Json(s.peer_clock_offset_uncertainty_ns) : std::string("null");
+     }},
+});
+
 constexpr bool kEnd = true;  // the line ends after this field
 constexpr auto kSummaryFields = std::to_array<SummaryField>({
-    {"role", [](const S& s) { return Json(std::string(ToString(s.role))); }, kEnd},
-    {"stop_reason", [](const S& s) { return Json(s.stop_reason); }, kEnd},
+    {"role", [](const S& s) { return Json(std::string(ToString(s.role))); }},
+    {"software_version", [](const S& s) { return Json(s.software_version); }},
+    {"protocol_version", [](const S& s) { return Json(static_cast<std::uint64_t>(s.protocol_version)); }, kEnd},
+    {"stop_reason", [](const S& s) { return Json(s.stop_reason); }},
+    {"connected", [](const S& s) { return Json(s.connected); }},
+    {"connection", [](const S& s) { return Json(s.connection); }, kEnd},
     {"rate_hz", [](const S& s) { return Json(s.rate_hz); }},
     {"duration_s", [](const S& s) { return Json(s.duration_s); }},
     {"cycles", [](const S& s) { return Json(s.cycles); }},
@@ -208,6 +231,7 @@ constexpr auto kSummaryFields = std::to_array<SummaryField>({
     {"compute_us", [](const S& s) { return Json(s.compute_us); }, kEnd},
     {"packets", [](const S& s) { return Object(kPacketFields, s); }, kEnd},
     {"security", [](const S& s) { return Object(kSecurityFields, s); }, kEnd},
+    {"link_transport", [](const S& s) { return Json(s.link_transport); }},
     {"link_detail", [](const S& s) { return Json(s.link_detail); }},
     {"link_fault_cycles", [](const S& s) { return Json(s.link_fault_cycles); }, kEnd},
     {"link_emulation",
@@ -241,6 +265,11 @@ constexpr auto kSummaryFields = std::to_array<SummaryField>({
     {"engagement", [](const S& s) { return Object(kEngagementFields, s.engagement); }, kEnd},
     {"faults", [](const S& s) { return FaultsJson(s.faults); }, kEnd},
     {"fault_records_skipped", [](const S& s) { return Json(s.fault_records_skipped); }, kEnd},
+    {"clock", [](const S& s) { return Object(kClockFields, s); }, kEnd},
+    {"telemetry_csv", [](const S& s) { return Json(s.telemetry_csv); }},
+    {"config_path", [](const S& s) { return Json(s.config_path); }, kEnd},
+    {"startup_analysis", [](const S& s) { return Json(s.startup_analysis); }, kEnd},
+    {"config_yaml", [](const S& s) { return Json(s.config_yaml); }, kEnd},
 });
 
 // The text: one line per label (a label may give no line, or one per fault), in reading order. It phrases a selection
@@ -252,6 +281,9 @@ struct TextLine {
 };
 
 constexpr auto kTextLines = std::to_array<TextLine>({
+    {"version",
+     [](const S& s) { return Lines{fmt::format("{}, wire protocol {}", s.software_version, s.protocol_version)}; }},
+    {"connection", [](const S& s) { return Lines{s.connection}; }},
     {"cycles",
      [](const S& s) {
        return Lines{fmt::format("{} in {:.3f} s ({:.1f} Hz achieved, {:.0f} Hz configured), overruns {}", s.cycles,
@@ -271,8 +303,9 @@ constexpr auto kTextLines = std::to_array<TextLine>({
      [](const S& s) {
        const auto& l = s.link;
        return Lines{fmt::format(
-           "sent {}, received {}, accepted {}, lost {}, reordered {}, duplicates {}, rejected {}, send errors {}",
-           l.sent, l.received, l.accepted, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors)};
+           "sent {}, received {}, accepted {}, superseded {}, lost {}, reordered {}, duplicates {}, rejected {}, send "
+           "errors {}",
+           l.sent, l.received, l.accepted, l.superseded, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors)};
      }},
     {"security", [](const S& s) { return Lines{SecurityText(s)}; }},
     {"link detail", [](const S& s) { return s.link_detail.empty() ? Lines{} : Lines{s.link_detail}; }},
@@ -286,7 +319,7 @@ constexpr auto kTextLines = std::to_array<TextLine>({
      }},
     {"round trip",
      [](const S& s) {
-       if (s.rtt_ms.count == 0) return Lines{"not measured (no echo from the peer; CAN frames carry no timestamps)"};
+       if (s.rtt_ms.count == 0) return Lines{RoundTripMissing(s)};
        return Lines{fmt::format("p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms ({} samples)", s.rtt_ms.p50, s.rtt_ms.p99,
                                 s.rtt_ms.max, s.rtt_ms.count)};
      }},

@@ -24,6 +24,7 @@
 #include "teleop/runtime/periodic_loop.hpp"
 #include "teleop/runtime/spsc_ring.hpp"
 #include "teleop/transport/impaired_link.hpp"
+#include "teleop/version.hpp"
 #include "transmitter.hpp"
 
 namespace teleop::node {
@@ -638,6 +639,10 @@ RunSummary TeleopNode::Finish() { return impl_->Summarize(0.0); }
 void TeleopNode::Impl::SummarizeLoop(RunSummary& summary, double wall_s) const {
   const auto& st = loop.stats();
   summary.role = config.role;
+  summary.software_version = SoftwareVersion();  // operator (issue 30): the version in every summary
+  summary.protocol_version = config.link.security.mode == transport::LinkSecurityMode::kPsk
+                                 ? proto::kSecureProtocolVersion
+                                 : proto::kProtocolVersion;
   summary.rate_hz = config.loop.rate_hz;
   summary.cycles = std::max(st.cycles, stepped_cycles);
   summary.duration_s = wall_s;
@@ -661,6 +666,7 @@ void TeleopNode::Impl::SummarizeLink(RunSummary& summary) const {
   summary.link_detail = link->Summary();
   if (const auto* emulation = transport::EmulationCountersOf(*link)) summary.link_emulation = *emulation;
   summary.link_security = transport::ToString(config.link.security.mode);
+  summary.link_transport = config.link.transport;  // operator (issue 30): the round-trip line per transport
   if (!peer) return;
   const PeerTracker::State& p = peer->state();
   summary.rtt_ms = FromHistogram(peer->rtt_ns(), 1e6);
@@ -671,6 +677,12 @@ void TeleopNode::Impl::SummarizeLink(RunSummary& summary) const {
   summary.dof_mismatches = p.dof_mismatches;
   summary.link_fault_cycles = p.link_fault_cycles;
   summary.engagement.latency_gate_trips = p.latency_gate_trips;
+  // operator (issue 30): the clock of this side's telemetry and the peer's offset, for the session record
+  summary.clock_start_monotonic_ns = start_ns;
+  if (p.have_best_offset) {
+    summary.peer_clock_offset_ns = p.best_offset_ns;
+    summary.peer_clock_offset_uncertainty_ns = p.best_rtt_ns / 2;
+  }
   summary.engagement.new_sessions = p.new_sessions;
 }
 

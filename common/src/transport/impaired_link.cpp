@@ -104,6 +104,7 @@ void ImpairedLink::Merge() noexcept {
   c.sessions = in.sessions;
   c.handshakes_started = in.handshakes_started;
   c.send_no_session = in.send_no_session;
+  c.peer_protocol_version = in.peer_protocol_version;
 }
 
 std::string ImpairedLink::Describe() const {

@@ -28,6 +28,7 @@ class SampleIntake {
     if (status != proto::DecodeStatus::kOk) {
       ++counters.rejected;
       ++counters.rejected_by_reason[static_cast<std::size_t>(status)];
+      if (status == proto::DecodeStatus::kBadVersion) NoteVersion(bytes, counters);
       return false;
     }
     if (scratch_.sender != expected_peer_) {
@@ -68,10 +69,23 @@ class SampleIntake {
   }
 
   /// Authenticated link: a datagram the session refused (forged, replayed, old session, version 1, ...).
-  void RejectSecure(SecureReceiveStatus reason, LinkCounters& counters) noexcept {
+  void RejectSecure(SecureReceiveStatus reason, std::span<const std::uint8_t> bytes, LinkCounters& counters) noexcept {
     ++counters.received;
     ++counters.rejected;
     ++counters.secure_rejected_by_reason[static_cast<std::size_t>(reason)];
+    if (reason == SecureReceiveStatus::kMalformed || reason == SecureReceiveStatus::kInsecure) {
+      NoteVersion(bytes, counters);
+    }
+  }
+
+  /// A datagram with the teleop magic and a version byte that is not `expected`'s: the peer's protocol version, for
+  /// the status line and the summary (LinkCounters::peer_protocol_version).
+  static void NoteVersion(std::span<const std::uint8_t> bytes, LinkCounters& counters) noexcept {
+    if (bytes.size() <= proto::wire::kVersionOffset) return;
+    const std::uint32_t magic = static_cast<std::uint32_t>(bytes[0]) | static_cast<std::uint32_t>(bytes[1]) << 8u |
+                                static_cast<std::uint32_t>(bytes[2]) << 16u |
+                                static_cast<std::uint32_t>(bytes[3]) << 24u;
+    if (magic == proto::wire::kMagic) counters.peer_protocol_version = bytes[proto::wire::kVersionOffset];
   }
 
   /// Drops the sample pending in this drain (it belongs to a session that just ended), counted as superseded.

@@ -311,7 +311,7 @@ bool UdpLink::OfferSecure(std::size_t length, std::int64_t now_ns) noexcept {
       s.intake.OfferHandshake(counters_);
       return false;
     default:
-      s.intake.RejectSecure(result.status, counters_);
+      s.intake.RejectSecure(result.status, std::span<const std::uint8_t>(s.rx.data(), length), counters_);
       return false;
   }
 }

@@ -16,9 +16,16 @@ inline constexpr int kExitUnexpectedError = 3;  ///< Anything else that escaped 
 /// a unit must not restart into it silently; a person reads the summary and clears the cause first.
 inline constexpr int kExitFaulted = 4;
 
-/// kExitFaulted when the run saw a device fault or a non-finite input, else kExitOk.
+/// The run ended (duration, signal, --connect-timeout) without a usable sample of the peer ever arriving: no peer,
+/// a wrong address, another key, another protocol version or security mode. The summary's "connection" line says
+/// which. A unit restarts after it (the peer may come up later); a person reads the status lines.
+inline constexpr int kExitNeverConnected = 5;
+
+/// kExitFaulted when the run saw a device fault or a non-finite input, else kExitNeverConnected when the peer never
+/// connected, else kExitOk.
 [[nodiscard]] inline int ExitCodeFor(const RunSummary& summary) noexcept {
-  return summary.device_fault_cycles > 0 || summary.nonfinite_inputs > 0 ? kExitFaulted : kExitOk;
+  if (summary.device_fault_cycles > 0 || summary.nonfinite_inputs > 0) return kExitFaulted;
+  return summary.connected ? kExitOk : kExitNeverConnected;
 }
 
 }  // namespace teleop::node

@@ -53,6 +53,12 @@ struct DeviceWarningSummary {
 /// in run_summary.cpp (one line per field; mostly the field names here).
 struct RunSummary {
   Role role = Role::kMaster;
+  std::string software_version;  ///< teleop::SoftwareVersion() (git describe at build time).
+  int protocol_version = 0;  ///< The wire protocol this process speaks (proto::kProtocolVersion; psk: the secure one).
+  /// Whether a usable sample of the peer ever arrived; `connection` says why not (ConnectionWatch). A run that never
+  /// connected exits kExitNeverConnected.
+  bool connected = true;
+  std::string connection = "connected";
   double rate_hz = 0.0;     ///< Configured.
   double duration_s = 0.0;  ///< Wall time from first to last cycle.
   std::uint64_t cycles = 0;
@@ -62,6 +68,7 @@ struct RunSummary {
   Distribution jitter_us{};   ///< |wake - scheduled|.
   Distribution compute_us{};  ///< Cycle body time.
   transport::LinkCounters link{};
+  std::string link_transport = "udp";      ///< link.transport: "udp", "can" or "emulated-can".
   std::string link_security = "insecure";  ///< link.security.mode: "psk" or "insecure" (counters in `link`).
   std::string link_detail;                 ///< Medium-specific counters (CAN frames by status, bus load); may be empty.
   std::uint64_t link_fault_cycles = 0;     ///< Cycles in which the medium itself was down (CAN bus-off).
@@ -102,6 +109,16 @@ struct RunSummary {
   DeviceWarningSummary device_warnings{};
   std::vector<FaultReport> faults;          ///< Every fault: what, when, the reaction, its record file.
   std::uint64_t fault_records_skipped = 0;  ///< Faults without a record (writer busy, safety.max_fault_records).
+  // The session record (deploy/teleop-session merges both sides' summaries and telemetry on one clock).
+  std::int64_t clock_start_monotonic_ns = 0;  ///< CLOCK_MONOTONIC of the first cycle: the telemetry's time_s 0.
+  /// The peer's clock minus ours, from the round trip with the smallest round trip; its uncertainty is half that
+  /// round trip. Empty without a round trip (CAN, or never connected).
+  std::optional<std::int64_t> peer_clock_offset_ns;
+  std::int64_t peer_clock_offset_uncertainty_ns = 0;
+  std::string telemetry_csv;     ///< Path of the telemetry CSV (empty: none written).
+  std::string config_path;       ///< The config file, absolute.
+  std::string config_yaml;       ///< Its text as read at start-up.
+  std::string startup_analysis;  ///< The start-up stability check's verdict line.
 };
 
 /// Fills a Distribution from a histogram of nanoseconds, scaled to the given unit (1e3 → µs, 1e6 → ms).

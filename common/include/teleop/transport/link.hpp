@@ -35,6 +35,9 @@ struct LinkCounters {
   std::uint64_t sessions = 0;            ///< Sessions established (Link::session_epoch()).
   std::uint64_t handshakes_started = 0;  ///< Hellos sent (master) or answered (slave).
   std::uint64_t send_no_session = 0;     ///< Send() while no session exists: nothing sent (not a send error).
+  /// The version byte of the newest datagram that carried the teleop magic but a wire protocol version this link
+  /// does not speak (also counted in rejected): the peer runs other software, or the other security mode. 0: none.
+  std::uint8_t peer_protocol_version = 0;
 };
 
 /// A bidirectional sample link to the peer process. Both calls are made from the real-time thread: non-blocking,

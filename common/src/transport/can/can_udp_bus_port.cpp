@@ -74,10 +74,8 @@ UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double
                         "group say who may; docs/security.md, \"What CAN trusts\")",
                         endpoint_, std::strerror(e)));
       }
-      throw Error(
-          fmt::format("emulated-can: no teleop-canbus at {}: {}: start it first (teleop-canbus --bind {}) or "
-                      "use transport udp",
-                      endpoint_, std::strerror(e), endpoint_));
+      throw Error(fmt::format("emulated-can: no teleop-canbus at {}: {}: start it first (teleop-canbus --bind {})",
+                              endpoint_, std::strerror(e), endpoint_));
     }
   } else {
     sockaddr_in addr{};
@@ -120,8 +118,7 @@ UdpCanBusPort::UdpCanBusPort(const std::string& host, std::uint16_t port, double
   if (node_ < 0) {
     ::close(socket_);
     throw Error(
-        fmt::format("emulated-can: no teleop-canbus answered at {} within {:g} ms: start it first (teleop-canbus {}) "
-                    "or use transport udp{}",
+        fmt::format("emulated-can: no teleop-canbus answered at {} within {:g} ms: start it first (teleop-canbus {}){}",
                     endpoint_, timeout_ms, unix_mode ? "--bind " + host : fmt::format("--port {}", port),
                     unix_mode ? " (or it does not admit this user: --allow-uid)" : ""));
   }
