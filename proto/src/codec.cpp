@@ -1,39 +1,22 @@
 #include "teleop/proto/codec.hpp"
 
-#include <bit>
 #include <cmath>
 
+#include "little_endian.hpp"
 #include "teleop/proto/crc.hpp"
 
 namespace teleop::proto {
 namespace {
 
-// Explicit little-endian access: shifts on integers, std::bit_cast for doubles. Independent of host byte order
-// and alignment; received bytes are never reinterpreted in place.
-void PutU8(std::uint8_t* p, std::uint8_t v) noexcept { p[0] = v; }
-void PutU16(std::uint8_t* p, std::uint16_t v) noexcept {
-  for (int i = 0; i < 2; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
-}
-void PutU32(std::uint8_t* p, std::uint32_t v) noexcept {
-  for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
-}
-void PutU64(std::uint8_t* p, std::uint64_t v) noexcept {
-  for (int i = 0; i < 8; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
-}
-void PutF64(std::uint8_t* p, double v) noexcept { PutU64(p, std::bit_cast<std::uint64_t>(v)); }
-
-std::uint16_t GetU16(const std::uint8_t* p) noexcept { return static_cast<std::uint16_t>(p[0] | (p[1] << 8)); }
-std::uint32_t GetU32(const std::uint8_t* p) noexcept {
-  std::uint32_t v = 0;
-  for (int i = 3; i >= 0; --i) v = (v << 8) | p[i];
-  return v;
-}
-std::uint64_t GetU64(const std::uint8_t* p) noexcept {
-  std::uint64_t v = 0;
-  for (int i = 7; i >= 0; --i) v = (v << 8) | p[i];
-  return v;
-}
-double GetF64(const std::uint8_t* p) noexcept { return std::bit_cast<double>(GetU64(p)); }
+using little_endian::GetF64;
+using little_endian::GetU16;
+using little_endian::GetU32;
+using little_endian::GetU64;
+using little_endian::PutF64;
+using little_endian::PutU16;
+using little_endian::PutU32;
+using little_endian::PutU64;
+using little_endian::PutU8;
 
 bool ValidDof(int dof) noexcept { return dof >= 1 && dof <= kMaxWireDof; }
 

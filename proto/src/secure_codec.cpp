@@ -1,5 +1,6 @@
 #include <algorithm>
 
+#include "little_endian.hpp"
 #include "teleop/proto/secure_message.hpp"
 
 namespace teleop::proto {
@@ -7,26 +8,12 @@ namespace {
 
 namespace sw = secure_wire;
 
-void PutU16(std::uint8_t* p, std::uint16_t v) noexcept {
-  for (int i = 0; i < 2; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
-}
-void PutU32(std::uint8_t* p, std::uint32_t v) noexcept {
-  for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
-}
-void PutU64(std::uint8_t* p, std::uint64_t v) noexcept {
-  for (int i = 0; i < 8; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
-}
-std::uint16_t GetU16(const std::uint8_t* p) noexcept { return static_cast<std::uint16_t>(p[0] | (p[1] << 8)); }
-std::uint32_t GetU32(const std::uint8_t* p) noexcept {
-  std::uint32_t v = 0;
-  for (int i = 3; i >= 0; --i) v = (v << 8) | p[i];
-  return v;
-}
-std::uint64_t GetU64(const std::uint8_t* p) noexcept {
-  std::uint64_t v = 0;
-  for (int i = 7; i >= 0; --i) v = (v << 8) | p[i];
-  return v;
-}
+using little_endian::GetU16;
+using little_endian::GetU32;
+using little_endian::GetU64;
+using little_endian::PutU16;
+using little_endian::PutU32;
+using little_endian::PutU64;
 
 bool ValidRole(std::uint8_t role) noexcept {
   return role == static_cast<std::uint8_t>(SenderRole::kMaster) ||

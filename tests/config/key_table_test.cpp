@@ -7,8 +7,11 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "teleop/config/yaml_reader.hpp"
 #include "teleop/device/device_registry.hpp"
@@ -19,21 +22,50 @@
 namespace teleop {
 namespace {
 
-/// A section each backend accepts with its required keys only (the process's role and dof in `context`).
+/// A section a backend accepts, with the process's role and dof in `context`.
 struct Minimal {
-  std::string yaml;
+  std::string yaml;  ///< One flow mapping on one line (a test puts a key in front of the first).
   device::SectionContext context;
 };
 
+/// `node` as flow YAML on one line (a node read from block YAML keeps its block style when emitted).
+std::string FlowText(const YAML::Node& node) {
+  YAML::Node flow = YAML::Clone(node);
+  std::vector<YAML::Node> pending{flow};
+  while (!pending.empty()) {
+    YAML::Node n = pending.back();
+    pending.pop_back();
+    if (!n.IsMap() && !n.IsSequence()) continue;
+    n.SetStyle(YAML::EmitterStyle::Flow);
+    for (auto it = n.begin(); it != n.end(); ++it) pending.push_back(n.IsMap() ? it->second : *it);
+  }
+  YAML::Emitter out;
+  out << flow;
+  return out.c_str();
+}
+
+/// Each backend's section from the rig configs every backend brings (deploy/configs/**/*.yaml, the first in path
+/// order whose device.backend names it): a new backend needs no entry here.
 const std::map<std::string, Minimal>& MinimalSections() {
-  static const std::map<std::string, Minimal> sections{
-      {"loopback", {"{mass_kg: 0.04, damping_Ns_per_m: 0.41}", {Role::kMaster, 1}}},
-      {"admittance",
-       {"{virtual_mass_kg: 1, virtual_damping_Ns_per_m: 5, can: {interface: can0}, drives: [{node_id: 1}]}",
-        {Role::kSlave, 1}}},
-      {"hybrid", {"{}", {Role::kMaster, 2}}},
-      {"cobot", {"{}", {Role::kMaster, 2}}},
-  };
+  static const std::map<std::string, Minimal> sections = [] {
+    std::vector<std::filesystem::path> files;
+    for (const auto& entry : std::filesystem::recursive_directory_iterator(TELEOP_SOURCE_DIR "/deploy/configs")) {
+      if (entry.path().extension() == ".yaml") files.push_back(entry.path());
+    }
+    std::sort(files.begin(), files.end());
+    std::map<std::string, Minimal> found;
+    for (const std::filesystem::path& file : files) {
+      const YAML::Node config = YAML::LoadFile(file.string());
+      const YAML::Node device = config["device"];
+      if (!config["role"] || !device || !device["backend"]) continue;
+      const std::string backend = device["backend"].as<std::string>();
+      if (found.count(backend) != 0) continue;
+      const YAML::Node section = device[backend] ? device[backend] : YAML::Node(YAML::NodeType::Map);
+      const Role role = config["role"].as<std::string>() == "slave" ? Role::kSlave : Role::kMaster;
+      found[backend] = {FlowText(section), {role, config["dof"] ? config["dof"].as<int>() : 1}};
+    }
+    return found;
+  }();
   return sections;
 }
 
@@ -56,6 +88,8 @@ TEST(KeyTable, ListDevicesShowsEveryKeyOfEveryBackendsTable) {
     const device::DeviceBackend* backend = device::FindDevice(name);
     if (backend->key_table.empty()) continue;
     ++tables;
+    EXPECT_EQ(MinimalSections().count(name), 1u)
+        << name << ": no rig config in deploy/configs/ uses it, so the unknown-key and range checks cannot read it";
     const auto section = listing.find("\n" + name + ": ");
     ASSERT_NE(section, std::string::npos) << name;
     const auto next = listing.find("\n\n", section + 1);
@@ -90,7 +124,9 @@ TEST(KeyTable, AValueOutOfItsTablesRangeIsRefusedWithTheKeysName) {
       const std::string leaf = config::LeafOf(spec);
       if (leaf != spec.key) continue;  // a nested key: its parent has keys of its own
       const char* bad = spec.range == config::KeyRange::kFinite ? ".nan" : "-1e9";
-      std::string yaml = minimal.yaml;
+      YAML::Node section = YAML::Load(minimal.yaml);
+      section.remove(leaf);  // the rig's own value of it
+      std::string yaml = FlowText(section);
       yaml.insert(1, leaf + ": " + bad + (yaml.size() > 2 ? ", " : ""));
       const std::string error = ReadError(name, yaml, minimal.context);
       EXPECT_NE(error.find("'device." + name + "." + leaf + "'"), std::string::npos)

@@ -14,7 +14,7 @@
 namespace teleop::config {
 namespace {
 
-using node::Reaction;
+using config::Reaction;
 using test::ExpectError;
 
 std::string Base(const char* role) {

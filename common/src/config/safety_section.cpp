@@ -1,4 +1,4 @@
-// The `engagement:` and `safety:` sections (teleop/node/engagement_config.hpp, docs/configuration.md).
+// The `engagement:` and `safety:` sections (teleop/config/engagement_config.hpp, docs/configuration.md).
 
 #include <string>
 
@@ -6,11 +6,9 @@
 
 namespace teleop::config::sections {
 
-node::Reaction DefaultReaction(Role role) noexcept {
-  return role == Role::kSlave ? node::Reaction::kHold : node::Reaction::kFade;
-}
+Reaction DefaultReaction(Role role) noexcept { return role == Role::kSlave ? Reaction::kHold : Reaction::kFade; }
 
-void ParseEngagement(const Field& f, node::EngagementConfig& e) {
+void ParseEngagement(const Field& f, EngagementConfig& e) {
   const Map map(
       f, {"align_speed_m_per_s", "align_min_time_ms", "align_tolerance_m", "max_force_rate_N_per_s", "max_rtt_ms"});
   if (auto v = map.Optional("align_speed_m_per_s")) e.align_speed_m_per_s = InRange(*v, 1e-6, 10.0, "m/s");
@@ -20,13 +18,12 @@ void ParseEngagement(const Field& f, node::EngagementConfig& e) {
   if (auto v = map.Optional("max_rtt_ms")) e.max_rtt_ms = InRange(*v, 0.0, 60'000.0, "ms (0 = off)");
 }
 
-void ParseSafety(const Field& f, Role role, node::SafetyConfig& s) {
+void ParseSafety(const Field& f, Role role, SafetyConfig& s) {
   const Map map(f, {"reaction", "hold_max_force_N", "decelerate_m_per_s2", "fade_time_ms", "damping_Ns_per_m",
                     "fault_record_cycles", "fault_record_dir", "max_fault_records", "max_abs_position_m",
                     "max_abs_force_sensor_N", "max_speed_m_per_s", "encoder_slack_m"});
   if (auto v = map.Optional("reaction")) {
     const std::string text = v->AsString();
-    using node::Reaction;
     const bool slave = role == Role::kSlave;
     if (text == "hold" && slave) {
       s.reaction = Reaction::kHold;

@@ -26,9 +26,9 @@ void ParseStability(const Field& f, int dof, StabilityConfig& stability);
 /// `passivity:` (read after `link:`: energy_exchange is refused over CAN).
 void ParsePassivity(const Field& f, int dof, const link::LinkConfig& link,
                     control::PassivityController::Config& passivity);
-void ParseEngagement(const Field& f, node::EngagementConfig& engagement);
+void ParseEngagement(const Field& f, EngagementConfig& engagement);
 /// `safety:`; `role` decides the allowed reactions (the default is set before, by DefaultReaction).
-void ParseSafety(const Field& f, Role role, node::SafetyConfig& safety);
-node::Reaction DefaultReaction(Role role) noexcept;
+void ParseSafety(const Field& f, Role role, SafetyConfig& safety);
+Reaction DefaultReaction(Role role) noexcept;
 
 }  // namespace teleop::config::sections

@@ -10,6 +10,129 @@
 
 namespace teleop::node {
 
+namespace {
+
+/// The peer, the link, the device and the loop.
+void LogLinkEvent(const Event& e) {
+  switch (e.kind) {
+    case Event::Kind::kPeerConnected:
+      spdlog::info("cycle {}: peer connected", e.cycle);
+      break;
+    case Event::Kind::kPeerLost:
+      spdlog::warn("cycle {}: peer lost (watchdog), coupling off", e.cycle);
+      break;
+    case Event::Kind::kPeerRecovered:
+      spdlog::info("cycle {}: peer back, coupling on", e.cycle);
+      break;
+    case Event::Kind::kPeerShutdown:
+      spdlog::info("cycle {}: peer is shutting down", e.cycle);
+      break;
+    case Event::Kind::kPeerFault:
+      spdlog::warn("cycle {}: peer reports a fault, coupling off", e.cycle);
+      break;
+    case Event::Kind::kDeviceFault:
+      spdlog::error("cycle {}: device fault 0x{:x}, safe state", e.cycle, static_cast<unsigned>(e.value));
+      break;
+    case Event::Kind::kDeviceFaultCleared:
+      spdlog::info("cycle {}: device fault cleared", e.cycle);
+      break;
+    case Event::Kind::kNonFiniteInput:
+      spdlog::error("cycle {}: non-finite law input, zero command", e.cycle);
+      break;
+    case Event::Kind::kOverrun:
+      spdlog::warn("cycle {}: overrun ({} so far)", e.cycle, e.value);
+      break;
+    case Event::Kind::kNewSession:
+      spdlog::info("cycle {}: new link session (epoch {}), re-engaging through aligning", e.cycle, e.value);
+      break;
+    case Event::Kind::kLatencyGate:
+      spdlog::warn("cycle {}: round trip {:.3f} ms above engagement.max_rtt_ms, latency gate closed", e.cycle, e.value);
+      break;
+    case Event::Kind::kDeviceWarning:
+      if (e.value == 0.0) {
+        spdlog::info("cycle {}: device warnings cleared", e.cycle);
+      } else {
+        spdlog::warn("cycle {}: device warnings 0x{:x} (informational; the node acts on none)", e.cycle,
+                     static_cast<unsigned>(e.value));
+      }
+      break;
+    default:
+      break;
+  }
+}
+
+/// Engagement, the clutch and re-indexing.
+void LogCouplingEvent(const Event& e) {
+  switch (e.kind) {
+    case Event::Kind::kCouplingLost:
+      spdlog::warn("cycle {}: coupling off ({}), safe-state reaction latched", e.cycle,
+                   ToString(static_cast<Outage>(static_cast<int>(e.value))));
+      break;
+    case Event::Kind::kAligning:
+      spdlog::info("cycle {}: aligning", e.cycle);
+      break;
+    case Event::Kind::kEngaged:
+      spdlog::info("cycle {}: engaged", e.cycle);
+      break;
+    case Event::Kind::kClutchPressed:
+      spdlog::info("cycle {}: clutch pressed (sources 0x{:x}: 1 device, 2 peer, 4 command)", e.cycle,
+                   static_cast<unsigned>(e.value));
+      break;
+    case Event::Kind::kClutchReleased:
+      spdlog::info("cycle {}: clutch released", e.cycle);
+      break;
+    case Event::Kind::kReindexed:
+      spdlog::info("cycle {}: re-indexed, offset up to {:.4f} m", e.cycle, e.value);
+      break;
+    default:
+      break;
+  }
+}
+
+/// The command channel's outcomes.
+void LogCommandEvent(const Event& e) {
+  switch (e.kind) {
+    case Event::Kind::kCommandAccepted:
+      spdlog::info("cycle {}: command accepted: fixture stiffness {:.0f} N/m", e.cycle, e.value);
+      break;
+    case Event::Kind::kCommandRefused:
+      spdlog::warn("cycle {}: command refused (predicted limit {:.0f} N/m)", e.cycle, e.value);
+      break;
+    case Event::Kind::kCommandMalformed:
+      spdlog::warn("cycle {}: command malformed (nothing changed)", e.cycle);
+      break;
+    case Event::Kind::kCommandPeerRefused:
+      spdlog::warn("cycle {}: command refused: peer uid {:.0f} is not admitted", e.cycle, e.value);
+      break;
+    case Event::Kind::kClutchCommanded:
+      spdlog::info("cycle {}: command: clutch {}", e.cycle, e.value != 0.0 ? "on" : "off");
+      break;
+    case Event::Kind::kGainAccepted:
+    case Event::Kind::kGainRefused: {
+      const unsigned axis = e.detail % 16u;
+      const char* name = ToString(static_cast<GainName>(e.detail / 16u));
+      if (e.kind == Event::Kind::kGainAccepted) {
+        spdlog::info("cycle {}: command accepted: gain {} axis {} = {}", e.cycle, name,
+                     axis == kAllAxes ? std::string("all") : std::to_string(axis), e.value);
+      } else {
+        spdlog::warn("cycle {}: command refused: gain {} axis {} (predicted fixture limit {:.0f} N/m)", e.cycle, name,
+                     axis == kAllAxes ? std::string("all") : std::to_string(axis), e.value);
+      }
+      break;
+    }
+    case Event::Kind::kPlaneAccepted:
+      spdlog::info("cycle {}: command accepted: fixture plane to offset {:.4f} m (slewing)", e.cycle, e.value);
+      break;
+    case Event::Kind::kPlaneRefused:
+      spdlog::warn("cycle {}: command refused: fixture plane", e.cycle);
+      break;
+    default:
+      break;
+  }
+}
+
+}  // namespace
+
 EventLog::EventLog(std::size_t capacity)
     : ring_(capacity), thread_([this] {
         runtime::BecomeBackgroundThread("teleop-events");
@@ -31,102 +154,39 @@ void EventLog::Stop() {
 void EventLog::Drain() {
   Event e;
   while (ring_.TryPop(e)) {
-    switch (e.kind) {
+    switch (e.kind) {  // every kind named: a new one must be given a group
       case Event::Kind::kPeerConnected:
-        spdlog::info("cycle {}: peer connected", e.cycle);
-        break;
       case Event::Kind::kPeerLost:
-        spdlog::warn("cycle {}: peer lost (watchdog), coupling off", e.cycle);
-        break;
       case Event::Kind::kPeerRecovered:
-        spdlog::info("cycle {}: peer back, coupling on", e.cycle);
-        break;
       case Event::Kind::kPeerShutdown:
-        spdlog::info("cycle {}: peer is shutting down", e.cycle);
-        break;
       case Event::Kind::kPeerFault:
-        spdlog::warn("cycle {}: peer reports a fault, coupling off", e.cycle);
-        break;
       case Event::Kind::kDeviceFault:
-        spdlog::error("cycle {}: device fault 0x{:x}, safe state", e.cycle, static_cast<unsigned>(e.value));
-        break;
       case Event::Kind::kDeviceFaultCleared:
-        spdlog::info("cycle {}: device fault cleared", e.cycle);
-        break;
       case Event::Kind::kNonFiniteInput:
-        spdlog::error("cycle {}: non-finite law input, zero command", e.cycle);
-        break;
       case Event::Kind::kOverrun:
-        spdlog::warn("cycle {}: overrun ({} so far)", e.cycle, e.value);
-        break;
       case Event::Kind::kNewSession:
-        spdlog::info("cycle {}: new link session (epoch {}), re-engaging through aligning", e.cycle, e.value);
-        break;
       case Event::Kind::kLatencyGate:
-        spdlog::warn("cycle {}: round trip {:.3f} ms above engagement.max_rtt_ms, latency gate closed", e.cycle,
-                     e.value);
+      case Event::Kind::kDeviceWarning:
+        LogLinkEvent(e);
         break;
       case Event::Kind::kCouplingLost:
-        spdlog::warn("cycle {}: coupling off ({}), safe-state reaction latched", e.cycle,
-                     ToString(static_cast<Outage>(static_cast<int>(e.value))));
-        break;
       case Event::Kind::kAligning:
-        spdlog::info("cycle {}: aligning", e.cycle);
-        break;
       case Event::Kind::kEngaged:
-        spdlog::info("cycle {}: engaged", e.cycle);
-        break;
-      case Event::Kind::kDeviceWarning:
-        if (e.value == 0.0) {
-          spdlog::info("cycle {}: device warnings cleared", e.cycle);
-        } else {
-          spdlog::warn("cycle {}: device warnings 0x{:x} (informational; the node acts on none)", e.cycle,
-                       static_cast<unsigned>(e.value));
-        }
-        break;
       case Event::Kind::kClutchPressed:
-        spdlog::info("cycle {}: clutch pressed (sources 0x{:x}: 1 device, 2 peer, 4 command)", e.cycle,
-                     static_cast<unsigned>(e.value));
-        break;
       case Event::Kind::kClutchReleased:
-        spdlog::info("cycle {}: clutch released", e.cycle);
-        break;
       case Event::Kind::kReindexed:
-        spdlog::info("cycle {}: re-indexed, offset up to {:.4f} m", e.cycle, e.value);
+        LogCouplingEvent(e);
         break;
       case Event::Kind::kCommandAccepted:
-        spdlog::info("cycle {}: command accepted: fixture stiffness {:.0f} N/m", e.cycle, e.value);
-        break;
       case Event::Kind::kCommandRefused:
-        spdlog::warn("cycle {}: command refused (predicted limit {:.0f} N/m)", e.cycle, e.value);
-        break;
       case Event::Kind::kCommandMalformed:
-        spdlog::warn("cycle {}: command malformed (nothing changed)", e.cycle);
-        break;
       case Event::Kind::kCommandPeerRefused:
-        spdlog::warn("cycle {}: command refused: peer uid {:.0f} is not admitted", e.cycle, e.value);
-        break;
       case Event::Kind::kClutchCommanded:
-        spdlog::info("cycle {}: command: clutch {}", e.cycle, e.value != 0.0 ? "on" : "off");
-        break;
       case Event::Kind::kGainAccepted:
-      case Event::Kind::kGainRefused: {
-        const unsigned axis = e.detail % 16u;
-        const char* name = ToString(static_cast<GainName>(e.detail / 16u));
-        if (e.kind == Event::Kind::kGainAccepted) {
-          spdlog::info("cycle {}: command accepted: gain {} axis {} = {}", e.cycle, name,
-                       axis == kAllAxes ? std::string("all") : std::to_string(axis), e.value);
-        } else {
-          spdlog::warn("cycle {}: command refused: gain {} axis {} (predicted fixture limit {:.0f} N/m)", e.cycle, name,
-                       axis == kAllAxes ? std::string("all") : std::to_string(axis), e.value);
-        }
-        break;
-      }
+      case Event::Kind::kGainRefused:
       case Event::Kind::kPlaneAccepted:
-        spdlog::info("cycle {}: command accepted: fixture plane to offset {:.4f} m (slewing)", e.cycle, e.value);
-        break;
       case Event::Kind::kPlaneRefused:
-        spdlog::warn("cycle {}: command refused: fixture plane", e.cycle);
+        LogCommandEvent(e);
         break;
     }
     if (EventObserver* observer = observer_.load(std::memory_order_acquire)) observer->OnEvent(e);

@@ -42,7 +42,7 @@ void Recorder::Step(const Sensed& sensed, const PeerView& peer, const Applied& a
   // The law's own position (a re-indexed master's reading + its index offset): the offset is not an error.
   record.tracking_error_m =
       peer.usable
-          ? (applied.law_input->position_m - config_.peer_position_scale * applied.law_input->peer_position_m).norm()
+          ? (applied.law_input.position_m - config_.peer_position_scale * applied.law_input.peer_position_m).norm()
           : 0.0;
   sinks_.OnCycle(record);  // every cycle: the fault ring; decimated by the CSV and the DDS sinks
   TriggerFaults(sensed, peer, applied, facts);
@@ -98,7 +98,7 @@ const runtime::TelemetryRecord& Recorder::Row(const Sensed& sensed, const PeerVi
                                               const CycleFacts& facts) noexcept {
   const device::Reading& reading = *sensed.reading;
   const control::ThreeChannelLaw::Output& out = applied.law;
-  const control::ThreeChannelLaw::Input& input = *applied.law_input;
+  const control::ThreeChannelLaw::Input& input = applied.law_input;
   runtime::TelemetryRecord& r = row_;
   r = runtime::TelemetryRecord{};
   r.cycle = facts.cycle;
@@ -123,7 +123,7 @@ const runtime::TelemetryRecord& Recorder::Row(const Sensed& sensed, const PeerVi
       r.peer_velocity_m_per_s[i] = peer.sample->velocity_m_per_s[k];
       r.peer_force_N[i] = peer.sample->force_N[k];
     }
-    r.passivity_observed_J[i] = applied.passivity->observed_J[k];
+    r.passivity_observed_J[i] = applied.passivity.observed_J[k];
     r.passivity_damping_Ns_per_m[i] = i < applied.damping_Ns_per_m.size() ? applied.damping_Ns_per_m[i] : 0.0;
   }
   r.fixture_penetration_m = out.fixture_penetration_m;

@@ -39,15 +39,15 @@ std::uint8_t Transmitter::Send(const Sensed& sensed, const PeerView& peer, const
     out.velocity_m_per_s.fill(0.0);
     out.force_N.fill(0.0);
   } else {
-    CopyToWire(applied.law_input->position_m, out.position_m);  // the reading + a re-indexed master's offset
+    CopyToWire(applied.law_input.position_m, out.position_m);  // the reading + a re-indexed master's offset
     CopyToWire(law.velocity_m_per_s, out.velocity_m_per_s);
     CopyToWire(sensed.reading->force_N, out.force_N);
   }
   // Time-domain passivity, energy_exchange: this port's energies travel with the sample (the energy block).
   out.has_energy = applied.passivity_mode == control::PassivityMode::kEnergyExchange;
   if (out.has_energy) {
-    out.input_energy_J = applied.passivity->input_energy_J;
-    out.output_energy_J = applied.passivity->output_energy_J;
+    out.input_energy_J = applied.passivity.input_energy_J;
+    out.output_energy_J = applied.passivity.output_energy_J;
   }
   // Send time and echo age taken right before the send call (docs/protocol.md, "Round-trip time").
   const std::int64_t send_ns = clock_.Now();

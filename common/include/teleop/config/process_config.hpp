@@ -3,12 +3,12 @@
 #include <optional>
 #include <string>
 
+#include "teleop/config/engagement_config.hpp"
 #include "teleop/control/passivity_controller.hpp"
 #include "teleop/control/three_channel_law.hpp"
 #include "teleop/dds/bridge_config.hpp"
 #include "teleop/device/device_config.hpp"
 #include "teleop/link/link_config.hpp"
-#include "teleop/node/engagement_config.hpp"
 #include "teleop/runtime/periodic_loop.hpp"
 #include "teleop/types.hpp"
 
@@ -71,9 +71,9 @@ struct ProcessConfig {
   /// Time-domain passivity on this device's port (docs/stability.md); off (observe only) unless passivity.mode.
   /// dof and max_damping_Ns_per_m are sized by the reader; max_force_N is the law's.
   control::PassivityController::Config passivity{};
-  node::EngagementConfig engagement{};  ///< How coupling starts and restarts (teleop/node/engagement.hpp).
-  node::SafetyConfig safety{};          ///< Safe states, fault records, reading checks.
-  std::string source_path;              ///< The file it was read from (for messages).
+  EngagementConfig engagement{};  ///< How coupling starts and restarts (teleop/node/engagement.hpp).
+  SafetyConfig safety{};          ///< Safe states, fault records, reading checks.
+  std::string source_path;        ///< The file it was read from (for messages).
 };
 
 }  // namespace teleop::config

@@ -1,0 +1,87 @@
+#pragma once
+
+// TeleopNode's state: the stages, the sinks, the command queue. Private to the node: teleop_node.cpp (the
+// lifecycle, the cycle, the summary) and command_handlers.cpp (the Request* handlers) share it.
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "change_ramp.hpp"
+#include "command_queue.hpp"
+#include "coupling.hpp"
+#include "peer_tracker.hpp"
+#include "recorder.hpp"
+#include "sinks.hpp"
+#include "teleop/node/event_log.hpp"
+#include "teleop/node/reading_check.hpp"
+#include "teleop/node/teleop_node.hpp"
+#include "teleop/runtime/periodic_loop.hpp"
+#include "transmitter.hpp"
+
+namespace teleop::node {
+
+struct TeleopNode::Impl {
+  enum class Phase : std::uint8_t { kUnconfigured, kConfigured, kActive, kInactive };
+
+  Impl(const config::ProcessConfig& cfg, std::unique_ptr<device::Device> dev, std::unique_ptr<transport::Link> lnk)
+      : config(cfg), device(std::move(dev)), link(std::move(lnk)), loop(cfg.loop), events(1024), commands(cfg.dof) {}
+  ~Impl() { DeactivateDevice(); }
+
+  void Configure();
+  void ActivateDevice();
+  void DeactivateDevice() noexcept;
+  void Cycle(std::uint64_t cycle, double period_s, std::int64_t now_ns) noexcept;
+  /// Stretches a stiffness or gain change's ramp to the one that keeps its own force change within
+  /// engagement.max_force_rate_N_per_s at this cycle's position (change_ramp.hpp): a ramp of 0 is not a force step.
+  void BoundChangeRamps(Changes& changes, const PeerView& view) noexcept;
+  /// What the law's gains multiply now, from this cycle's reading and peer (into `signals`, preallocated).
+  const GainSignals& Signals(const PeerView& view) noexcept;
+  Sensed Sense(double period_s) noexcept;
+  void Actuate(const Applied& applied, double period_s) noexcept;
+  CycleFacts Facts(std::uint64_t cycle, double t_s, std::uint8_t flags, std::int64_t data_age_ns,
+                   std::int64_t cycle_start_mono_ns, bool usable) const noexcept;
+  RunSummary Summarize(double wall_s);
+  void SummarizeLoop(RunSummary& summary, double wall_s) const;
+  void SummarizeLink(RunSummary& summary) const;
+  void SummarizeCoupling(RunSummary& summary) const;
+
+  config::ProcessConfig config;
+  std::unique_ptr<device::Device> device;
+  std::unique_ptr<transport::Link> link;
+  runtime::PeriodicLoop loop;
+  SinkSet sinks;                                        ///< Declared before `events`: outlives its observer role.
+  std::vector<std::unique_ptr<CycleSink>> added_sinks;  ///< TeleopNode::AddSink, after the node's own.
+  EventLog events;
+  NodeClock clock;
+  Phase phase = Phase::kUnconfigured;
+
+  // The stages (built by Configure: they need the device's capabilities).
+  std::unique_ptr<ReadingCheck> reading_check;
+  std::unique_ptr<PeerTracker> peer;
+  std::unique_ptr<Coupling> coupling;
+  std::unique_ptr<Transmitter> transmitter;
+  std::unique_ptr<Recorder> recorder;
+
+  // Preallocated values of the cycle.
+  device::Reading reading;
+  std::uint64_t stepped_cycles = 0;
+  std::int64_t start_ns = 0;
+  std::atomic<bool> stop_on_peer_shutdown{false};
+  std::atomic<bool> stop_requested{false};
+  std::atomic<bool> command_clutch{false};  ///< TeleopNode::SetClutch (any thread) → the cycle.
+
+  /// Run-time commands (TeleopNode::Request*, command_handlers.cpp) to the cycle. Producers are serialised by
+  /// command_mutex, which also guards what follows it.
+  CommandQueue commands;
+  std::mutex command_mutex;
+  config::ProcessConfig check_base;  ///< What the next check starts from: accepted changes applied.
+  double fixture_on_N_per_m = 0.0;   ///< What `fixture on` restores.
+  GainSignals signals;
+  DofVector ramp_position_m;  ///< The law's position for the ramp floor (preallocated).
+  bool published = false;
+};
+
+}  // namespace teleop::node
