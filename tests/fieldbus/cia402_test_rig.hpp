@@ -51,6 +51,7 @@ struct Cia402Rig {
   std::uint64_t monitored = 0;
   bool capture = false;  ///< Keep every frame the monitor sees in `captured`.
   std::vector<proto::can::CanFrame> captured;
+  std::vector<std::uint64_t> captured_ns;  ///< When the monitor read each captured frame (to kSimStep_ns).
 
   Cia402Rig()
       : bus(transport::EmulatedCanBusConfig{}, [this] { return now_ns; }),
@@ -91,7 +92,10 @@ struct Cia402Rig {
     proto::can::CanFrame f{};
     while (monitor_port->Read(f)) {
       ++monitored;
-      if (capture) captured.push_back(f);
+      if (capture) {
+        captured.push_back(f);
+        captured_ns.push_back(now_ns);
+      }
       if (log) (void)log->Write(f, kLogEpoch_ns + now_ns);
     }
   }

@@ -319,12 +319,16 @@ int Cycle(const Options& o, int node_arg, fb::Cia402Mode mode, double limit, con
       std::fprintf(stderr, "teleop-drive: node %d: switching the drive's heartbeat consumer off: %s\n", node, e.what());
     }
   };
-  drive.Configure();
+  bool configured = false;
   try {
+    drive.Configure();  // a failed configure undoes its own writes (the heartbeat consumer 0x1016:01)
+    configured = true;
     drive.Activate();
   } catch (const Error&) {
-    (void)drive.Deactivate();  // a half-done enable is undone: nothing is left switched on
-    consumer_off();
+    if (configured) {
+      (void)drive.Deactivate();  // a half-done enable is undone: nothing is left switched on
+      consumer_off();
+    }
     throw;
   }
   std::printf("node %d: Operation Enabled, %s, limit %g\n", node, fb::ToString(mode), limit);
@@ -365,7 +369,11 @@ int Cycle(const Options& o, int node_arg, fb::Cia402Mode mode, double limit, con
                    r.statusword, r.position_rad, r.velocity_rad_per_s, r.torque_Nm, command);
     }
     ++cycles;
+    // After a late wake-up the missed cycles are dropped, not run back to back: one SYNC per period on the wire.
     next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    for (const auto now = std::chrono::steady_clock::now(); next < now;) {
+      next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    }
     std::this_thread::sleep_until(next);
   }
   // Stop: in velocity and torque mode a zero target first, in position mode the last target holds.

@@ -316,6 +316,7 @@ Cia402Drive::Cia402Drive(const Cia402DriveConfig& config, transport::CanPort& po
     }
   }
   if (!timebase_.now_ns || !timebase_.wait_ns) fail("timebase without a clock or a wait");
+  half_period_ns_ = static_cast<std::uint64_t>(std::llround(config.cycle_period_s * 0.5e9));
 }
 
 Cia402Drive::~Cia402Drive() = default;
@@ -531,6 +532,7 @@ void Cia402Drive::Configure() {
   last_emergency_ = canopen::Emergency{};
   last_error_.clear();
   const std::string where = fmt::format("CiA 402 drive node {}: configure", config_.node_id);
+  bool consumer_armed = false;  // 0x1016:01 written non-zero: undone if anything after it fails
   try {
     if (!config_.eds_file.empty()) {  // before any bus traffic: a drive whose EDS does not fit is never touched
       const std::vector<std::string> problems = CheckAgainstEds(canopen::Eds::Load(config_.eds_file), config_);
@@ -595,6 +597,7 @@ void Cia402Drive::Configure() {
     bool present = true;
     if (consumer != 0) {
       sdo_.Download(obj301::kConsumerHeartbeatTime, 1, consumer, 4);
+      consumer_armed = true;
     } else {
       WriteOptional(present, [&] { sdo_.Download(obj301::kConsumerHeartbeatTime, 1, 0, 4); });
     }
@@ -671,6 +674,15 @@ void Cia402Drive::Configure() {
   } catch (const Error& e) {
     last_error_ = e.what();
     if (last_error_.rfind("CiA 402", 0) != 0) last_error_ = where + ": " + last_error_;
+    // Half a configure is undone (docs/cia402.md): an armed consumer would fire when a later session's heartbeats
+    // stop. A drive that no longer answers keeps it; the error says why configure failed, not this.
+    if (consumer_armed) {
+      try {
+        sdo_.Download(obj301::kConsumerHeartbeatTime, 1, 0, 4);
+      } catch (const Error& undo) {
+        last_error_ += fmt::format("; switching the heartbeat consumer 0x1016:01 off again failed: {}", undo.what());
+      }
+    }
     throw Error(last_error_);
   }
 }
@@ -736,6 +748,7 @@ void Cia402Drive::Activate() {
     for (int p = 0; p < tpdo_count_; ++p) tpdo_stamp_ns_[static_cast<std::size_t>(p)] = now;
     tpdo_seen_mask_ = 0;
     fault_latched_ = false;
+    sync_sent_ = false;
     active_ = true;
   } catch (const Error& e) {
     last_error_ = e.what();
@@ -788,6 +801,16 @@ Cia402Status Cia402Drive::Write(double setpoint) noexcept {
   if (!active_) return Cia402Status::kNotActive;
   const std::uint64_t now = timebase_.now_ns();
   Cia402Status status = Cia402Status::kOk;
+  // No burst of SYNCs (a late loop catching up): within half a period of the last SYNC nothing is sent, so the
+  // target of the last SYNC stays the reference of the position step.
+  if (config_.produce_sync && sync_sent_ && now < last_sync_ns_ + half_period_ns_) {
+    ++counters_.syncs_skipped;
+    if (!SendHeartbeatIfDue(now)) status = Cia402Status::kWriteFailed;
+    if (bus_off_) return Cia402Status::kBusOff;
+    if (heartbeat_lost_) return Cia402Status::kHeartbeatLost;
+    if (fault_latched_) return Cia402Status::kFault;
+    return status;
+  }
   const bool unsafe = fault_latched_ || heartbeat_lost_ || bus_off_;
   const Cia402Scaling& sc = config_.scaling;
   std::uint32_t raw = 0;
@@ -865,6 +888,8 @@ Cia402Status Cia402Drive::Write(double setpoint) noexcept {
       status = Cia402Status::kWriteFailed;
     } else {
       ++counters_.syncs_sent;
+      sync_sent_ = true;
+      last_sync_ns_ = now;
     }
   }
   if (!SendHeartbeatIfDue(now)) status = Cia402Status::kWriteFailed;

@@ -149,6 +149,9 @@ struct Cia402DeviceInfo {
 struct Cia402Counters {
   std::uint64_t rpdos_sent = 0;
   std::uint64_t syncs_sent = 0;
+  /// Writes within half a cycle period of the last SYNC (a late loop's catch-up): nothing sent (CiA 301 SYNC
+  /// period 0x1006; a CSP drive would otherwise take two targets in one of its cycles).
+  std::uint64_t syncs_skipped = 0;
   std::uint64_t heartbeats_sent = 0;
   std::uint64_t tpdos_received = 0;
   std::uint64_t tpdos_rejected = 0;  ///< Wrong length for the mapping.
@@ -194,7 +197,8 @@ class Cia402Drive {
   /// host heartbeat when due. `setpoint` is in the mode's SI unit: torque N·m (the default mode; clamped to
   /// max_torque_Nm, NaN → 0), velocity rad/s (clamped to max_velocity_rad_per_s, NaN → 0) or position rad (NaN, a
   /// fault, a lost heartbeat or a quick stop hold the last target; the step clamped by max_velocity_rad_per_s).
-  /// Non-blocking, no allocation.
+  /// Within half a cycle period of its last SYNC (produce_sync) it sends nothing (counted in syncs_skipped): no SYNC
+  /// burst when a late loop catches up. Non-blocking, no allocation.
   [[nodiscard]] Cia402Status Write(double setpoint) noexcept;
   /// Cycle: from the next Write on, the controlword commands Quick Stop (bit 2 = 0) and the torque is 0.
   void RequestQuickStop() noexcept;
@@ -266,6 +270,9 @@ class Cia402Drive {
   unsigned tpdo_seen_mask_ = 0;  ///< TPDOs received since the last Read (bit per slot).
   bool configured_ = false;
   bool heartbeat_lost_ = false;
+  bool sync_sent_ = false;  ///< A SYNC went out since Activate (last_sync_ns_ is valid).
+  std::uint64_t last_sync_ns_ = 0;
+  std::uint64_t half_period_ns_ = 0;
 
   bool active_ = false;
   bool quick_stop_requested_ = false;
