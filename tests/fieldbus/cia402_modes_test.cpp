@@ -140,7 +140,7 @@ TEST(Cia402Modes, ALateLoopSendsNoBurstOfSyncsAndThePositionStepPerSyncStaysWith
   for (int k = 0; k < 30; ++k) {
     if (k % 10 == 9) {  // a late wake-up: three periods late, then the three missed cycles back to back
       rig.Advance(3 * period_ns);
-      for (int m = 0; m < 3; ++m) (void)rig.drive->Write(1.0);
+      for (int m = 0; m < 3; ++m) (void)rig.drive->WritePosition_rad(1.0);
     }
     (void)rig.Cycle(1.0);
   }
@@ -172,6 +172,28 @@ TEST(Cia402Modes, ALateLoopSendsNoBurstOfSyncsAndThePositionStepPerSyncStaysWith
   }
   EXPECT_EQ(syncs, 30);
   EXPECT_EQ(rig.sim->counters().syncs, rig.drive->counters().syncs_sent);
+}
+
+// A setpoint carries its unit: a torque given to a position drive is not taken as radians. The hold target goes out
+// instead (the last position), the call says kWrongMode and the client counts it.
+TEST(Cia402Modes, ASetpointOfAnotherModeSendsTheHoldTargetAndSaysSo) {
+  Cia402Rig rig;
+  rig.config.mode = Cia402Mode::kCyclicSynchronousPosition;
+  rig.sim_config.position_rad_per_count = 1.0 / 4096.0;
+  rig.Build();
+  rig.BringUp();
+  rig.capture = true;
+  ASSERT_EQ(rig.Cycle(0.5).write, Cia402Status::kOk);
+  const std::string held = LastRpdo(rig);
+  EXPECT_EQ(held, "201#0F0000080000");  // 0.5 rad = 2048 counts
+  EXPECT_EQ(rig.drive->WriteTorque_Nm(0.1), Cia402Status::kWrongMode);
+  rig.Advance(1'000'000);
+  EXPECT_EQ(LastRpdo(rig), held);
+  EXPECT_EQ(rig.drive->WriteVelocity_rad_per_s(3.0), Cia402Status::kWrongMode);
+  rig.Advance(1'000'000);
+  EXPECT_EQ(LastRpdo(rig), held);
+  EXPECT_EQ(rig.drive->counters().wrong_mode_setpoints, 2u);
+  EXPECT_NEAR(rig.drive->position_target_rad(), 0.5, 1e-12);
 }
 
 TEST(Cia402Modes, AModeTheDriveDoesNotListIsRefusedAndNothingIsEnabled) {

@@ -105,15 +105,28 @@ struct Cia402Rig {
     drive->Activate();
   }
 
+  /// The setpoint in the configured mode's unit (N·m, rad/s or rad) through the client's named Write.
+  Cia402Status Write(double setpoint) {
+    switch (config.mode) {
+      case Cia402Mode::kCyclicSynchronousPosition:
+        return drive->WritePosition_rad(setpoint);
+      case Cia402Mode::kCyclicSynchronousVelocity:
+        return drive->WriteVelocity_rad_per_s(setpoint);
+      case Cia402Mode::kCyclicSynchronousTorque:
+        break;
+    }
+    return drive->WriteTorque_Nm(setpoint);
+  }
+
   /// One control cycle: Write, one period of bus and drive time, Read.
   struct CycleResult {
     Cia402Status write = Cia402Status::kOk;
     Cia402Status read = Cia402Status::kOk;
     Cia402Reading reading{};
   };
-  CycleResult Cycle(double torque_Nm) {
+  CycleResult Cycle(double setpoint) {
     CycleResult r;
-    r.write = drive->Write(torque_Nm);
+    r.write = Write(setpoint);
     Advance(static_cast<std::uint64_t>(config.cycle_period_s * 1e9));
     r.read = drive->Read(r.reading);
     return r;

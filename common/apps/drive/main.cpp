@@ -363,7 +363,9 @@ int Cycle(const Options& o, int node_arg, fb::Cia402Mode mode, double limit, con
     const double command = mode == fb::Cia402Mode::kCyclicSynchronousPosition && !run.relative && run.setpoint == 0.0
                                ? start_position
                                : target;
-    (void)drive.Write(command);
+    (void)(mode == fb::Cia402Mode::kCyclicSynchronousPosition   ? drive.WritePosition_rad(command)
+           : mode == fb::Cia402Mode::kCyclicSynchronousVelocity ? drive.WriteVelocity_rad_per_s(command)
+                                                                : drive.WriteTorque_Nm(command));
     if (csv != nullptr && r.fresh) {
       std::fprintf(csv, "%.6f,%s,%s,0x%04X,%.6f,%.6f,%.6f,%.6f\n", t, fb::ToString(rs), cia402::ToString(r.state),
                    r.statusword, r.position_rad, r.velocity_rad_per_s, r.torque_Nm, command);
@@ -379,7 +381,7 @@ int Cycle(const Options& o, int node_arg, fb::Cia402Mode mode, double limit, con
   // Stop: in velocity and torque mode a zero target first, in position mode the last target holds.
   if (mode != fb::Cia402Mode::kCyclicSynchronousPosition) {
     for (int k = 0; k < 5; ++k) {
-      (void)drive.Write(0.0);
+      (void)drive.WriteHold();
       std::this_thread::sleep_for(period);
     }
   }
