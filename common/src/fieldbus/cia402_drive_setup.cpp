@@ -17,7 +17,6 @@
 namespace teleop::fieldbus {
 
 using canopen::NmtCommand;
-using canopen::NmtState;
 using canopen::PdoMapping;
 using cia402::DriveState;
 using proto::can::CanFrame;
