@@ -30,7 +30,7 @@ void BM_Cia402ClientOnly(benchmark::State& state) {
     rig.Advance(1'000'000);  // the drive answers the previous SYNC
     state.ResumeTiming();
     benchmark::DoNotOptimize(rig.drive->Read(reading));
-    benchmark::DoNotOptimize(rig.drive->Write(0.05));
+    benchmark::DoNotOptimize(rig.drive->WriteTorque_Nm(0.05));
   }
   state.SetLabel("client Read (2 TPDOs) + Write (RPDO + SYNC) on the in-process bus");
 }

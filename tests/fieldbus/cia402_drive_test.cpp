@@ -172,6 +172,26 @@ TEST(Cia402Drive, SdoAbortIsDecodedAndNamesTheObject) {
   EXPECT_THROW(rig.drive->Activate(), Error);  // not configured
 }
 
+// A configure that fails after arming the drive's consumer of the host heartbeat (0x1016:01) switches it off again:
+// otherwise the next session's heartbeats re-arm it and the end of that session faults the drive (EMCY 0x8130).
+// Each object Configure writes after 0x1016 is refused in turn.
+TEST(Cia402Drive, AFailedConfigureLeavesTheDrivesHeartbeatConsumerOff) {
+  for (const std::uint16_t refused : {std::uint16_t{0x1005}, std::uint16_t{0x1600}, std::uint16_t{0x6060},
+                                      std::uint16_t{0x6072}, std::uint16_t{0x6071}}) {
+    SCOPED_TRACE(refused);
+    Cia402Rig rig;
+    rig.config.host_heartbeat_period_ms = 20.0;
+    rig.config.drive_consumer_timeout_ms = 100.0;
+    rig.Build();
+    rig.sim->AbortObject(refused, canopen::sdo_abort::kValueRange);
+    EXPECT_NE(ThrownBy([&] { rig.drive->Configure(); }).find("aborted"), std::string::npos);
+    rig.sim->AbortObject(refused, 0);
+    EXPECT_EQ(rig.drive->sdo().Upload(0x1016, 1, 4), 0u);
+    rig.Advance(300'000'000);  // the host goes away: nothing fires
+    EXPECT_EQ(rig.sim->counters().host_heartbeat_timeouts, 0u);
+  }
+}
+
 TEST(Cia402Drive, ABootThatNeverComesTimesOut) {
   Cia402Rig rig;
   rig.config.boot_timeout_ms = 200.0;

@@ -124,6 +124,78 @@ TEST(Cia402Modes, PositionTargetsMoveNoFasterThanTheLimitAndHoldOnNaN) {
   EXPECT_EQ(rig.drive->counters().non_finite_commands, 1u);
 }
 
+// SYNC timing (CiA 301: a synchronous RPDO takes effect at the next SYNC). A loop that wakes late and runs its
+// missed cycles back to back must not put a burst of SYNCs on the wire: a Write within half a cycle period of the
+// last SYNC sends nothing (counted), so the SYNCs stay at least half a period apart, each SYNC follows its RPDO, and
+// the position target moves at most max_velocity_rad_per_s · cycle_period_s per SYNC.
+TEST(Cia402Modes, ALateLoopSendsNoBurstOfSyncsAndThePositionStepPerSyncStaysWithinTheLimit) {
+  Cia402Rig rig;
+  rig.config.mode = Cia402Mode::kCyclicSynchronousPosition;
+  rig.config.max_velocity_rad_per_s = 2.0;  // 2 mrad per 1 ms cycle
+  rig.Build();
+  rig.BringUp();
+  rig.capture = true;
+  rig.captured.clear();
+  const std::uint64_t period_ns = 1'000'000;
+  for (int k = 0; k < 30; ++k) {
+    if (k % 10 == 9) {  // a late wake-up: three periods late, then the three missed cycles back to back
+      rig.Advance(3 * period_ns);
+      for (int m = 0; m < 3; ++m) (void)rig.drive->WritePosition_rad(1.0);
+    }
+    (void)rig.Cycle(1.0);
+  }
+  EXPECT_EQ(rig.drive->counters().syncs_skipped, 9u);
+  int syncs = 0;
+  bool rpdo_since_sync = false;
+  std::int32_t target = 0;
+  std::int32_t previous_target = 0;
+  std::uint64_t previous_sync_ns = 0;
+  // The step in counts, plus the rounding of each target to whole counts.
+  const double step_counts = std::ceil(2.0 * 1e-3 / rig.config.scaling.position_rad_per_count);
+  for (std::size_t i = 0; i < rig.captured.size(); ++i) {
+    const proto::can::CanFrame& f = rig.captured[i];
+    if (f.id == 0x201) {
+      rpdo_since_sync = true;
+      target = static_cast<std::int32_t>(static_cast<std::uint32_t>(f.data[2]) | std::uint32_t{f.data[3]} << 8 |
+                                         std::uint32_t{f.data[4]} << 16 | std::uint32_t{f.data[5]} << 24);
+    }
+    if (f.id != 0x080) continue;
+    EXPECT_TRUE(rpdo_since_sync) << "SYNC " << syncs << " without its RPDO before it";
+    rpdo_since_sync = false;
+    if (syncs > 0) {
+      EXPECT_LE(std::abs(target - previous_target), step_counts) << "SYNC " << syncs;
+      EXPECT_GE(rig.captured_ns[i] - previous_sync_ns, period_ns / 2) << "SYNC " << syncs;
+    }
+    previous_target = target;
+    previous_sync_ns = rig.captured_ns[i];
+    ++syncs;
+  }
+  EXPECT_EQ(syncs, 30);
+  EXPECT_EQ(rig.sim->counters().syncs, rig.drive->counters().syncs_sent);
+}
+
+// A setpoint carries its unit: a torque given to a position drive is not taken as radians. The hold target goes out
+// instead (the last position), the call says kWrongMode and the client counts it.
+TEST(Cia402Modes, ASetpointOfAnotherModeSendsTheHoldTargetAndSaysSo) {
+  Cia402Rig rig;
+  rig.config.mode = Cia402Mode::kCyclicSynchronousPosition;
+  rig.sim_config.position_rad_per_count = 1.0 / 4096.0;
+  rig.Build();
+  rig.BringUp();
+  rig.capture = true;
+  ASSERT_EQ(rig.Cycle(0.5).write, Cia402Status::kOk);
+  const std::string held = LastRpdo(rig);
+  EXPECT_EQ(held, "201#0F0000080000");  // 0.5 rad = 2048 counts
+  EXPECT_EQ(rig.drive->WriteTorque_Nm(0.1), Cia402Status::kWrongMode);
+  rig.Advance(1'000'000);
+  EXPECT_EQ(LastRpdo(rig), held);
+  EXPECT_EQ(rig.drive->WriteVelocity_rad_per_s(3.0), Cia402Status::kWrongMode);
+  rig.Advance(1'000'000);
+  EXPECT_EQ(LastRpdo(rig), held);
+  EXPECT_EQ(rig.drive->counters().wrong_mode_setpoints, 2u);
+  EXPECT_NEAR(rig.drive->position_target_rad(), 0.5, 1e-12);
+}
+
 TEST(Cia402Modes, AModeTheDriveDoesNotListIsRefusedAndNothingIsEnabled) {
   Cia402Rig rig;
   rig.sim_config.supported_modes = 1u << 9;  // torque only

@@ -78,7 +78,7 @@ TEST(Cia402OnSocketCan, BringsUpAndRunsTorqueModeOnARealInterface) {
   Cia402Reading reading{};
   const int cycles = 100;  // 2 s
   for (int k = 0; k < cycles; ++k) {
-    if (drive.Write(0.1) != Cia402Status::kOk) ++bad;
+    if (drive.WriteTorque_Nm(0.1) != Cia402Status::kOk) ++bad;
     next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
     std::this_thread::sleep_until(next);
     const Cia402Status s = drive.Read(reading);
@@ -108,7 +108,7 @@ TEST(Cia402OnSocketCan, BringsUpAndRunsTorqueModeOnARealInterface) {
   sim.inject_fault = true;
   Cia402Status s = Cia402Status::kOk;
   for (int k = 0; k < 50 && s != Cia402Status::kFault; ++k) {
-    (void)drive.Write(0.1);
+    (void)drive.WriteTorque_Nm(0.1);
     std::this_thread::sleep_for(period);
     s = drive.Read(reading);
   }
@@ -119,7 +119,7 @@ TEST(Cia402OnSocketCan, BringsUpAndRunsTorqueModeOnARealInterface) {
   EXPECT_EQ(drive.drive_state(), cia402::DriveState::kOperationEnabled);
   int ok_after = 0;
   for (int k = 0; k < 20; ++k) {
-    (void)drive.Write(0.0);
+    (void)drive.WriteTorque_Nm(0.0);
     std::this_thread::sleep_for(period);
     s = drive.Read(reading);
     EXPECT_TRUE(s == Cia402Status::kOk || s == Cia402Status::kNoNewData) << ToString(s);

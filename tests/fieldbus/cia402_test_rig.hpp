@@ -51,6 +51,7 @@ struct Cia402Rig {
   std::uint64_t monitored = 0;
   bool capture = false;  ///< Keep every frame the monitor sees in `captured`.
   std::vector<proto::can::CanFrame> captured;
+  std::vector<std::uint64_t> captured_ns;  ///< When the monitor read each captured frame (to kSimStep_ns).
 
   Cia402Rig()
       : bus(transport::EmulatedCanBusConfig{}, [this] { return now_ns; }),
@@ -91,7 +92,10 @@ struct Cia402Rig {
     proto::can::CanFrame f{};
     while (monitor_port->Read(f)) {
       ++monitored;
-      if (capture) captured.push_back(f);
+      if (capture) {
+        captured.push_back(f);
+        captured_ns.push_back(now_ns);
+      }
       if (log) (void)log->Write(f, kLogEpoch_ns + now_ns);
     }
   }
@@ -101,15 +105,28 @@ struct Cia402Rig {
     drive->Activate();
   }
 
+  /// The setpoint in the configured mode's unit (N·m, rad/s or rad) through the client's named Write.
+  Cia402Status Write(double setpoint) {
+    switch (config.mode) {
+      case Cia402Mode::kCyclicSynchronousPosition:
+        return drive->WritePosition_rad(setpoint);
+      case Cia402Mode::kCyclicSynchronousVelocity:
+        return drive->WriteVelocity_rad_per_s(setpoint);
+      case Cia402Mode::kCyclicSynchronousTorque:
+        break;
+    }
+    return drive->WriteTorque_Nm(setpoint);
+  }
+
   /// One control cycle: Write, one period of bus and drive time, Read.
   struct CycleResult {
     Cia402Status write = Cia402Status::kOk;
     Cia402Status read = Cia402Status::kOk;
     Cia402Reading reading{};
   };
-  CycleResult Cycle(double torque_Nm) {
+  CycleResult Cycle(double setpoint) {
     CycleResult r;
-    r.write = drive->Write(torque_Nm);
+    r.write = Write(setpoint);
     Advance(static_cast<std::uint64_t>(config.cycle_period_s * 1e9));
     r.read = drive->Read(r.reading);
     return r;

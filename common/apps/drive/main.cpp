@@ -320,12 +320,16 @@ int Cycle(const Options& o, int node_arg, fb::Cia402Mode mode, double limit, con
       std::fprintf(stderr, "teleop-drive: node %d: switching the drive's heartbeat consumer off: %s\n", node, e.what());
     }
   };
-  drive.Configure();
+  bool configured = false;
   try {
+    drive.Configure();  // a failed configure undoes its own writes (the heartbeat consumer 0x1016:01)
+    configured = true;
     drive.Activate();
   } catch (const Error&) {
-    (void)drive.Deactivate();  // a half-done enable is undone: nothing is left switched on
-    consumer_off();
+    if (configured) {
+      (void)drive.Deactivate();  // a half-done enable is undone: nothing is left switched on
+      consumer_off();
+    }
     throw;
   }
   std::printf("node %d: Operation Enabled, %s, limit %g\n", node, fb::ToString(mode), limit);
@@ -360,19 +364,25 @@ int Cycle(const Options& o, int node_arg, fb::Cia402Mode mode, double limit, con
     const double command = mode == fb::Cia402Mode::kCyclicSynchronousPosition && !run.relative && run.setpoint == 0.0
                                ? start_position
                                : target;
-    (void)drive.Write(command);
+    (void)(mode == fb::Cia402Mode::kCyclicSynchronousPosition   ? drive.WritePosition_rad(command)
+           : mode == fb::Cia402Mode::kCyclicSynchronousVelocity ? drive.WriteVelocity_rad_per_s(command)
+                                                                : drive.WriteTorque_Nm(command));
     if (csv != nullptr && r.fresh) {
       std::fprintf(csv, "%.6f,%s,%s,0x%04X,%.6f,%.6f,%.6f,%.6f\n", t, fb::ToString(rs), cia402::ToString(r.state),
                    r.statusword, r.position_rad, r.velocity_rad_per_s, r.torque_Nm, command);
     }
     ++cycles;
+    // After a late wake-up the missed cycles are dropped, not run back to back: one SYNC per period on the wire.
     next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    for (const auto now = std::chrono::steady_clock::now(); next < now;) {
+      next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    }
     std::this_thread::sleep_until(next);
   }
   // Stop: in velocity and torque mode a zero target first, in position mode the last target holds.
   if (mode != fb::Cia402Mode::kCyclicSynchronousPosition) {
     for (int k = 0; k < 5; ++k) {
-      (void)drive.Write(0.0);
+      (void)drive.WriteHold();
       std::this_thread::sleep_for(period);
     }
   }

@@ -39,11 +39,8 @@ std::uint16_t TypeOfBits(int bits, bool is_signed) {
   }
 }
 
-}  // namespace
-
-std::vector<std::string> CheckAgainstEds(const canopen::Eds& eds, const Cia402DriveConfig& config) {
-  std::vector<std::string> problems;
-  const std::string& file = eds.file();
+/// Every object the client uses with `config`, and how.
+std::vector<Need> Needs(const Cia402DriveConfig& config) {
   std::vector<Need> needs = {
       {obj301::kDeviceType, 0, dt::kUnsigned32, kRead, "device type"},
       {obj301::kErrorRegister, 0, dt::kUnsigned8, kRead, "error register"},
@@ -102,50 +99,60 @@ std::vector<std::string> CheckAgainstEds(const canopen::Eds& eds, const Cia402Dr
   };
   mapped(config.rpdos, false);
   mapped(config.tpdos, true);
-  for (const Need& n : needs) {
-    const canopen::EdsEntry* e = eds.Find(n.index, n.subindex);
-    if (e == nullptr) {
-      const bool array = eds.Has(n.index) && n.subindex != 0;
-      problems.push_back(
-          array ? fmt::format("{}: no section [{}] ({:04X}:{:02X}, {}): the object has no sub-index {}", file,
-                              SectionName(n.index, n.subindex, true), n.index, n.subindex, n.what, n.subindex)
-                : fmt::format("{}: no section [{}] or [{}] (object 0x{:04X}, {}), which the client {}", file,
-                              SectionName(n.index, 0, false), SectionName(n.index, n.subindex, true), n.index, n.what,
-                              (n.use & kWrite) != 0              ? "writes"
-                              : (n.use & (kMapRx | kMapTx)) != 0 ? "maps"
-                                                                 : "reads"));
-      continue;
-    }
-    if (!e->data_type) {
-      problems.push_back(fmt::format("{}: [{}] has no DataType ({})", file, e->section, n.what));
-    } else if (*e->data_type != n.type) {
-      problems.push_back(fmt::format("{}: [{}] DataType is 0x{:04X} ({}), the client uses {} (0x{:04X}): {}", file,
-                                     e->section, *e->data_type, canopen::DataTypeName(*e->data_type),
-                                     canopen::DataTypeName(n.type), n.type, n.what));
-    }
-    if ((n.use & kRead) != 0 && !e->readable()) {
-      problems.push_back(
-          fmt::format("{}: [{}] AccessType is '{}', the client reads it: {}", file, e->section, e->access, n.what));
-    }
-    if (((n.use & kWrite) != 0 || (n.use & kMapRx) != 0) && !e->writable()) {
-      problems.push_back(
-          fmt::format("{}: [{}] AccessType is '{}', the client writes it: {}", file, e->section, e->access, n.what));
-    }
-    if ((n.use & kMapTx) != 0 && (n.use & kRead) == 0 && !e->readable()) {
-      problems.push_back(
-          fmt::format("{}: [{}] AccessType is '{}', a TPDO cannot carry it: {}", file, e->section, e->access, n.what));
-    }
-    bool is_mapped = false;
-    for (const auto* list : {&config.rpdos, &config.tpdos}) {
-      for (const canopen::PdoMapping& m : *list) {
-        for (const canopen::PdoEntry& pe : m.mapped()) is_mapped |= pe.index == n.index && pe.subindex == n.subindex;
-      }
-    }
-    if (is_mapped && !e->pdo_mapping) {
-      problems.push_back(
-          fmt::format("{}: [{}] PDOMapping is 0, the configuration maps it: {}", file, e->section, n.what));
+  return needs;
+}
+
+/// What is wrong with `n` in `eds` (appended to `problems`).
+void CheckNeed(const canopen::Eds& eds, const Cia402DriveConfig& config, const Need& n,
+               std::vector<std::string>& problems) {
+  const std::string& file = eds.file();
+  const canopen::EdsEntry* e = eds.Find(n.index, n.subindex);
+  if (e == nullptr) {
+    const bool array = eds.Has(n.index) && n.subindex != 0;
+    problems.push_back(
+        array ? fmt::format("{}: no section [{}] ({:04X}:{:02X}, {}): the object has no sub-index {}", file,
+                            SectionName(n.index, n.subindex, true), n.index, n.subindex, n.what, n.subindex)
+              : fmt::format("{}: no section [{}] or [{}] (object 0x{:04X}, {}), which the client {}", file,
+                            SectionName(n.index, 0, false), SectionName(n.index, n.subindex, true), n.index, n.what,
+                            (n.use & kWrite) != 0              ? "writes"
+                            : (n.use & (kMapRx | kMapTx)) != 0 ? "maps"
+                                                               : "reads"));
+    return;
+  }
+  if (!e->data_type) {
+    problems.push_back(fmt::format("{}: [{}] has no DataType ({})", file, e->section, n.what));
+  } else if (*e->data_type != n.type) {
+    problems.push_back(fmt::format("{}: [{}] DataType is 0x{:04X} ({}), the client uses {} (0x{:04X}): {}", file,
+                                   e->section, *e->data_type, canopen::DataTypeName(*e->data_type),
+                                   canopen::DataTypeName(n.type), n.type, n.what));
+  }
+  if ((n.use & kRead) != 0 && !e->readable()) {
+    problems.push_back(
+        fmt::format("{}: [{}] AccessType is '{}', the client reads it: {}", file, e->section, e->access, n.what));
+  }
+  if (((n.use & kWrite) != 0 || (n.use & kMapRx) != 0) && !e->writable()) {
+    problems.push_back(
+        fmt::format("{}: [{}] AccessType is '{}', the client writes it: {}", file, e->section, e->access, n.what));
+  }
+  if ((n.use & kMapTx) != 0 && (n.use & kRead) == 0 && !e->readable()) {
+    problems.push_back(
+        fmt::format("{}: [{}] AccessType is '{}', a TPDO cannot carry it: {}", file, e->section, e->access, n.what));
+  }
+  bool is_mapped = false;
+  for (const auto* list : {&config.rpdos, &config.tpdos}) {
+    for (const canopen::PdoMapping& m : *list) {
+      for (const canopen::PdoEntry& pe : m.mapped()) is_mapped |= pe.index == n.index && pe.subindex == n.subindex;
     }
   }
+  if (is_mapped && !e->pdo_mapping) {
+    problems.push_back(
+        fmt::format("{}: [{}] PDOMapping is 0, the configuration maps it: {}", file, e->section, n.what));
+  }
+}
+
+/// The configured mode in the EDS's supported modes; the PDO counts and mapping capacity.
+void CheckModeAndPdos(const canopen::Eds& eds, const Cia402DriveConfig& config, std::vector<std::string>& problems) {
+  const std::string& file = eds.file();
   // The mode in the EDS's supported drive modes (its DefaultValue, where the EDS gives one).
   const auto mode = static_cast<std::int8_t>(config.mode);
   if (const canopen::EdsEntry* e = eds.Find(obj::kSupportedDriveModes, 0); e != nullptr && !e->default_value.empty()) {
@@ -174,6 +181,14 @@ std::vector<std::string> CheckAgainstEds(const canopen::Eds& eds, const Cia402Dr
   };
   capacity(config.rpdos, false);
   capacity(config.tpdos, true);
+}
+
+}  // namespace
+
+std::vector<std::string> CheckAgainstEds(const canopen::Eds& eds, const Cia402DriveConfig& config) {
+  std::vector<std::string> problems;
+  for (const Need& n : Needs(config)) CheckNeed(eds, config, n, problems);
+  CheckModeAndPdos(eds, config, problems);
   return problems;
 }
 

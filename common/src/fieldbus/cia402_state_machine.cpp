@@ -97,74 +97,38 @@ int DriveStateMachine::Apply(std::uint16_t c, bool quick_stop_to_disabled) noexc
   const bool shutdown = (c & 0x87) == 0x06;
   const bool switch_on = (c & 0x8F) == 0x07;  // also "disable operation"
   const bool enable_operation = (c & 0x8F) == 0x0F;
+  const auto go = [this](DriveState next, int transition) {
+    state_ = next;
+    return transition;
+  };
   switch (state_) {
     case DriveState::kSwitchOnDisabled:
-      if (shutdown) {
-        state_ = DriveState::kReadyToSwitchOn;
-        return 2;
-      }
+      if (shutdown) return go(DriveState::kReadyToSwitchOn, 2);
       return 0;
     case DriveState::kReadyToSwitchOn:
-      if (switch_on) {
-        state_ = DriveState::kSwitchedOn;
-        return 3;
-      }
-      if (enable_operation) {  // 3 + 4 in one command, as drives accept
-        state_ = DriveState::kOperationEnabled;
-        return 4;
-      }
-      if (disable_voltage || quick_stop) {
-        state_ = DriveState::kSwitchOnDisabled;
-        return 7;
-      }
+      if (switch_on) return go(DriveState::kSwitchedOn, 3);
+      if (enable_operation) return go(DriveState::kOperationEnabled, 4);  // 3 + 4 in one command, as drives accept
+      if (disable_voltage || quick_stop) return go(DriveState::kSwitchOnDisabled, 7);
       return 0;
     case DriveState::kSwitchedOn:
-      if (enable_operation) {
-        state_ = DriveState::kOperationEnabled;
-        return 4;
-      }
-      if (shutdown) {
-        state_ = DriveState::kReadyToSwitchOn;
-        return 6;
-      }
-      if (disable_voltage || quick_stop) {
-        state_ = DriveState::kSwitchOnDisabled;
-        return 10;
-      }
+      if (enable_operation) return go(DriveState::kOperationEnabled, 4);
+      if (shutdown) return go(DriveState::kReadyToSwitchOn, 6);
+      if (disable_voltage || quick_stop) return go(DriveState::kSwitchOnDisabled, 10);
       return 0;
     case DriveState::kOperationEnabled:
-      if (switch_on) {
-        state_ = DriveState::kSwitchedOn;
-        return 5;
-      }
-      if (shutdown) {
-        state_ = DriveState::kReadyToSwitchOn;
-        return 8;
-      }
-      if (disable_voltage) {
-        state_ = DriveState::kSwitchOnDisabled;
-        return 9;
-      }
+      if (switch_on) return go(DriveState::kSwitchedOn, 5);
+      if (shutdown) return go(DriveState::kReadyToSwitchOn, 8);
+      if (disable_voltage) return go(DriveState::kSwitchOnDisabled, 9);
       if (quick_stop) {
-        state_ = quick_stop_to_disabled ? DriveState::kSwitchOnDisabled : DriveState::kQuickStopActive;
-        return 11;
+        return go(quick_stop_to_disabled ? DriveState::kSwitchOnDisabled : DriveState::kQuickStopActive, 11);
       }
       return 0;
     case DriveState::kQuickStopActive:
-      if (disable_voltage) {
-        state_ = DriveState::kSwitchOnDisabled;
-        return 12;
-      }
-      if (enable_operation) {
-        state_ = DriveState::kOperationEnabled;
-        return 16;
-      }
+      if (disable_voltage) return go(DriveState::kSwitchOnDisabled, 12);
+      if (enable_operation) return go(DriveState::kOperationEnabled, 16);
       return 0;
     case DriveState::kFault:
-      if (rising_reset) {
-        state_ = DriveState::kSwitchOnDisabled;
-        return 15;
-      }
+      if (rising_reset) return go(DriveState::kSwitchOnDisabled, 15);
       return 0;
     case DriveState::kNotReadyToSwitchOn:
     case DriveState::kFaultReactionActive:

@@ -40,6 +40,26 @@ ModbusPoint Point(const char* name, ModbusTable table, int address, double scale
   return p;
 }
 
+/// Drive 1's host port, passing everything through unless told to refuse the SYNC (0x080): a bus exchange that
+/// fails while both drives are fine.
+class SyncGate final : public transport::CanPort {
+ public:
+  explicit SyncGate(transport::CanPort& inner) : inner_(inner) {}
+  transport::CanWriteStatus Write(const proto::can::CanFrame& frame) noexcept override {
+    if (refuse_sync && frame.id == 0x080) return transport::CanWriteStatus::kBufferFull;
+    return inner_.Write(frame);
+  }
+  bool Read(proto::can::CanFrame& frame) noexcept override { return inner_.Read(frame); }
+  std::string Describe() const override { return inner_.Describe(); }
+  bool WaitReadable(std::int64_t deadline_ns) noexcept override { return inner_.WaitReadable(deadline_ns); }
+  std::int64_t now_ns() const noexcept override { return inner_.now_ns(); }
+  std::int64_t receive_time_ns() const noexcept override { return inner_.receive_time_ns(); }
+  bool refuse_sync = false;
+
+ private:
+  transport::CanPort& inner_;
+};
+
 struct Rig {
   std::uint64_t now_ns = 0;
   transport::EmulatedCanBus bus{transport::EmulatedCanBusConfig{}, [this] { return now_ns; }};
@@ -52,6 +72,7 @@ struct Rig {
   std::unique_ptr<transport::CanPort> sensor_host_port;
   std::unique_ptr<transport::CanPort> sensor_node_port;
   std::unique_ptr<fieldbus::SimulatedCanForceSensor> sensor;
+  std::unique_ptr<SyncGate> gate;                // drive 1's host port as the device sees it
   std::unique_ptr<HybridFieldbusDevice> device;  // last: destroyed first (its Deactivate steps the rig)
 
   explicit Rig(bool can_sensor = false, bool clutch_pedal = false) {
@@ -99,8 +120,8 @@ struct Rig {
     fieldbus::Timebase clock;
     clock.now_ns = [this] { return now_ns; };
     clock.wait_ns = [this](std::uint64_t ns) { Advance(std::max<std::uint64_t>(ns, 1000)); };
-    device =
-        std::make_unique<HybridFieldbusDevice>(config, *host_ports[0], *host_ports[1], clock, sensor_host_port.get());
+    gate = std::make_unique<SyncGate>(*host_ports[0]);
+    device = std::make_unique<HybridFieldbusDevice>(config, *gate, *host_ports[1], clock, sensor_host_port.get());
   }
 
   void Advance(std::uint64_t ns) {
@@ -234,6 +255,20 @@ TEST(HybridFieldbusDevice, OneSyncPerCycleAfterBothRpdosBothDrivesApplyTogether)
 
 // A drive that leaves Operation Enabled: the device latches its safe state, reports the drive, sends zero torque to
 // both drives and engages both brakes.
+TEST(HybridFieldbusDevice, ARefusedSyncIsNamedAsTheSyncNotAsADrive) {
+  Rig rig;
+  rig.BringUp();
+  for (int k = 0; k < 20; ++k) (void)rig.Cycle({5.0, 5.0});
+  ASSERT_FALSE(rig.device->latched_safe());
+  rig.gate->refuse_sync = true;
+  const Reading r = rig.Cycle({5.0, 5.0});
+  ASSERT_TRUE(rig.device->latched_safe());
+  EXPECT_EQ(rig.device->fault_source(), RigFaultSource::kSync);
+  EXPECT_STREQ(ToString(rig.device->fault_source()), "SYNC");
+  EXPECT_NE(r.faults & kFaultCommunication, 0u);
+  EXPECT_EQ(rig.device->drive(0).counters().write_failures, 0u);  // drive 1's own frames all went out
+}
+
 TEST(HybridFieldbusDevice, DriveLeavingOperationEnabledEngagesTheSafeState) {
   Rig rig;
   rig.BringUp();

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 
@@ -16,5 +18,10 @@ struct Timebase {
   /// steady_clock and std::this_thread::sleep_for.
   static Timebase Steady();
 };
+
+/// A duration in ms (config) as ns of the Timebase clock; negative and NaN give 0.
+inline std::uint64_t MsToNs(double ms) noexcept {
+  return ms > 0.0 ? static_cast<std::uint64_t>(std::llround(ms * 1e6)) : 0u;
+}
 
 }  // namespace teleop::fieldbus

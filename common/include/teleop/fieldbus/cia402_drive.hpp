@@ -16,27 +16,13 @@
 #include "teleop/fieldbus/canopen_pdo.hpp"
 #include "teleop/fieldbus/canopen_sdo_client.hpp"
 #include "teleop/fieldbus/canopen_timebase.hpp"
+#include "teleop/fieldbus/cia402_codec.hpp"
 #include "teleop/fieldbus/cia402_state_machine.hpp"
 #include "teleop/transport/can_filter.hpp"
 #include "teleop/transport/can_port.hpp"
 
 namespace teleop::fieldbus {
 
-/// From the drive's units to SI (CiA 402: torque in per mille of the rated torque 0x6076; position and velocity in
-/// the drive's position/velocity units, commonly encoder counts and counts/s).
-struct Cia402Scaling {
-  double rated_torque_Nm = 1.0;                       ///< 0x6076 (read back from the drive and checked at configure).
-  double position_rad_per_count = 1.0 / 4096.0;       ///< 0x6064 unit.
-  double velocity_rad_per_s_per_unit = 1.0 / 4096.0;  ///< 0x606C unit.
-  double sign = 1.0;  ///< -1 when the drive's positive direction is the joint's negative one.
-};
-
-/// The cyclic synchronous modes of CiA 402 (0x6060): the target the RPDO carries each cycle.
-enum class Cia402Mode : std::int8_t {
-  kCyclicSynchronousPosition = 8,  ///< 0x607A target position; the drive closes position and velocity loops.
-  kCyclicSynchronousVelocity = 9,  ///< 0x60FF target velocity; the drive closes the velocity loop.
-  kCyclicSynchronousTorque = 10,   ///< 0x6071 target torque.
-};
 const char* ToString(Cia402Mode mode) noexcept;
 /// "position" / "csp" / "8", "velocity" / "csv" / "9", "torque" / "cst" / "10"; false for anything else.
 [[nodiscard]] bool ParseCia402Mode(const std::string& text, Cia402Mode& mode) noexcept;
@@ -113,6 +99,7 @@ enum class Cia402Status : std::uint8_t {
   kBusOff,         ///< The controller is bus-off.
   kWriteFailed,    ///< The port refused a frame (buffer full, error).
   kNotActive,      ///< Called before Activate() or after Deactivate().
+  kWrongMode,      ///< A setpoint of another mode than the configured one: the hold target was sent instead.
 };
 const char* ToString(Cia402Status status) noexcept;
 
@@ -149,6 +136,9 @@ struct Cia402DeviceInfo {
 struct Cia402Counters {
   std::uint64_t rpdos_sent = 0;
   std::uint64_t syncs_sent = 0;
+  /// Writes within half a cycle period of the last SYNC (a late loop's catch-up): nothing sent (CiA 301 SYNC
+  /// period 0x1006; a CSP drive would otherwise take two targets in one of its cycles).
+  std::uint64_t syncs_skipped = 0;
   std::uint64_t heartbeats_sent = 0;
   std::uint64_t tpdos_received = 0;
   std::uint64_t tpdos_rejected = 0;  ///< Wrong length for the mapping.
@@ -164,6 +154,7 @@ struct Cia402Counters {
   std::uint64_t other_frames = 0;           ///< Frames on the port that are not this drive's.
   std::uint64_t velocity_clamped = 0;       ///< Velocity targets clamped to max_velocity_rad_per_s.
   std::uint64_t position_step_clamped = 0;  ///< Position targets that moved faster than max_velocity_rad_per_s.
+  std::uint64_t wrong_mode_setpoints = 0;   ///< Setpoints of another mode (kWrongMode).
 };
 
 class Cia402Drive {
@@ -190,12 +181,18 @@ class Cia402Drive {
   /// Cycle: drains the port (TPDOs, heartbeat, EMCY, error frames), checks the heartbeat and staleness, fills
   /// `reading` with the newest values. Non-blocking, no allocation.
   [[nodiscard]] Cia402Status Read(Cia402Reading& reading) noexcept;
-  /// Cycle: sends the RPDO (controlword + the target of the configured mode), then the SYNC (produce_sync) and the
-  /// host heartbeat when due. `setpoint` is in the mode's SI unit: torque N·m (the default mode; clamped to
-  /// max_torque_Nm, NaN → 0), velocity rad/s (clamped to max_velocity_rad_per_s, NaN → 0) or position rad (NaN, a
-  /// fault, a lost heartbeat or a quick stop hold the last target; the step clamped by max_velocity_rad_per_s).
-  /// Non-blocking, no allocation.
-  [[nodiscard]] Cia402Status Write(double setpoint) noexcept;
+  /// Cycle: sends the RPDOs (controlword + the mode's target), then the SYNC (produce_sync) and the host heartbeat
+  /// when due; each setpoint carries its unit. Torque (CST) clamped to max_torque_Nm, velocity (CSV) to
+  /// max_velocity_rad_per_s, NaN → 0; position (CSP): NaN, a fault, a lost heartbeat or a quick stop hold the last
+  /// target, the step per SYNC clamped to max_velocity_rad_per_s · cycle_period_s. A setpoint of another mode than
+  /// the configured one sends the hold target (WriteHold) and returns kWrongMode (counted). Within half a cycle
+  /// period of its last SYNC (produce_sync) nothing is sent (counted in syncs_skipped): no SYNC burst when a late
+  /// loop catches up. Non-blocking, no allocation.
+  [[nodiscard]] Cia402Status WriteTorque_Nm(double torque_Nm) noexcept;
+  [[nodiscard]] Cia402Status WriteVelocity_rad_per_s(double velocity_rad_per_s) noexcept;
+  [[nodiscard]] Cia402Status WritePosition_rad(double position_rad) noexcept;
+  /// Cycle: the mode's target that holds the joint: torque 0, velocity 0, or the last position target.
+  [[nodiscard]] Cia402Status WriteHold() noexcept;
   /// Cycle: from the next Write on, the controlword commands Quick Stop (bit 2 = 0) and the torque is 0.
   void RequestQuickStop() noexcept;
   /// Cycle: from the next Write on, controlword bit 8 (halt) is `halt`: the drive stops by 0x605D and holds, staying
@@ -230,42 +227,51 @@ class Cia402Drive {
   std::string Describe() const;
 
  private:
-  /// Where a mapped object sits: PDO slot (0..3 in rpdo_/tpdo_) and entry; pdo < 0 when not mapped.
-  struct Slot {
-    int pdo = -1;
-    int entry = -1;
-  };
   void HandleFrame(const proto::can::CanFrame& frame) noexcept;
   void ServiceSetup() noexcept;
   bool SendHeartbeatIfDue(std::uint64_t now_ns) noexcept;
   void WaitForBoot();
+  // Configure's steps, in order (each throws teleop::Error).
+  std::string ConfigureWhere() const;
+  void CheckEds() const;
+  void ResetAndWaitForBoot();
+  void CheckIdentity();
+  /// Heartbeat producer and consumer, COB-ID SYNC, cycle period; `consumer_armed` true as soon as the drive's
+  /// consumer is armed (so that a failure after it, here or later, undoes it).
+  void WriteCommunicationObjects(bool& consumer_armed);
+  void WritePdos();
+  void SelectMode();
+  void WriteLimits();
   void WritePdo(const canopen::PdoMapping& mapping, bool tpdo);
   /// The mode's target that holds the joint: torque 0, velocity 0, or position = the actual position (by SDO).
   void WriteHoldTarget();
   void SetDriveState(cia402::DriveState state) noexcept;
   [[nodiscard]] bool HeartbeatExpired(std::uint64_t now_ns) noexcept;
+  // The cycle's transmit: the mode's target in drive units (clamped, counted), then RPDOs + SYNC + heartbeat.
+  bool HoldTargets() const noexcept;
+  std::uint32_t TorqueTarget(double torque_Nm) noexcept;
+  std::uint32_t VelocityTarget(double velocity_rad_per_s) noexcept;
+  std::uint32_t PositionTarget(double position_rad) noexcept;
+  Cia402Status WrongMode() noexcept;
+  Cia402Status Transmit(std::uint32_t target_raw) noexcept;
+  bool SendRpdos(std::uint32_t target_raw) noexcept;
+  bool SendSync(std::uint64_t now_ns) noexcept;
 
   Cia402DriveConfig config_;
   transport::CanPort& port_;
   Timebase timebase_;
   canopen::SdoClient sdo_;
-  std::array<canopen::PdoMapping, 4> rpdo_{};
-  std::array<canopen::PdoMapping, 4> tpdo_{};
-  std::array<std::uint32_t, 4> tpdo_cob_{};
-  std::array<std::uint32_t, 4> rpdo_cob_{};
-  int rpdo_count_ = 0;
-  int tpdo_count_ = 0;
-  std::array<std::array<std::uint32_t, canopen::kMaxPdoEntries>, 4> tpdo_values_{};
-  std::array<std::array<std::uint32_t, canopen::kMaxPdoEntries>, 4> rpdo_values_{};
+  Cia402PdoLayout layout_{};       ///< The PDOs (cia402_codec.hpp), checked at construction.
+  Cia402PdoValues tpdo_values_{};  ///< The newest raw value of every TPDO entry.
   std::array<std::uint64_t, 4> tpdo_stamp_ns_{};
-  Slot statusword_slot_{}, position_slot_{}, velocity_slot_{}, torque_slot_{};
-  Slot controlword_slot_{}, target_torque_slot_{};
-  Slot target_slot_{};  ///< The configured mode's target (target_torque_slot_ in torque mode).
   bool halt_requested_ = false;
   double position_target_rad_ = 0.0;
   unsigned tpdo_seen_mask_ = 0;  ///< TPDOs received since the last Read (bit per slot).
   bool configured_ = false;
   bool heartbeat_lost_ = false;
+  bool sync_sent_ = false;  ///< A SYNC went out since Activate (last_sync_ns_ is valid).
+  std::uint64_t last_sync_ns_ = 0;
+  std::uint64_t half_period_ns_ = 0;
 
   bool active_ = false;
   bool quick_stop_requested_ = false;
@@ -278,6 +284,8 @@ class Cia402Drive {
   std::uint16_t statusword_ = 0;
   std::uint16_t controlword_ = 0;
   double commanded_torque_Nm_ = 0.0;
+  double pending_torque_Nm_ = 0.0;  ///< The target of the Write in progress (kept only when it is sent).
+  double pending_position_rad_ = 0.0;
   cia402::DriveState drive_state_ = cia402::DriveState::kUnknown;
   canopen::NmtState nmt_state_ = canopen::NmtState::kBootUp;
   canopen::Emergency last_emergency_{};

@@ -163,9 +163,30 @@ class SimulatedCia402Drive {
   void HandleFrame(const proto::can::CanFrame& frame, std::uint64_t now_ns) noexcept;
   void HandleSdo(const proto::can::CanFrame& frame, std::uint64_t now_ns) noexcept;
   void HandleSdoSegment(const canopen::SdoMessage& m, std::uint64_t now_ns) noexcept;
+  /// Answers an upload of a byte-string object: expedited up to 4 bytes, else the segmented transfer starts.
+  void UploadBytes(const canopen::SdoMessage& m, std::span<const std::uint8_t> bytes, std::uint64_t now_ns) noexcept;
   void SendSdoAbort(std::uint16_t index, std::uint8_t subindex, std::uint32_t code) noexcept;
   /// The object dictionary access of one expedited-sized value: 0 (and the value read) or the abort code.
   std::uint32_t Access(const canopen::SdoMessage& m, std::uint32_t& out_value, std::uint8_t& out_size) noexcept;
+  struct ObjectAccess;
+  /// One row of the object dictionary: the objects first..last and the function that serves them.
+  struct ObjectRange {
+    std::uint16_t first = 0;
+    std::uint16_t last = 0;
+    std::uint32_t (SimulatedCia402Drive::*access)(const ObjectAccess&) noexcept = nullptr;
+  };
+  static const std::array<ObjectRange, 6> kDictionary;
+  /// An AccessDriveControl answer for an object it does not serve (not an abort code: those have bit 31 clear or
+  /// are 0x05..0x08 in the top byte).
+  static constexpr std::uint32_t kNotServed = 0xFFFF'FFFFu;
+  std::uint32_t AccessRpdoCommunication(const ObjectAccess& a) noexcept;
+  std::uint32_t AccessTpdoCommunication(const ObjectAccess& a) noexcept;
+  std::uint32_t AccessPdoCommunication(const ObjectAccess& a, bool tpdo) noexcept;
+  std::uint32_t AccessPdoMapping(const ObjectAccess& a) noexcept;
+  std::uint32_t AccessCommunication(const ObjectAccess& a) noexcept;
+  std::uint32_t AccessDrive(const ObjectAccess& a) noexcept;
+  std::uint32_t AccessDriveControl(const ObjectAccess& a) noexcept;
+  std::uint32_t AccessDriveValues(const ObjectAccess& a) noexcept;
   /// The byte-string objects (0x1008, 0x1009, 0x100A, 0x2000 the writable label): false for any other object.
   bool ByteObject(std::uint16_t index, std::uint8_t subindex, std::span<const std::uint8_t>& bytes,
                   bool& writable) const noexcept;

@@ -237,6 +237,7 @@ void AdmittanceDevice::Read(Reading& out) noexcept {
       case Cia402Status::kFault:
       case Cia402Status::kNotEnabled:
       case Cia402Status::kNotActive:
+      case Cia402Status::kWrongMode:
         faults |= kFaultDriver;
         break;
       default:
@@ -270,7 +271,7 @@ void AdmittanceDevice::Update(double period_s) noexcept {
     if (config_.mode == Cia402Mode::kCyclicSynchronousTorque) {
       // The law's force is the drive's torque through the transmission (F ẋ = τ θ̇: τ = F · r); the safe state 0.
       rendered_N_[i] = safe_ ? 0.0 : force_N_[i];
-      const Cia402Status s = drives_[k]->Write(rendered_N_[i] * t);
+      const Cia402Status s = drives_[k]->WriteTorque_Nm(rendered_N_[i] * t);
       if (s == Cia402Status::kWriteFailed || s == Cia402Status::kBusOff || s == Cia402Status::kHeartbeatLost) {
         faults_ |= kFaultCommunication;
       } else if (s == Cia402Status::kFault) {
@@ -289,9 +290,9 @@ void AdmittanceDevice::Update(double period_s) noexcept {
     h[2] = h[1];
     h[1] = h[0];
     h[0] = m.position_m();
-    const double target =
-        config_.mode == Cia402Mode::kCyclicSynchronousPosition ? m.position_m() / t : m.velocity_m_per_s() / t;
-    const Cia402Status s = drives_[k]->Write(target);
+    const Cia402Status s = config_.mode == Cia402Mode::kCyclicSynchronousPosition
+                               ? drives_[k]->WritePosition_rad(m.position_m() / t)
+                               : drives_[k]->WriteVelocity_rad_per_s(m.velocity_m_per_s() / t);
     if (s == Cia402Status::kWriteFailed || s == Cia402Status::kBusOff || s == Cia402Status::kHeartbeatLost) {
       faults_ |= kFaultCommunication;
     } else if (s == Cia402Status::kFault) {

@@ -50,6 +50,7 @@ SteeringFault FaultOf(Cia402Status status) noexcept {
       return SteeringFault::kHeartbeatLost;
     case Cia402Status::kFault:
     case Cia402Status::kNotEnabled:
+    case Cia402Status::kWrongMode:
       return SteeringFault::kDriveFault;
     case Cia402Status::kStale:
     case Cia402Status::kBusOff:
@@ -123,7 +124,7 @@ SteeringFault CobotSteeringDrive::Write(double steering_torque_Nm) noexcept {
   } else if (fault_ != SteeringFault::kNone) {
     motor_torque = 0.0;  // the client sends 0 anyway once it has seen the fault
   }
-  Latch(FaultOf(drive_.Write(motor_torque)));
+  Latch(FaultOf(drive_.WriteTorque_Nm(motor_torque)));
   return fault_;
 }
 

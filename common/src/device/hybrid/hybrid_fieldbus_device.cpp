@@ -76,6 +76,8 @@ const char* ToString(RigFaultSource source) noexcept {
       return "force sensor";
     case RigFaultSource::kKinematics:
       return "kinematics";
+    case RigFaultSource::kSync:
+      return "SYNC";
   }
   return "?";
 }
@@ -233,6 +235,10 @@ void HybridFieldbusDevice::Deactivate() noexcept {
   if (amplifier_) amplifier_->Stop();
 }
 
+void HybridFieldbusDevice::SendCycleSync() noexcept {
+  if (sync_->Send() != transport::CanWriteStatus::kOk) Latch(RigFaultSource::kSync, kFaultCommunication);
+}
+
 void HybridFieldbusDevice::Latch(RigFaultSource source, std::uint32_t bits) noexcept {
   if (!latched_) fault_source_ = source;
   latched_ = true;
@@ -281,6 +287,7 @@ void HybridFieldbusDevice::Read(Reading& out) noexcept {
       case Cia402Status::kNotEnabled:
       case Cia402Status::kFault:
       case Cia402Status::kNotActive:
+      case Cia402Status::kWrongMode:
         Latch(source, kFaultDriver);
         break;
     }
@@ -309,7 +316,7 @@ void HybridFieldbusDevice::Read(Reading& out) noexcept {
   }
   // The cycle's one SYNC, after the TPDOs of the previous one were drained and long after the previous cycle's
   // RPDOs of both drives: they apply those torques on it, together, and sample their next TPDOs.
-  if (sync_->Send() != transport::CanWriteStatus::kOk) Latch(RigFaultSource::kDrive1, kFaultCommunication);
+  SendCycleSync();
   Eigen::Vector2d p;
   if (!joint_rad_.allFinite() || !kinematics_.Forward(joint_rad_, p) || !kinematics_.Jacobian(joint_rad_, jacobian_)) {
     Latch(RigFaultSource::kKinematics, kFaultOutOfRange);
@@ -337,7 +344,7 @@ void HybridFieldbusDevice::WriteDrives(double torque_1_Nm, double torque_2_Nm) n
   const double ratio = config_.allocation.motor.pulley_ratio;
   const std::array<double, 2> joint_Nm{torque_1_Nm, torque_2_Nm};
   for (std::size_t i = 0; i < 2; ++i) {
-    if (drives_[i]->Write(joint_Nm[i] / ratio) != Cia402Status::kOk) {
+    if (drives_[i]->WriteTorque_Nm(joint_Nm[i] / ratio) != Cia402Status::kOk) {
       Latch(i == 0 ? RigFaultSource::kDrive1 : RigFaultSource::kDrive2, kFaultCommunication);
     }
   }

@@ -55,7 +55,8 @@ struct HybridFieldbusRigConfig {
 };
 
 /// Which part put the device into its latched safe state (Reading::faults carries the bits).
-enum class RigFaultSource : std::uint8_t { kNone, kDrive1, kDrive2, kAmplifier, kForceSensor, kKinematics };
+/// kSync: the cycle's SYNC could not be sent (the bus exchange itself, not either drive).
+enum class RigFaultSource : std::uint8_t { kNone, kDrive1, kDrive2, kAmplifier, kForceSensor, kKinematics, kSync };
 const char* ToString(RigFaultSource source) noexcept;
 
 /// Device lifecycle: the constructor validates; Configure() opens the CAN ports (when the device owns them: the
@@ -64,8 +65,9 @@ const char* ToString(RigFaultSource source) noexcept;
 /// CAN force sensor's first frame (teleop::Error naming the part otherwise).
 ///
 /// The cycle on the bus: Read() drains every client (TPDOs sampled at the previous SYNC), then sends the one SYNC of
-/// the cycle; Write() sends both drives' RPDOs. So every SYNC follows both RPDOs of the previous cycle whatever the
-/// arbitration, and both drives apply their torque on the same SYNC (canopen_sync_producer.hpp).
+/// the cycle (SendCycleSync: a refused SYNC latches RigFaultSource::kSync, named after what failed); Write() sends
+/// both drives' RPDOs. So every SYNC follows both RPDOs of the previous cycle whatever the arbitration, and both
+/// drives apply their torque on the same SYNC (canopen_sync_producer.hpp).
 ///
 /// Safe state (latched, until Activate() again): a drive that leaves Operation Enabled, faults, goes stale or loses
 /// its heartbeat, an amplifier that stops answering (stale reading), or a CAN force sensor gone stale, puts the
@@ -109,6 +111,8 @@ class HybridFieldbusDevice final : public Device {
   void WriteDrives(double torque_1_Nm, double torque_2_Nm) noexcept;
   void Latch(RigFaultSource source, std::uint32_t bits) noexcept;
   void CommandSafe() noexcept;
+  /// The cycle's one SYNC on the bus (after the TPDOs were drained, long after both RPDOs).
+  void SendCycleSync() noexcept;
 
   HybridFieldbusConfig config_;
   Capabilities capabilities_;
