@@ -73,6 +73,7 @@ ArmSection ReadArm(const Field& f, int dof) {
                     "base_link",
                     "tool_link",
                     "tool_offset_m",
+                    "workspace_origin_m",
                     "gravity_m_per_s2",
                     "orientation",
                     "orientation_stiffness_Nm_per_rad",
@@ -98,6 +99,7 @@ ArmSection ReadArm(const Field& f, int dof) {
   s.chain.base_link = config::ReadText(map, k::kBaseLink);
   s.chain.tool_link = config::ReadText(map, k::kToolLink);
   s.chain.p_LT = ToVector3(config::ReadDofValue(map, k::kToolOffset, 3));
+  s.workspace_origin_m = ToVector3(config::ReadDofValue(map, k::kWorkspaceOrigin, 3));
   s.gravity_m_per_s2 = config::ReadNumber(map, k::kGravity);
   ArmTorqueConfig& t = s.device.torque;
   t.hold_orientation = config::ReadChoice(map, k::kOrientation) == 1;
@@ -144,6 +146,7 @@ std::unique_ptr<SimulatedArm> MakeSimulatedArm(const ArmSection& section) {
 std::unique_ptr<ArmDevice> MakeArmDevice(const ArmSection& section) {
   auto model = std::make_unique<ArmModel>(BuildArmChain(section.chain), section.gravity_B());
   ArmDeviceConfig device = section.device;
+  device.workspace_origin_m = section.workspace_origin_m;
   device.torque.posture_q = ToJoints(section.posture_q_rad, model->joint_count(), section, "posture_q_rad");
   return std::make_unique<ArmDevice>(std::move(model), MakeSimulatedArm(section), device);
 }

@@ -74,7 +74,7 @@ void ArmDevice::Read(Reading& out) noexcept {
   out.force_N = DofVector::Zero(3);
   out.rendered_force_N = DofVector(rendered_N_);
   if (model_valid_) {
-    out.position_m = model_->p_BT();
+    out.position_m = model_->p_BT() - config_.workspace_origin_m;
     out.velocity_m_per_s = model_->v_BT();
   } else {
     out.position_m.setConstant(std::numeric_limits<double>::quiet_NaN());

@@ -35,6 +35,8 @@ enum ArmFaultBits : std::uint32_t {
 struct ArmDeviceConfig {
   ArmTorqueConfig torque;
   double min_manipulability = 1e-4;  ///< Below this √det(J_v J_vᵀ) the configuration is singular (a fault).
+  /// The reported position is p_BT − workspace_origin_m (m, base frame): the working point the pair couples around.
+  Eigen::Vector3d workspace_origin_m = Eigen::Vector3d::Zero();
 };
 
 class ArmDevice final : public Device {

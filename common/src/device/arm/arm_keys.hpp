@@ -57,6 +57,17 @@ inline const KeySpec kToolOffset = [] {
             "The tool point in the tool link's frame (x, y, z)."};
   return s;
 }();
+inline const KeySpec kWorkspaceOrigin = [] {
+  KeySpec s{"workspace_origin_m",
+            KeyType::kDofValue,
+            "m",
+            KeyRange::kFinite,
+            false,
+            0.0,
+            "The point of the base frame the device reports as its position zero: position = p_BT - origin (x, y, z), "
+            "so that two arms of different sizes couple around their working points."};
+  return s;
+}();
 inline const KeySpec kGravity = [] {
   KeySpec s{"gravity_m_per_s2",
             KeyType::kNumber,

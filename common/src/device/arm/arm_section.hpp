@@ -13,11 +13,12 @@
 namespace teleop::device::arm {
 
 struct ArmSection {
-  ArmChainSpec chain;                 ///< urdf (resolved beside the config), base_link, tool_link, tool offset, limits.
-  double gravity_m_per_s2 = 9.81;     ///< Along -z of the base frame.
-  ArmDeviceConfig device;             ///< The torque law and the singularity bound.
-  std::vector<double> posture_q_rad;  ///< Empty: the middle of each joint's range.
-  SimulatedArmConfig simulation;      ///< actuators: simulated.
+  ArmChainSpec chain;  ///< urdf (resolved beside the config), base_link, tool_link, tool offset, limits.
+  Eigen::Vector3d workspace_origin_m = Eigen::Vector3d::Zero();  ///< Reported position = p_BT − this (m, B).
+  double gravity_m_per_s2 = 9.81;                                ///< Along -z of the base frame.
+  ArmDeviceConfig device;                                        ///< The torque law and the singularity bound.
+  std::vector<double> posture_q_rad;                             ///< Empty: the middle of each joint's range.
+  SimulatedArmConfig simulation;                                 ///< actuators: simulated.
   std::vector<double> initial_q_rad;  ///< The simulated arm's start; empty: the middle of each joint's range.
 
   Eigen::Vector3d gravity_B() const { return {0.0, 0.0, -gravity_m_per_s2}; }
