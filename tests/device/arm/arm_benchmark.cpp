@@ -59,7 +59,9 @@ void BM_SevenJointArmCycle(benchmark::State& state) {
   }
   if (!samples_us.empty()) {
     std::sort(samples_us.begin(), samples_us.end());
-    const auto at = [&](double p) { return samples_us[static_cast<std::size_t>(p * (samples_us.size() - 1))]; };
+    const auto at = [&](double p) {
+      return samples_us[static_cast<std::size_t>(p * static_cast<double>(samples_us.size() - 1))];
+    };
     state.counters["p50_us"] = at(0.50);
     state.counters["p99_us"] = at(0.99);
     state.counters["max_us"] = samples_us.back();
