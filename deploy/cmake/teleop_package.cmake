@@ -67,13 +67,16 @@ set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 # teleop-plot, can-up.sh, rt-check.sh; the -dev packages a find_package(teleop) consumer needs.
 set(CPACK_DEBIAN_PACKAGE_DEPENDS "python3, python3-matplotlib, iproute2")
+# The arm backend and teleop-arm (docs/arms.md) load KDL and urdfdom's runtimes (named here as well as by
+# dpkg-shlibdeps, as for Cyclone DDS below).
+string(APPEND CPACK_DEBIAN_PACKAGE_DEPENDS ", liborocos-kdl1.5, liburdfdom-model3.0")
 # With the DDS bridge (TELEOP_DDS) the processes and teleop-supervise load Cyclone DDS's runtime, Debian 12's
 # libddsc0debian (named here as well as by dpkg-shlibdeps, so the dependency stays when the bridge is linked
 # statically or shlibdeps is turned off).
 if(TELEOP_DDS)
   string(APPEND CPACK_DEBIAN_PACKAGE_DEPENDS ", libddsc0debian")
 endif()
-set(CPACK_DEBIAN_PACKAGE_SUGGESTS "can-utils, tshark, libeigen3-dev, libboost-dev, libyaml-cpp-dev, libspdlog-dev")
+set(CPACK_DEBIAN_PACKAGE_SUGGESTS "can-utils, tshark, libeigen3-dev, libboost-dev, libyaml-cpp-dev, libspdlog-dev, liborocos-kdl-dev, liburdfdom-dev")
 configure_file(${TELEOP_DEPLOY_SOURCE}/debian/conffiles ${PROJECT_BINARY_DIR}/debian/conffiles COPYONLY)
 configure_file(${TELEOP_DEPLOY_SOURCE}/debian/postinst ${PROJECT_BINARY_DIR}/debian/postinst COPYONLY)
 set(CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA ${PROJECT_BINARY_DIR}/debian/conffiles ${PROJECT_BINARY_DIR}/debian/postinst)

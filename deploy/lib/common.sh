@@ -11,6 +11,8 @@ TELEOP_PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev libboost-dev libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev libsodium-dev libmodbus-dev
+  # arms (docs/arms.md): URDF parsing and the kinematics and dynamics
+  liburdfdom-dev liborocos-kdl-dev
   clang-format clang-tidy clang libclang-rt-14-dev
   gnuplot-nox python3
   iproute2 can-utils

@@ -53,6 +53,9 @@ enum FaultBits : std::uint32_t {
   kFaultEmergencyStop = 1u << 4,
   kFaultDriver = 1u << 5,       ///< Any other driver-reported fault (also: a rejected command or update).
   kFaultImplausible = 1u << 6,  ///< Set by the node: an encoder jump beyond safety.max_speed_m_per_s (docs).
+  /// A linkage at a singular configuration, where it cannot render force along some direction (an arm's
+  /// manipulability below its bound, docs/arms.md).
+  kFaultSingular = 1u << 7,
 };
 
 /// Warning bits a backend reports. Unlike a fault, a warning never changes what the node does: the node records it

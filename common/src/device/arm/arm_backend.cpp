@@ -1,0 +1,218 @@
+// The `arm` backend: a URDF arm behind the joint-actuator seam (docs/arms.md; docs/configuration.md, `device.arm`).
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <memory>
+
+#include "arm_keys.hpp"
+#include "arm_section.hpp"
+#include "teleop/config/key_table.hpp"
+#include "teleop/config/yaml_reader.hpp"
+#include "teleop/device/backend_key_table.hpp"
+#include "teleop/device/device_registry.hpp"
+#include "teleop/error.hpp"
+
+namespace teleop::device::arm {
+namespace {
+
+using config::Field;
+using config::Map;
+
+std::vector<double> ReadList(const Field& f, const char* unit) {
+  std::vector<double> values;
+  for (const Field& item : f.AsList()) {
+    values.push_back(config::Finite(item));
+    (void)unit;
+  }
+  return values;
+}
+
+JointLimitOverride ReadLimit(const Field& f) {
+  const Map map(f, {"joint", "lower_rad", "upper_rad", "max_velocity_rad_per_s", "max_effort_Nm"});
+  JointLimitOverride o;
+  o.joint = map.Required("joint").AsString();
+  if (auto v = map.Optional("lower_rad")) o.lower = config::Finite(*v);
+  if (auto v = map.Optional("upper_rad")) o.upper = config::Finite(*v);
+  if (auto v = map.Optional("max_velocity_rad_per_s")) o.max_velocity = config::Positive(*v, "rad/s");
+  if (auto v = map.Optional("max_effort_Nm")) o.max_effort = config::Positive(*v, "N·m");
+  return o;
+}
+
+Eigen::Vector3d ToVector3(const DofVector& v) { return {v[0], v[1], v[2]}; }
+
+void ReadSimulation(const Field& f, SimulatedArmConfig& sim, std::vector<double>& initial_q) {
+  namespace k = arm_keys;
+  const Map map(f, {"initial_q_rad", "viscous_Nms_per_rad", "coulomb_Nm", "encoder_resolution_rad", "substeps",
+                    "stop_stiffness_Nm_per_rad", "stop_damping_Nms_per_rad", "hand_mass_kg", "hand_damping_Ns_per_m",
+                    "hand_stiffness_N_per_m", "hand_push_N", "hand_push_start_s", "environment_normal",
+                    "environment_offset_m", "environment_stiffness_N_per_m", "environment_damping_Ns_per_m"});
+  if (auto v = map.Optional("initial_q_rad")) initial_q = ReadList(*v, "rad");
+  sim.viscous_Nms_per_rad = config::ReadNumber(map, k::kSimViscous);
+  sim.coulomb_Nm = config::ReadNumber(map, k::kSimCoulomb);
+  sim.encoder_resolution_rad = config::ReadNumber(map, k::kSimEncoder);
+  sim.substeps = config::ReadInteger(map, k::kSimSubsteps);
+  sim.stop_stiffness_Nm_per_rad = config::ReadNumber(map, k::kSimStopStiffness);
+  sim.stop_damping_Nms_per_rad = config::ReadNumber(map, k::kSimStopDamping);
+  sim.hand_mass_kg = config::ReadNumber(map, k::kSimHandMass);
+  sim.hand_damping_Ns_per_m = config::ReadNumber(map, k::kSimHandDamping);
+  sim.hand_stiffness_N_per_m = config::ReadNumber(map, k::kSimHandStiffness);
+  sim.hand_push_N = ToVector3(config::ReadDofValue(map, k::kSimHandPush, 3));
+  sim.hand_push_start_s = config::ReadNumber(map, k::kSimHandPushStart);
+  const Eigen::Vector3d normal = ToVector3(config::ReadDofValue(map, k::kSimEnvNormal, 3));
+  sim.environment = normal.norm() > 0.0;
+  if (sim.environment) sim.environment_normal = normal.normalized();
+  sim.environment_offset_m = config::ReadNumber(map, k::kSimEnvOffset);
+  sim.environment_stiffness_N_per_m = config::ReadNumber(map, k::kSimEnvStiffness);
+  sim.environment_damping_Ns_per_m = config::ReadNumber(map, k::kSimEnvDamping);
+}
+
+ArmSection ReadArm(const Field& f, int dof) {
+  namespace k = arm_keys;
+  const Map map(f, {"urdf",
+                    "base_link",
+                    "tool_link",
+                    "tool_offset_m",
+                    "workspace_origin_m",
+                    "gravity_m_per_s2",
+                    "orientation",
+                    "orientation_stiffness_Nm_per_rad",
+                    "orientation_damping_Nms_per_rad",
+                    "posture_stiffness_Nm_per_rad",
+                    "posture_damping_Nms_per_rad",
+                    "posture_q_rad",
+                    "joint_limit_margin_rad",
+                    "joint_limit_stiffness_Nm_per_rad",
+                    "min_manipulability",
+                    "coriolis_compensation",
+                    "friction_viscous_Nms_per_rad",
+                    "friction_coulomb_Nm",
+                    "joint_limits",
+                    "actuators",
+                    "simulation"});
+  if (dof != 3) {
+    f.Fail("the arm backend is a task-space device of dof 3 (the tool point's x, y, z); the config's dof is " +
+           std::to_string(dof));
+  }
+  ArmSection s;
+  s.chain.urdf_file = config::BesideConfigFile(f.file(), config::ReadText(map, k::kUrdf));
+  s.chain.base_link = config::ReadText(map, k::kBaseLink);
+  s.chain.tool_link = config::ReadText(map, k::kToolLink);
+  s.chain.p_LT = ToVector3(config::ReadDofValue(map, k::kToolOffset, 3));
+  s.workspace_origin_m = ToVector3(config::ReadDofValue(map, k::kWorkspaceOrigin, 3));
+  s.gravity_m_per_s2 = config::ReadNumber(map, k::kGravity);
+  ArmTorqueConfig& t = s.device.torque;
+  t.hold_orientation = config::ReadChoice(map, k::kOrientation) == 1;
+  t.orientation_stiffness_Nm_per_rad = config::ReadNumber(map, k::kOrientationStiffness);
+  t.orientation_damping_Nms_per_rad = config::ReadNumber(map, k::kOrientationDamping);
+  t.posture_stiffness_Nm_per_rad = config::ReadNumber(map, k::kPostureStiffness);
+  t.posture_damping_Nms_per_rad = config::ReadNumber(map, k::kPostureDamping);
+  if (auto v = map.Optional("posture_q_rad")) s.posture_q_rad = ReadList(*v, "rad");
+  t.limit_margin = config::ReadNumber(map, k::kLimitMargin);
+  t.limit_stiffness_Nm_per_rad = config::ReadNumber(map, k::kLimitStiffness);
+  s.device.min_manipulability = config::ReadNumber(map, k::kMinManipulability);
+  t.coriolis_compensation = config::ReadBool(map, k::kCoriolis);
+  t.friction_viscous_Nms_per_rad = config::ReadNumber(map, k::kFrictionViscous);
+  t.friction_coulomb_Nm = config::ReadNumber(map, k::kFrictionCoulomb);
+  if (auto v = map.Optional("joint_limits")) {
+    for (const Field& item : v->AsList()) s.chain.limit_overrides.push_back(ReadLimit(item));
+  }
+  (void)config::ReadChoice(map, k::kActuators);  // simulated: the one kind so far
+  if (auto v = map.Optional("simulation")) ReadSimulation(*v, s.simulation, s.initial_q_rad);
+  return s;
+}
+
+JointVector ToJoints(const std::vector<double>& values, int joints, const ArmSection& section, const char* key) {
+  if (values.empty()) return JointVector{};
+  if (static_cast<int>(values.size()) != joints) {
+    throw Error("device.arm." + std::string(key) + " has " + std::to_string(values.size()) + " values; the chain '" +
+                section.chain.base_link + "' to '" + section.chain.tool_link + "' in '" + section.chain.urdf_file +
+                "' has " + std::to_string(joints) + " joints");
+  }
+  JointVector v(joints);
+  for (int i = 0; i < joints; ++i) v[i] = values[static_cast<std::size_t>(i)];
+  return v;
+}
+
+}  // namespace
+
+std::unique_ptr<SimulatedArm> MakeSimulatedArm(const ArmSection& section) {
+  ArmChain chain = BuildArmChain(section.chain);
+  SimulatedArmConfig sim = section.simulation;
+  sim.initial_q = ToJoints(section.initial_q_rad, chain.joint_count(), section, "simulation.initial_q_rad");
+  return std::make_unique<SimulatedArm>(std::move(chain), section.gravity_B(), sim);
+}
+
+std::unique_ptr<ArmDevice> MakeArmDevice(const ArmSection& section) {
+  auto model = std::make_unique<ArmModel>(BuildArmChain(section.chain), section.gravity_B());
+  ArmDeviceConfig device = section.device;
+  device.workspace_origin_m = section.workspace_origin_m;
+  device.torque.posture_q = ToJoints(section.posture_q_rad, model->joint_count(), section, "posture_q_rad");
+  return std::make_unique<ArmDevice>(std::move(model), MakeSimulatedArm(section), device);
+}
+
+DeviceBackend ArmBackend() {
+  DeviceBackend b;
+  b.name = "arm";
+  b.description = "a URDF arm (KDL): joint actuators behind a seam, tool point as a 3-DOF task-space device";
+  b.nominal.dof = 3;
+  b.nominal.rendering = Rendering::kActiveForce;
+  b.nominal.measures_velocity = true;
+  b.nominal.measures_force = false;
+  b.keys = {
+      {"posture_q_rad", "the null-space posture, one angle per joint (rad); default the middle of each range"},
+      {"joint_limits", "list of overrides of the URDF's joint limits"},
+      {"joint_limits[].joint", "the URDF joint's name"},
+      {"joint_limits[].lower_rad", "lower position limit (rad)"},
+      {"joint_limits[].upper_rad", "upper position limit (rad)"},
+      {"joint_limits[].max_velocity_rad_per_s", "velocity limit (rad/s), > 0"},
+      {"joint_limits[].max_effort_Nm", "torque limit (N·m), > 0: every torque is clamped to it"},
+      {"simulation", "the simulated arm (actuators: simulated)"},
+      {"simulation.initial_q_rad", "start configuration, one angle per joint (rad); default the middle of each range"},
+  };
+  AdoptKeyTable(b, arm_keys::All());
+  b.section_required = true;
+  b.read = [](const Field* section, const SectionContext& context) -> std::any {
+    return ReadArm(*section, context.dof);
+  };
+  b.make = [](const DeviceConfig& config) -> std::unique_ptr<Device> {
+    return MakeArmDevice(config.Section<ArmSection>());
+  };
+  b.model = [](const DeviceConfig& config) {
+    // The apparent mass along x, y and z at the start configuration, and the simulated joints' viscous friction
+    // seen at the tool likewise (docs/arms.md, "Stability"): the per-axis model of the start-up check.
+    const ArmSection& section = config.Section<ArmSection>();
+    ArmModel model(BuildArmChain(section.chain), section.gravity_B());
+    JointVector q = ToJoints(section.initial_q_rad, model.joint_count(), section, "simulation.initial_q_rad");
+    if (q.size() == 0) {
+      q = JointVector(model.joint_count());
+      for (int i = 0; i < model.joint_count(); ++i) {
+        const JointSpec& j = model.arm().joints[static_cast<std::size_t>(i)];
+        q[i] = j.bounded ? 0.5 * (j.lower + j.upper) : 0.0;
+      }
+    }
+    if (!model.Update(q, JointVector(model.joint_count()))) {
+      return AnalysisModel::NotApplicable("the arm's model cannot be evaluated at its start configuration");
+    }
+    AnalysisModel m;
+    m.mass_kg = DofVector(3);
+    m.damping_Ns_per_m = DofVector(3);
+    const double b_joint = section.simulation.viscous_Nms_per_rad;
+    for (int axis = 0; axis < 3; ++axis) {
+      const Eigen::Vector3d n = Eigen::Vector3d::Unit(axis);
+      m.mass_kg[axis] = model.ApparentMass(n);
+      const Eigen::VectorXd Jt_n = model.J_BT().topRows<3>().transpose() * n;
+      const double sq = Jt_n.squaredNorm();
+      m.damping_Ns_per_m[axis] = b_joint > 0.0 && sq > 0.0 ? b_joint / sq : 0.0;
+    }
+    if (!m.mass_kg.allFinite()) {
+      return AnalysisModel::NotApplicable("the arm is singular at its start configuration");
+    }
+    return m;
+  };
+  return b;
+}
+
+}  // namespace teleop::device::arm
+
+TELEOP_REGISTER_DEVICE(arm, teleop::device::arm::ArmBackend())

@@ -1,0 +1,117 @@
+// The arm backend's device (arm_device.hpp).
+
+#include "arm_device.hpp"
+
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "teleop/error.hpp"
+
+namespace teleop::device::arm {
+
+ArmDevice::ArmDevice(std::unique_ptr<ArmModel> model, std::unique_ptr<JointBus> bus, ArmDeviceConfig config)
+    : model_(std::move(model)),
+      bus_(std::move(bus)),
+      config_(std::move(config)),
+      torque_(*model_, config_.torque),
+      n_(model_->joint_count()),
+      q_(n_),
+      v_(n_) {
+  if (bus_->joint_count() != n_) {
+    throw Error("arm: the actuators have " + std::to_string(bus_->joint_count()) + " joints, the chain in '" +
+                model_->arm().spec.urdf_file + "' has " + std::to_string(n_));
+  }
+  capabilities_.dof = 3;
+  capabilities_.rendering = Rendering::kActiveForce;
+  capabilities_.max_force_N = DofVector::Constant(3, std::numeric_limits<double>::infinity());
+  capabilities_.measures_velocity = true;
+  capabilities_.measures_force = false;
+}
+
+void ArmDevice::Activate() {
+  bus_->Activate();
+  hold_captured_ = false;  // the orientation to hold is the one at the first Read after activation
+}
+
+void ArmDevice::Deactivate() noexcept {
+  SetSafe();
+  bus_->Deactivate();
+}
+
+void ArmDevice::Read(Reading& out) noexcept {
+  std::uint32_t arm = kArmFaultNone;
+  for (int i = 0; i < n_; ++i) {
+    bus_->joint(i).Read(sample_);
+    q_[i] = sample_.position;
+    v_[i] = sample_.velocity;
+    if (!std::isfinite(sample_.position) || !std::isfinite(sample_.velocity)) arm |= kArmFaultNonFinite;
+    if (sample_.fault) arm |= kArmFaultActuator;
+    const JointSpec& j = model_->arm().joints[static_cast<std::size_t>(i)];
+    if (j.bounded && (sample_.position < j.lower || sample_.position > j.upper)) arm |= kArmFaultJointLimit;
+  }
+  model_valid_ = false;
+  if ((arm & kArmFaultNonFinite) == 0) {
+    model_valid_ = model_->Update(q_, v_);
+    if (!model_valid_) arm |= kArmFaultModel;
+  }
+  if (model_valid_ && model_->TranslationalManipulability() < config_.min_manipulability) arm |= kArmFaultSingular;
+  if (model_valid_ && !hold_captured_) {
+    torque_.HoldOrientation(model_->R_BT());
+    hold_captured_ = true;
+  }
+  arm_faults_ = arm;
+  std::uint32_t faults = command_faults_;
+  if (arm & (kArmFaultNonFinite | kArmFaultModel)) faults |= kFaultNonFiniteSensor;
+  if (arm & kArmFaultJointLimit) faults |= kFaultOutOfRange;
+  if (arm & kArmFaultSingular) faults |= kFaultSingular;
+  if (arm & kArmFaultActuator) faults |= kFaultDriver;
+  faults_ = faults;
+  command_faults_ = kFaultNone;
+
+  out.position_m.resize(3);
+  out.velocity_m_per_s.resize(3);
+  out.force_N = DofVector::Zero(3);
+  out.rendered_force_N = DofVector(rendered_N_);
+  if (model_valid_) {
+    out.position_m = model_->p_BT() - config_.workspace_origin_m;
+    out.velocity_m_per_s = model_->v_BT();
+  } else {
+    out.position_m.setConstant(std::numeric_limits<double>::quiet_NaN());
+    out.velocity_m_per_s.setConstant(std::numeric_limits<double>::quiet_NaN());
+  }
+  out.faults = faults_;
+  out.warnings = warnings_;
+}
+
+void ArmDevice::Apply(const Eigen::Vector3d& force_N, bool coupling) noexcept {
+  if (!model_valid_) {  // no model at q: nothing sensible to hold with; zero torque
+    for (int i = 0; i < n_; ++i) bus_->joint(i).WriteTorque(0.0);
+    rendered_N_.setZero();
+    return;
+  }
+  const ArmTorqueTerms& t = torque_.Step(*model_, q_, v_, force_N, coupling);
+  for (int i = 0; i < n_; ++i) bus_->joint(i).WriteTorque(t.applied_Nm[i]);
+  warnings_ = t.clamped_joints > 0 ? kWarningSaturated : kWarningNone;
+  rendered_N_ = coupling ? t.rendered_force_N : Eigen::Vector3d::Zero();
+}
+
+void ArmDevice::Write(const Command& command) noexcept {
+  if (command.force_N.size() != 3 || !command.force_N.allFinite()) {
+    command_faults_ |= kFaultDriver;
+    arm_faults_ |= kArmFaultCommand;
+    Apply(Eigen::Vector3d::Zero(), false);
+    return;
+  }
+  if (faults_ != kFaultNone) {  // the node puts us in the safe state; never couple on a faulted reading
+    Apply(Eigen::Vector3d::Zero(), false);
+    return;
+  }
+  Apply(Eigen::Vector3d(command.force_N[0], command.force_N[1], command.force_N[2]), true);
+}
+
+void ArmDevice::Update(double period_s) noexcept { bus_->Exchange(period_s); }
+
+void ArmDevice::SetSafe() noexcept { Apply(Eigen::Vector3d::Zero(), false); }
+
+}  // namespace teleop::device::arm

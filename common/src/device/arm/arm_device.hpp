@@ -1,0 +1,85 @@
+#pragma once
+
+// The arm backend's device (docs/arms.md): a chain plus one joint actuator per joint (joint_actuator.hpp), presented
+// to the node as the task-space device it knows (dof 3: the tool point's x, y, z in the base frame).
+//   Read:  q, q̇ from the actuators; p_BT by forward kinematics, v_BT = J_v·q̇; no force sensor (measures_force
+//          false); faults: a non-finite joint reading, a joint beyond its limit, a singular configuration
+//          (translational manipulability below the bound), an actuator fault.
+//   Write: τ from the torque law (arm_torque.hpp), clamped to each joint's effort limit (kWarningSaturated when a
+//          joint was clamped; the rendered force says by how much).
+//   Safe:  the arm holds its own weight: τ = G(q), the coupling force zero.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "arm_model.hpp"
+#include "arm_torque.hpp"
+#include "joint_actuator.hpp"
+#include "teleop/device/device.hpp"
+
+namespace teleop::device::arm {
+
+/// The arm's own fault detail (which check tripped), beside the node's FaultBits.
+enum ArmFaultBits : std::uint32_t {
+  kArmFaultNone = 0,
+  kArmFaultNonFinite = 1u << 0,
+  kArmFaultJointLimit = 1u << 1,
+  kArmFaultSingular = 1u << 2,
+  kArmFaultActuator = 1u << 3,
+  kArmFaultModel = 1u << 4,    ///< KDL could not evaluate the model at q.
+  kArmFaultCommand = 1u << 5,  ///< A command of the wrong size or non-finite (replaced by zero force).
+};
+
+struct ArmDeviceConfig {
+  ArmTorqueConfig torque;
+  double min_manipulability = 1e-4;  ///< Below this √det(J_v J_vᵀ) the configuration is singular (a fault).
+  /// The reported position is p_BT − workspace_origin_m (m, base frame): the working point the pair couples around.
+  Eigen::Vector3d workspace_origin_m = Eigen::Vector3d::Zero();
+};
+
+class ArmDevice final : public Device {
+ public:
+  /// Takes the model and the bus (their joint counts must agree). Throws teleop::Error.
+  ArmDevice(std::unique_ptr<ArmModel> model, std::unique_ptr<JointBus> bus, ArmDeviceConfig config);
+
+  const Capabilities& capabilities() const noexcept override { return capabilities_; }
+  const std::string& name() const noexcept override { return name_; }
+  void Configure() override { bus_->Configure(); }
+  void Activate() override;
+  void Deactivate() noexcept override;
+
+  void Read(Reading& out) noexcept override;
+  void Write(const Command& command) noexcept override;
+  void Update(double period_s) noexcept override;
+  void SetSafe() noexcept override;
+
+  // Inspection (tests, telemetry).
+  std::uint32_t arm_faults() const noexcept { return arm_faults_; }
+  const JointVector& q() const noexcept { return q_; }
+  const ArmModel& model() const noexcept { return *model_; }
+  const ArmTorque& torque() const noexcept { return torque_; }
+
+ private:
+  void Apply(const Eigen::Vector3d& force_N, bool coupling) noexcept;
+
+  std::string name_ = "arm";
+  Capabilities capabilities_;
+  std::unique_ptr<ArmModel> model_;
+  std::unique_ptr<JointBus> bus_;
+  ArmDeviceConfig config_;
+  ArmTorque torque_;
+  int n_ = 0;
+  JointVector q_, v_;
+  JointSample sample_;
+  bool model_valid_ = false;
+  bool hold_captured_ = false;
+  std::uint32_t arm_faults_ = kArmFaultNone;
+  std::uint32_t faults_ = kFaultNone;
+  std::uint32_t command_faults_ = kFaultNone;
+  std::uint32_t warnings_ = kWarningNone;
+  Eigen::Vector3d rendered_N_ = Eigen::Vector3d::Zero();
+};
+
+}  // namespace teleop::device::arm

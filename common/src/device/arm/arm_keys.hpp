@@ -1,0 +1,379 @@
+#pragma once
+
+// The `device.arm` keys with a value, each written once (teleop/config/key_table.hpp): the reader (arm_backend.cpp),
+// `--list-devices` and the rows of docs/configuration.md come from this table. An optional key's default is its
+// config struct's member initialiser.
+
+#include <array>
+
+#include "arm_device.hpp"
+#include "arm_section.hpp"
+#include "simulated_arm.hpp"
+#include "teleop/config/key_table.hpp"
+
+namespace teleop::device::arm::arm_keys {
+
+using config::KeyRange;
+using config::KeySpec;
+using config::KeyType;
+
+inline const KeySpec kUrdf = [] {
+  KeySpec s{"urdf",
+            KeyType::kText,
+            "",
+            KeyRange::kFinite,
+            true,
+            0.0,
+            "The arm's URDF file; a relative path is beside this config file."};
+  return s;
+}();
+inline const KeySpec kBaseLink = [] {
+  KeySpec s{"base_link",
+            KeyType::kText,
+            "",
+            KeyRange::kFinite,
+            true,
+            0.0,
+            "The URDF link whose frame is the device's base frame B."};
+  return s;
+}();
+inline const KeySpec kToolLink = [] {
+  KeySpec s{"tool_link",
+            KeyType::kText,
+            "",
+            KeyRange::kFinite,
+            true,
+            0.0,
+            "The URDF link that carries the tool (downstream of base_link)."};
+  return s;
+}();
+inline const KeySpec kToolOffset = [] {
+  KeySpec s{"tool_offset_m",
+            KeyType::kDofValue,
+            "m",
+            KeyRange::kFinite,
+            false,
+            0.0,
+            "The tool point in the tool link's frame (x, y, z)."};
+  return s;
+}();
+inline const KeySpec kWorkspaceOrigin = [] {
+  KeySpec s{"workspace_origin_m",
+            KeyType::kDofValue,
+            "m",
+            KeyRange::kFinite,
+            false,
+            0.0,
+            "The point of the base frame the device reports as its position zero: position = p_BT - origin (x, y, z), "
+            "so that two arms of different sizes couple around their working points."};
+  return s;
+}();
+inline const KeySpec kGravity = [] {
+  KeySpec s{"gravity_m_per_s2",
+            KeyType::kNumber,
+            "m/s²",
+            KeyRange::kNonNegative,
+            false,
+            ArmSection{}.gravity_m_per_s2,
+            "Gravity along -z of the base frame (0: a horizontal arm or none)."};
+  return s;
+}();
+inline const KeySpec kOrientation = [] {
+  KeySpec s{
+      "orientation",
+      KeyType::kChoice,
+      "",
+      KeyRange::kFinite,
+      false,
+      0.0,
+      "free: the tool's orientation is not controlled; hold: a rotational spring keeps the orientation at activation."};
+  s.choices = {"free", "hold"};
+  return s;
+}();
+inline const KeySpec kOrientationStiffness = [] {
+  KeySpec s{"orientation_stiffness_Nm_per_rad",
+            KeyType::kNumber,
+            "N·m/rad",
+            KeyRange::kNonNegative,
+            false,
+            ArmTorqueConfig{}.orientation_stiffness_Nm_per_rad,
+            "K_o of orientation hold."};
+  return s;
+}();
+inline const KeySpec kOrientationDamping = [] {
+  KeySpec s{"orientation_damping_Nms_per_rad",
+            KeyType::kNumber,
+            "N·m·s/rad",
+            KeyRange::kNonNegative,
+            false,
+            ArmTorqueConfig{}.orientation_damping_Nms_per_rad,
+            "D_o of orientation hold."};
+  return s;
+}();
+inline const KeySpec kPostureStiffness = [] {
+  KeySpec s{"posture_stiffness_Nm_per_rad",
+            KeyType::kNumber,
+            "N·m/rad",
+            KeyRange::kNonNegative,
+            false,
+            ArmTorqueConfig{}.posture_stiffness_Nm_per_rad,
+            "Null-space posture spring to posture_q_rad (redundant arms; it never changes the tool force)."};
+  return s;
+}();
+inline const KeySpec kPostureDamping = [] {
+  KeySpec s{"posture_damping_Nms_per_rad",
+            KeyType::kNumber,
+            "N·m·s/rad",
+            KeyRange::kNonNegative,
+            false,
+            ArmTorqueConfig{}.posture_damping_Nms_per_rad,
+            "Null-space joint damping."};
+  return s;
+}();
+inline const KeySpec kLimitMargin = [] {
+  KeySpec s{"joint_limit_margin_rad",
+            KeyType::kNumber,
+            "rad",
+            KeyRange::kNonNegative,
+            false,
+            ArmTorqueConfig{}.limit_margin,
+            "The soft joint limit acts within this distance of each limit."};
+  return s;
+}();
+inline const KeySpec kLimitStiffness = [] {
+  KeySpec s{"joint_limit_stiffness_Nm_per_rad",
+            KeyType::kNumber,
+            "N·m/rad",
+            KeyRange::kNonNegative,
+            false,
+            ArmTorqueConfig{}.limit_stiffness_Nm_per_rad,
+            "Soft joint-limit spring (0: none)."};
+  return s;
+}();
+inline const KeySpec kMinManipulability = [] {
+  KeySpec s{"min_manipulability",
+            KeyType::kNumber,
+            "m³",
+            KeyRange::kNonNegative,
+            false,
+            ArmDeviceConfig{}.min_manipulability,
+            "A configuration whose translational manipulability is below this is singular: a fault."};
+  return s;
+}();
+inline const KeySpec kCoriolis = [] {
+  KeySpec s{"coriolis_compensation",        KeyType::kBool, "", KeyRange::kFinite, false, 0.0,
+            "Add C(q, q̇)·q̇ to the torques."};
+  return s;
+}();
+inline const KeySpec kFrictionViscous = [] {
+  KeySpec s{"friction_viscous_Nms_per_rad",
+            KeyType::kNumber,
+            "N·m·s/rad",
+            KeyRange::kNonNegative,
+            false,
+            ArmTorqueConfig{}.friction_viscous_Nms_per_rad,
+            "Compensated viscous joint friction."};
+  return s;
+}();
+inline const KeySpec kFrictionCoulomb = [] {
+  KeySpec s{"friction_coulomb_Nm",
+            KeyType::kNumber,
+            "N·m",
+            KeyRange::kNonNegative,
+            false,
+            ArmTorqueConfig{}.friction_coulomb_Nm,
+            "Compensated Coulomb joint friction."};
+  return s;
+}();
+inline const KeySpec kActuators = [] {
+  KeySpec s{"actuators",
+            KeyType::kChoice,
+            "",
+            KeyRange::kFinite,
+            true,
+            0.0,
+            "The joint actuators: simulated (the simulated arm of the same URDF)."};
+  s.choices = {"simulated"};
+  return s;
+}();
+inline const KeySpec kSimViscous = [] {
+  KeySpec s{"simulation.viscous_Nms_per_rad",
+            KeyType::kNumber,
+            "N·m·s/rad",
+            KeyRange::kNonNegative,
+            false,
+            SimulatedArmConfig{}.viscous_Nms_per_rad,
+            "Joint viscous friction of the simulated arm."};
+  return s;
+}();
+inline const KeySpec kSimCoulomb = [] {
+  KeySpec s{"simulation.coulomb_Nm",
+            KeyType::kNumber,
+            "N·m",
+            KeyRange::kNonNegative,
+            false,
+            SimulatedArmConfig{}.coulomb_Nm,
+            "Joint Coulomb friction (smoothed over 0.01 rad/s)."};
+  return s;
+}();
+inline const KeySpec kSimEncoder = [] {
+  KeySpec s{"simulation.encoder_resolution_rad",
+            KeyType::kNumber,
+            "rad",
+            KeyRange::kNonNegative,
+            false,
+            SimulatedArmConfig{}.encoder_resolution_rad,
+            "Joint positions are rounded to this step; 0 = exact."};
+  return s;
+}();
+inline const KeySpec kSimSubsteps = [] {
+  KeySpec s{"simulation.substeps",
+            KeyType::kInteger,
+            "",
+            KeyRange::kInRange,
+            false,
+            static_cast<double>(SimulatedArmConfig{}.substeps),
+            "Semi-implicit Euler steps per period."};
+  s.low = 1;
+  s.high = 100;
+  return s;
+}();
+inline const KeySpec kSimStopStiffness = [] {
+  KeySpec s{"simulation.stop_stiffness_Nm_per_rad",
+            KeyType::kNumber,
+            "N·m/rad",
+            KeyRange::kNonNegative,
+            false,
+            SimulatedArmConfig{}.stop_stiffness_Nm_per_rad,
+            "Stiffness of the joint stops beyond each limit."};
+  return s;
+}();
+inline const KeySpec kSimStopDamping = [] {
+  KeySpec s{"simulation.stop_damping_Nms_per_rad",
+            KeyType::kNumber,
+            "N·m·s/rad",
+            KeyRange::kNonNegative,
+            false,
+            SimulatedArmConfig{}.stop_damping_Nms_per_rad,
+            "Damping of the joint stops."};
+  return s;
+}();
+inline const KeySpec kSimHandMass = [] {
+  KeySpec s{"simulation.hand_mass_kg",
+            KeyType::kNumber,
+            "kg",
+            KeyRange::kNonNegative,
+            false,
+            SimulatedArmConfig{}.hand_mass_kg,
+            "The operator's hand at the tool (master): mass."};
+  return s;
+}();
+inline const KeySpec kSimHandDamping = [] {
+  KeySpec s{"simulation.hand_damping_Ns_per_m",         KeyType::kNumber,     "N·s/m", KeyRange::kNonNegative, false,
+            SimulatedArmConfig{}.hand_damping_Ns_per_m, "The hand's damping."};
+  return s;
+}();
+inline const KeySpec kSimHandStiffness = [] {
+  KeySpec s{"simulation.hand_stiffness_N_per_m",
+            KeyType::kNumber,
+            "N/m",
+            KeyRange::kNonNegative,
+            false,
+            SimulatedArmConfig{}.hand_stiffness_N_per_m,
+            "The hand's stiffness to the tool's start position."};
+  return s;
+}();
+inline const KeySpec kSimHandPush = [] {
+  KeySpec s{"simulation.hand_push_N",
+            KeyType::kDofValue,
+            "N",
+            KeyRange::kFinite,
+            false,
+            0.0,
+            "The hand's scripted push (x, y, z, base frame) from hand_push_start_s on."};
+  return s;
+}();
+inline const KeySpec kSimHandPushStart = [] {
+  KeySpec s{"simulation.hand_push_start_s",         KeyType::kNumber,       "s", KeyRange::kNonNegative, false,
+            SimulatedArmConfig{}.hand_push_start_s, "When the push starts."};
+  return s;
+}();
+inline const KeySpec kSimEnvNormal = [] {
+  KeySpec s{"simulation.environment_normal",
+            KeyType::kDofValue,
+            "",
+            KeyRange::kFinite,
+            false,
+            0.0,
+            "The environment plane's normal (x, y, z, into the obstacle; normalised); 0: no environment."};
+  return s;
+}();
+inline const KeySpec kSimEnvOffset = [] {
+  KeySpec s{"simulation.environment_offset_m",
+            KeyType::kNumber,
+            "m",
+            KeyRange::kFinite,
+            false,
+            SimulatedArmConfig{}.environment_offset_m,
+            "The plane: points p with normal·p > offset are inside the obstacle."};
+  return s;
+}();
+inline const KeySpec kSimEnvStiffness = [] {
+  KeySpec s{"simulation.environment_stiffness_N_per_m",
+            KeyType::kNumber,
+            "N/m",
+            KeyRange::kNonNegative,
+            false,
+            SimulatedArmConfig{}.environment_stiffness_N_per_m,
+            "Contact stiffness of the environment."};
+  return s;
+}();
+inline const KeySpec kSimEnvDamping = [] {
+  KeySpec s{"simulation.environment_damping_Ns_per_m",
+            KeyType::kNumber,
+            "N·s/m",
+            KeyRange::kNonNegative,
+            false,
+            SimulatedArmConfig{}.environment_damping_Ns_per_m,
+            "Contact damping (the contact only pushes)."};
+  return s;
+}();
+
+/// Every key of the table, built at its first use (after static initialisation).
+inline const auto& All() {
+  static const std::array table{kUrdf,
+                                kBaseLink,
+                                kToolLink,
+                                kToolOffset,
+                                kGravity,
+                                kOrientation,
+                                kOrientationStiffness,
+                                kOrientationDamping,
+                                kPostureStiffness,
+                                kPostureDamping,
+                                kLimitMargin,
+                                kLimitStiffness,
+                                kMinManipulability,
+                                kCoriolis,
+                                kFrictionViscous,
+                                kFrictionCoulomb,
+                                kActuators,
+                                kSimViscous,
+                                kSimCoulomb,
+                                kSimEncoder,
+                                kSimSubsteps,
+                                kSimStopStiffness,
+                                kSimStopDamping,
+                                kSimHandMass,
+                                kSimHandDamping,
+                                kSimHandStiffness,
+                                kSimHandPush,
+                                kSimHandPushStart,
+                                kSimEnvNormal,
+                                kSimEnvOffset,
+                                kSimEnvStiffness,
+                                kSimEnvDamping};
+  return table;
+}
+
+}  // namespace teleop::device::arm::arm_keys
