@@ -59,7 +59,8 @@ SODIUM_LIBS="$(pkg-config --libs libsodium 2>/dev/null || echo -lsodium)"
 # -O0: these ~90 sources (Eigen-heavy device models among them) build several times faster, and the loader's own
 # time is spent in yaml-cpp anyway.
 CONFIG_FLAGS="-O0 -I\$root/common/src -isystem /usr/include/eigen3 -I/usr/include/modbus -DSPDLOG_COMPILED_LIB -DSPDLOG_SHARED_LIB -DSPDLOG_FMT_EXTERNAL -DFMT_SHARED"
-CONFIG_LIBS="-lyaml-cpp -lspdlog -lfmt -lmodbus -pthread"
+# The arm backend (KDL, urdfdom) links its Debian libraries through pkg-config.
+CONFIG_LIBS="-lyaml-cpp -lspdlog -lfmt -lmodbus $(pkg-config --libs orocos-kdl urdfdom 2>/dev/null) -pthread"
 
 generate_ninja() {
   local proto_sources=(proto/src/codec.cpp proto/src/crc.cpp proto/src/secure_codec.cpp

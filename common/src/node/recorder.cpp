@@ -56,7 +56,7 @@ void Recorder::Count(const Sensed& sensed, const PeerView& peer, const Applied& 
   if (peer.usable) ++s.cycles_with_peer;
   if (applied.engagement == EngagementState::kEngaged) {
     ++s.engaged_cycles;
-    const double e = (applied.law_input->position_m - applied.peer_local_m).norm();  // index offset excluded
+    const double e = (applied.law_input.position_m - applied.peer_local_m).norm();  // index offset excluded
     s.tracking_sq_sum += e * e;
     s.tracking_max = std::max(s.tracking_max, e);
   }
