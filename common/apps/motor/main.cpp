@@ -426,6 +426,10 @@ int Main(int argc, char** argv) {
                  "its last frame")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 10000.0));
+  app.add_option("--missing-limit", o.missing_limit,
+                 "jog and record stop after this many exchanges in a row without the motor's feedback")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 10000));
 
   int id = 0;
   int from = 1;
@@ -526,6 +530,7 @@ int Main(int argc, char** argv) {
     }
     return mit::IsFault(status) ? 1 : 0;
   } catch (const Error& e) {
+    std::fflush(stdout);  // what was found before the error, then the error
     std::fprintf(stderr, "teleop-motor: %s\n", e.what());
     return 1;
   }

@@ -202,6 +202,7 @@ void MitMotorBus::VerifyRanges(std::size_t motor, double timeout_s) {
   const Check checks[] = {{mit::Register::kPositionMax, "P_MAX (register 21)", m.ranges.position_max_rad},
                           {mit::Register::kVelocityMax, "V_MAX (register 22)", m.ranges.velocity_max_rad_per_s},
                           {mit::Register::kTorqueMax, "T_MAX (register 23)", m.ranges.torque_max_Nm}};
+  std::string differ;  // every register that differs, so one run shows the whole mismatch
   for (const Check& c : checks) {
     const auto v = ReadRegister(motor, static_cast<std::uint8_t>(c.reg), timeout_s);
     if (!v) {
@@ -210,14 +211,17 @@ void MitMotorBus::VerifyRanges(std::size_t motor, double timeout_s) {
                       "powered, on this bus, at this id?",
                       m.name, m.esc_id, c.name, timeout_s * 1e3));
     }
-    const double got = mit::Parameter{0, mit::ParameterOp::kRead, 0, *v}.FloatValue();
+    const auto got = static_cast<double>(mit::Parameter{0, mit::ParameterOp::kRead, 0, *v}.FloatValue());
     if (!std::isfinite(got) || std::abs(got - c.expected) > 1e-4 * std::max(1.0, std::abs(c.expected))) {
-      throw Error(
-          fmt::format("MIT motor '{}' (esc_id 0x{:X}): {} is {} on the motor but {} in the config: every "
-                      "value would be scaled wrong (set the model's ranges, or write the register with "
-                      "teleop-motor param write)",
-                      m.name, m.esc_id, c.name, got, c.expected));
+      differ += fmt::format("{}{} is {} on the motor but {} in the config", differ.empty() ? "" : ", ", c.name, got,
+                            c.expected);
     }
+  }
+  if (!differ.empty()) {
+    throw Error(
+        fmt::format("MIT motor '{}' (esc_id 0x{:X}): {}: every value would be scaled wrong (set the model's "
+                    "ranges, or write the register with teleop-motor param write)",
+                    m.name, m.esc_id, differ));
   }
 }
 
