@@ -4,6 +4,7 @@
 # info (the ranges against the model, and a wrong model refused), enable, disable, zero (refused without --confirm),
 # jog (the hard limit refused before anything is sent), param read/write, record, a motor that does not exist, an
 # injected fault (motor 3, its own process) stopping a jog, and a SIGKILLed jog: the motor's own CAN timeout disables it.
+# bus-load's budget of a 7-motor rig comes first (no bus).
 # Usage: teleop_motor_test.sh BIN_DIR WORK_DIR
 set -u
 bin="$1"
@@ -36,6 +37,8 @@ sleep 0.4
 # A generous answer timeout and a tolerance of missing replies: this runs beside the rest of the suite on two cores.
 m=("${bin}/teleop-motor" --bus-port "${port}" --answer-timeout-ms 100)
 mj=("${m[@]}" --missing-limit 50)
+check "bus-load: 7 motors at 1 kHz on classic CAN" 1 "7 motors at 1000 Hz: load 1\.89 of the bus \(does not fit\); within 80 %: 2 motors per bus" -- "${bin}/teleop-motor" bus-load --motors 7 --rate-hz 1000
+check "bus-load: on CAN FD 1/5 Mbit/s" 0 "7 motors at 1000 Hz: load 0\.79 of the bus \(fits\)" -- "${bin}/teleop-motor" --fd bus-load --motors 7 --rate-hz 1000
 check "scan finds motor 1" 0 "^motor 0x01: answers on master id 0x11$" -- "${m[@]}" scan --to 3
 out=$("${m[@]}" scan --to 3 2>&1)
 if grep -q "^motor 0x02: answers on master id 0x12$" <<<"${out}" && ! grep -q "motor 0x03" <<<"${out}" &&
