@@ -139,14 +139,27 @@ std::vector<std::size_t> MitMotorBus::SendSpecialAndWait(mit::Special what, doub
     SendSpecial(i, what);
   }
   const std::uint64_t deadline = timebase_.now_ns() + static_cast<std::uint64_t>(timeout_s * 1e9);
+  // A feedback to the last command can still arrive after the special frame went out (it was on its way): an
+  // answer to enable or disable counts once it shows the state left behind, so the state a caller reads afterwards
+  // is the motor's answer to this frame; one that never does is still "answered" at the deadline.
+  const auto left_behind = [what](std::uint8_t status) {
+    if (what == mit::Special::kDisable) return status == static_cast<std::uint8_t>(mit::MotorStatus::kEnabled);
+    if (what == mit::Special::kEnable) return status == static_cast<std::uint8_t>(mit::MotorStatus::kDisabled);
+    return false;
+  };
   std::vector<std::size_t> silent;
   while (true) {
     Drain();
     silent.clear();
+    bool settled = true;
     for (const std::size_t i : targets) {
-      if (!state_[i].answered) silent.push_back(i);
+      if (!state_[i].answered) {
+        silent.push_back(i);
+      } else if (left_behind(state_[i].feedback.status)) {
+        settled = false;
+      }
     }
-    if (silent.empty() || timebase_.now_ns() >= deadline) break;
+    if ((silent.empty() && settled) || timebase_.now_ns() >= deadline) break;
     timebase_.wait_ns(kPollStep_ns);
   }
   return silent;
