@@ -113,6 +113,20 @@ TEST(MitMotorBus, ADisabledMotorGivesNoTorqueAndSetZeroMovesItsZero) {
   EXPECT_NEAR(rig.host->state(0).feedback.position_rad, 0.0, 25.0 / 65535.0);
 }
 
+TEST(MitMotorBus, TheStateAfterADisableIsTheAnswerToIt) {
+  // The last command's feedback is still on its way when the disable goes out (the tools' stop): the state read
+  // afterwards must be the disable's answer, not that late feedback.
+  MitRig rig;
+  ASSERT_TRUE(rig.host->SendSpecialAndWait(mit::Special::kEnable, 0.01).empty());
+  rig.host->SetCommand(0, mit::Command{0, 0, 0, 0, 0.5});
+  rig.Cycles(5);
+  (void)rig.host->Exchange();
+  rig.Advance(150'000);  // the motor has the command; its feedback is on the wire when the disable goes out
+  ASSERT_TRUE(rig.host->SendSpecialAndWait(mit::Special::kDisable, 0.01).empty());
+  EXPECT_FALSE(rig.motor->enabled());
+  EXPECT_EQ(rig.host->state(0).feedback.status, 0) << "the late feedback of the last command was taken as the answer";
+}
+
 TEST(MitMotorBus, TheMotorsTimeoutDisablesItWhenTheHostFallsSilent) {
   MitRig rig;
   ASSERT_TRUE(rig.host->WriteRegister(0, static_cast<std::uint8_t>(mit::Register::kTimeout), 400, 0.01));  // 20 ms

@@ -9,6 +9,7 @@
 //   teleop-motor ... param read ID REG | param write ID REG VALUE
 //   teleop-motor ... record ID --csv FILE --for S  enabled at zero torque (the joint moves freely), every cycle logged
 //   teleop-motor ... simulate --id N [--id M ...]  simulated motors on the bus (the walkthrough, tests)
+//   teleop-motor bus-load --motors 7 --rate-hz 1000 [--fd]  the bus time an MIT rig needs (no bus opened)
 //
 // jog and record run one exchange per --period-ms. Before a jog the motor's own CAN timeout (register 9) is set to
 // --motor-timeout-ms, so a tool that dies (SIGKILL, a cable) leaves the motor disabled; SIGINT/SIGTERM (the deadman),
@@ -355,6 +356,21 @@ int Cycle(const Options& o, int id, const Run& r) {
   return clean ? 0 : 1;
 }
 
+// ---- bus-load ----
+int BusLoad(const Options& o, int motors, double rate_hz, double nominal_bit_per_s, double data_bit_per_s,
+            double max_load) {
+  const mit::MitBusLoad b =
+      mit::ComputeMitBusLoad(motors, rate_hz, o.fd, o.fd, nominal_bit_per_s, data_bit_per_s, max_load);
+  std::printf("%s, %g Mbit/s%s: one exchange (command + feedback, 8 bytes each, worst-case stuffing) %.1f µs\n",
+              o.fd ? "CAN FD" : "classic CAN", nominal_bit_per_s * 1e-6,
+              o.fd ? fmt::format(" arbitration, {:g} Mbit/s data", data_bit_per_s * 1e-6).c_str() : "",
+              b.exchange_time_s * 1e6);
+  std::printf("%d motor%s at %g Hz: load %.2f of the bus (%s); within %.0f %%: %d motor%s per bus\n", motors,
+              motors == 1 ? "" : "s", rate_hz, b.load, b.load <= max_load ? "fits" : "does not fit", max_load * 100,
+              b.max_motors, b.max_motors == 1 ? "" : "s");
+  return b.load <= max_load ? 0 : 1;
+}
+
 // ---- simulate ----
 int Simulate(const Options& o, const std::vector<int>& ids, double for_s, double fault_at_s, const std::string& fault) {
   static const std::map<std::string, mit::MotorStatus> kFaults{
@@ -403,7 +419,7 @@ int Simulate(const Options& o, const std::vector<int>& ids, double for_s, double
 int Main(int argc, char** argv) {
   CLI::App app{
       "teleop-motor: commissioning of MIT-mode joint motors (scan, info, enable, disable, clear, zero, jog, "
-      "param, record, simulate)"};
+      "param, record, simulate, bus-load)"};
   app.require_subcommand(1);
   Options o;
   app.add_option("--can", o.can_interface, "SocketCAN interface (default can0)");
@@ -426,6 +442,10 @@ int Main(int argc, char** argv) {
                  "its last frame")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 10000.0));
+  app.add_option("--missing-limit", o.missing_limit,
+                 "jog and record stop after this many exchanges in a row without the motor's feedback")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 10000));
 
   int id = 0;
   int from = 1;
@@ -483,10 +503,31 @@ int Main(int argc, char** argv) {
       ->capture_default_str();
   simulate->add_option("--fault", fault, "the fault injected")->capture_default_str();
 
+  int load_motors = 7;
+  double load_rate_hz = 1000.0;
+  double nominal_bit_per_s = 1e6;
+  double data_bit_per_s = 5e6;
+  double max_load = 0.8;
+  auto* bus_load = app.add_subcommand("bus-load", "the bus time a rig of MIT motors needs per cycle (no bus opened)");
+  bus_load->add_option("--motors", load_motors, "motors on the bus")->capture_default_str()->check(CLI::Range(1, 64));
+  bus_load->add_option("--rate-hz", load_rate_hz, "exchanges per second")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 100000.0));
+  bus_load->add_option("--bitrate", nominal_bit_per_s, "nominal (arbitration) bit rate, bit/s")
+      ->capture_default_str()
+      ->check(CLI::Range(1e4, 1e6));
+  bus_load->add_option("--data-bitrate", data_bit_per_s, "CAN FD data-phase bit rate, bit/s (with --fd)")
+      ->capture_default_str()
+      ->check(CLI::Range(1e5, 8e6));
+  bus_load->add_option("--max-load", max_load, "the share of the bus a rig may use")
+      ->capture_default_str()
+      ->check(CLI::Range(0.01, 1.0));
+
   CLI11_PARSE(app, argc, argv);
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   try {
+    if (*bus_load) return BusLoad(o, load_motors, load_rate_hz, nominal_bit_per_s, data_bit_per_s, max_load);
     if (*scan) return Scan(o, from, to);
     if (*info) return Info(o, id);
     if (*simulate) return Simulate(o, sim_ids, sim_for_s, fault_at_s, fault);
@@ -526,6 +567,7 @@ int Main(int argc, char** argv) {
     }
     return mit::IsFault(status) ? 1 : 0;
   } catch (const Error& e) {
+    std::fflush(stdout);  // what was found before the error, then the error
     std::fprintf(stderr, "teleop-motor: %s\n", e.what());
     return 1;
   }

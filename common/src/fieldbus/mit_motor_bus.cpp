@@ -139,14 +139,27 @@ std::vector<std::size_t> MitMotorBus::SendSpecialAndWait(mit::Special what, doub
     SendSpecial(i, what);
   }
   const std::uint64_t deadline = timebase_.now_ns() + static_cast<std::uint64_t>(timeout_s * 1e9);
+  // A feedback to the last command can still arrive after the special frame went out (it was on its way): an
+  // answer to enable or disable counts once it shows the state left behind, so the state a caller reads afterwards
+  // is the motor's answer to this frame; one that never does is still "answered" at the deadline.
+  const auto left_behind = [what](std::uint8_t status) {
+    if (what == mit::Special::kDisable) return status == static_cast<std::uint8_t>(mit::MotorStatus::kEnabled);
+    if (what == mit::Special::kEnable) return status == static_cast<std::uint8_t>(mit::MotorStatus::kDisabled);
+    return false;
+  };
   std::vector<std::size_t> silent;
   while (true) {
     Drain();
     silent.clear();
+    bool settled = true;
     for (const std::size_t i : targets) {
-      if (!state_[i].answered) silent.push_back(i);
+      if (!state_[i].answered) {
+        silent.push_back(i);
+      } else if (left_behind(state_[i].feedback.status)) {
+        settled = false;
+      }
     }
-    if (silent.empty() || timebase_.now_ns() >= deadline) break;
+    if ((silent.empty() && settled) || timebase_.now_ns() >= deadline) break;
     timebase_.wait_ns(kPollStep_ns);
   }
   return silent;
@@ -202,6 +215,7 @@ void MitMotorBus::VerifyRanges(std::size_t motor, double timeout_s) {
   const Check checks[] = {{mit::Register::kPositionMax, "P_MAX (register 21)", m.ranges.position_max_rad},
                           {mit::Register::kVelocityMax, "V_MAX (register 22)", m.ranges.velocity_max_rad_per_s},
                           {mit::Register::kTorqueMax, "T_MAX (register 23)", m.ranges.torque_max_Nm}};
+  std::string differ;  // every register that differs, so one run shows the whole mismatch
   for (const Check& c : checks) {
     const auto v = ReadRegister(motor, static_cast<std::uint8_t>(c.reg), timeout_s);
     if (!v) {
@@ -210,14 +224,17 @@ void MitMotorBus::VerifyRanges(std::size_t motor, double timeout_s) {
                       "powered, on this bus, at this id?",
                       m.name, m.esc_id, c.name, timeout_s * 1e3));
     }
-    const double got = mit::Parameter{0, mit::ParameterOp::kRead, 0, *v}.FloatValue();
+    const auto got = static_cast<double>(mit::Parameter{0, mit::ParameterOp::kRead, 0, *v}.FloatValue());
     if (!std::isfinite(got) || std::abs(got - c.expected) > 1e-4 * std::max(1.0, std::abs(c.expected))) {
-      throw Error(
-          fmt::format("MIT motor '{}' (esc_id 0x{:X}): {} is {} on the motor but {} in the config: every "
-                      "value would be scaled wrong (set the model's ranges, or write the register with "
-                      "teleop-motor param write)",
-                      m.name, m.esc_id, c.name, got, c.expected));
+      differ += fmt::format("{}{} is {} on the motor but {} in the config", differ.empty() ? "" : ", ", c.name, got,
+                            c.expected);
     }
+  }
+  if (!differ.empty()) {
+    throw Error(
+        fmt::format("MIT motor '{}' (esc_id 0x{:X}): {}: every value would be scaled wrong (set the model's "
+                    "ranges, or write the register with teleop-motor param write)",
+                    m.name, m.esc_id, differ));
   }
 }
 

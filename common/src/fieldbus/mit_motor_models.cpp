@@ -90,6 +90,7 @@ const MitMotorModel& FindMitMotorModel(const std::map<std::string, MitMotorModel
   const auto it = models.find(name);
   if (it != models.end()) return it->second;
   std::vector<std::string> names;
+  names.reserve(models.size());
   for (const auto& [n, _] : models) names.push_back(n);
   const std::string closest = ClosestMatch(name, names);
   throw Error(fmt::format("MIT motor model '{}' is not in {} (it has {}){}", name, path, fmt::join(names, ", "),

@@ -162,15 +162,15 @@ bool SimulatedMitMotor::WriteRegister(std::uint8_t reg, std::uint32_t value) noe
       return true;
     case Reg(mit::Register::kPositionMax):
       if (!positive) return false;
-      ranges_.position_max_rad = f;
+      ranges_.position_max_rad = static_cast<double>(f);
       return true;
     case Reg(mit::Register::kVelocityMax):
       if (!positive) return false;
-      ranges_.velocity_max_rad_per_s = f;
+      ranges_.velocity_max_rad_per_s = static_cast<double>(f);
       return true;
     case Reg(mit::Register::kTorqueMax):
       if (!positive) return false;
-      ranges_.torque_max_Nm = f;
+      ranges_.torque_max_Nm = static_cast<double>(f);
       return true;
     default:
       return false;  // read-only or not simulated: no answer, as a refused write

@@ -65,7 +65,8 @@ class MitMotorBus {
   /// value differs from the configured range by more than 1e-4 (or that does not answer).
   void VerifyRanges(std::size_t motor, double timeout_s);
   /// Sends a special frame to every motor (enable, disable) or one, and waits up to `timeout_s` for their feedback;
-  /// returns the motors that did not answer.
+  /// returns the motors that did not answer. An answer to enable/disable counts once it shows the new state (a late
+  /// feedback of the last command is not taken for it), or at the deadline.
   std::vector<std::size_t> SendSpecialAndWait(proto::can::mit::Special what, double timeout_s,
                                               std::optional<std::size_t> only = std::nullopt);
 
