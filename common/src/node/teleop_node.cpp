@@ -130,15 +130,15 @@ void TeleopNode::Impl::BoundChangeRamps(Changes& changes, const PeerView& view) 
     const DofVector& offset = coupling->law_input_state().index_offset_m;
     ramp_position_m = reading.position_m;
     if (offset.size() == dof) ramp_position_m += offset;
-    changes.stiffness.ramp_s =
-        std::max(changes.stiffness.ramp_s, StiffnessRampFloor_s(coupling->law().fixture(), ramp_position_m,
-                                                                changes.stiffness.target_N_per_m, max_rate));
+    changes.stiffness.ramp_s = std::max(
+        changes.stiffness.ramp_s,
+        StiffnessRampFloor_s(coupling->law().fixture(), ramp_position_m, changes.stiffness.target_N_per_m, max_rate));
   }
   if (changes.has_gains) {
     const DofVector targets[4] = {changes.gains.kp_N_per_m, changes.gains.kd_Ns_per_m, changes.gains.kv_Ns_per_m,
                                   changes.gains.kf};
-    changes.gains.ramp_s = std::max(changes.gains.ramp_s,
-                                    GainRampFloor_s(coupling->law().config(), targets, Signals(view), max_rate));
+    changes.gains.ramp_s =
+        std::max(changes.gains.ramp_s, GainRampFloor_s(coupling->law().config(), targets, Signals(view), max_rate));
   }
 }
 
