@@ -335,7 +335,7 @@ int RunSweep(const SystemOptions& o, const SweepOptions& w) {
     title << ", K_dm " << system.gains.kdm_Ns_per_m << " K_ds " << system.gains.kds_Ns_per_m << " Ns/m";
   }
   if (variable != SweepVariable::kRateHz) title << ", " << system.rate_hz << " Hz";
-  title << (o.paper_model ? ", paper's model" : ", processes' model");
+  title << (o.paper_model ? ", paper model" : ", process model");  // no apostrophe: gnuplot's title string
   std::cerr << "teleop-analyze: " << ModelNote(o, system) << "\n";
   if (!w.no_plot) Plot(csv, w.output + ".png", variable, title.str());
   WriteSweepCsv(std::cout, variable, points);

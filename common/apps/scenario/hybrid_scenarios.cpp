@@ -203,7 +203,8 @@ void PlotContact(const std::string& prefix, const std::string& title, bool frict
     const bool ranged = depth_range_mm.second > depth_range_mm.first;
     std::ostringstream range;
     range << "[" << depth_range_mm.first << ":" << depth_range_mm.second << "]";
-    if (ranged) gp << "set yrange " << range.str() << "\n";
+    // The depth axis spans the contact, so a sub-millimetre bounce shows; the approach is off it, as the title says.
+    if (ranged) gp << "# ranges: y clipped (the approach is off the depth axis)\nset yrange " << range.str() << "\n";
     gp << "set ylabel 'depth (mm)'\nset title 'position (depth into the wall; the approach is off the axis)'\nplot '"
        << csv << "' skip 1 using 1:6 w l lc rgb '#9400d3' t 'depth', 0 w l dt 2 lc rgb 'gray' t 'surface'\n"
        << "set autoscale y\nset ylabel 'velocity (mm/s)'\nset title 'velocity'\nplot '" << csv
@@ -213,9 +214,11 @@ void PlotContact(const std::string& prefix, const std::string& title, bool frict
        << "' skip 1 using 1:8 w l lc rgb '#0072b2' t 'motors', '" << csv
        << "' skip 1 using 1:9 w l lc rgb '#e51e10' t 'brakes', '" << csv
        << "' skip 1 using 1:10 w l lc rgb '#e69f00' t 'hand'\n"
-       << (ranged ? "set xrange " + range.str() + "\n" : std::string())
-       << "set xlabel 'depth (mm)'\nset ylabel 'force (N)'\nset title 'force vs position'\nplot '" << csv
-       << "' skip 1 using 6:7 w l lc rgb '#9400d3' t 'wall (rendered)'\nunset multiplot\n";
+       << (ranged ? "# ranges: x clipped (the approach is off the depth axis)\nset xrange " + range.str() + "\n"
+                  : std::string())
+       << "set xlabel 'depth (mm)'\nset ylabel 'force (N)'\nset title 'force vs position (the approach is off the "
+          "axis)'\nplot '"
+       << csv << "' skip 1 using 6:7 w l lc rgb '#9400d3' t 'wall (rendered)'\nunset multiplot\n";
   }
   RunGnuplot(prefix + ".gp", gp.str());
 }

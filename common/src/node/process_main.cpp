@@ -246,13 +246,10 @@ int Run(const Options& o, Role role, const std::string& program) {
   sigemptyset(&action.sa_mask);
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
-  RunSummary summary = node.Run();
-  g_running_node.store(nullptr);
   // The session record's parts (deploy/teleop-session): what ran, as read at start-up.
-  summary.telemetry_csv = config.telemetry.csv_path;
-  summary.config_path = std::filesystem::absolute(o.config_path).string();
-  summary.config_yaml = ReadText(o.config_path);
-  summary.startup_analysis = verdict;
+  node.SetSessionRecord(std::filesystem::absolute(o.config_path).string(), ReadText(o.config_path), verdict);
+  const RunSummary summary = node.Run();
+  g_running_node.store(nullptr);
   return Report(summary, o.summary_json);
 }
 

@@ -312,6 +312,12 @@ RunSummary TeleopNode::Run() {
 
 RunSummary TeleopNode::Finish() { return impl_->Summarize(0.0); }
 
+void TeleopNode::SetSessionRecord(std::string config_path, std::string config_yaml, std::string startup_analysis) {
+  impl_->session_config_path = std::move(config_path);
+  impl_->session_config_yaml = std::move(config_yaml);
+  impl_->session_startup_analysis = std::move(startup_analysis);
+}
+
 void TeleopNode::Impl::SummarizeLoop(RunSummary& summary, double wall_s) const {
   const auto& st = loop.stats();
   summary.role = config.role;
@@ -406,6 +412,10 @@ RunSummary TeleopNode::Impl::Summarize(double wall_s) {
   SummarizeLoop(summary, wall_s);
   SummarizeLink(summary);
   SummarizeCoupling(summary);
+  summary.telemetry_csv = config.telemetry.csv_path;
+  summary.config_path = session_config_path;
+  summary.config_yaml = session_config_yaml;
+  summary.startup_analysis = session_startup_analysis;
   sinks.Finish(summary);  // the CSV's and the fault ring's counts
   if (summary.passivity_peer_without_energy > 0) {
     spdlog::error(

@@ -81,6 +81,7 @@ struct TeleopNode::Impl {
   double fixture_on_N_per_m = 0.0;   ///< What `fixture on` restores.
   GainSignals signals;
   DofVector ramp_position_m;  ///< The law's position for the ramp floor (preallocated).
+  std::string session_config_path, session_config_yaml, session_startup_analysis;  ///< SetSessionRecord
   bool published = false;
 };
 

@@ -72,6 +72,9 @@ class TeleopNode {
   void Step(std::uint64_t cycle, double period_s, std::int64_t now_ns) noexcept;
   /// After Step()s: deactivates the device, writes pending fault records, stops the writers and returns the summary.
   RunSummary Finish();
+  /// The session record's parts (deploy/teleop-session) the summary carries, set before Run(): what ran, as read at
+  /// start-up. They are in the summary every sink publishes (the DDS run summary equals --summary-json).
+  void SetSessionRecord(std::string config_path, std::string config_yaml, std::string startup_analysis);
   /// Where the node is in coupling to its peer (after the last cycle).
   EngagementState engagement() const noexcept;
   /// The command channel's clutch (docs/clutch.md): pressed until SetClutch(false).
