@@ -2,6 +2,8 @@
 //   [--tool-offset x,y,z] [--direction x,y,z] [--gravity x,y,z] [--json]
 // One configuration of a URDF arm through the same chain builder and model the arm backend uses
 // (common/src/device/arm; docs/arms.md, "teleop-arm"). Errors name the URDF file and the link or joint.
+#include <fmt/format.h>
+
 #include <CLI/CLI.hpp>
 #include <Eigen/Core>
 #include <cmath>
@@ -32,9 +34,9 @@ std::vector<double> ParseList(const std::string& text, const std::string& option
       values.push_back(std::stod(item, &used));
       if (used != item.size()) throw std::invalid_argument(item);
     } catch (const std::exception&) {
-      throw teleop::Error(option + ": '" + item + "' is not a number (give comma-separated numbers)");
+      throw teleop::Error(fmt::format("{}: '{}' is not a number (give comma-separated numbers)", option, item));
     }
-    if (!std::isfinite(values.back())) throw teleop::Error(option + ": '" + item + "' is not finite");
+    if (!std::isfinite(values.back())) throw teleop::Error(fmt::format("{}: '{}' is not finite", option, item));
   }
   return values;
 }
