@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <random>
 
 #include "teleop/proto/can/bus_load.hpp"
@@ -81,7 +82,7 @@ TEST(MitMotorCodec, OutOfRangeIsClampedAndFlaggedNonFiniteIsRefused) {
   r = EncodeCommand(Command{0, 0, 0, 0, std::nan("")}, kDm4310, 0x01, untouched);
   EXPECT_FALSE(r.ok);
   EXPECT_EQ(Bytes(untouched), Bytes(f));
-  r = EncodeCommand(Command{INFINITY, 0, 0, 0, 0}, kDm4310, 0x01, untouched);
+  r = EncodeCommand(Command{std::numeric_limits<double>::infinity(), 0, 0, 0, 0}, kDm4310, 0x01, untouched);
   EXPECT_FALSE(r.ok);
   MotorRanges bad = kDm4310;
   bad.torque_max_Nm = 0;
