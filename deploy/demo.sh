@@ -60,9 +60,16 @@ if [[ "${1:-}" == "--device" && "${2:-}" == "hybrid" ]]; then
   }
   shift_s=$(awk -v m="$(engaged_at "${out}/hybrid-master.csv")" -v s="$(engaged_at "${out}/hybrid-slave.csv")" \
     'BEGIN { print (m == "" || s == "") ? 0 : s - m }')
+  # The time axis ends at the last row of either side on the master's clock: a --duration 3 run ends a cycle or a few
+  # after 3 s (3.003 s on a loaded machine), and an axis cut at 3 s clips it (tests/deploy/figure_check.py).
+  last_time() {
+    awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next } { t = $col["time_s"] } END { print t }' "$1"
+  }
+  master_end_s=$(awk -v m="$(last_time "${out}/hybrid-master.csv")" -v s="$(last_time "${out}/hybrid-slave.csv")" \
+    -v shift="${shift_s}" 'BEGIN { e = (m == "") ? 3 : m; if (s != "" && s - shift > e) e = s - shift; print e }')
   {
     echo "master='${out}/hybrid-master.csv'; slave='${out}/hybrid-slave.csv'; png='${out}/demo-hybrid.png'"
-    echo "slave_shift=${shift_s}"
+    echo "slave_shift=${shift_s}; master_end=${master_end_s}"
     cat <<'GNUPLOT'
 set terminal pngcairo size 1000,650 noenhanced font ",10"
 set output png
@@ -73,8 +80,9 @@ set grid
 set key outside right top vertical reverse Left
 set lmargin 10
 set rmargin 42
-# The master's run (3 s); the slave's rows from before the master started (negative on the master clock) are left out.
-set xrange [0:3]
+# The master's run (3 s and the cycles after); the slave's rows from before the master started (negative on the
+# master clock) and after the master's end are left out.
+set xrange [0:master_end]
 set ylabel 'position y (mm)'
 plot master using 'time_s':(1e3*column('position_m_1')) with lines lw 4 lc rgb '#9ad0f5' title 'master y', \
      slave using (column('time_s') >= slave_shift ? column('time_s') - slave_shift : 1/0):(1e3*column('position_m_1')) \
