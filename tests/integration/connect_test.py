@@ -25,7 +25,7 @@ import threading
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test_utilities"))
 import teleop_keys  # noqa: E402  (tests/test_utilities)
 from teleop_process import (Failure, Processes, check, free_udp_port, relax_realtime, run_test,  # noqa: E402
-                            set_key, set_ports, write_text)
+                            set_key, set_ports, wait_for_udp_port, write_text)
 
 NEVER_CONNECTED = 5  # teleop/node/exit_codes.hpp, kExitNeverConnected
 OPTIONS = ["--duration", "20", "--connect-timeout", "1", "--status-interval", "0.3"]
@@ -95,6 +95,9 @@ def wrong_key(args, ports):
     cfg = configs(args, ports, master_key="other.key")
     with Processes() as procs:
         slave, slave_summary = start(procs, args, "slave", cfg["slave"])
+        # The master gives up after 1 s: on a loaded machine a slave not yet bound answers 'port unreachable', and
+        # the master rightly says nothing listens instead of asking for the key.
+        wait_for_udp_port(ports[1], 10)
         master, master_summary = start(procs, args, "master", cfg["master"])
         _, _, status = finish(master, master_summary, "master")
         check("hellos sent, no answer" in status[-1] and "the same key?" in status[-1], "the master asks for the key")
