@@ -229,6 +229,32 @@ TEST(MitArm, TheCycleDoesNotAllocate) {
   EXPECT_EQ(rig.r.faults, kFaultNone);
 }
 
+// control: pd: each motor runs its own PD (the joint's Kp, Kd sent as Kp/gear², Kd/gear²) to the joint's last reading
+// at zero velocity, with the arm's torque as the feed-forward; the arm still holds its weight.
+TEST(MitArm, PdControlSendsTheJointGainsThroughTheGear) {
+  ArmSection s = MitSection();
+  s.mit.control = MitControl::kPd;
+  for (MitJointConfig& j : s.mit.joints) j.kd_Nms_per_rad = 0.4;
+  s.mit.joints[6].gear_ratio = 2.0;  // joint 7 behind a 2:1 reduction
+  s.mit.joints[6].kp_Nm_per_rad = 8.0;
+  MitArmRig rig(s);
+  for (int k = 0; k < 300; ++k) rig.Cycle(Eigen::Vector3d::Zero());
+  EXPECT_EQ(rig.r.faults, kFaultNone) << rig.arm->ActuatorFaultText();
+  EXPECT_DOUBLE_EQ(rig.bus->command(0).kd_Nm_s_per_rad, 0.4);
+  EXPECT_DOUBLE_EQ(rig.bus->command(6).kd_Nm_s_per_rad, 0.1);
+  EXPECT_DOUBLE_EQ(rig.bus->command(6).kp_Nm_per_rad, 2.0);
+  EXPECT_DOUBLE_EQ(rig.bus->command(6).velocity_rad_per_s, 0.0);
+  // The target is the joint's reading, on the motor's side of the reduction.
+  JointSample j7;
+  rig.bus->joint(6).Read(j7);
+  EXPECT_NEAR(rig.bus->command(6).position_rad, 2.0 * j7.position, 1e-12);
+  EXPECT_NEAR(rig.plant->motor(6).position_rad(), 2.0 * rig.plant->arm().q()[6], 1e-9);
+  // Held still: within a few steps of the 16-bit position of the start.
+  JointVector start(7);
+  for (int i = 0; i < 7; ++i) start[i] = Start()[static_cast<std::size_t>(i)];
+  EXPECT_LT((rig.plant->arm().q() - start).cwiseAbs().maxCoeff(), 5e-3);
+}
+
 // ---- the YAML section -----------------------------------------------------------------------------------------
 
 std::any ReadSection(const std::string& yaml) {
