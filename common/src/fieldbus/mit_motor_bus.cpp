@@ -90,6 +90,13 @@ void MitMotorBus::Drain() noexcept {
   while (port_.Read(frame)) Dispatch(frame);
 }
 
+bool MitMotorBus::AllAnswered() const noexcept {
+  for (const char a : awaiting_) {
+    if (a != 0) return false;
+  }
+  return true;
+}
+
 void MitMotorBus::SetCommand(std::size_t motor, const mit::Command& command) noexcept {
   if (motor < commands_.size()) commands_[motor] = command;
 }

@@ -34,18 +34,24 @@ void SimulatedMitMotor::InjectFault(mit::MotorStatus status) noexcept {
   status_ = injected_;
 }
 
+double SimulatedMitMotor::OutputTorque() noexcept {
+  double tau = 0;
+  if (enabled() && control_mode_ == mit::kControlModeMit) {
+    tau = command_.kp_Nm_per_rad * (command_.position_rad - position_rad()) +
+          command_.kd_Nm_s_per_rad * (command_.velocity_rad_per_s - omega_rad_per_s_) + command_.torque_Nm;
+    tau = std::clamp(tau, -config_.peak_torque_Nm, config_.peak_torque_Nm);
+  }
+  torque_Nm_ = tau;
+  return tau;
+}
+
 void SimulatedMitMotor::Integrate(double dt_s) noexcept {
+  if (config_.external_shaft) return;  // the owner integrates the shaft and asks for OutputTorque
   const double h = config_.integration_step_s;
   remainder_s_ += dt_s;
   while (remainder_s_ >= h) {
     remainder_s_ -= h;
-    double tau = 0;
-    if (enabled() && control_mode_ == mit::kControlModeMit) {
-      tau = command_.kp_Nm_per_rad * (command_.position_rad - position_rad()) +
-            command_.kd_Nm_s_per_rad * (command_.velocity_rad_per_s - omega_rad_per_s_) + command_.torque_Nm;
-      tau = std::clamp(tau, -config_.peak_torque_Nm, config_.peak_torque_Nm);
-    }
-    torque_Nm_ = tau;
+    const double tau = OutputTorque();
     const double drive = tau + load_torque_Nm_ - config_.viscous_Nms_per_rad * omega_rad_per_s_;
     // Stiction: at rest, or slow enough that friction takes the rest of the momentum within this step.
     const double margin_Nm = config_.coulomb_Nm - std::abs(drive);

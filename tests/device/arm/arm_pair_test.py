@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The arm rigs as two real processes over UDP (deploy/configs/arm, docs/arms.md): a simulated stylus master (or a
-7-joint leader) pushed down by its simulated operator, a simulated 7-joint slave with a plane fixture 3 cm below its
+7-joint leader; or, --rig emulated with --configs deploy/configs/arm-mit, the 7-joint leader on simulated MIT motors) pushed down by its simulated operator, a simulated 7-joint slave with a plane fixture 3 cm below its
 working point. Through a UDP relay that cuts both directions for 0.5 s once the slave rests on the plane. Checks
 from the telemetry and prints:
 
@@ -117,7 +117,7 @@ def main():
     ap.add_argument("--slave", required=True)
     ap.add_argument("--configs", required=True)
     ap.add_argument("--robots", required=True)
-    ap.add_argument("--rig", required=True, choices=["stylus", "twin"])
+    ap.add_argument("--rig", required=True, choices=["stylus", "twin", "emulated"])  # emulated: deploy/configs/arm-mit
     ap.add_argument("--workdir", required=True)
     args = ap.parse_args()
     try:

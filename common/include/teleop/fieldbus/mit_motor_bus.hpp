@@ -78,6 +78,8 @@ class MitMotorBus {
   bool Exchange() noexcept;
   /// Reads pending frames only (no command out): the tools' listen loops.
   void Drain() noexcept;
+  /// Every motor has answered the command of the last Exchange (a cycle that waits for the replies stops here).
+  [[nodiscard]] bool AllAnswered() const noexcept;
   /// Sends a special frame (disable on a fault, in the safe state) to one motor, outside the command stream.
   void SendSpecial(std::size_t motor, proto::can::mit::Special what) noexcept;
 

@@ -28,6 +28,9 @@ struct SimulatedMitMotorConfig {
   std::uint32_t firmware = 0x5013;   ///< Register 14.
   double temperature_C = 30.0;       ///< MOS and rotor temperature reported while no fault is injected.
   double integration_step_s = 1e-4;
+  /// The shaft is driven from outside (a simulated arm's joint, docs/arms.md "MIT motors"): Step integrates nothing;
+  /// the owner sets the shaft's state (SetShaft) and takes the motor's torque at it (OutputTorque).
+  bool external_shaft = false;
 };
 
 class SimulatedMitMotor {
@@ -50,6 +53,17 @@ class SimulatedMitMotor {
   void SetSilent(bool silent) noexcept { silent_ = silent; }
   /// An external torque on the shaft (the arm's link, the hand).
   void SetLoadTorque(double torque_Nm) noexcept { load_torque_Nm_ = torque_Nm; }
+  /// The MOS and rotor temperature it reports while no over-temperature fault is injected (°C).
+  void SetTemperature(double temperature_C) noexcept { config_.temperature_C = temperature_C; }
+
+  /// External shaft only: the shaft's position (rad, before the zero offset) and velocity (rad/s) now.
+  void SetShaft(double position_rad, double velocity_rad_per_s) noexcept {
+    theta_rad_ = position_rad + zero_offset_rad_;
+    omega_rad_per_s_ = velocity_rad_per_s;
+  }
+  /// The torque the motor applies at the shaft's state under its latest command: its PD plus the feed-forward,
+  /// clamped to the peak torque; 0 while disabled or faulted (N·m). Kept for the feedback's torque field.
+  double OutputTorque() noexcept;
 
   [[nodiscard]] double position_rad() const noexcept { return theta_rad_ - zero_offset_rad_; }
   [[nodiscard]] double velocity_rad_per_s() const noexcept { return omega_rad_per_s_; }

@@ -3,15 +3,19 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <map>
 #include <memory>
 
 #include "arm_keys.hpp"
 #include "arm_section.hpp"
+#include "simulated_mit_arm.hpp"
 #include "teleop/config/key_table.hpp"
 #include "teleop/config/yaml_reader.hpp"
 #include "teleop/device/backend_key_table.hpp"
 #include "teleop/device/device_registry.hpp"
 #include "teleop/error.hpp"
+#include "teleop/fieldbus/can_port_yaml.hpp"
+#include "teleop/fieldbus/mit_motor_models.hpp"
 
 namespace teleop::device::arm {
 namespace {
@@ -67,6 +71,80 @@ void ReadSimulation(const Field& f, SimulatedArmConfig& sim, std::vector<double>
   sim.environment_damping_Ns_per_m = config::ReadNumber(map, k::kSimEnvDamping);
 }
 
+MitJointConfig ReadMitJoint(const Field& f, const std::map<std::string, fieldbus::MitMotorModel>& models,
+                            const std::string& models_file) {
+  const Map map(
+      f, {"model", "esc_id", "master_id", "sign", "offset_rad", "gear_ratio", "kp_Nm_per_rad", "kd_Nms_per_rad"});
+  MitJointConfig j;
+  const Field model = map.Required("model");
+  j.model = model.AsString();
+  try {
+    j.motor = fieldbus::FindMitMotorModel(models, j.model, models_file);
+  } catch (const Error& e) {
+    model.Fail(e.what());
+  }
+  j.esc_id = static_cast<std::uint32_t>(config::IntInRange(map.Required("esc_id"), 1, 0x7FE));
+  j.master_id = static_cast<std::uint32_t>(config::IntInRange(map.Required("master_id"), 1, 0x7FE));
+  if (auto v = map.Optional("sign")) {
+    j.sign = config::Finite(*v);
+    if (j.sign != 1.0 && j.sign != -1.0) v->Fail("must be 1 or -1");
+  }
+  if (auto v = map.Optional("offset_rad")) j.offset_rad = config::Finite(*v);
+  if (auto v = map.Optional("gear_ratio")) j.gear_ratio = config::Positive(*v, "");
+  if (auto v = map.Optional("kp_Nm_per_rad")) j.kp_Nm_per_rad = config::NonNegative(*v, "N·m/rad");
+  if (auto v = map.Optional("kd_Nms_per_rad")) j.kd_Nms_per_rad = config::NonNegative(*v, "N·m·s/rad");
+  return j;
+}
+
+void ReadMit(const Field& f, MitJointBusConfig& mit) {
+  const Map map(f, {"bus", "can", "fd", "nominal_bitrate_bit_per_s", "data_bitrate_bit_per_s", "max_bus_load",
+                    "rate_hz", "control", "missing_limit", "answer_timeout_ms", "motor_timeout_ms", "reply_wait_us",
+                    "temperature_warning_C", "temperature_fault_C", "models_file", "joints"});
+  const Field bus = map.Required("bus");
+  const std::string bus_kind = bus.AsString();
+  if (bus_kind == "simulated") {
+    mit.simulated = true;
+  } else if (bus_kind == "can") {
+    mit.simulated = false;
+    fieldbus::ReadCanPortSection(map.Required("can"), mit.can);
+  } else {
+    bus.Fail("must be simulated (the simulated MIT arm in this process) or can (the `can` section's bus)");
+  }
+  if (auto v = map.Optional("can"); v && mit.simulated) v->Fail("a bus section, but bus is simulated; remove it");
+  if (auto v = map.Optional("fd")) mit.fd = v->AsBool();
+  if (auto v = map.Optional("nominal_bitrate_bit_per_s")) mit.nominal_bitrate_bit_per_s = config::Positive(*v, "bit/s");
+  if (auto v = map.Optional("data_bitrate_bit_per_s")) mit.data_bitrate_bit_per_s = config::Positive(*v, "bit/s");
+  if (auto v = map.Optional("max_bus_load")) mit.max_bus_load = config::InRange(*v, 0.01, 1.0, "");
+  if (auto v = map.Optional("rate_hz")) mit.rate_hz = config::InRange(*v, 1.0, 100000.0, "Hz");
+  if (auto v = map.Optional("control")) {
+    const std::string c = v->AsString();
+    if (c == "torque") {
+      mit.control = MitControl::kTorque;
+    } else if (c == "pd") {
+      mit.control = MitControl::kPd;
+    } else {
+      v->Fail("must be torque (Kp = Kd = 0, the arm's torque as the feed-forward) or pd (the motor's own PD)");
+    }
+  }
+  if (auto v = map.Optional("missing_limit")) mit.missing_limit = config::IntInRange(*v, 1, 1000);
+  if (auto v = map.Optional("answer_timeout_ms")) mit.answer_timeout_ms = config::InRange(*v, 1.0, 10000.0, "ms");
+  if (auto v = map.Optional("motor_timeout_ms")) mit.motor_timeout_ms = config::InRange(*v, 0.0, 3000.0, "ms");
+  if (auto v = map.Optional("reply_wait_us")) mit.reply_wait_us = config::InRange(*v, 0.0, 10000.0, "µs");
+  if (auto v = map.Optional("temperature_warning_C")) mit.temperature_warning_C = config::Finite(*v);
+  if (auto v = map.Optional("temperature_fault_C")) mit.temperature_fault_C = config::Finite(*v);
+  std::string models_file = fieldbus::DefaultMitMotorModelsPath();
+  if (auto v = map.Optional("models_file")) models_file = config::BesideConfigFile(f.file(), v->AsString());
+  const auto models = fieldbus::ReadMitMotorModels(models_file);
+  const Field joints = map.Required("joints");
+  for (const Field& item : joints.AsList()) mit.joints.push_back(ReadMitJoint(item, models, models_file));
+  if (mit.joints.empty()) joints.Fail("needs one motor per joint");
+  try {
+    CheckMitBusLoad(mit, "device.arm.mit");
+  } catch (const Error& e) {
+    joints.Fail(e.what());
+  }
+}
+
 ArmSection ReadArm(const Field& f, int dof) {
   namespace k = arm_keys;
   const Map map(f, {"urdf",
@@ -89,6 +167,7 @@ ArmSection ReadArm(const Field& f, int dof) {
                     "friction_coulomb_Nm",
                     "joint_limits",
                     "actuators",
+                    "mit",
                     "simulation"});
   if (dof != 3) {
     f.Fail("the arm backend is a task-space device of dof 3 (the tool point's x, y, z); the config's dof is " +
@@ -117,8 +196,13 @@ ArmSection ReadArm(const Field& f, int dof) {
   if (auto v = map.Optional("joint_limits")) {
     for (const Field& item : v->AsList()) s.chain.limit_overrides.push_back(ReadLimit(item));
   }
-  (void)config::ReadChoice(map, k::kActuators);  // simulated: the one kind so far
+  s.mit_actuators = config::ReadChoice(map, k::kActuators) == 1;
   if (auto v = map.Optional("simulation")) ReadSimulation(*v, s.simulation, s.initial_q_rad);
+  if (s.mit_actuators) {
+    ReadMit(map.Required("mit"), s.mit);
+  } else if (auto v = map.Optional("mit")) {
+    v->Fail("an MIT motors section, but actuators is simulated; remove it or set actuators: mit");
+  }
   return s;
 }
 
@@ -143,12 +227,39 @@ std::unique_ptr<SimulatedArm> MakeSimulatedArm(const ArmSection& section) {
   return std::make_unique<SimulatedArm>(std::move(chain), section.gravity_B(), sim);
 }
 
+std::unique_ptr<MitJointBus> MakeMitJointBus(const ArmSection& section) {
+  const ArmChain chain = BuildArmChain(section.chain);
+  if (static_cast<int>(section.mit.joints.size()) != chain.joint_count()) {
+    throw Error("device.arm.mit.joints has " + std::to_string(section.mit.joints.size()) + " motors; the chain '" +
+                section.chain.base_link + "' to '" + section.chain.tool_link + "' in '" + section.chain.urdf_file +
+                "' has " + std::to_string(chain.joint_count()) + " joints");
+  }
+  std::vector<std::string> names;
+  for (const JointSpec& j : chain.joints) names.push_back(j.name);
+  if (section.mit.simulated) {
+    ArmSection plant_section = section;
+    plant_section.simulation.substeps = 1;  // the plant steps the arm once per its own substep
+    auto plant =
+        std::make_unique<SimulatedMitArm>(MakeSimulatedArm(plant_section), section.mit, section.simulation.substeps);
+    auto port = plant->MakeHostPort();
+    return std::make_unique<MitJointBus>(section.mit, std::move(plant), std::move(port), names);
+  }
+  auto port = fieldbus::OpenCanPort(section.mit.can, MitJointBus::ReceiveOptions(section.mit));
+  return std::make_unique<MitJointBus>(section.mit, nullptr, std::move(port), names);
+}
+
 std::unique_ptr<ArmDevice> MakeArmDevice(const ArmSection& section) {
   auto model = std::make_unique<ArmModel>(BuildArmChain(section.chain), section.gravity_B());
   ArmDeviceConfig device = section.device;
   device.workspace_origin_m = section.workspace_origin_m;
   device.torque.posture_q = ToJoints(section.posture_q_rad, model->joint_count(), section, "posture_q_rad");
-  return std::make_unique<ArmDevice>(std::move(model), MakeSimulatedArm(section), device);
+  std::unique_ptr<JointBus> bus;
+  if (section.mit_actuators) {
+    bus = MakeMitJointBus(section);
+  } else {
+    bus = MakeSimulatedArm(section);
+  }
+  return std::make_unique<ArmDevice>(std::move(model), std::move(bus), device);
 }
 
 DeviceBackend ArmBackend() {
@@ -169,6 +280,31 @@ DeviceBackend ArmBackend() {
       {"joint_limits[].max_effort_Nm", "torque limit (N·m), > 0: every torque is clamped to it"},
       {"simulation", "the simulated arm (actuators: simulated)"},
       {"simulation.initial_q_rad", "start configuration, one angle per joint (rad); default the middle of each range"},
+      {"mit", "MIT-mode CAN motors (actuators: mit; docs/arms.md, \"MIT motors\")"},
+      {"mit.bus", "simulated (the simulated arm on simulated MIT motors, in this process) | can (the mit.can bus)"},
+      {"mit.can", "the bus: medium (socketcan | emulated), interface, bus, connect_timeout_ms (docs/can.md)"},
+      {"mit.fd", "CAN FD frames with the bit-rate switch (default true)"},
+      {"mit.nominal_bitrate_bit_per_s", "the bus-load budget's arbitration bit rate (default 1000000)"},
+      {"mit.data_bitrate_bit_per_s", "the bus-load budget's FD data bit rate (default 5000000)"},
+      {"mit.max_bus_load", "the budget: a rig above this fraction of the bus is refused (default 0.8)"},
+      {"mit.rate_hz", "the cycle rate the budget is computed at: the process's rate_hz (Hz, default 1000)"},
+      {"mit.control", "torque (default: Kp = Kd = 0, the arm's torque as the feed-forward) | pd (the motor's PD)"},
+      {"mit.missing_limit", "exchanges in a row without a reply that fault the joint (default 10)"},
+      {"mit.answer_timeout_ms", "set-up: how long a register read, enable or disable waits (default 20)"},
+      {"mit.motor_timeout_ms", "each motor's own CAN timeout, register 9: a dead host leaves it disabled (default 50)"},
+      {"mit.reply_wait_us", "a CAN bus: how long each exchange waits for its replies (default 400)"},
+      {"mit.temperature_warning_C", "MOS or rotor temperature for the arm warning kArmWarningTemperature (default 70)"},
+      {"mit.temperature_fault_C", "MOS or rotor temperature that faults the joint (default 100)"},
+      {"mit.models_file", "the motor models table (default the shipped deploy/motors/mit-models.yaml)"},
+      {"mit.joints", "one motor per joint in the chain's order"},
+      {"mit.joints[].model", "the models table's name (DM-J4310, DM-J4340, DM-J8009, ...)"},
+      {"mit.joints[].esc_id", "the motor's CAN id (1..0x7FE)"},
+      {"mit.joints[].master_id", "the id it answers on (1..0x7FE, unique on the bus)"},
+      {"mit.joints[].sign", "1 or -1: the motor turns with or against the URDF joint's axis (default 1)"},
+      {"mit.joints[].offset_rad", "the joint's position when the motor reads 0 (rad, default 0)"},
+      {"mit.joints[].gear_ratio", "motor turns per joint turn, > 0 (default 1)"},
+      {"mit.joints[].kp_Nm_per_rad", "control: pd, joint side (N·m/rad)"},
+      {"mit.joints[].kd_Nms_per_rad", "control: pd, joint side (N·m·s/rad)"},
   };
   AdoptKeyTable(b, arm_keys::All());
   b.section_required = true;

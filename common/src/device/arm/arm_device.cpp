@@ -3,6 +3,7 @@
 #include "arm_device.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <utility>
 
@@ -30,6 +31,7 @@ ArmDevice::ArmDevice(std::unique_ptr<ArmModel> model, std::unique_ptr<JointBus> 
 }
 
 void ArmDevice::Activate() {
+  first_fault_joint_ = -1;
   bus_->Activate();
   hold_captured_ = false;  // the orientation to hold is the one at the first Read after activation
 }
@@ -41,12 +43,22 @@ void ArmDevice::Deactivate() noexcept {
 
 void ArmDevice::Read(Reading& out) noexcept {
   std::uint32_t arm = kArmFaultNone;
+  std::uint32_t arm_warnings = kArmWarningNone;
   for (int i = 0; i < n_; ++i) {
     bus_->joint(i).Read(sample_);
     q_[i] = sample_.position;
     v_[i] = sample_.velocity;
     if (!std::isfinite(sample_.position) || !std::isfinite(sample_.velocity)) arm |= kArmFaultNonFinite;
-    if (sample_.fault) arm |= kArmFaultActuator;
+    if (sample_.temperature_warning) arm_warnings |= kArmWarningTemperature;
+    if (sample_.fault) {
+      arm |= kArmFaultActuator;
+      if (sample_.fault_kind == JointFaultKind::kNoReply) arm |= kArmFaultNoReply;
+      if (sample_.fault_kind == JointFaultKind::kOverTemperature) arm |= kArmFaultOverTemperature;
+      if (first_fault_joint_ < 0) {
+        first_fault_joint_ = i;
+        first_fault_code_ = sample_.fault_code;
+      }
+    }
     const JointSpec& j = model_->arm().joints[static_cast<std::size_t>(i)];
     if (j.bounded && (sample_.position < j.lower || sample_.position > j.upper)) arm |= kArmFaultJointLimit;
   }
@@ -65,8 +77,11 @@ void ArmDevice::Read(Reading& out) noexcept {
   if (arm & (kArmFaultNonFinite | kArmFaultModel)) faults |= kFaultNonFiniteSensor;
   if (arm & kArmFaultJointLimit) faults |= kFaultOutOfRange;
   if (arm & kArmFaultSingular) faults |= kFaultSingular;
-  if (arm & kArmFaultActuator) faults |= kFaultDriver;
+  if (arm & kArmFaultNoReply) faults |= kFaultCommunication;
+  if (arm & kArmFaultOverTemperature) faults |= kFaultOvertemperature;
+  if ((arm & kArmFaultActuator) && !(arm & (kArmFaultNoReply | kArmFaultOverTemperature))) faults |= kFaultDriver;
   faults_ = faults;
+  arm_warnings_ = arm_warnings;
   command_faults_ = kFaultNone;
 
   out.position_m.resize(3);
@@ -108,6 +123,15 @@ void ArmDevice::Write(const Command& command) noexcept {
     return;
   }
   Apply(Eigen::Vector3d(command.force_N[0], command.force_N[1], command.force_N[2]), true);
+}
+
+std::string ArmDevice::ActuatorFaultText() const {
+  if (first_fault_joint_ < 0) return {};
+  char code[16];
+  std::snprintf(code, sizeof code, "0x%X", first_fault_code_);
+  return "joint " + std::to_string(first_fault_joint_ + 1) + " '" +
+         model_->arm().joints[static_cast<std::size_t>(first_fault_joint_)].name +
+         "': " + std::string(bus_->FaultName(first_fault_code_)) + " (code " + code + ")";
 }
 
 void ArmDevice::Update(double period_s) noexcept { bus_->Exchange(period_s); }

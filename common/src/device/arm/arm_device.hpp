@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "arm_model.hpp"
 #include "arm_torque.hpp"
@@ -28,8 +29,16 @@ enum ArmFaultBits : std::uint32_t {
   kArmFaultJointLimit = 1u << 1,
   kArmFaultSingular = 1u << 2,
   kArmFaultActuator = 1u << 3,
-  kArmFaultModel = 1u << 4,    ///< KDL could not evaluate the model at q.
-  kArmFaultCommand = 1u << 5,  ///< A command of the wrong size or non-finite (replaced by zero force).
+  kArmFaultModel = 1u << 4,            ///< KDL could not evaluate the model at q.
+  kArmFaultCommand = 1u << 5,          ///< A command of the wrong size or non-finite (replaced by zero force).
+  kArmFaultNoReply = 1u << 6,          ///< An actuator stopped answering on its bus (with kArmFaultActuator).
+  kArmFaultOverTemperature = 1u << 7,  ///< An actuator reports over-temperature (with kArmFaultActuator).
+};
+
+/// The arm's own warnings (the node's WarningBits have no temperature bit): arm_warnings().
+enum ArmWarningBits : std::uint32_t {
+  kArmWarningNone = 0,
+  kArmWarningTemperature = 1u << 0,  ///< An actuator reports a temperature at or above its warning threshold.
 };
 
 struct ArmDeviceConfig {
@@ -57,6 +66,11 @@ class ArmDevice final : public Device {
 
   // Inspection (tests, telemetry).
   std::uint32_t arm_faults() const noexcept { return arm_faults_; }
+  /// ArmWarningBits of the last Read.
+  std::uint32_t arm_warnings() const noexcept { return arm_warnings_; }
+  /// The first actuator fault since Activate (or construction), by name: "joint 4 'joint4': coil over-temperature
+  /// (code 0xC)"; empty when none. Not for the cycle (it allocates).
+  std::string ActuatorFaultText() const;
   const JointVector& q() const noexcept { return q_; }
   const ArmModel& model() const noexcept { return *model_; }
   const ArmTorque& torque() const noexcept { return torque_; }
@@ -76,9 +90,12 @@ class ArmDevice final : public Device {
   bool model_valid_ = false;
   bool hold_captured_ = false;
   std::uint32_t arm_faults_ = kArmFaultNone;
+  int first_fault_joint_ = -1;  ///< Latched at the first actuator fault (ActuatorFaultText).
+  std::uint32_t first_fault_code_ = 0;
   std::uint32_t faults_ = kFaultNone;
   std::uint32_t command_faults_ = kFaultNone;
   std::uint32_t warnings_ = kWarningNone;
+  std::uint32_t arm_warnings_ = kArmWarningNone;
   Eigen::Vector3d rendered_N_ = Eigen::Vector3d::Zero();
 };
 

@@ -192,8 +192,9 @@ inline const KeySpec kActuators = [] {
             KeyRange::kFinite,
             true,
             0.0,
-            "The joint actuators: simulated (the simulated arm of the same URDF)."};
-  s.choices = {"simulated"};
+            "The joint actuators: simulated (the simulated arm of the same URDF) or mit (MIT-mode CAN motors, the mit "
+            "section)."};
+  s.choices = {"simulated", "mit"};
   return s;
 }();
 inline const KeySpec kSimViscous = [] {

@@ -8,6 +8,7 @@
 
 #include "arm_chain.hpp"
 #include "arm_device.hpp"
+#include "mit_joint_bus.hpp"
 #include "simulated_arm.hpp"
 
 namespace teleop::device::arm {
@@ -18,7 +19,9 @@ struct ArmSection {
   double gravity_m_per_s2 = 9.81;                                ///< Along -z of the base frame.
   ArmDeviceConfig device;                                        ///< The torque law and the singularity bound.
   std::vector<double> posture_q_rad;                             ///< Empty: the middle of each joint's range.
-  SimulatedArmConfig simulation;                                 ///< actuators: simulated.
+  SimulatedArmConfig simulation;  ///< actuators: simulated (and the plant of actuators: mit with mit.bus simulated).
+  bool mit_actuators = false;     ///< actuators: mit.
+  MitJointBusConfig mit;          ///< actuators: mit.
   std::vector<double> initial_q_rad;  ///< The simulated arm's start; empty: the middle of each joint's range.
 
   Eigen::Vector3d gravity_B() const { return {0.0, 0.0, -gravity_m_per_s2}; }
@@ -30,5 +33,9 @@ std::unique_ptr<ArmDevice> MakeArmDevice(const ArmSection& section);
 
 /// The simulated arm of a section on its own (tests, scenarios).
 std::unique_ptr<SimulatedArm> MakeSimulatedArm(const ArmSection& section);
+
+/// The joint bus of a section with actuators: mit: on its CAN port, or (mit.simulated) on the simulated MIT arm of
+/// the section's simulation.
+std::unique_ptr<MitJointBus> MakeMitJointBus(const ArmSection& section);
 
 }  // namespace teleop::device::arm

@@ -10,8 +10,16 @@
 
 #include <cstdint>
 #include <limits>
+#include <string_view>
 
 namespace teleop::device::arm {
+
+/// What kind of fault an actuator reports (the arm device maps it to the node's fault bits).
+enum class JointFaultKind : std::uint8_t {
+  kDriver,           ///< The drive's own fault (kFaultDriver).
+  kNoReply,          ///< It stopped answering on its bus (kFaultCommunication).
+  kOverTemperature,  ///< Its MOS or coil is too hot (kFaultOvertemperature).
+};
 
 /// One joint as its actuator reports it, read once per cycle.
 struct JointSample {
@@ -19,8 +27,10 @@ struct JointSample {
   double velocity = 0.0;   ///< rad/s (m/s).
   double torque_Nm = 0.0;  ///< The torque the actuator reports applying (N·m; N), or the command echoed.
   double temperature_C = std::numeric_limits<double>::quiet_NaN();  ///< NaN: the actuator has no sensor.
-  bool fault = false;            ///< The actuator reports a fault (it no longer renders commands).
-  std::uint32_t fault_code = 0;  ///< The actuator's own code when `fault` (e.g. an MIT motor's error nibble).
+  bool fault = false;  ///< The actuator reports a fault (it no longer renders commands).
+  JointFaultKind fault_kind = JointFaultKind::kDriver;  ///< When `fault`.
+  std::uint32_t fault_code = 0;      ///< The actuator's own code when `fault` (e.g. an MIT motor's error nibble).
+  bool temperature_warning = false;  ///< At or above the actuator's warning temperature.
 };
 
 /// One joint's motor and drive. Called on the real-time thread: no allocation, no blocking, no exceptions.
@@ -36,6 +46,9 @@ class JointActuator {
   /// The torque for the coming period (N·m; N), already clamped by the arm to the joint's limit. Sent at the next
   /// JointBus::Exchange.
   virtual void WriteTorque(double torque_Nm) noexcept = 0;
+  /// A position and velocity target for an actuator that runs its own PD (an MIT motor with `control: pd`); the
+  /// others ignore it. Sent at the next JointBus::Exchange with the torque as the feed-forward.
+  virtual void WriteTarget(double /*position*/, double /*velocity*/) noexcept {}
 };
 
 /// The arm's joints and the bus that carries them: one exchange per cycle, in one named place (Exchange).
@@ -57,6 +70,8 @@ class JointBus {
   /// After every joint's WriteTorque: sends the torques and receives the next samples (a driver), or integrates the
   /// dynamics over `period_s` under the written torques (a simulation).
   virtual void Exchange(double period_s) noexcept = 0;
+  /// The name of an actuator's fault code (JointSample::fault_code), for messages: a static string.
+  virtual std::string_view FaultName(std::uint32_t /*fault_code*/) const noexcept { return "actuator fault"; }
 };
 
 }  // namespace teleop::device::arm
