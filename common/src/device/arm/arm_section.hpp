@@ -8,6 +8,7 @@
 
 #include "arm_chain.hpp"
 #include "arm_device.hpp"
+#include "arm_sweep.hpp"
 #include "simulated_arm.hpp"
 
 namespace teleop::device::arm {
@@ -20,6 +21,7 @@ struct ArmSection {
   std::vector<double> posture_q_rad;                             ///< Empty: the middle of each joint's range.
   SimulatedArmConfig simulation;                                 ///< actuators: simulated.
   std::vector<double> initial_q_rad;  ///< The simulated arm's start; empty: the middle of each joint's range.
+  FixtureSweepConfig fixture_sweep;   ///< The start-up check's configurations near a fixture plane.
 
   Eigen::Vector3d gravity_B() const { return {0.0, 0.0, -gravity_m_per_s2}; }
 };
