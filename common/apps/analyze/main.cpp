@@ -382,6 +382,14 @@ int RunCheck(const SystemOptions& o, const CLI::App& app, const std::string& con
       std::cout << config_path << " axis " << axis << ": " << check.message << "\n";
     }
   }
+  if (!o.json && report.sweep) {
+    const FixtureCheck& check = report.sweep->check;
+    std::cout << config_path << " over the arm's configurations near the fixture (teleop-arm check --config): "
+              << (check.stable ? "stable" : "UNSTABLE") << ", predicted limit "
+              << check.limit.max_stable_stiffness_N_per_m << " N/m at " << report.sweep->worst.where
+              << ", apparent mass " << report.sweep->worst.mass_kg << " kg, damping "
+              << report.sweep->worst.damping_Ns_per_m << " N·s/m\n";
+  }
   if (!o.json && !st.check) {
     std::cout << config_path << ": note: stability.check is false, the process will start without this check\n";
   }

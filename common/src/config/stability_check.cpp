@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <optional>
 #include <sstream>
 
 #include "teleop/analysis/human_bounds.hpp"
@@ -227,6 +229,7 @@ std::string StabilityNotApplicable(const ProcessConfig& config) {
 
 bool StabilityReport::stable() const noexcept {
   if (!applicable()) return true;
+  if (sweep && !sweep->check.stable) return false;
   for (const analysis::FixtureCheck& check : axes) {
     if (!check.stable) return false;
   }
@@ -246,6 +249,68 @@ int StabilityReport::worst_axis() const noexcept {
   }
   return static_cast<int>(worst);
 }
+
+namespace {
+
+/// The device's sweep over the configurations near each fixture plane (ConfigurationSweep), or nothing.
+std::optional<ConfigurationSweep> SweepConfigurations(const ProcessConfig& config,
+                                                      std::span<const analysis::HumanModel> humans) {
+  const control::ForbiddenRegionFixture::Config& fixture = config.law.fixture;
+  const StabilityConfig& st = config.stability;
+  if (!(fixture.stiffness_N_per_m > 0.0) || fixture.plane_count == 0) return std::nullopt;
+  if (st.device.mass_kg && st.device.damping_Ns_per_m) return std::nullopt;  // the config's model wins
+  const device::DeviceBackend* backend = device::FindDevice(config.device.backend);
+  if (backend == nullptr || !backend->sweep) return std::nullopt;
+  const auto start = std::chrono::steady_clock::now();
+  const FixtureSide side = FixtureSideOf(config.role);
+  std::optional<ConfigurationSweep> result;
+  double smallest = std::numeric_limits<double>::infinity();
+  SampledTeleoperator worst_model;
+  int analysed = 0;
+  std::string summaries;
+  for (int p = 0; p < fixture.plane_count; ++p) {
+    const control::FixturePlane& plane = fixture.planes[static_cast<std::size_t>(p)];
+    const device::AnalysisSweep sweep = backend->sweep(config.device, plane.normal, plane.offset_m);
+    if (sweep.configurations.empty() && sweep.summary.empty()) continue;
+    summaries += (summaries.empty() ? "" : "; ") + ("plane " + std::to_string(p) + ": " + sweep.summary);
+    int axis = 0;
+    plane.normal.cwiseAbs().maxCoeff(&axis);
+    const SampledTeleoperator base = StabilityModel(config, axis);
+    for (const device::AnalysisConfiguration& c : sweep.configurations) {
+      SampledTeleoperator model = base;
+      (config.role == Role::kMaster ? model.master : model.slave) = {c.mass_kg, c.damping_Ns_per_m};
+      // The ranking to 1 %; the worst configuration's limit is then found to the default 0.1 % by CheckFixture.
+      analysis::LimitOptions options;
+      options.relative_tolerance = 1e-2;
+      const analysis::StabilityLimit limit = analysis::FindMaxStableStiffness(model, side, humans, options);
+      ++analysed;
+      if (!result || limit.max_stable_stiffness_N_per_m < smallest) {
+        smallest = limit.max_stable_stiffness_N_per_m;
+        if (!result) result.emplace();
+        result->plane = p;
+        result->axis = axis;
+        result->worst = c;
+        worst_model = model;
+      }
+    }
+  }
+  if (!result) return std::nullopt;
+  result->summary = summaries;
+  result->analysed = analysed;
+  result->check = analysis::CheckFixture(worst_model, side, humans);
+  result->elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+std::string DescribeWorstConfiguration(const ConfigurationSweep& s) {
+  std::ostringstream out;
+  out << "at the worst of " << s.analysed << " configurations near fixture plane " << s.plane << ": " << s.worst.where
+      << ", apparent mass " << Short(s.worst.mass_kg) << " kg and damping " << Short(s.worst.damping_Ns_per_m)
+      << " N·s/m along the normal (" << s.summary << "; " << Whole(s.elapsed_ms) << " ms)";
+  return out.str();
+}
+
+}  // namespace
 
 StabilityReport CheckProcessStability(const ProcessConfig& config, std::span<const analysis::HumanModel> humans) {
   const auto start = std::chrono::steady_clock::now();
@@ -272,6 +337,7 @@ StabilityReport CheckProcessStability(const ProcessConfig& config, std::span<con
     if (!reused) report.axes.push_back(analysis::CheckFixture(model, FixtureSideOf(config.role), humans));
     models.push_back(model);
   }
+  report.sweep = SweepConfigurations(config, humans);
   report.elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return report;
 }
@@ -298,10 +364,31 @@ std::string DescribePass(const ProcessConfig& config, const StabilityReport& rep
   out << "; worst damping ratio " << Short(c.at_configured.min_damping_ratio) << " for operator "
       << Operator(c.at_configured.human) << "; " << Assumptions(config, StabilityModel(config, axis), report.operators)
       << "; " << Whole(report.elapsed_ms) << " ms";
+  if (report.sweep) {
+    const analysis::FixtureCheck& w = report.sweep->check;
+    out << "; over the arm's configurations: predicted limit " << Whole(w.limit.max_stable_stiffness_N_per_m) << " N/m "
+        << DescribeWorstConfiguration(*report.sweep);
+  }
   return out.str();
 }
 
 std::string DescribeFailure(const ProcessConfig& config, const StabilityReport& report) {
+  // The sweep's refusal names the arm's worst configuration, unless the coupling itself is unstable on an axis.
+  bool coupling_unstable = false;
+  for (const analysis::FixtureCheck& check : report.axes) coupling_unstable |= check.limit.unstable_without_fixture;
+  if (!coupling_unstable && report.sweep && !report.sweep->check.stable) {
+    const ConfigurationSweep& s = *report.sweep;
+    const double limit = s.check.limit.max_stable_stiffness_N_per_m;
+    std::ostringstream out;
+    out << config.source_path << ": " << ToString(config.role) << " fixture " << Whole(s.check.stiffness_N_per_m)
+        << " N/m is above the predicted stability limit " << Whole(limit) << " N/m " << DescribeWorstConfiguration(s)
+        << " (axis " << s.axis << "'s gains, worst damping ratio " << Short(s.check.at_configured.min_damping_ratio)
+        << " for operator " << Operator(s.check.at_configured.human) << "). Lower fixture.stiffness_N_per_m to at most "
+        << Whole(std::floor(limit))
+        << " N/m, move the plane, or raise rate_hz or law.kd_Ns_per_m (try it with teleop-arm check --config "
+        << config.source_path << ")";
+    return out.str();
+  }
   const int axis = report.worst_axis();
   const analysis::FixtureCheck& c = report.worst();
   const SampledTeleoperator model = StabilityModel(config, axis);

@@ -61,6 +61,12 @@ def run(args):
     slave = subprocess.Popen([args.slave, "--config", scfg, "--duration", "5"], stdout=subprocess.PIPE,
                              stderr=subprocess.STDOUT, text=True)
     slave_out = Output(slave)
+    # The slave's start-up check sweeps the arm's configurations near the plane (about 2 s, docs/arms.md,
+    # "Stability"): the master starts once it is done, so that the pair engages before the operator's push.
+    if not slave_out.wait_for("stability check", 30):
+        slave.kill()
+        relay.stop()
+        raise Failure("the slave did not finish its start-up check:\n" + slave_out.text()[-2000:])
     master = subprocess.Popen([args.master, "--config", mcfg, "--duration", "4"], stdout=subprocess.PIPE,
                               stderr=subprocess.STDOUT, text=True)
     master_out = Output(master)

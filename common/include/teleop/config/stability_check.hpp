@@ -1,5 +1,6 @@
 #pragma once
 
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -7,6 +8,7 @@
 #include "teleop/analysis/fixture_check.hpp"
 #include "teleop/analysis/teleoperator_model.hpp"
 #include "teleop/config/process_config.hpp"
+#include "teleop/device/device_registry.hpp"
 
 namespace teleop::config {
 
@@ -53,6 +55,18 @@ std::string DescribeAssumedLinkDelay(const ProcessConfig& config);
 /// directory) or the built-in finger table, with `human_grid_steps`. Throws teleop::Error on a bad file.
 std::vector<analysis::HumanModel> StabilityOperators(const ProcessConfig& config);
 
+/// The fixture over the configurations where its plane can be reached, for a device whose model depends on its
+/// configuration (an arm: device::DeviceBackend::sweep; docs/arms.md, "Stability"): the smallest limit found.
+struct ConfigurationSweep {
+  int plane = 0;                        ///< The fixture plane of the worst configuration (index in law.fixture.planes).
+  int axis = 0;                         ///< The DOF whose gains were used (the largest component of the normal).
+  std::string summary;                  ///< What the device sampled (device::AnalysisSweep::summary), per plane.
+  int analysed = 0;                     ///< Configurations analysed (one per bucket), over every plane.
+  device::AnalysisConfiguration worst;  ///< The configuration with the smallest limit.
+  analysis::FixtureCheck check;         ///< The configured fixture at `worst`.
+  double elapsed_ms = 0.0;
+};
+
 /// The check of every DOF of a process.
 struct StabilityReport {
   std::vector<analysis::FixtureCheck> axes;  ///< One per DOF (axes with identical models share one analysis).
@@ -60,6 +74,9 @@ struct StabilityReport {
   std::string not_applicable;
   int operators = 0;        ///< Size of the operator set.
   double elapsed_ms = 0.0;  ///< Wall time of the analysis.
+  /// Present when the device sweeps its configurations near the fixture's planes (a fixture with a stiffness and
+  /// planes, a device with a sweep, and stability.device not giving both mass and damping).
+  std::optional<ConfigurationSweep> sweep;
 
   bool stable() const noexcept;
   bool applicable() const noexcept { return not_applicable.empty(); }
@@ -69,8 +86,11 @@ struct StabilityReport {
 };
 
 /// Analyses this process's own fixture on every DOF against the predicted limit (analysis::CheckFixture with the
-/// model of StabilityModel). `humans` empty: StabilityOperators(config). Runs whether or not
-/// `config.stability.check` is set (the caller decides what to do with it). Throws teleop::Error on invalid input.
+/// model of StabilityModel), and, for a device whose model depends on its configuration, at every configuration the
+/// device's sweep reports near each fixture plane (StabilityReport::sweep; its own device's mass and damping replaced
+/// by the configuration's, the gains of the normal's largest axis). `humans` empty: StabilityOperators(config). Runs
+/// whether or not `config.stability.check` is set (the caller decides what to do with it). Throws teleop::Error on
+/// invalid input.
 StabilityReport CheckProcessStability(const ProcessConfig& config, std::span<const analysis::HumanModel> humans = {});
 
 /// One line for the log when the check passed: stiffness, limit, margin, worst damping ratio, assumptions; or, when

@@ -44,6 +44,21 @@ struct AnalysisModel {
   static AnalysisModel NotApplicable(std::string reason);
 };
 
+/// One configuration of a device whose model depends on its configuration (an arm), as the start-up check's sweep
+/// over the configurations where a fixture plane can be reached sees it (docs/arms.md, "Stability").
+struct AnalysisConfiguration {
+  double mass_kg = 0.0;           ///< Along the plane's normal (kg), > 0.
+  double damping_Ns_per_m = 0.0;  ///< Along the plane's normal (N·s/m), ≥ 0.
+  std::string where;              ///< The configuration in words: "q = (…) rad, tool at (…) m".
+  int represents = 1;             ///< How many sampled configurations it stands for (its bucket).
+};
+
+/// The device's models along one fixture plane's normal over the configurations where the plane can be reached.
+struct AnalysisSweep {
+  std::string summary;  ///< What was sampled and kept, in words (for the check's messages).
+  std::vector<AnalysisConfiguration> configurations;
+};
+
 /// One backend, registered once, in the backend's own files (common/src/device/<name>/, or an out-of-tree
 /// project's): see RegisterDevice and TELEOP_REGISTER_DEVICE.
 struct DeviceBackend {
@@ -65,6 +80,10 @@ struct DeviceBackend {
   std::function<std::unique_ptr<Device>(const DeviceConfig& config)> make;
   /// The device's model for the stability check. Absent: "not applicable, the backend gives no model".
   std::function<AnalysisModel(const DeviceConfig& config)> model;
+  /// The device along a fixture plane (unit `normal`, `offset_m`, in the frame of the positions it reports) over
+  /// the configurations where the plane can be reached. Absent, or no configurations: the check uses `model` only.
+  /// Throws teleop::Error.
+  std::function<AnalysisSweep(const DeviceConfig& config, const DofVector& normal, double offset_m)> sweep;
 };
 
 /// Registers a backend (set-up only, thread-safe; callable from static initialisers and from an out-of-tree

@@ -1,8 +1,10 @@
 // The `arm` backend: a URDF arm behind the joint-actuator seam (docs/arms.md; docs/configuration.md, `device.arm`).
 
+#include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <memory>
 
@@ -145,6 +147,15 @@ void ReadMit(const Field& f, MitJointBusConfig& mit) {
   }
 }
 
+void ReadFixtureSweep(const Field& f, FixtureSweepConfig& sweep) {
+  namespace k = arm_keys;
+  const Map map(f, {"samples", "plane_distance_m", "seed", "bucket"});
+  sweep.samples = config::ReadInteger(map, k::kSweepSamples);
+  sweep.plane_distance_m = config::ReadNumber(map, k::kSweepDistance);
+  sweep.seed = static_cast<std::uint64_t>(config::ReadInteger(map, k::kSweepSeed));
+  sweep.bucket = config::ReadNumber(map, k::kSweepBucket);
+}
+
 ArmSection ReadArm(const Field& f, int dof) {
   namespace k = arm_keys;
   const Map map(f, {"urdf",
@@ -168,7 +179,8 @@ ArmSection ReadArm(const Field& f, int dof) {
                     "joint_limits",
                     "actuators",
                     "mit",
-                    "simulation"});
+                    "simulation",
+                    "fixture_sweep"});
   if (dof != 3) {
     f.Fail("the arm backend is a task-space device of dof 3 (the tool point's x, y, z); the config's dof is " +
            std::to_string(dof));
@@ -203,6 +215,7 @@ ArmSection ReadArm(const Field& f, int dof) {
   } else if (auto v = map.Optional("mit")) {
     v->Fail("an MIT motors section, but actuators is simulated; remove it or set actuators: mit");
   }
+  if (auto v = map.Optional("fixture_sweep")) ReadFixtureSweep(*v, s.fixture_sweep);
   return s;
 }
 
@@ -216,6 +229,38 @@ JointVector ToJoints(const std::vector<double>& values, int joints, const ArmSec
   JointVector v(joints);
   for (int i = 0; i < joints; ++i) v[i] = values[static_cast<std::size_t>(i)];
   return v;
+}
+
+std::string List(const JointVector& q) {
+  std::string text;
+  for (int i = 0; i < q.size(); ++i) text += fmt::format("{}{:.3f}", i > 0 ? ", " : "", q[i]);
+  return text;
+}
+
+/// The start-up check's sweep (docs/arms.md, "Stability"): the plane is in the reported frame (p_BT − origin).
+AnalysisSweep SweepArm(const ArmSection& section, const DofVector& normal, double offset_m) {
+  AnalysisSweep result;
+  const FixtureSweepConfig& c = section.fixture_sweep;
+  if (c.samples == 0 || normal.size() != 3) return result;
+  ArmModel model(BuildArmChain(section.chain), section.gravity_B());
+  const Eigen::Vector3d n = Eigen::Vector3d(normal[0], normal[1], normal[2]).normalized();
+  const double offset_B =
+      offset_m / Eigen::Vector3d(normal[0], normal[1], normal[2]).norm() + n.dot(section.workspace_origin_m);
+  const FixtureSweep sweep =
+      SweepNearPlane(model, c, section.simulation.viscous_Nms_per_rad, n, offset_B, section.device.min_manipulability);
+  result.summary = fmt::format(
+      "{} configurations drawn within the joint limits (seed {}), {} with the tool within {} m of the plane, {} of "
+      "them singular or immobile along n; {} buckets of {} % in apparent mass and damping",
+      sweep.sampled, c.seed, sweep.near_plane, c.plane_distance_m, sweep.skipped, sweep.buckets.size(),
+      100.0 * c.bucket);
+  for (const SweptConfiguration& s : sweep.buckets) {
+    const Eigen::Vector3d p = s.p_BT - section.workspace_origin_m;
+    result.configurations.push_back(
+        {s.along_normal.mass_kg, s.along_normal.damping_Ns_per_m,
+         fmt::format("q = ({}) rad, tool at ({:.4f}, {:.4f}, {:.4f}) m", List(s.q), p.x(), p.y(), p.z()),
+         s.bucket_size});
+  }
+  return result;
 }
 
 }  // namespace
@@ -333,18 +378,18 @@ DeviceBackend ArmBackend() {
     AnalysisModel m;
     m.mass_kg = DofVector(3);
     m.damping_Ns_per_m = DofVector(3);
-    const double b_joint = section.simulation.viscous_Nms_per_rad;
     for (int axis = 0; axis < 3; ++axis) {
-      const Eigen::Vector3d n = Eigen::Vector3d::Unit(axis);
-      m.mass_kg[axis] = model.ApparentMass(n);
-      const Eigen::VectorXd Jt_n = model.J_BT().topRows<3>().transpose() * n;
-      const double sq = Jt_n.squaredNorm();
-      m.damping_Ns_per_m[axis] = b_joint > 0.0 && sq > 0.0 ? b_joint / sq : 0.0;
+      const NormalModel along = ModelAlong(model, Eigen::Vector3d::Unit(axis), section.simulation.viscous_Nms_per_rad);
+      m.mass_kg[axis] = along.mass_kg;
+      m.damping_Ns_per_m[axis] = along.damping_Ns_per_m;
     }
     if (!m.mass_kg.allFinite()) {
       return AnalysisModel::NotApplicable("the arm is singular at its start configuration");
     }
     return m;
+  };
+  b.sweep = [](const DeviceConfig& config, const DofVector& normal, double offset_m) {
+    return SweepArm(config.Section<ArmSection>(), normal, offset_m);
   };
   return b;
 }

@@ -339,6 +339,54 @@ inline const KeySpec kSimEnvDamping = [] {
             "Contact damping (the contact only pushes)."};
   return s;
 }();
+inline const KeySpec kSweepSamples = [] {
+  KeySpec s{"fixture_sweep.samples",
+            KeyType::kInteger,
+            "",
+            KeyRange::kInRange,
+            false,
+            static_cast<double>(FixtureSweepConfig{}.samples),
+            "Joint configurations the start-up check draws within the joint limits to find where the fixture plane "
+            "can be reached; 0: the check uses the start configuration only."};
+  s.low = 0;
+  s.high = 100000;
+  return s;
+}();
+inline const KeySpec kSweepDistance = [] {
+  KeySpec s{"fixture_sweep.plane_distance_m",
+            KeyType::kNumber,
+            "m",
+            KeyRange::kPositive,
+            false,
+            FixtureSweepConfig{}.plane_distance_m,
+            "A drawn configuration is analysed when its tool point is within this distance of a fixture plane."};
+  return s;
+}();
+inline const KeySpec kSweepSeed = [] {
+  KeySpec s{"fixture_sweep.seed",
+            KeyType::kInteger,
+            "",
+            KeyRange::kInRange,
+            false,
+            static_cast<double>(FixtureSweepConfig{}.seed),
+            "Seed of the draw (SplitMix64: the same configurations on every machine)."};
+  s.low = 0;
+  s.high = 999999;
+  return s;
+}();
+inline const KeySpec kSweepBucket = [] {
+  KeySpec s{"fixture_sweep.bucket",
+            KeyType::kNumber,
+            "",
+            KeyRange::kInRange,
+            false,
+            FixtureSweepConfig{}.bucket,
+            "Relative width of the apparent mass and damping buckets: one analysis per bucket, at its configuration "
+            "with the least damping; 0: one per configuration."};
+  s.low = 0;
+  s.high = 1;
+  return s;
+}();
 
 /// Every key of the table, built at its first use (after static initialisation).
 inline const auto& All() {
@@ -373,7 +421,11 @@ inline const auto& All() {
                                 kSimEnvNormal,
                                 kSimEnvOffset,
                                 kSimEnvStiffness,
-                                kSimEnvDamping};
+                                kSimEnvDamping,
+                                kSweepSamples,
+                                kSweepDistance,
+                                kSweepSeed,
+                                kSweepBucket};
   return table;
 }
 

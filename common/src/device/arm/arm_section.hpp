@@ -8,6 +8,7 @@
 
 #include "arm_chain.hpp"
 #include "arm_device.hpp"
+#include "arm_sweep.hpp"
 #include "mit_joint_bus.hpp"
 #include "simulated_arm.hpp"
 
@@ -23,6 +24,7 @@ struct ArmSection {
   bool mit_actuators = false;     ///< actuators: mit.
   MitJointBusConfig mit;          ///< actuators: mit.
   std::vector<double> initial_q_rad;  ///< The simulated arm's start; empty: the middle of each joint's range.
+  FixtureSweepConfig fixture_sweep;   ///< The start-up check's configurations near a fixture plane.
 
   Eigen::Vector3d gravity_B() const { return {0.0, 0.0, -gravity_m_per_s2}; }
 };
