@@ -1,6 +1,8 @@
 #include "teleop/config/key_table.hpp"
 
+#include <cmath>
 #include <optional>
+#include <string>
 
 namespace teleop::config {
 
@@ -33,6 +35,9 @@ std::string RangeText(const KeySpec& spec, const std::string& separator = ", ") 
     case KeyRange::kNonNegative:
       return "≥ 0";
     case KeyRange::kInRange:
+      if (spec.type == KeyType::kInteger) {  // exact bounds (0..2147483647), not Num's 6 significant digits
+        return std::to_string(std::llround(spec.low)) + ".." + std::to_string(std::llround(spec.high));
+      }
       return Num(spec.low) + ".." + Num(spec.high);
   }
   return "";

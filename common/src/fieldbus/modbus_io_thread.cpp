@@ -348,154 +348,184 @@ class Worker {
 
 }  // namespace
 
-void ModbusIoThread::Run() noexcept {
-  Bus& bus = *bus_;
-  AtomicCounters& c = *counters_;
-  constexpr auto kRelaxed = std::memory_order_relaxed;
-  const double period_s = config_.poll_period_ms * 1e-3;
-  const double command_timeout_s = config_.command_timeout_ms * 1e-3;
-  runtime::LinkWatchdog watchdog(config_.stale_after_ms * 1e-3);
-  Worker worker(config_, bus.ctx, bus.read_blocks, bus.write_blocks, bus.registers, bus.bits);
-  std::array<double, kMaxModbusPoints> values{};
+/// Run()'s steps, on the I/O thread: the state it keeps across polls (the bus, the counters, the watchdog).
+class ModbusIoThread::Poller {
+ public:
+  Poller(const ModbusConfig& config, Bus& bus, AtomicCounters& counters)
+      : config_(config),
+        bus_(bus),
+        c_(counters),
+        watchdog_(config.stale_after_ms * 1e-3),
+        worker_(config, bus.ctx, bus.read_blocks, bus.write_blocks, bus.registers, bus.bits) {}
 
-  const auto enter_fault = [&] {
-    if (!bus.faulted) c.fault_entries.fetch_add(1, kRelaxed);
-    bus.faulted = true;
-  };
-  const auto disconnect = [&] {
-    if (bus.connected) modbus_close(bus.ctx);
-    bus.connected = false;
-  };
-  const auto count_failure = [&](int err) {
+  /// The loop's newest command, or the safe values when it has none / it went stale.
+  void TakeCommand(runtime::Mailbox<ModbusCommand>& commands, double now_s) noexcept {
+    if (commands.Read(bus_.command)) {
+      bus_.have_command = true;
+      bus_.last_command_s = now_s;
+      bus_.outputs_encoded = false;
+      c_.commands_received.fetch_add(1, kRelaxed);
+    }
+    const double timeout_s = config_.command_timeout_ms * 1e-3;
+    const bool safe = !bus_.have_command || (timeout_s > 0.0 && now_s - bus_.last_command_s > timeout_s);
+    if (safe && !bus_.outputs_safe && bus_.have_command) c_.command_timeouts.fetch_add(1, kRelaxed);
+    if (safe != bus_.outputs_safe) bus_.outputs_encoded = false;
+    bus_.outputs_safe = safe;
+  }
+
+  /// The outputs' register words, when the command or its safety changed.
+  void EncodeOutputs() noexcept {
+    if (bus_.outputs_encoded) return;
+    for (std::size_t i = 0; i < config_.outputs.size(); ++i) {
+      const ModbusPoint& p = config_.outputs[i];
+      const double v = bus_.outputs_safe ? p.safe_value : bus_.command.values[i];
+      const ModbusEncodeStatus s = EncodePoint(p, v, bus_.output_words[i].data());
+      if (s == ModbusEncodeStatus::kClamped) c_.clamped_commands.fetch_add(1, kRelaxed);
+      if (s == ModbusEncodeStatus::kNonFinite) c_.non_finite_commands.fetch_add(1, kRelaxed);
+    }
+    bus_.outputs_encoded = true;
+  }
+
+  /// Connect (a lost connection at once, failed connects with back-off).
+  void Connect(double now_s) noexcept {
+    if (bus_.connected || now_s < bus_.next_connect_s) return;
+    SetTimeout(bus_.ctx, config_.connect_timeout_ms, false);
+    if (modbus_connect(bus_.ctx) == 0) {
+      bus_.connected = true;
+      bus_.connect_failures_in_a_row = 0;
+      c_.connects.fetch_add(1, kRelaxed);
+    } else {
+      c_.connect_failures.fetch_add(1, kRelaxed);
+      modbus_close(bus_.ctx);  // releases a half-opened socket/descriptor
+      const double backoff_ms =
+          std::min(config_.reconnect_max_ms,
+                   config_.reconnect_initial_ms * std::pow(2.0, std::min(bus_.connect_failures_in_a_row, 30)));
+      ++bus_.connect_failures_in_a_row;
+      bus_.next_connect_s = NowS() + backoff_ms * 1e-3;
+      EnterFault();
+    }
+    SetTimeout(bus_.ctx, config_.response_timeout_ms, false);
+  }
+
+  /// One poll: all outputs, then all inputs.
+  void Poll() noexcept {
+    if (!bus_.connected) return;
+    int err = worker_.WriteOutputs(bus_.output_words, c_.transactions);
+    if (err == 0) err = worker_.ReadInputs(values_, c_.transactions);
+    if (err != 0) {
+      CountFailure(err);
+      return;
+    }
+    const double done_s = NowS();
+    bus_.reading.values = values_;
+    bus_.reading.sequence += 1;
+    bus_.reading.stamp_s = done_s;
+    bus_.faulted = false;
+    watchdog_.Feed(done_s);
+    c_.polls_ok.fetch_add(1, kRelaxed);
+  }
+
+  /// The thread's own watchdog (no good poll for stale_after_ms is a fault even if no transaction said so), then
+  /// the reading the loop gets this cycle.
+  const ModbusReading& Reading() noexcept {
+    const std::uint64_t trips_before = watchdog_.trips();
+    if (!watchdog_.Fresh(NowS())) {
+      if (watchdog_.trips() != trips_before) c_.watchdog_trips.fetch_add(1, kRelaxed);
+      if (watchdog_.expired()) EnterFault();
+    }
+    bus_.reading.faults = bus_.faulted ? device::kFaultCommunication : device::kFaultNone;
+    bus_.reading.failed_cycles = bus_.faulted ? bus_.reading.failed_cycles + 1 : 0;
+    bus_.reading.outputs_safe = bus_.outputs_safe;
+    return bus_.reading;
+  }
+
+  /// At stop: safe outputs, best effort, once; then the reading that says nothing polls any more.
+  const ModbusReading& Stop() noexcept {
+    if (bus_.connected && !config_.outputs.empty()) {
+      for (std::size_t i = 0; i < config_.outputs.size(); ++i) {
+        const ModbusPoint& p = config_.outputs[i];
+        (void)EncodePoint(p, p.safe_value, bus_.output_words[i].data());
+      }
+      bus_.outputs_safe = true;
+      (void)worker_.WriteOutputs(bus_.output_words, c_.transactions);
+    }
+    Disconnect();
+    bus_.reading.faults = device::kFaultCommunication;
+    bus_.reading.outputs_safe = true;
+    return bus_.reading;
+  }
+
+ private:
+  static constexpr auto kRelaxed = std::memory_order_relaxed;
+
+  void EnterFault() noexcept {
+    if (!bus_.faulted) c_.fault_entries.fetch_add(1, kRelaxed);
+    bus_.faulted = true;
+  }
+  void Disconnect() noexcept {
+    if (bus_.connected) modbus_close(bus_.ctx);
+    bus_.connected = false;
+  }
+  /// TCP: a late answer would arrive in the next transaction's place; a new connection drops it. RTU: flush.
+  void Resynchronize() noexcept {
+    if (config_.transport == ModbusTransport::kTcp) {
+      Disconnect();
+    } else {
+      modbus_flush(bus_.ctx);
+    }
+  }
+  void CountFailure(int err) noexcept {
     switch (Classify(err)) {
       case Failure::kTimeout:
-        c.timeouts.fetch_add(1, kRelaxed);
-        // TCP: a late answer would arrive in the next transaction's place; a new connection drops it. RTU: flush.
-        if (config_.transport == ModbusTransport::kTcp) {
-          disconnect();
-        } else {
-          modbus_flush(bus.ctx);
-        }
+        c_.timeouts.fetch_add(1, kRelaxed);
+        Resynchronize();
         break;
       case Failure::kException:
-        c.exceptions.fetch_add(1, kRelaxed);
-        c.last_exception_code.store(static_cast<std::uint32_t>(err - MODBUS_ENOBASE), kRelaxed);
+        c_.exceptions.fetch_add(1, kRelaxed);
+        c_.last_exception_code.store(static_cast<std::uint32_t>(err - MODBUS_ENOBASE), kRelaxed);
         break;  // a complete, well-formed answer: the link is in step
       case Failure::kProtocol:
-        c.protocol_errors.fetch_add(1, kRelaxed);
-        if (config_.transport == ModbusTransport::kTcp) {
-          disconnect();
-        } else {
-          modbus_flush(bus.ctx);
-        }
+        c_.protocol_errors.fetch_add(1, kRelaxed);
+        Resynchronize();
         break;
       case Failure::kDisconnect:
       case Failure::kNone:
-        c.disconnects.fetch_add(1, kRelaxed);
-        disconnect();
+        c_.disconnects.fetch_add(1, kRelaxed);
+        Disconnect();
         break;
     }
-    enter_fault();
-  };
+    EnterFault();
+  }
 
+  const ModbusConfig& config_;
+  Bus& bus_;
+  AtomicCounters& c_;
+  runtime::LinkWatchdog watchdog_;
+  Worker worker_;
+  std::array<double, kMaxModbusPoints> values_{};
+};
+
+void ModbusIoThread::Run() noexcept {
+  Poller poller(config_, *bus_, *counters_);
+  const double period_s = config_.poll_period_ms * 1e-3;
   double cycle_start_s = NowS();
-  while (!stop_.load(kRelaxed)) {
-    c.cycles.fetch_add(1, kRelaxed);
+  while (!stop_.load(std::memory_order_relaxed)) {
+    counters_->cycles.fetch_add(1, std::memory_order_relaxed);
     const double now_s = NowS();
-
-    // The loop's newest command, or the safe values when it has none / it went stale.
-    if (commands_.Read(bus.command)) {
-      bus.have_command = true;
-      bus.last_command_s = now_s;
-      bus.outputs_encoded = false;
-      c.commands_received.fetch_add(1, kRelaxed);
-    }
-    const bool safe = !bus.have_command || (command_timeout_s > 0.0 && now_s - bus.last_command_s > command_timeout_s);
-    if (safe && !bus.outputs_safe && bus.have_command) c.command_timeouts.fetch_add(1, kRelaxed);
-    if (safe != bus.outputs_safe) bus.outputs_encoded = false;
-    bus.outputs_safe = safe;
-    if (!bus.outputs_encoded) {
-      for (std::size_t i = 0; i < config_.outputs.size(); ++i) {
-        const ModbusPoint& p = config_.outputs[i];
-        const double v = safe ? p.safe_value : bus.command.values[i];
-        const ModbusEncodeStatus s = EncodePoint(p, v, bus.output_words[i].data());
-        if (s == ModbusEncodeStatus::kClamped) c.clamped_commands.fetch_add(1, kRelaxed);
-        if (s == ModbusEncodeStatus::kNonFinite) c.non_finite_commands.fetch_add(1, kRelaxed);
-      }
-      bus.outputs_encoded = true;
-    }
-
-    // Connect (a lost connection at once, failed connects with back-off).
-    if (!bus.connected && now_s >= bus.next_connect_s) {
-      SetTimeout(bus.ctx, config_.connect_timeout_ms, false);
-      if (modbus_connect(bus.ctx) == 0) {
-        bus.connected = true;
-        bus.connect_failures_in_a_row = 0;
-        c.connects.fetch_add(1, kRelaxed);
-      } else {
-        c.connect_failures.fetch_add(1, kRelaxed);
-        modbus_close(bus.ctx);  // releases a half-opened socket/descriptor
-        const double backoff_ms =
-            std::min(config_.reconnect_max_ms,
-                     config_.reconnect_initial_ms * std::pow(2.0, std::min(bus.connect_failures_in_a_row, 30)));
-        ++bus.connect_failures_in_a_row;
-        bus.next_connect_s = NowS() + backoff_ms * 1e-3;
-        enter_fault();
-      }
-      SetTimeout(bus.ctx, config_.response_timeout_ms, false);
-    }
-
-    // One poll: all outputs, then all inputs.
-    if (bus.connected) {
-      int err = worker.WriteOutputs(bus.output_words, c.transactions);
-      if (err == 0) err = worker.ReadInputs(values, c.transactions);
-      if (err == 0) {
-        const double done_s = NowS();
-        bus.reading.values = values;
-        bus.reading.sequence += 1;
-        bus.reading.stamp_s = done_s;
-        bus.faulted = false;
-        watchdog.Feed(done_s);
-        c.polls_ok.fetch_add(1, kRelaxed);
-      } else {
-        count_failure(err);
-      }
-    }
-
-    // The thread's own watchdog: no good poll for stale_after_ms is a fault even if no transaction said so.
-    const std::uint64_t trips_before = watchdog.trips();
-    if (!watchdog.Fresh(NowS())) {
-      if (watchdog.trips() != trips_before) c.watchdog_trips.fetch_add(1, kRelaxed);
-      if (watchdog.expired()) enter_fault();
-    }
-
-    bus.reading.faults = bus.faulted ? device::kFaultCommunication : device::kFaultNone;
-    bus.reading.failed_cycles = bus.faulted ? bus.reading.failed_cycles + 1 : 0;
-    bus.reading.outputs_safe = bus.outputs_safe;
-    readings_.Write(bus.reading);
-
+    poller.TakeCommand(commands_, now_s);
+    poller.EncodeOutputs();
+    poller.Connect(now_s);
+    poller.Poll();
+    readings_.Write(poller.Reading());
     // Sleep to the next cycle; a late cycle starts the next one at once, without trying to catch up.
     cycle_start_s = std::max(cycle_start_s + period_s, NowS() - period_s);
     const double wait_s = cycle_start_s - NowS();
     if (wait_s > 0.0) {
-      std::unique_lock<std::mutex> lock(bus.wake_mutex);
-      bus.wake.wait_for(lock, std::chrono::duration<double>(wait_s), [this] { return stop_.load(); });
+      std::unique_lock<std::mutex> lock(bus_->wake_mutex);
+      bus_->wake.wait_for(lock, std::chrono::duration<double>(wait_s), [this] { return stop_.load(); });
     }
   }
-
-  // Safe outputs, best effort, once.
-  if (bus.connected && !config_.outputs.empty()) {
-    for (std::size_t i = 0; i < config_.outputs.size(); ++i) {
-      const ModbusPoint& p = config_.outputs[i];
-      (void)EncodePoint(p, p.safe_value, bus.output_words[i].data());
-    }
-    bus.outputs_safe = true;
-    (void)worker.WriteOutputs(bus.output_words, c.transactions);
-  }
-  disconnect();
-  bus.reading.faults = device::kFaultCommunication;  // nothing polls any more
-  bus.reading.outputs_safe = true;
-  readings_.Write(bus.reading);
+  readings_.Write(poller.Stop());
 }
 
 }  // namespace teleop::fieldbus

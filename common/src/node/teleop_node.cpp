@@ -164,6 +164,7 @@ const GainSignals& TeleopNode::Impl::Signals(const PeerView& view) noexcept {
 }
 
 Sensed TeleopNode::Impl::Sense(double period_s) noexcept {
+  if (exchange != nullptr) exchange->Exchange();  // the cycle's one bus exchange (TPDOs in, the SYNC out)
   device->Read(reading);
   return Sensed{&reading, reading.faults | reading_check->Check(reading, period_s)};
 }

@@ -15,6 +15,7 @@
 #include "peer_tracker.hpp"
 #include "recorder.hpp"
 #include "sinks.hpp"
+#include "teleop/device/bus_exchange.hpp"
 #include "teleop/node/event_log.hpp"
 #include "teleop/node/reading_check.hpp"
 #include "teleop/node/teleop_node.hpp"
@@ -27,7 +28,13 @@ struct TeleopNode::Impl {
   enum class Phase : std::uint8_t { kUnconfigured, kConfigured, kActive, kInactive };
 
   Impl(const config::ProcessConfig& cfg, std::unique_ptr<device::Device> dev, std::unique_ptr<transport::Link> lnk)
-      : config(cfg), device(std::move(dev)), link(std::move(lnk)), loop(cfg.loop), events(1024), commands(cfg.dof) {}
+      : config(cfg),
+        device(std::move(dev)),
+        exchange(device ? device::ExchangeOf(*device) : nullptr),
+        link(std::move(lnk)),
+        loop(cfg.loop),
+        events(1024),
+        commands(cfg.dof) {}
   ~Impl() { DeactivateDevice(); }
 
   void Configure();
@@ -50,6 +57,7 @@ struct TeleopNode::Impl {
 
   config::ProcessConfig config;
   std::unique_ptr<device::Device> device;
+  device::BusExchange* exchange = nullptr;  ///< The device's bus exchange (a fieldbus backend), else null.
   std::unique_ptr<transport::Link> link;
   runtime::PeriodicLoop loop;
   SinkSet sinks;                                        ///< Declared before `events`: outlives its observer role.

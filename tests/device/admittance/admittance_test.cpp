@@ -74,9 +74,11 @@ struct Rig {
       for (auto& s : sims) s->Step(now_ns);
     }
   }
-  /// One 1 ms cycle as the node runs it: Read, the law (here `force`), Write, Update, then the period passes.
+  /// One 1 ms cycle as the node runs it: Exchange, Read, the law (here `force`), Write, Update, then the period
+  /// passes.
   Reading Cycle(const DofVector& force) {
     Reading r;
+    device->Exchange();
     device->Read(r);
     device->Write(Command::Force(force));
     device->Update(config.cycle_period_s);
@@ -257,7 +259,8 @@ TEST(Admittance, TorqueModeSendsTheForceAsTorqueAndReadsTheJoint) {
   // The safe state sends zero torque.
   rig.device->SetSafe();
   rig.device->Update(rig.config.cycle_period_s);  // the RPDO with τ = 0
-  rig.device->Read(r);                            // the SYNC that applies it
+  rig.device->Exchange();                         // the SYNC that applies it
+  rig.device->Read(r);
   rig.Advance(1'000'000);
   EXPECT_EQ(r.rendered_force_N[0], 0.0);
   EXPECT_EQ(rig.sims[0]->commanded_torque_Nm(), 0.0);
@@ -328,6 +331,7 @@ Ripple RunAtStiffness(const LimitCase& c, double k, double bandwidth, Feedback f
   std::vector<double> xs, xv;
   Ripple out;
   for (int n = 0; n < cycles; ++n) {
+    rig.device->Exchange();
     rig.device->Read(r);
     out.faulted = out.faulted || r.faults != kFaultNone;
     const double x = feedback == Feedback::kReading         ? r.position_m[0]
@@ -467,6 +471,7 @@ TEST(Admittance, ADriveThatDoesNotFollowFaultsWithinThePersistence) {
     Reading r;
     for (int k = 0; k < 1000 && faulted_at < 0; ++k) {
       if (blocked) rig.sims[0]->SetJointState(0.0, 0.0);
+      rig.device->Exchange();
       rig.device->Read(r);
       if (r.faults != kFaultNone) {
         faulted_at = k;

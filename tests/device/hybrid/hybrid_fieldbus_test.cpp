@@ -141,9 +141,10 @@ struct Rig {
     device->Activate();
   }
 
-  /// One 1 ms control cycle: Read, Write, bus and drive time.
+  /// One 1 ms control cycle as the node runs it: Exchange, Read, Write, Update, then bus and drive time.
   Reading Cycle(const Eigen::Vector2d& force_N) {
     Reading r;
+    device->Exchange();
     device->Read(r);
     DofVector f = DofVector::Zero(2);
     f << force_N.x(), force_N.y();
@@ -203,7 +204,7 @@ TEST(HybridFieldbusDevice, RendersThroughDrivesAndAmplifier) {
   const AllocationOutput previous = rig.device->last_allocation();
   r = rig.Cycle({0.0, -10.0});
   EXPECT_TRUE(rig.device->last_allocation().brake_engaged[0] && rig.device->last_allocation().brake_engaged[1]);
-  // A synchronous RPDO takes effect on the next SYNC, which the next cycle's Read() sends: after a cycle, both
+  // A synchronous RPDO takes effect on the next SYNC, which the next cycle's Exchange() sends: after a cycle, both
   // drives hold the previous cycle's torque, together. Per-mille quantisation of 1 N·m rated torque, × 5 at the
   // joint.
   const Eigen::Vector2d commanded{rig.sims[0]->commanded_torque_Nm(), rig.sims[1]->commanded_torque_Nm()};
@@ -240,6 +241,13 @@ TEST(HybridFieldbusDevice, OneSyncPerCycleAfterBothRpdosBothDrivesApplyTogether)
   EXPECT_EQ(order, "080 201 202 080 201 202 080 201 202 ");
   EXPECT_GE(rig.device->sync().counters().sent, 8u);  // priming SYNCs in Activate(), then one per cycle
   EXPECT_EQ(rig.device->drive(0).counters().syncs_sent + rig.device->drive(1).counters().syncs_sent, 0u);
+  // The SYNC is the exchange's (Device::Exchange), not Read's: reading again sends nothing.
+  const std::uint64_t sent = rig.device->sync().counters().sent;
+  Reading again;
+  rig.device->Read(again);
+  rig.device->Read(again);
+  EXPECT_EQ(rig.device->sync().counters().sent, sent);
+  EXPECT_FALSE(rig.monitor->Read(f)) << "Read put a frame on the bus";
   // A force step along x: both joints get a non-zero torque. Each cycle: before the step, both drives hold zero;
   // one cycle after it, both hold the new torque (never one without the other).
   bool both_changed = false;

@@ -25,7 +25,7 @@ HybridDeviceConfig Read(const std::string& yaml) {
 
 TEST(HybridKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
   const HybridRigConfig code{};
-  const HybridRigConfig read = Read("{motor: {}, brake: {}, encoders: {}}").rig;
+  const HybridRigConfig read = Read("{motor: {}, brake: {}, encoders: {}, force_sensor: {}}").rig;
   const auto same = [](const config::KeySpec& spec, double in_code, double from_yaml) {
     EXPECT_EQ(spec.default_value, in_code) << spec.key;
     EXPECT_EQ(from_yaml, in_code) << spec.key;
@@ -47,6 +47,10 @@ TEST(HybridKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
   same(keys::kBrakePulleyRatio, code.brake.pulley_ratio, read.brake.pulley_ratio);
   same(keys::kEncoderCounts, code.encoders.counts_per_joint_rev, read.encoders.counts_per_joint_rev);
   same(keys::kEncoderVelocityFilter, code.encoders.velocity_filter_hz, read.encoders.velocity_filter_hz);
+  same(keys::kForceSensorNoise, code.force_sensor_dynamics.noise_std_N, read.force_sensor_dynamics.noise_std_N);
+  same(keys::kForceSensorBandwidth, code.force_sensor_dynamics.bandwidth_hz, read.force_sensor_dynamics.bandwidth_hz);
+  same(keys::kForceSensorSeed, static_cast<double>(code.force_sensor_dynamics.seed),
+       static_cast<double>(read.force_sensor_dynamics.seed));
   const AllocationConfig alloc{};
   const AllocationConfig read_alloc = Read("{allocation: {}}").allocation;
   same(keys::kAllocationRestVelocity, alloc.rest_velocity_rad_per_s, read_alloc.rest_velocity_rad_per_s);
@@ -54,7 +58,7 @@ TEST(HybridKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
   EXPECT_EQ(keys::kAllocationUseBrakes.default_bool, alloc.use_brakes);
   EXPECT_EQ(read_alloc.use_brakes, alloc.use_brakes);
   EXPECT_FALSE(Read("{allocation: {use_brakes: false}}").allocation.use_brakes);
-  EXPECT_EQ(keys::All().size(), 21U);  // 19 with a number, rig with a word, allocation.use_brakes true/false
+  EXPECT_EQ(keys::All().size(), 24U);  // 22 with a number, rig with a word, allocation.use_brakes true/false
   // The paper's values the docs state (docs/hybrid.md): motor 4.44 N·m after the reducer, brake 4 N·m, pulleys 5.
   EXPECT_EQ(code.motor.max_torque_Nm, 4.44);
   EXPECT_EQ(code.brake.max_torque_Nm, 4.0);
@@ -63,6 +67,11 @@ TEST(HybridKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
   EXPECT_EQ(given.substeps, 3);
   EXPECT_EQ(given.motor.pulley_ratio, 4.0);
   EXPECT_EQ(given.brake.drag_Nm, 0.2);
+  const ForceSensorDynamicsConfig sensor =
+      Read("{force_sensor: {noise_std_N: 0.2, bandwidth_hz: 0, seed: 7}}").rig.force_sensor_dynamics;
+  EXPECT_EQ(sensor.noise_std_N, 0.2);
+  EXPECT_EQ(sensor.bandwidth_hz, 0.0);
+  EXPECT_EQ(sensor.seed, 7U);
 }
 
 // rig: the table's default word is the default-constructed config's, absent reads as it, a wrong word is refused

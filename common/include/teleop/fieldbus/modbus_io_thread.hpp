@@ -112,6 +112,7 @@ class ModbusIoThread {
  private:
   struct Bus;  // libmodbus context and the I/O thread's private state
   struct AtomicCounters;
+  class Poller;  // Run()'s named steps (command, encode, connect, poll, reading, stop)
   void Run() noexcept;
 
   ModbusConfig config_;

@@ -131,6 +131,7 @@ void AdmittanceDevice::Configure() {
     drives_.back()->Configure();
   }
   sync_ = std::make_unique<fieldbus::canopen::SyncProducer>(*drive_ports_.front());
+  taken_.assign(drives_.size(), Taken{});
 }
 
 void AdmittanceDevice::Activate() {
@@ -181,6 +182,39 @@ void AdmittanceDevice::Deactivate() noexcept {
   for (auto& d : drives_) (void)d->Deactivate();
 }
 
+void AdmittanceDevice::Exchange() noexcept {
+  // TPDOs in (sampled at the previous SYNC), every drive's, before the SYNC...
+  for (std::size_t k = 0; k < drives_.size(); ++k) taken_[k].status = drives_[k]->Read(taken_[k].reading);
+  // ...then one SYNC for every drive: it applies the RPDOs the previous cycle's Update() queued.
+  if (sync_ && sync_->Send() != transport::CanWriteStatus::kOk) faults_ |= kFaultCommunication;
+}
+
+void AdmittanceDevice::TrackAxis(std::size_t k, double measured_m, std::uint32_t& faults) noexcept {
+  AdmittanceTracking& a = tracking_[k];
+  a.measured_position_m = measured_m;
+  if (!anchored_[k]) {
+    models_[k].Reset(measured_m);
+    history_m_[k].fill(measured_m);
+    anchored_[k] = true;
+    return;
+  }
+  if (!active_) return;
+  // The reading was sampled at the SYNC of the previous cycle, where the joint had followed the target that
+  // SYNC's predecessor applied: the virtual position Read reported two cycles ago (history_m_[k][2]).
+  a.error_m = std::abs(measured_m - history_m_[k][2]);
+  a.max_error_m = std::max(a.max_error_m, a.error_m);
+  if (a.error_m <= max_tracking_error_m_) {
+    beyond_run_[k] = 0;
+    return;
+  }
+  ++a.cycles_beyond;
+  if (++beyond_run_[k] >= config_.tracking_error_cycles) {
+    if (beyond_run_[k] == config_.tracking_error_cycles) ++a.faults;
+    tracking_fault_ = true;
+    faults |= kFaultDriver;
+  }
+}
+
 void AdmittanceDevice::Read(Reading& out) noexcept {
   const int n = config_.dof;
   out.position_m = DofVector::Zero(n);
@@ -191,42 +225,20 @@ void AdmittanceDevice::Read(Reading& out) noexcept {
   std::uint32_t faults = faults_;
   faults_ = kFaultNone;
   for (int i = 0; i < n && i < static_cast<int>(drives_.size()); ++i) {
-    fieldbus::Cia402Reading r{};
-    const Cia402Status s = drives_[static_cast<std::size_t>(i)]->Read(r);
     const auto k = static_cast<std::size_t>(i);
+    const fieldbus::Cia402Reading& r = taken_[k].reading;
+    const Cia402Status s = taken_[k].status;
+    // What the exchange took in is read once: a second Read sees no new data, as the drive's own Read would.
+    if (s == Cia402Status::kOk) taken_[k].status = Cia402Status::kNoNewData;
     const double t = config_.axes[k].transmission_m_per_rad;
     if (config_.mode == Cia402Mode::kCyclicSynchronousTorque) {
       // Torque mode: no virtual dynamics; the law closes on the joint as the drive measures it.
       tracking_[k].measured_position_m = r.position_rad * t;
       out.position_m[i] = r.position_rad * t;
       out.velocity_m_per_s[i] = r.velocity_rad_per_s * t;
-    } else if (s == Cia402Status::kOk) {
-      const double measured = r.position_rad * t;
-      AdmittanceTracking& a = tracking_[k];
-      a.measured_position_m = measured;
-      if (!anchored_[k]) {
-        models_[k].Reset(measured);
-        history_m_[k].fill(measured);
-        anchored_[k] = true;
-      } else if (active_) {
-        // The reading was sampled at the SYNC of the previous cycle, where the joint had followed the target that
-        // SYNC's predecessor applied: the virtual position Read reported two cycles ago (history_m_[k][2]).
-        a.error_m = std::abs(measured - history_m_[k][2]);
-        a.max_error_m = std::max(a.max_error_m, a.error_m);
-        if (a.error_m > max_tracking_error_m_) {
-          ++a.cycles_beyond;
-          if (++beyond_run_[k] >= config_.tracking_error_cycles) {
-            if (beyond_run_[k] == config_.tracking_error_cycles) ++a.faults;
-            tracking_fault_ = true;
-            faults |= kFaultDriver;
-          }
-        } else {
-          beyond_run_[k] = 0;
-        }
-      }
-    }
-    // The admittance's commanded state: the law and the fixture close their loop on the virtual mass.
-    if (config_.mode != Cia402Mode::kCyclicSynchronousTorque) {
+    } else {
+      if (s == Cia402Status::kOk) TrackAxis(k, r.position_rad * t, faults);
+      // The admittance's commanded state: the law and the fixture close their loop on the virtual mass.
       out.position_m[i] = models_[k].position_m();
       out.velocity_m_per_s[i] = models_[k].velocity_m_per_s();
     }
@@ -246,8 +258,6 @@ void AdmittanceDevice::Read(Reading& out) noexcept {
     }
   }
   if (drives_.empty()) faults |= kFaultDriver;
-  // One SYNC for every drive, after the TPDOs of the last one were read: it applies the previous cycle's RPDOs.
-  if (sync_ && sync_->Send() != transport::CanWriteStatus::kOk) faults |= kFaultCommunication;
   out.faults = faults;
 }
 

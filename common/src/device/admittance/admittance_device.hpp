@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "teleop/device/bus_exchange.hpp"
 #include "teleop/device/device.hpp"
 #include "teleop/fieldbus/can_port_config.hpp"
 #include "teleop/fieldbus/canopen_sync_producer.hpp"
@@ -105,7 +106,7 @@ struct AdmittanceTracking {
 using AdmittancePortFactory =
     std::function<std::unique_ptr<fieldbus::CanPort>(const transport::CanReceiveOptions& options)>;
 
-class AdmittanceDevice final : public Device {
+class AdmittanceDevice final : public Device, public BusExchange {
  public:
   /// Validates (throws teleop::Error naming the key); no I/O. `ports` defaults to OpenCanPort(config.can, …).
   explicit AdmittanceDevice(const AdmittanceConfig& config, AdmittancePortFactory ports = {},
@@ -117,6 +118,9 @@ class AdmittanceDevice final : public Device {
   void Configure() override;
   void Activate() override;
   void Deactivate() noexcept override;
+  /// The cycle's bus exchange: every drive's TPDOs in, then the one SYNC (it applies the RPDOs Update() queued).
+  void Exchange() noexcept override;
+  /// What the last Exchange() took in, through the virtual mass and the tracking check; no bus I/O.
   void Read(Reading& out) noexcept override;
   void Write(const Command& command) noexcept override;
   void Update(double period_s) noexcept override;
@@ -130,6 +134,15 @@ class AdmittanceDevice final : public Device {
   double max_tracking_error_m() const noexcept { return max_tracking_error_m_; }
 
  private:
+  /// One drive's part of the last Exchange(): its status and reading (kOk becomes kNoNewData once Read).
+  struct Taken {
+    fieldbus::Cia402Status status = fieldbus::Cia402Status::kNotActive;
+    fieldbus::Cia402Reading reading{};
+  };
+  /// Position and velocity modes: the tracking check of axis `k` on a fresh measurement (anchors the virtual
+  /// position to the joint's at the first one); sets kFaultDriver in `faults` once the bound holds long enough.
+  void TrackAxis(std::size_t k, double measured_m, std::uint32_t& faults) noexcept;
+
   AdmittanceConfig config_;
   AdmittancePortFactory ports_;
   fieldbus::Timebase timebase_;
@@ -146,6 +159,7 @@ class AdmittanceDevice final : public Device {
   std::vector<std::unique_ptr<fieldbus::Cia402Drive>> drives_;
   std::unique_ptr<fieldbus::CanPort> sync_port_;
   std::unique_ptr<fieldbus::canopen::SyncProducer> sync_;
+  std::vector<Taken> taken_;  ///< Per drive, sized at Configure().
   DofVector force_N_;
   DofVector rendered_N_;
   std::uint32_t faults_ = kFaultNone;

@@ -63,6 +63,11 @@ class ArmTorque {
   const JointTaskMatrix& J_bar() const noexcept { return J_bar_; }
 
  private:
+  /// Step's coupled terms: the task's null space (J̄_t, N) and the posture torque projected into it.
+  void NullSpacePosture(const ArmModel& model, const JointVector& q, const JointVector& v) noexcept;
+  /// Step's coupled terms: the springs that push a bounded joint back from its limit margin.
+  void JointLimits(const ArmModel& model, const JointVector& q) noexcept;
+
   ArmTorqueConfig config_;
   int n_ = 0;
   JointVector max_effort_;

@@ -10,6 +10,55 @@ namespace teleop::device::cobot {
 
 namespace {
 constexpr double kMinLength_m = 1e-9;
+
+/// A circle of `radius_m` around `center_m`; the forbidden side outside (forbidden_outside) or inside.
+ConstraintSample EvaluateCircle(const Vec2& center_m, double radius_m, bool forbidden_outside,
+                                const Vec2& point_m) noexcept {
+  const Vec2 r = point_m - center_m;
+  const double dist = r.norm();
+  const Vec2 radial = dist > kMinLength_m ? Vec2(r / dist) : Vec2::UnitX();
+  ConstraintSample s;
+  s.closest_m = center_m + radius_m * radial;
+  s.tangent = LeftNormal(radial);
+  if (forbidden_outside) {
+    s.normal_in = radial;
+    s.penetration_m = dist - radius_m;
+    s.curvature_away_per_m = 1.0 / radius_m;
+  } else {
+    s.normal_in = -radial;
+    s.penetration_m = radius_m - dist;
+    s.curvature_away_per_m = -1.0 / radius_m;
+  }
+  return s;
+}
+
+/// A polyline's interior `vertex` as the nearest feature (between the points `before` and `after`): the side from
+/// the mean of the adjacent segments' inward normals.
+ConstraintSample EvaluateVertex(const Vec2& before, const Vec2& vertex, const Vec2& after, bool forbidden_left,
+                                const Vec2& point_m) noexcept {
+  const Vec2 d = point_m - vertex;
+  const double dist = d.norm();
+  const Vec2 d_prev = (vertex - before).normalized();
+  const Vec2 d_next = (after - vertex).normalized();
+  const double side = forbidden_left ? 1.0 : -1.0;
+  const Vec2 pseudo_normal = side * (LeftNormal(d_prev) + LeftNormal(d_next));
+  ConstraintSample s;
+  s.closest_m = vertex;
+  if (dist > kMinLength_m) {
+    const bool inside = d.dot(pseudo_normal) > 0.0;
+    s.normal_in = inside ? Vec2(d / dist) : Vec2(-d / dist);
+    s.penetration_m = inside ? dist : -dist;
+  } else {
+    s.normal_in =
+        pseudo_normal.norm() > kMinLength_m ? Vec2(pseudo_normal.normalized()) : Vec2(side * LeftNormal(d_prev));
+    s.penetration_m = 0.0;
+  }
+  // Tangent: the normal turned back so that the walking direction keeps the forbidden side where it was.
+  s.tangent = side > 0.0 ? Vec2(-LeftNormal(s.normal_in)) : LeftNormal(s.normal_in);
+  s.curvature_away_per_m = 0.0;
+  return s;
+}
+
 }  // namespace
 
 Constraint Constraint::Line(const Vec2& point_m, const Vec2& direction, bool forbidden_left) {
@@ -98,24 +147,8 @@ ConstraintSample Constraint::Evaluate(const Vec2& point_m) const noexcept {
   switch (kind_) {
     case Kind::kLine:
       return EvaluateLine(anchor_m_, direction_, point_m);
-    case Kind::kCircle: {
-      const Vec2 r = point_m - anchor_m_;
-      const double dist = r.norm();
-      const Vec2 radial = dist > kMinLength_m ? Vec2(r / dist) : Vec2::UnitX();
-      ConstraintSample s;
-      s.closest_m = anchor_m_ + radius_m_ * radial;
-      s.tangent = LeftNormal(radial);
-      if (forbidden_outside_) {
-        s.normal_in = radial;
-        s.penetration_m = dist - radius_m_;
-        s.curvature_away_per_m = 1.0 / radius_m_;
-      } else {
-        s.normal_in = -radial;
-        s.penetration_m = radius_m_ - dist;
-        s.curvature_away_per_m = -1.0 / radius_m_;
-      }
-      return s;
-    }
+    case Kind::kCircle:
+      return EvaluateCircle(anchor_m_, radius_m_, forbidden_outside_, point_m);
     case Kind::kPolyline:
       break;
   }
@@ -140,34 +173,14 @@ ConstraintSample Constraint::Evaluate(const Vec2& point_m) const noexcept {
       }
       continue;
     }
-    // Nearest to an interior vertex: side from the mean of the adjacent segments' inward normals.
-    const int v = clamp_low ? i : i + 1;
-    const Vec2& vertex = points_m_[static_cast<std::size_t>(v)];
-    const Vec2 d = point_m - vertex;
-    const double dist = d.norm();
+    // Nearest to an interior vertex.
+    const auto v = static_cast<std::size_t>(clamp_low ? i : i + 1);
+    const double dist = (point_m - points_m_[v]).norm();
     if (dist >= best) {
       continue;
     }
-    const Vec2 d_prev = (vertex - points_m_[static_cast<std::size_t>(v) - 1]).normalized();
-    const Vec2 d_next = (points_m_[static_cast<std::size_t>(v) + 1] - vertex).normalized();
-    const double side = forbidden_left_ ? 1.0 : -1.0;
-    const Vec2 pseudo_normal = side * (LeftNormal(d_prev) + LeftNormal(d_next));
-    ConstraintSample s;
-    s.closest_m = vertex;
-    if (dist > kMinLength_m) {
-      const bool inside = d.dot(pseudo_normal) > 0.0;
-      s.normal_in = inside ? Vec2(d / dist) : Vec2(-d / dist);
-      s.penetration_m = inside ? dist : -dist;
-    } else {
-      s.normal_in =
-          pseudo_normal.norm() > kMinLength_m ? Vec2(pseudo_normal.normalized()) : Vec2(side * LeftNormal(d_prev));
-      s.penetration_m = 0.0;
-    }
-    // Tangent: the normal turned back so that the walking direction keeps the forbidden side where it was.
-    s.tangent = side > 0.0 ? Vec2(-LeftNormal(s.normal_in)) : LeftNormal(s.normal_in);
-    s.curvature_away_per_m = 0.0;
     best = dist;
-    best_sample = s;
+    best_sample = EvaluateVertex(points_m_[v - 1], points_m_[v], points_m_[v + 1], forbidden_left_, point_m);
   }
   return best_sample;
 }

@@ -11,6 +11,25 @@ namespace {
 constexpr double kFreeAlpha = 0.002;
 /// Velocity variance (m²/s²) below which the slope B is not trusted (the model then is the mean).
 constexpr double kMinVelocityVariance = 1e-6;
+
+/// A plane's offset in (x, y) at the plate's angle: the θ component moves the line.
+double PlanarOffset(const device::Constraint& c, double angle_rad) noexcept {
+  return c.normal.size() >= 3 ? c.offset_m - c.normal[2] * angle_rad : c.offset_m;
+}
+
+/// The most penetrated fixture plane of `command` at `position` (-1: none), its penetration in `penetration_m`.
+int MostPenetrated(const Command& command, const Vec2& position, double angle_rad, double& penetration_m) noexcept {
+  int best = -1;
+  for (int i = 0; i < command.constraint_count; ++i) {
+    const device::Constraint& c = command.constraints[static_cast<std::size_t>(i)];
+    const double penetration = Vec2(c.normal[0], c.normal[1]).dot(position) - PlanarOffset(c, angle_rad);
+    if (penetration > penetration_m) {
+      penetration_m = penetration;
+      best = i;
+    }
+  }
+  return best;
+}
 }  // namespace
 
 MasterWalls::MasterWalls(double contact_force_threshold_N) noexcept
@@ -38,25 +57,8 @@ void MasterWalls::LearnFreeMotion(const Vec2& c, const Vec2& v) noexcept {
   s_vv_ = (1.0 - kFreeAlpha) * (s_vv_ + kFreeAlpha * dv.squaredNorm());
 }
 
-void MasterWalls::Apply(const Command& command, const Vec2& position, const Vec2& velocity_in,
-                        VirtualWallController& controller, double angle_rad) noexcept {
-  const Vec2 velocity = velocity_in.allFinite() ? velocity_in : Vec2::Zero();
-  const double angle = std::isfinite(angle_rad) ? angle_rad : 0.0;
-  // A plane's offset in (x, y) at this θ: the θ component moves the line.
-  const auto planar_offset = [angle](const device::Constraint& c) {
-    return c.normal.size() >= 3 ? c.offset_m - c.normal[2] * angle : c.offset_m;
-  };
-  // The most penetrated fixture plane.
-  int best = -1;
-  double best_penetration = -std::numeric_limits<double>::infinity();
-  for (int i = 0; i < command.constraint_count; ++i) {
-    const device::Constraint& c = command.constraints[static_cast<std::size_t>(i)];
-    const double penetration = Vec2(c.normal[0], c.normal[1]).dot(position) - planar_offset(c);
-    if (penetration > best_penetration) {
-      best_penetration = penetration;
-      best = i;
-    }
-  }
+void MasterWalls::TrackContact(const Command& command, const Vec2& position, const Vec2& velocity,
+                               const VirtualWallController& controller) noexcept {
   // A blocked slave: the coupling force (the law's force without the fixture's share) over what free motion at
   // this velocity explains.
   Vec2 coupling(command.force_N[0], command.force_N[1]);
@@ -88,6 +90,15 @@ void MasterWalls::Apply(const Command& command, const Vec2& position, const Vec2
     // coupling force dips while the wheel settles on the wall, and re-latching deeper each time would weave.
     contact_latched_ = false;
   }
+}
+
+void MasterWalls::Apply(const Command& command, const Vec2& position, const Vec2& velocity_in,
+                        VirtualWallController& controller, double angle_rad) noexcept {
+  const Vec2 velocity = velocity_in.allFinite() ? velocity_in : Vec2::Zero();
+  const double angle = std::isfinite(angle_rad) ? angle_rad : 0.0;
+  double best_penetration = -std::numeric_limits<double>::infinity();
+  const int best = MostPenetrated(command, position, angle, best_penetration);
+  TrackContact(command, position, velocity, controller);
   int source = -1;
   Constraint wall = contact_wall_;
   const double contact_penetration = contact_wall_.Evaluate(position).penetration_m;
@@ -95,7 +106,7 @@ void MasterWalls::Apply(const Command& command, const Vec2& position, const Vec2
     source = kContactWall;
   } else if (best >= 0) {
     const device::Constraint& c = command.constraints[static_cast<std::size_t>(best)];
-    if (Constraint::TryHalfPlane(Vec2(c.normal[0], c.normal[1]), planar_offset(c), wall)) source = best;
+    if (Constraint::TryHalfPlane(Vec2(c.normal[0], c.normal[1]), PlanarOffset(c, angle), wall)) source = best;
   }
   if (source < 0) {
     controller.SetWallActive(false);

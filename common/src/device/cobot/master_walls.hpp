@@ -44,6 +44,10 @@ class MasterWalls {
 
  private:
   void LearnFreeMotion(const Vec2& coupling, const Vec2& velocity) noexcept;
+  /// Apply's contact wall: latches it when the coupling force exceeds what free motion explains, refines its
+  /// normal while pressed, releases it once the operator has left it.
+  void TrackContact(const Command& command, const Vec2& position, const Vec2& velocity,
+                    const VirtualWallController& controller) noexcept;
 
   double threshold_N_;
   int source_ = -1;

@@ -59,60 +59,64 @@ void VirtualWallController::SetWallActive(bool active) noexcept {
   }
 }
 
+void VirtualWallController::UpdateMode(const WallControllerInput& in, const Vec2& force, double motion_heading,
+                                       WallControllerOutput& out) noexcept {
+  if (!wall_active_) {
+    mode_ = WallMode::kCaster;
+    return;
+  }
+  const ConstraintSample wall = wall_.Evaluate(in.position_m);
+  const TrackingErrors wall_errors = ComputeTrackingErrors(wall, motion_heading);
+  out.penetration_m = wall.penetration_m;
+  const bool pulled_off_wall = force.dot(wall.normal_in) < -config_.release_force_N;
+  switch (mode_) {
+    case WallMode::kCaster: {
+      if (wall.penetration_m > 0.0) {
+        mode_ = WallMode::kTracking;
+        tracker_.Reset();
+        ++engage_count_;
+      } else if (config_.overlay_enabled) {
+        const OverlayArc arc = ComputeOverlay(wall, in.position_m, motion_heading);
+        out.overlay_radius_m = arc.valid ? arc.radius_m : 0.0;
+        if (arc.valid && arc.radius_m < config_.overlay_min_radius_m && !pulled_off_wall) {
+          if (Constraint::TryCircle(arc.center_m, arc.radius_m, /*forbidden_outside=*/true, overlay_)) {
+            mode_ = WallMode::kOverlay;
+          } else {
+            mode_ = WallMode::kTracking;  // degenerate arc: the wheel is at the wall already
+          }
+          tracker_.Reset();
+          ++engage_count_;
+        }
+      }
+      break;
+    }
+    case WallMode::kOverlay: {
+      const ConstraintSample arc = overlay_.Evaluate(in.position_m);
+      out.overlay_radius_m = overlay_.radius_m();
+      if (force.dot(arc.normal_in) < -config_.release_force_N) {
+        mode_ = WallMode::kCaster;
+        ++release_count_;
+      } else if (wall.penetration_m > 0.0 || wall_errors.theta_rad <= 0.0) {
+        mode_ = WallMode::kTracking;  // keep the integral: the same turn continues
+      }
+      break;
+    }
+    case WallMode::kTracking: {
+      if (pulled_off_wall || wall.penetration_m < -config_.release_distance_m) {
+        mode_ = WallMode::kCaster;
+        ++release_count_;
+      }
+      break;
+    }
+  }
+}
+
 WallControllerOutput VirtualWallController::Step(const WallControllerInput& in, double period_s) noexcept {
   WallControllerOutput out;
   const double u = std::isfinite(in.speed_m_per_s) ? in.speed_m_per_s : 0.0;
   const Vec2 force = in.handle_force_N.allFinite() ? in.handle_force_N : Vec2::Zero();
   const double motion_heading = u >= 0.0 ? in.steering_angle_rad : in.steering_angle_rad + std::numbers::pi;
-
-  if (!wall_active_) {
-    mode_ = WallMode::kCaster;
-  } else {
-    const ConstraintSample wall = wall_.Evaluate(in.position_m);
-    const TrackingErrors wall_errors = ComputeTrackingErrors(wall, motion_heading);
-    out.penetration_m = wall.penetration_m;
-    const bool pulled_off_wall = force.dot(wall.normal_in) < -config_.release_force_N;
-    switch (mode_) {
-      case WallMode::kCaster: {
-        if (wall.penetration_m > 0.0) {
-          mode_ = WallMode::kTracking;
-          tracker_.Reset();
-          ++engage_count_;
-        } else if (config_.overlay_enabled) {
-          const OverlayArc arc = ComputeOverlay(wall, in.position_m, motion_heading);
-          out.overlay_radius_m = arc.valid ? arc.radius_m : 0.0;
-          if (arc.valid && arc.radius_m < config_.overlay_min_radius_m && !pulled_off_wall) {
-            if (Constraint::TryCircle(arc.center_m, arc.radius_m, /*forbidden_outside=*/true, overlay_)) {
-              mode_ = WallMode::kOverlay;
-            } else {
-              mode_ = WallMode::kTracking;  // degenerate arc: the wheel is at the wall already
-            }
-            tracker_.Reset();
-            ++engage_count_;
-          }
-        }
-        break;
-      }
-      case WallMode::kOverlay: {
-        const ConstraintSample arc = overlay_.Evaluate(in.position_m);
-        out.overlay_radius_m = overlay_.radius_m();
-        if (force.dot(arc.normal_in) < -config_.release_force_N) {
-          mode_ = WallMode::kCaster;
-          ++release_count_;
-        } else if (wall.penetration_m > 0.0 || wall_errors.theta_rad <= 0.0) {
-          mode_ = WallMode::kTracking;  // keep the integral: the same turn continues
-        }
-        break;
-      }
-      case WallMode::kTracking: {
-        if (pulled_off_wall || wall.penetration_m < -config_.release_distance_m) {
-          mode_ = WallMode::kCaster;
-          ++release_count_;
-        }
-        break;
-      }
-    }
-  }
+  UpdateMode(in, force, motion_heading, out);
 
   if (mode_ == WallMode::kCaster) {
     const CasterOutput caster =

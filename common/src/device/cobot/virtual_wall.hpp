@@ -70,6 +70,10 @@ class VirtualWallController {
   int release_count() const noexcept { return release_count_; }
 
  private:
+  /// Step's first part: the mode after this cycle's wall sample (engage, overlay, release), with the penetration
+  /// and the overlay's radius in `out`.
+  void UpdateMode(const WallControllerInput& in, const Vec2& force, double motion_heading,
+                  WallControllerOutput& out) noexcept;
   VirtualWallConfig config_;
   Constraint wall_;
   Constraint overlay_;

@@ -143,11 +143,9 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
   }
   if (auto v = m.Optional("force_sensor")) {
     const Map mm(*v, {"noise_std_N", "bandwidth_hz", "seed"});
-    if (auto x = mm.Optional("noise_std_N")) c.rig.force_sensor_dynamics.noise_std_N = NonNegative(*x, "N");
-    if (auto x = mm.Optional("bandwidth_hz")) c.rig.force_sensor_dynamics.bandwidth_hz = NonNegative(*x, "Hz");
-    if (auto x = mm.Optional("seed")) {
-      c.rig.force_sensor_dynamics.seed = static_cast<std::uint64_t>(config::IntInRange(*x, 0, 2147483647));
-    }
+    c.rig.force_sensor_dynamics.noise_std_N = config::ReadNumber(mm, keys::kForceSensorNoise);
+    c.rig.force_sensor_dynamics.bandwidth_hz = config::ReadNumber(mm, keys::kForceSensorBandwidth);
+    c.rig.force_sensor_dynamics.seed = static_cast<std::uint64_t>(config::ReadInteger(mm, keys::kForceSensorSeed));
   }
   if (auto v = m.Optional("allocation")) {
     const Map mm(*v, {"use_brakes", "rest_velocity_rad_per_s", "brake_model_mismatch"});
@@ -215,7 +213,7 @@ DeviceBackend HybridBackend() {
       {"motor", "the motor per joint: the motor.* keys"},
       {"brake", "the particle brake per joint: the brake.* keys"},
       {"encoders", "the simulated rig's encoders: the encoders.* keys"},
-      {"force_sensor", "noise_std_N (0.05), bandwidth_hz (500; 0 = none), seed (1): the simulated handle sensor"},
+      {"force_sensor", "the simulated handle sensor: the force_sensor.* keys"},
       {"allocation", "the motor/brake torque allocation: the allocation.* keys"},
       {"effect",
        "local haptic effect: type none | wall (model spring|popc|hybrid|linear-damper, point_m, normal, "

@@ -245,19 +245,7 @@ void HybridFieldbusDevice::Latch(RigFaultSource source, std::uint32_t bits) noex
   fault_bits_ |= bits;
 }
 
-void HybridFieldbusDevice::Read(Reading& out) noexcept {
-  out.position_m = DofVector::Zero(2);
-  out.velocity_m_per_s = DofVector::Zero(2);
-  out.force_N = DofVector::Zero(2);
-  out.rendered_force_N = DofVector::Zero(2);
-  out.faults = kFaultNone;
-  out.clutch_pressed = false;
-  if (!active_) {
-    out.faults = kFaultDriver;
-    return;
-  }
-  const double ratio = config_.allocation.motor.pulley_ratio;
-  const std::uint64_t now_ns = timebase_.now_ns();
+bool HybridFieldbusDevice::InGrace(std::uint64_t now_ns) noexcept {
   if (first_cycle_) {
     // Between Activate() and the loop's first cycle the process may have waited (its peer, other set-up): the
     // activation-time readings count as current until the first SYNC of the loop has had time to answer.
@@ -267,7 +255,11 @@ void HybridFieldbusDevice::Read(Reading& out) noexcept {
                                            sensor_ ? config_.can_force_sensor.stale_after_ms : 0.0}) *
                                  1e6);
   }
-  const bool in_grace = now_ns < grace_end_ns_;
+  return now_ns < grace_end_ns_;
+}
+
+void HybridFieldbusDevice::TakeInDrives(bool in_grace) noexcept {
+  const double ratio = config_.allocation.motor.pulley_ratio;
   for (std::size_t i = 0; i < 2; ++i) {
     fieldbus::Cia402Reading r;
     Cia402Status status = drives_[i]->Read(r);
@@ -294,29 +286,53 @@ void HybridFieldbusDevice::Read(Reading& out) noexcept {
     joint_rad_(static_cast<int>(i)) = r.position_rad / ratio + config_.joint_offset_rad[i];
     joint_velocity_rad_per_s_(static_cast<int>(i)) = r.velocity_rad_per_s / ratio;
   }
+}
+
+void HybridFieldbusDevice::TakeInAmplifierAndSensor(bool in_grace) noexcept {
   fieldbus::ModbusReading m;
   if (amplifier_->LatestReading(m) != kFaultNone) Latch(RigFaultSource::kAmplifier, kFaultCommunication);
   // The clutch pedal, when the register map has an input `clutch` (any table; a discrete input, FC 2, is the
   // usual one): pressed while it reads non-zero. A stale amplifier latches the safe state above, pedal or not.
-  if (clutch_input_ >= 0) out.clutch_pressed = m.values[static_cast<std::size_t>(clutch_input_)] != 0.0;
-  if (sensor_) {
-    fieldbus::CanForceReading f;
-    fieldbus::CanForceSensorStatus s = sensor_->Read(f);
-    if (s == fieldbus::CanForceSensorStatus::kOk) awaiting_fresh_[2] = false;
-    if (s == fieldbus::CanForceSensorStatus::kStale && awaiting_fresh_[2] && in_grace) {
-      s = fieldbus::CanForceSensorStatus::kNoNewData;
-    }
-    if (s == fieldbus::CanForceSensorStatus::kStale || s == fieldbus::CanForceSensorStatus::kBusOff) {
-      Latch(RigFaultSource::kForceSensor, kFaultCommunication);
-    }
-    hand_force_N_ = {f.force_N[0], f.force_N[1]};
-  } else {
+  clutch_pressed_ = clutch_input_ >= 0 && m.values[static_cast<std::size_t>(clutch_input_)] != 0.0;
+  if (!sensor_) {
     hand_force_N_ = {m.values[static_cast<std::size_t>(force_input_[0])],
                      m.values[static_cast<std::size_t>(force_input_[1])]};
+    return;
   }
+  fieldbus::CanForceReading f;
+  fieldbus::CanForceSensorStatus s = sensor_->Read(f);
+  if (s == fieldbus::CanForceSensorStatus::kOk) awaiting_fresh_[2] = false;
+  if (s == fieldbus::CanForceSensorStatus::kStale && awaiting_fresh_[2] && in_grace) {
+    s = fieldbus::CanForceSensorStatus::kNoNewData;
+  }
+  if (s == fieldbus::CanForceSensorStatus::kStale || s == fieldbus::CanForceSensorStatus::kBusOff) {
+    Latch(RigFaultSource::kForceSensor, kFaultCommunication);
+  }
+  hand_force_N_ = {f.force_N[0], f.force_N[1]};
+}
+
+void HybridFieldbusDevice::Exchange() noexcept {
+  if (!active_) return;
+  const bool in_grace = InGrace(timebase_.now_ns());
+  TakeInDrives(in_grace);              // TPDOs in: sampled at the previous SYNC
+  TakeInAmplifierAndSensor(in_grace);  // the I/O thread's newest poll; the CAN force sensor's frames
   // The cycle's one SYNC, after the TPDOs of the previous one were drained and long after the previous cycle's
   // RPDOs of both drives: they apply those torques on it, together, and sample their next TPDOs.
   SendCycleSync();
+}
+
+void HybridFieldbusDevice::Read(Reading& out) noexcept {
+  out.position_m = DofVector::Zero(2);
+  out.velocity_m_per_s = DofVector::Zero(2);
+  out.force_N = DofVector::Zero(2);
+  out.rendered_force_N = DofVector::Zero(2);
+  out.faults = kFaultNone;
+  out.clutch_pressed = false;
+  if (!active_) {
+    out.faults = kFaultDriver;
+    return;
+  }
+  out.clutch_pressed = clutch_pressed_;
   Eigen::Vector2d p;
   if (!joint_rad_.allFinite() || !kinematics_.Forward(joint_rad_, p) || !kinematics_.Jacobian(joint_rad_, jacobian_)) {
     Latch(RigFaultSource::kKinematics, kFaultOutOfRange);
@@ -372,7 +388,7 @@ void HybridFieldbusDevice::Write(const Command& command) noexcept {
   in.hand_force_N = hand_force_N_.allFinite() ? hand_force_N_ : Eigen::Vector2d::Zero();
   in.desired_force_N = desired_N_;
   allocation_out_ = allocator_.Step(in, period_s_);
-  // Both RPDOs now; the SYNC that applies them is the next cycle's, sent by Read().
+  // Both RPDOs now, a period ahead of the SYNC that applies them: the next cycle's Exchange().
   WriteDrives(allocation_out_.motor_joint_Nm(0), allocation_out_.motor_joint_Nm(1));
   fieldbus::ModbusCommand c;
   c.values[static_cast<std::size_t>(brake_output_[0])] = allocation_out_.brake_shaft_Nm(0);

@@ -9,6 +9,7 @@
 
 #include "device/hybrid/five_bar.hpp"
 #include "device/hybrid/motor_brake_allocation.hpp"
+#include "teleop/device/bus_exchange.hpp"
 #include "teleop/device/device.hpp"
 #include "teleop/fieldbus/can_force_sensor.hpp"
 #include "teleop/fieldbus/can_port_config.hpp"
@@ -64,17 +65,19 @@ const char* ToString(RigFaultSource source) noexcept;
 /// I/O thread; Activate() brings both drives to Operation Enabled and waits for the amplifier's first poll and the
 /// CAN force sensor's first frame (teleop::Error naming the part otherwise).
 ///
-/// The cycle on the bus: Read() drains every client (TPDOs sampled at the previous SYNC), then sends the one SYNC of
-/// the cycle (SendCycleSync: a refused SYNC latches RigFaultSource::kSync, named after what failed); Write() sends
-/// both drives' RPDOs. So every SYNC follows both RPDOs of the previous cycle whatever the arbitration, and both
-/// drives apply their torque on the same SYNC (canopen_sync_producer.hpp).
+/// The cycle on the bus: Exchange() (the device seam's one bus exchange, teleop/device/bus_exchange.hpp) drains
+/// every client (TPDOs sampled at the previous SYNC, the CAN force sensor, the amplifier's newest poll), latching a
+/// part that failed under its own name, then sends the one SYNC of the cycle (SendCycleSync: a refused SYNC latches
+/// RigFaultSource::kSync); Read() only interprets what it took in (kinematics, no bus I/O); Write() queues both
+/// drives' RPDOs. So every SYNC follows both RPDOs of the previous cycle by a period whatever the arbitration, and
+/// both drives apply their torque on the same SYNC (canopen_sync_producer.hpp).
 ///
 /// Safe state (latched, until Activate() again): a drive that leaves Operation Enabled, faults, goes stale or loses
 /// its heartbeat, an amplifier that stops answering (stale reading), or a CAN force sensor gone stale, puts the
 /// motors to zero torque and commands the brakes fully engaged (a brake can only stop motion); the outputs'
 /// safe_value is the engaged torque too, so the I/O thread's own command timeout lands in the same state.
 /// Deactivate() logs which part latched it.
-class HybridFieldbusDevice final : public Device {
+class HybridFieldbusDevice final : public Device, public BusExchange {
  public:
   /// The device on the given ports (tests): they must outlive it and receive Cia402Drive::ReceiveOptions of their
   /// drive (and CanForceSensor::ReceiveOptions for `sensor_port`, needed when the sensor is on CAN).
@@ -91,6 +94,7 @@ class HybridFieldbusDevice final : public Device {
   void Configure() override;
   void Activate() override;
   void Deactivate() noexcept override;
+  void Exchange() noexcept override;
   void Read(Reading& out) noexcept override;
   void Write(const Command& command) noexcept override;
   void Update(double period_s) noexcept override;
@@ -113,6 +117,11 @@ class HybridFieldbusDevice final : public Device {
   void CommandSafe() noexcept;
   /// The cycle's one SYNC on the bus (after the TPDOs were drained, long after both RPDOs).
   void SendCycleSync() noexcept;
+  /// Exchange's steps: whether the activation-time readings still count as current (starts the grace at the
+  /// loop's first cycle); the drives' TPDOs into the joint state; the amplifier's poll and the CAN force sensor.
+  bool InGrace(std::uint64_t now_ns) noexcept;
+  void TakeInDrives(bool in_grace) noexcept;
+  void TakeInAmplifierAndSensor(bool in_grace) noexcept;
 
   HybridFieldbusConfig config_;
   Capabilities capabilities_;
@@ -130,6 +139,7 @@ class HybridFieldbusDevice final : public Device {
   std::array<int, 2> brake_output_{0, 1};  // slots in ModbusCommand::values
   std::array<int, 2> force_input_{0, 1};   // slots in ModbusReading::values (Modbus sensor)
   int clutch_input_ = -1;                  // the optional input `clutch` (a pedal on a discrete input); -1: none
+  bool clutch_pressed_ = false;            // the input `clutch` as the last Exchange() took it in
   Eigen::Vector2d joint_rad_{0.0, 0.0};
   Eigen::Vector2d joint_velocity_rad_per_s_{0.0, 0.0};
   Eigen::Vector2d hand_force_N_{0.0, 0.0};

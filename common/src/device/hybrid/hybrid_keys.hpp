@@ -124,6 +124,26 @@ inline const KeySpec kEncoderVelocityFilter{.key = "encoders.velocity_filter_hz"
                                             .default_value = kRig.encoders.velocity_filter_hz,
                                             .meaning = "Low-pass of the differenced velocity; 0 = none."};
 
+inline const KeySpec kForceSensorNoise{.key = "force_sensor.noise_std_N",
+                                       .unit = "N",
+                                       .range = KeyRange::kNonNegative,
+                                       .default_value = kRig.force_sensor_dynamics.noise_std_N,
+                                       .meaning = "The simulated handle sensor's white noise per axis; 0 = none."};
+inline const KeySpec kForceSensorBandwidth{.key = "force_sensor.bandwidth_hz",
+                                           .unit = "Hz",
+                                           .range = KeyRange::kNonNegative,
+                                           .default_value = kRig.force_sensor_dynamics.bandwidth_hz,
+                                           .meaning = "The simulated handle sensor's first-order bandwidth; 0 = none."};
+inline const KeySpec kForceSensorSeed{.key = "force_sensor.seed",
+                                      .type = KeyType::kInteger,
+                                      .range = KeyRange::kInRange,
+                                      .default_value = static_cast<double>(kRig.force_sensor_dynamics.seed),
+                                      .meaning =
+                                          "Seed of the simulated handle sensor's noise (the same seed, the same "
+                                          "readings).",
+                                      .low = 0,
+                                      .high = 2147483647};
+
 inline const AllocationConfig kAllocation{};
 inline const KeySpec kAllocationUseBrakes{.key = "allocation.use_brakes",
                                           .type = KeyType::kBool,
@@ -164,6 +184,9 @@ inline const auto& All() {
                                 kBrakePulleyRatio,
                                 kEncoderCounts,
                                 kEncoderVelocityFilter,
+                                kForceSensorNoise,
+                                kForceSensorBandwidth,
+                                kForceSensorSeed,
                                 kAllocationUseBrakes,
                                 kAllocationRestVelocity,
                                 kAllocationBrakeMismatch};
