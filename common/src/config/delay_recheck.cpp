@@ -103,7 +103,12 @@ void DelayRecheck::Run() {
     try {
       if (verdict == runtime::DelayWatch::Verdict::kSlower) {
         const Action action = Evaluate(config_, options_, watch_.measured_age_s(), current_N_per_m_);
-        if (action.fixture_N_per_m < current_N_per_m_) {
+        if (action.coupling_unstable) {
+          // No stiffness helps: the fixture is left as it is (the caller decides: an event, or decouple), so a
+          // recovery that follows changes nothing either.
+          ++actions_;
+          apply_(action);
+        } else if (action.fixture_N_per_m < current_N_per_m_) {
           current_N_per_m_ = action.fixture_N_per_m;
           ++actions_;
           apply_(action);
@@ -127,6 +132,7 @@ void DelayRecheck::Run() {
       Action failed;
       failed.measured_age_s = watch_.measured_age_s();
       failed.fixture_N_per_m = current_N_per_m_;
+      failed.failed = true;
       failed.message = std::string("delay re-check failed: ") + e.what();
       apply_(failed);
     }
