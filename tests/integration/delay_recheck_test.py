@@ -29,9 +29,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import two_process_test as tp  # noqa: E402  (configs, ports, output, telemetry)
 from teleop_process import run_test  # noqa: E402  (tests/test_utilities, on the path two_process_test set)
 
-GAIN_KP = 400.0  # N/m, both sides (law and the peer the stability check assumes)
-GAIN_KD = 1.0  # N·s/m
-FIXTURE = 2000.0  # N/m, the slave's (the shipped value)
+GAIN_KP = 200.0  # N/m, both sides (law and the peer the stability check assumes)
+GAIN_KD = 0.5  # N·s/m
+FIXTURE = 1650.0  # N/m, the slave's (the start-up check's limit at 1 ms: 1699 N/m)
 PUSH_N = 4.0  # the master finger's force, held from 1.5 s to the end (its free-space rest: 20 mm, 10 mm in)
 STEP_UP_S, STEP_DOWN_S = 3.0, 7.0  # link.emulate.delay_steps (since each link opened)
 SLOW_DELAY_MS = 60.0
@@ -39,9 +39,11 @@ MASTER_S = 11.5  # the master's duration; the slave stops on its shutdown
 MAX_FORCE_RATE = 20.0  # link.delay_recheck.max_force_rate_N_per_s (the default)
 MAX_PENETRATION = 0.01  # link.delay_recheck.max_penetration_m (the default)
 
-# The trigger and recovery ratios are wide (the assumed age is 2 ms: one period + the emulated 1 ms): on a loaded
-# test machine the data age's tail reaches a few milliseconds without any step.
-RECHECK = ("  delay_recheck: {enabled: %s, window_s: 0.5, percentile: 0.9, trigger_ratio: 5, recover_ratio: 2, "
+# The median over 0.5 s and wide ratios (the assumed age is 2 ms: one period + the emulated 1 ms): on a loaded test
+# machine the data age's tail reaches several milliseconds without any step, and the median passes 10 ms only once
+# half the window is past the step, so the age it acts on is the full step's (a tail percentile would act on the
+# ages still climbing through the step, and trigger_ratio 5 would then not fire again at 60 ms).
+RECHECK = ("  delay_recheck: {enabled: %s, window_s: 0.5, percentile: 0.5, trigger_ratio: 5, recover_ratio: 2, "
            "recover_hold_s: 1.0, "
            "max_force_rate_N_per_s: %g, max_penetration_m: %g}\n")
 EMULATE = ("  timeout_ms: 300            # longer than the 59 ms without arrivals after the step up\n"
@@ -57,6 +59,11 @@ def configure(path, role, on, seed):
     text = re.sub(r"(?m)^(\s*kd_Ns_per_m:).*$", lambda m: f"{m.group(1)} {GAIN_KD:g}", text)
     # 8 operators: the re-check's analysis at 60 ms (130 states) takes well under a second.
     text = re.sub(r"(?m)^(\s*human_grid_steps:).*$", r"\1 1", text)
+    # The slave's fixture, and what the master's check assumes of it.
+    text = re.sub(r"(?m)^(\s*(?:fixture_)?stiffness_N_per_m:) 2000\b", lambda m: f"{m.group(1)} {FIXTURE:g}", text)
+    # The latency gate (engagement.max_rtt_ms, 100 ms by default) would decouple at a 120 ms round trip: off, so
+    # the coupling runs over the slow link and the re-check is what keeps it stable.
+    text += "\nengagement: {max_rtt_ms: 0}\n"
     text = re.sub(r"(?m)^(\s*timeout_ms:).*\n", "", text)
     link_end = text.index("  security:")
     text = text[:link_end] + EMULATE % (seed, STEP_UP_S, SLOW_DELAY_MS, STEP_DOWN_S) + \
@@ -110,17 +117,14 @@ def main():
     x = [r["position_m_0"] for r in rows]
     print(f"  slave stiffness: first {k[0]:g}, min {min(k):g}, last {k[-1]:g} N/m")
 
-    # No growing oscillation while the link is slow: the slave's position over the second half of the slow period
-    # moves no more than over its first half, and stays within a few millimetres.
     def ptp(lo, hi):
         xs = [xi for ti, xi in zip(t, x) if lo <= ti < hi]
-        tp.check(len(xs) > 100, f"telemetry between {lo:.1f} and {hi:.1f} s")
+        tp.check(len(xs) > 100, f"telemetry between {lo:.2f} and {hi:.2f} s")
         return max(xs) - min(xs)
-    mid = 0.5 * (STEP_UP_S + STEP_DOWN_S)
-    first, second = ptp(STEP_UP_S + 0.2, mid), ptp(mid, STEP_DOWN_S)
-    print(f"  slave position peak-to-peak while slow: {first * 1e3:.3f} mm then {second * 1e3:.3f} mm")
 
     if not on:
+        slow = ptp(STEP_UP_S + 0.2, STEP_DOWN_S)
+        print(f"  slave position peak-to-peak while slow, fixture {FIXTURE:g} N/m: {slow * 1e3:.3f} mm")
         tp.check(all(ki == FIXTURE for ki in k), f"re-check off: the stiffness stays {FIXTURE:g} N/m throughout")
         tp.check("delay re-check" not in slave_log, "re-check off: nothing logged")
         return 0
@@ -143,12 +147,31 @@ def main():
     t_low = next(ti for ti, ki in zip(t, k) if abs(ki - target) <= 1.0)
     t_start = next(ti for ti, ki in zip(t, k) if ki < FIXTURE)
     print(f"  stiffness left {FIXTURE:g} N/m at {t_start:.2f} s, reached {target:g} N/m at {t_low:.2f} s")
-    # The ramp's force rate at max_penetration_m: |dk/dt| x max_penetration_m (2 % for the decimated clock).
-    rate = max(abs(k[i] - k[i - 1]) / (t[i] - t[i - 1]) for i in range(1, len(k)) if t[i] > t[i - 1])
-    print(f"  largest stiffness rate {rate:.1f} N/m/s: {rate * MAX_PENETRATION:.2f} N/s at {MAX_PENETRATION} m")
-    tp.check(rate * MAX_PENETRATION <= 1.02 * MAX_FORCE_RATE,
-             f"the ramp's force rate {rate * MAX_PENETRATION:.2f} N/s is within {MAX_FORCE_RATE:g} N/s")
-    tp.check(second <= max(1.5 * first, 0.5e-3) and second < 5e-3,
+    # The ramp's force rate at max_penetration_m: the ramp runs over cycles (1 ms each), so its largest step per cycle
+    # x max_penetration_m is at most max_force_rate_N_per_s x 1 ms, and its mean slope on the loop clock (a loaded
+    # machine runs some cycles late) within 10 % of that rate.
+    step = max(abs(k[i] - k[i - 1]) for i in range(1, len(k)))
+    slope = (FIXTURE - target) / (t_low - t_start)
+    print(f"  largest stiffness step {step:.3f} N/m per cycle ({step * MAX_PENETRATION * 1e3:.2f} N/s at "
+          f"{MAX_PENETRATION} m); mean slope {slope:.0f} N/m/s ({slope * MAX_PENETRATION:.2f} N/s)")
+    tp.check(step * MAX_PENETRATION <= 1.02 * MAX_FORCE_RATE * 1e-3,
+             f"the ramp's force rate per cycle {step * MAX_PENETRATION * 1e3:.2f} N/s is within {MAX_FORCE_RATE:g} N/s")
+    tp.check(slope * MAX_PENETRATION <= 1.1 * MAX_FORCE_RATE,
+             f"the ramp's mean force rate {slope * MAX_PENETRATION:.2f} N/s is within {MAX_FORCE_RATE:g} N/s")
+    force = [r["fixture_force_N_0"] for r in rows]
+    worst = max((abs(force[j] - force[i]) / (t[j] - t[i]) for i in range(0, len(t) - 10, 10) for j in (i + 10,)
+                 if t[j] - t[i] > 5e-3), default=0.0)
+    print(f"  largest fixture force rate over 10 cycles: {worst:.2f} N/s")
+    # No growing oscillation once the fixture is at its new stiffness and the link still slow: the slave's
+    # peak-to-peak motion over the second half of that time is no larger than 1.5 x the first half's (or 0.2 mm),
+    # and under 3 mm.
+    tp.check(t_low + 0.6 < STEP_DOWN_S, f"the ramp ended ({t_low:.2f} s) well before the link recovered")
+    mid = 0.5 * (t_low + 0.1 + STEP_DOWN_S)
+    unstable = ptp(STEP_UP_S + 0.2, t_start)
+    first, second = ptp(t_low + 0.1, mid), ptp(mid, STEP_DOWN_S)
+    print(f"  slave position peak-to-peak while slow: {unstable * 1e3:.3f} mm at {FIXTURE:g} N/m, then at "
+          f"{target:g} N/m {first * 1e3:.3f} mm and {second * 1e3:.3f} mm")
+    tp.check(second <= max(1.5 * first, 0.2e-3) and second < 3e-3,
              f"no growing oscillation while slow ({first * 1e3:.3f} then {second * 1e3:.3f} mm peak-to-peak)")
     tp.check("delay re-check: the link recovered" in slave_log, "the recovery's message")
     tp.check("the link recovered, fixture ramps back to" in slave_log, "the delay_recheck event (recovered)")

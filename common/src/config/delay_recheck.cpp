@@ -93,13 +93,28 @@ DelayRecheck::~DelayRecheck() {
 void DelayRecheck::Run() {
   const auto start = std::chrono::steady_clock::now();
   const auto period = std::chrono::duration<double>(options_.poll_period_s);
+  // The watch fires as the percentile crosses its threshold, i.e. on an age still climbing through a step (a step
+  // up leaves no arrival for its size, then every sample has the new age): the check waits one window after the
+  // first trigger and runs with the percentile then, which holds only the new ages when the step persists.
+  bool settling = false;
+  double settled_at_s = 0.0;
   std::unique_lock<std::mutex> lock(mutex_);
   while (!wake_.wait_for(lock, period, [this] { return stop_; })) {
     lock.unlock();
     const double age_s = data_age_s_();
     const double now_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const runtime::DelayWatch::Verdict verdict =
+    runtime::DelayWatch::Verdict verdict =
         age_s >= 0.0 ? watch_.Add(now_s, age_s) : runtime::DelayWatch::Verdict::kNone;
+    if (verdict == runtime::DelayWatch::Verdict::kSlower && !settling) {
+      settling = true;
+      settled_at_s = now_s + options_.watch.window_s;
+    }
+    if (verdict == runtime::DelayWatch::Verdict::kRecovered) settling = false;
+    if (verdict == runtime::DelayWatch::Verdict::kSlower) verdict = runtime::DelayWatch::Verdict::kNone;
+    if (settling && now_s >= settled_at_s) {
+      settling = false;
+      if (watch_.slower()) verdict = runtime::DelayWatch::Verdict::kSlower;
+    }
     try {
       if (verdict == runtime::DelayWatch::Verdict::kSlower) {
         const Action action = Evaluate(config_, options_, watch_.measured_age_s(), current_N_per_m_);

@@ -14,7 +14,8 @@ namespace teleop::config {
 
 /// Issue 32.3, the run-time re-check: a thread of its own (never the real-time one) samples the measured data age,
 /// and when its high percentile exceeds what the start-up check assumed (runtime::DelayWatch, with hysteresis) it
-/// runs the same check again with the measured delay and hands the node a new fixture stiffness, ramped at a bounded
+/// waits one window (the watch fires on an age still climbing through a step) and runs the same check again with the
+/// percentile then as the measured delay and hands the node a new fixture stiffness, ramped at a bounded
 /// force rate; when the link recovers, the configured stiffness again. When no stiffness is stable at the measured
 /// delay (the coupling itself is not), `apply` gets the action with coupling_unstable and the fixture is left as it
 /// is (the process logs it, or decouples: link.delay_recheck.on_unstable). It drives the node only through `apply`
