@@ -109,13 +109,14 @@ TEST_F(TelemetryWriterTest, WritesHeaderAndOneRowPerPushedRecordInOrder) {
   std::stringstream row(lines[3]);
   std::vector<double> values;
   for (std::string cell; std::getline(row, cell, ',');) values.push_back(std::stod(cell));
-  // ..., device_warnings, clutch.
-  ASSERT_EQ(values.size(), 3u + 9u * 2u + 7u + 2u * 2u + 2u);
-  EXPECT_EQ(values[0], 2.0);            // cycle
-  EXPECT_DOUBLE_EQ(values[1], 0.002);   // time_s
-  EXPECT_DOUBLE_EQ(values[4], 0.5);     // position_m_1
-  EXPECT_DOUBLE_EQ(values[9], -1.5);    // command_N_0
-  EXPECT_DOUBLE_EQ(values[11], -1.25);  // rendered_force_N_0
+  // ..., device_warnings, clutch, fixture_stiffness_N_per_m.
+  ASSERT_EQ(values.size(), 3u + 9u * 2u + 7u + 2u * 2u + 3u);
+  EXPECT_DOUBLE_EQ(values.back(), 1500.0);  // fixture_stiffness_N_per_m
+  EXPECT_EQ(values[0], 2.0);                // cycle
+  EXPECT_DOUBLE_EQ(values[1], 0.002);       // time_s
+  EXPECT_DOUBLE_EQ(values[4], 0.5);         // position_m_1
+  EXPECT_DOUBLE_EQ(values[9], -1.5);        // command_N_0
+  EXPECT_DOUBLE_EQ(values[11], -1.25);      // rendered_force_N_0
 }
 
 TEST_F(TelemetryWriterTest, TakesDofFromTheFirstRecordWhenNotGiven) {
