@@ -8,6 +8,7 @@
 
 #include "teleop/config/stability_check.hpp"
 #include "teleop/error.hpp"
+#include "teleop/runtime/background_thread.hpp"
 
 namespace teleop::config {
 namespace {
@@ -91,6 +92,7 @@ DelayRecheck::~DelayRecheck() {
 }
 
 void DelayRecheck::Run() {
+  runtime::BecomeBackgroundThread("teleop-recheck");  // never the loop's priority or CPU, whoever started it
   const auto start = std::chrono::steady_clock::now();
   const auto period = std::chrono::duration<double>(options_.poll_period_s);
   // The watch fires as the percentile crosses its threshold, i.e. on an age still climbing through a step (a step
