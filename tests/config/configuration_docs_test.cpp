@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "teleop/config/delay_recheck_keys.hpp"
 #include "teleop/config/key_table.hpp"
 #include "teleop/device/device_registry.hpp"
 
@@ -86,6 +87,19 @@ TEST(ConfigurationDocs, EveryKeyTableRowIsInTheDocsVerbatim) {
   config::KeySpec changed{"mass_kg", config::KeyType::kNumber, "kg", config::KeyRange::kPositive, false, 0.05, "x"};
   EXPECT_EQ(docs.find(config::KeyTableRow(changed)), std::string::npos) << "the check can fail";
   EXPECT_EQ(config::KeyTableRow(changed), "| `mass_kg` | number, kg | 0.05 | > 0 | x |");
+}
+
+// The link.delay_recheck key table (teleop/config/delay_recheck_keys.hpp) is the source of its docs rows.
+TEST(ConfigurationDocs, TheDelayRecheckRowsAreInTheDocsVerbatim) {
+  const std::string docs = ReadDocs();
+  const auto section = docs.find("### `link.delay_recheck`");
+  ASSERT_NE(section, std::string::npos) << "docs/configuration.md has no link.delay_recheck section";
+  for (const config::KeySpec* spec : config::delay_recheck_keys::kAll) {
+    const std::string row = config::KeyTableRow(*spec);
+    EXPECT_NE(docs.find("\n" + row + "\n", section), std::string::npos)
+        << "link.delay_recheck." << spec->key << ": docs/configuration.md lacks the row\n"
+        << row;
+  }
 }
 
 TEST(ConfigurationDocs, TheCheckFindsAMissingKey) {

@@ -106,7 +106,8 @@ TEST(DelayRecheck, EvaluateLowersTheShippedSlaveFixtureToTheLimitAtTheMeasuredDe
   EXPECT_THAT(at8.message, HasSubstr("the coupling itself is unstable"));
 }
 
-// The thread: a data age that steps 1 -> 8 -> 1 ms; the re-check lowers the fixture once and restores it once.
+// The thread: a data age that steps 1 -> 4 -> 1 ms; the re-check lowers the fixture once (to 0.9 x the limit at
+// 4 ms) and restores it once, each over |dk| x 10 mm / 20 N/s.
 TEST(DelayRecheck, ThreadLowersOnAStepAndRestoresWhenTheLinkRecovers) {
   const config::ProcessConfig config = config::ParseProcessConfig(ShippedSlave(), "slave.yaml");
   config::DelayRecheck::Options options;
@@ -126,16 +127,49 @@ TEST(DelayRecheck, ThreadLowersOnAStepAndRestoresWhenTheLinkRecovers) {
       });
   std::unique_lock<std::mutex> lock(mutex);
   EXPECT_FALSE(changed.wait_for(lock, std::chrono::milliseconds(50), [&] { return !actions.empty(); }));
-  age_s = 8e-3;
+  age_s = 4e-3;
   ASSERT_TRUE(changed.wait_for(lock, std::chrono::seconds(10), [&] { return actions.size() >= 1; }));
   EXPECT_FALSE(actions[0].recovered);
-  EXPECT_EQ(actions[0].fixture_N_per_m, 0.0);
+  EXPECT_FALSE(actions[0].coupling_unstable);
+  EXPECT_NEAR(actions[0].fixture_N_per_m, 0.9 * actions[0].limit_N_per_m, 1e-9);
+  EXPECT_LT(actions[0].fixture_N_per_m, 2000.0);
+  const double lowered = actions[0].fixture_N_per_m;
   age_s = 1e-3;
   ASSERT_TRUE(changed.wait_for(lock, std::chrono::seconds(10), [&] { return actions.size() >= 2; }));
   EXPECT_TRUE(actions[1].recovered);
   EXPECT_EQ(actions[1].fixture_N_per_m, 2000.0);
-  EXPECT_NEAR(actions[1].ramp_s, 2000.0 * 0.01 / 20.0, 1e-12);
+  EXPECT_NEAR(actions[1].ramp_s, (2000.0 - lowered) * 0.01 / 20.0, 1e-12);
   EXPECT_EQ(actions.size(), 2u);
+}
+
+// At 60 ms no fixture is stable with the shipped gains (the coupling itself is not): the action says so and leaves
+// the fixture where it is (the process decides: an event, or decouple), so the recovery that follows changes
+// nothing and reports nothing.
+TEST(DelayRecheck, ACouplingUnstableAtTheMeasuredDelayLeavesTheFixtureAlone) {
+  const config::ProcessConfig config = config::ParseProcessConfig(ShippedSlave(), "slave.yaml");
+  config::DelayRecheck::Options options;
+  options.poll_period_s = 1e-3;
+  options.watch.window_s = 0.02;
+  options.watch.recover_hold_s = 0.02;
+  std::atomic<double> age_s{1e-3};
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::vector<config::DelayRecheck::Action> actions;
+  config::DelayRecheck recheck(
+      config, options, [&] { return age_s.load(); },
+      [&](const config::DelayRecheck::Action& a) {
+        const std::lock_guard<std::mutex> lock(mutex);
+        actions.push_back(a);
+        changed.notify_all();
+      });
+  std::unique_lock<std::mutex> lock(mutex);
+  age_s = 60e-3;
+  ASSERT_TRUE(changed.wait_for(lock, std::chrono::seconds(10), [&] { return actions.size() >= 1; }));
+  EXPECT_TRUE(actions[0].coupling_unstable);
+  EXPECT_FALSE(actions[0].failed);
+  age_s = 1e-3;
+  EXPECT_FALSE(changed.wait_for(lock, std::chrono::milliseconds(300), [&] { return actions.size() >= 2; }));
+  EXPECT_EQ(recheck.actions(), 1);
 }
 
 }  // namespace

@@ -52,6 +52,65 @@ TEST(LinkEmulateConfig, EveryKeyFillsTheImpairmentsInSIUnits) {
   EXPECT_DOUBLE_EQ(i.outages[1].duration_s, 0.5);
 }
 
+// A delay that steps mid-run (issue 32's re-check test): ascending steps in SI units; out of order refused.
+TEST(LinkEmulateConfig, DelayStepsInSIUnitsAndAscending) {
+  const ProcessConfig c = ParseProcessConfig(
+      Config("    delay_ms: 1\n    delay_steps: [{at_s: 3, delay_ms: 60}, {at_s: 8, delay_ms: 1}]\n"), "test.yaml");
+  const auto& steps = c.link.emulate.impairments.delay_steps;
+  ASSERT_EQ(steps.size(), 2u);
+  EXPECT_DOUBLE_EQ(steps[0].at_s, 3.0);
+  EXPECT_DOUBLE_EQ(steps[0].delay_s, 0.060);
+  EXPECT_DOUBLE_EQ(steps[1].at_s, 8.0);
+  EXPECT_DOUBLE_EQ(steps[1].delay_s, 0.001);
+  EXPECT_THAT(
+      [] { ParseProcessConfig(Config("    delay_steps: [{at_s: 8, delay_ms: 60}, {at_s: 3, delay_ms: 1}]\n"), "t"); },
+      ::testing::ThrowsMessage<Error>(HasSubstr("ascending order of at_s")));
+  EXPECT_THAT([] { ParseProcessConfig(Config("    delay_steps: [{at_s: 1, delay_ms: -5}]\n"), "t"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("delay_ms")));
+  EXPECT_THAT([] { ParseProcessConfig(Config("    delay_steps: [{at_s: 1}]\n"), "t"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("delay_ms")));
+  EXPECT_THAT([] { ParseProcessConfig(Config("    delay_steps: 5\n"), "t"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("list of {at_s, delay_ms}")));
+}
+
+// link.delay_recheck: defaults from the struct, every key read, ranges and the hysteresis checked.
+TEST(DelayRecheckConfig, KeysDefaultsAndRanges) {
+  const auto with = [](const std::string& recheck) {
+    std::string text = Config("    delay_ms: 1\n");
+    const std::string at = "  emulate:\n";
+    text.insert(text.find(at), "  delay_recheck: " + recheck + "\n");
+    return ParseProcessConfig(text, "test.yaml");
+  };
+  const link::LinkConfig::DelayRecheck defaults = with("{}").link.delay_recheck;
+  EXPECT_FALSE(defaults.enabled);
+  EXPECT_DOUBLE_EQ(defaults.window_s, 1.0);
+  EXPECT_EQ(defaults.on_unstable, link::LinkConfig::DelayRecheck::OnUnstable::kEvent);
+  const link::LinkConfig::DelayRecheck r =
+      with(
+          "{enabled: true, window_s: 0.5, percentile: 0.9, trigger_ratio: 2, recover_ratio: 1.5, recover_hold_s: 1, "
+          "margin: 0.8, max_force_rate_N_per_s: 40, max_penetration_m: 0.005, on_unstable: decouple}")
+          .link.delay_recheck;
+  EXPECT_TRUE(r.enabled);
+  EXPECT_DOUBLE_EQ(r.window_s, 0.5);
+  EXPECT_DOUBLE_EQ(r.percentile, 0.9);
+  EXPECT_DOUBLE_EQ(r.trigger_ratio, 2.0);
+  EXPECT_DOUBLE_EQ(r.recover_ratio, 1.5);
+  EXPECT_DOUBLE_EQ(r.recover_hold_s, 1.0);
+  EXPECT_DOUBLE_EQ(r.margin, 0.8);
+  EXPECT_DOUBLE_EQ(r.max_force_rate_N_per_s, 40.0);
+  EXPECT_DOUBLE_EQ(r.max_penetration_m, 0.005);
+  EXPECT_EQ(r.on_unstable, link::LinkConfig::DelayRecheck::OnUnstable::kDecouple);
+  EXPECT_THAT([&] { with("{percentile: 1.5}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("percentile")));
+  EXPECT_THAT([&] { with("{trigger_ratio: 1}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("trigger_ratio")));
+  EXPECT_THAT([&] { with("{trigger_ratio: 1.2, recover_ratio: 1.5}"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("must be at most trigger_ratio")));
+  EXPECT_THAT([&] { with("{margin: 0}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("margin")));
+  EXPECT_THAT([&] { with("{max_force_rate_N_per_s: 0}"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("max_force_rate_N_per_s")));
+  EXPECT_THAT([&] { with("{on_unstable: panic}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("event or decouple")));
+  EXPECT_THAT([&] { with("{windows: 1}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("windows")));
+}
+
 TEST(LinkEmulateConfig, AbsentOrDisabledMeansThePlainLink) {
   const std::string plain =
       "role: slave\ndof: 1\nrate_hz: 1000\nlink: {security: {mode: insecure}, transport: udp, bind: "

@@ -35,7 +35,7 @@ import two_process_test as tp  # noqa: E402  (the two-process helpers: configs, 
 
 MASTER_DURATION_S = 2.5
 # At 100 ms the plain law's oscillation grows slowly: a longer run shows where it goes.
-LONGER_S = {"delay 100 ms": 4.5}
+LONGER_S = {"delay 100 ms": 4.5, "WAN 100 ms, loss 5%": 4.5, "WAN 100 ms, loss 5%, passivity": 4.5}
 
 # name, link.emulate as a YAML flow mapping (None: no emulation), transport ("udp" or "can" = the teleop-canbus bus).
 SCENARIOS = [
@@ -54,6 +54,11 @@ SCENARIOS = [
     ("can: loss 5%, delay 5 ms", "{loss_probability: 0.05, delay_ms: 5, jitter_ms: 1}", "can"),
     ("delay 20 ms, passivity", "{delay_ms: 20, jitter_ms: 5}", "udp"),
     ("loss 5%, passivity", "{loss_probability: 0.05}", "udp"),
+    # Across sites (issue 32.4): 50 and 100 ms with jitter and 5 % loss, the plain law and with passivity on.
+    ("WAN 50 ms, loss 5%", "{delay_ms: 50, jitter_ms: 5, loss_probability: 0.05}", "udp"),
+    ("WAN 100 ms, loss 5%", "{delay_ms: 100, jitter_ms: 10, loss_probability: 0.05}", "udp"),
+    ("WAN 50 ms, loss 5%, passivity", "{delay_ms: 50, jitter_ms: 5, loss_probability: 0.05}", "udp"),
+    ("WAN 100 ms, loss 5%, passivity", "{delay_ms: 100, jitter_ms: 10, loss_probability: 0.05}", "udp"),
 ]
 # Scenarios run with time-domain passivity on both sides (docs/stability.md): the energy exchange over the link.
 PASSIVITY = "passivity: {mode: energy_exchange, max_damping_Ns_per_m: 100}\n"

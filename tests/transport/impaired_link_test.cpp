@@ -123,6 +123,34 @@ TEST(ImpairmentModel, OutagesDropExactlyTheScheduledWindows) {
   ExpectBalance(s.model);
 }
 
+// link.emulate.delay_steps: 1 ms, then 60 ms from 0.3 s, then 1 ms from 0.6 s. Each datagram gets the delay of
+// the step it was offered in, except after the step down: the queue holds, so those wait for the 60 ms ones ahead.
+TEST(ImpairmentModel, DelayStepsChangeTheDelayInOrder) {
+  ImpairmentConfig c;
+  c.delay_s = 0.001;
+  c.capacity = 256;
+  c.delay_steps = {{.at_s = 0.3, .delay_s = 0.060}, {.at_s = 0.6, .delay_s = 0.001}};
+  Stream s(c);
+  s.Run(1000);
+  for (int i = 0; i < 1000; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    ASSERT_TRUE(s.arrived[k]) << i;
+    if (i < 300) {
+      ASSERT_EQ(s.delay_ns[k], 1'000'000) << i;
+    } else if (i < 600) {
+      ASSERT_EQ(s.delay_ns[k], 60'000'000) << i;
+    } else {
+      // Never before the last 60 ms one (offered at 599 ms, due at 659 ms); from 659 ms on, 1 ms again.
+      ASSERT_EQ(s.delay_ns[k], std::max<std::int64_t>(1'000'000, 659'000'000 - i * kPeriodNs)) << i;
+    }
+  }
+  for (std::size_t i = 1; i < s.order.size(); ++i) ASSERT_LT(s.order[i - 1], s.order[i]);
+  EXPECT_THAT(s.model.Describe(), ::testing::HasSubstr("then 60.000 ms from 0.300 s, then 1.000 ms from 0.600 s"));
+  ImpairmentConfig bad = c;
+  bad.delay_steps = {{.at_s = 0.6, .delay_s = 0.06}, {.at_s = 0.3, .delay_s = 0.001}};
+  EXPECT_THROW(ImpairmentModel(bad, 1, "test"), Error);
+}
+
 TEST(ImpairmentModel, TheOutageScheduleStartsAtTheOrigin) {
   ImpairmentConfig c;
   c.outages = {{.start_s = 1.0, .duration_s = 0.5}};

@@ -8,6 +8,7 @@
 
 #include "teleop/config/stability_check.hpp"
 #include "teleop/error.hpp"
+#include "teleop/runtime/background_thread.hpp"
 
 namespace teleop::config {
 namespace {
@@ -91,19 +92,40 @@ DelayRecheck::~DelayRecheck() {
 }
 
 void DelayRecheck::Run() {
+  runtime::BecomeBackgroundThread("teleop-recheck");  // never the loop's priority or CPU, whoever started it
   const auto start = std::chrono::steady_clock::now();
   const auto period = std::chrono::duration<double>(options_.poll_period_s);
+  // The watch fires as the percentile crosses its threshold, i.e. on an age still climbing through a step (a step
+  // up leaves no arrival for its size, then every sample has the new age): the check waits one window after the
+  // first trigger and runs with the percentile then, which holds only the new ages when the step persists.
+  bool settling = false;
+  double settled_at_s = 0.0;
   std::unique_lock<std::mutex> lock(mutex_);
   while (!wake_.wait_for(lock, period, [this] { return stop_; })) {
     lock.unlock();
     const double age_s = data_age_s_();
     const double now_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const runtime::DelayWatch::Verdict verdict =
+    runtime::DelayWatch::Verdict verdict =
         age_s >= 0.0 ? watch_.Add(now_s, age_s) : runtime::DelayWatch::Verdict::kNone;
+    if (verdict == runtime::DelayWatch::Verdict::kSlower && !settling) {
+      settling = true;
+      settled_at_s = now_s + options_.watch.window_s;
+    }
+    if (verdict == runtime::DelayWatch::Verdict::kRecovered) settling = false;
+    if (verdict == runtime::DelayWatch::Verdict::kSlower) verdict = runtime::DelayWatch::Verdict::kNone;
+    if (settling && now_s >= settled_at_s) {
+      settling = false;
+      if (watch_.slower()) verdict = runtime::DelayWatch::Verdict::kSlower;
+    }
     try {
       if (verdict == runtime::DelayWatch::Verdict::kSlower) {
         const Action action = Evaluate(config_, options_, watch_.measured_age_s(), current_N_per_m_);
-        if (action.fixture_N_per_m < current_N_per_m_) {
+        if (action.coupling_unstable) {
+          // No stiffness helps: the fixture is left as it is (the caller decides: an event, or decouple), so a
+          // recovery that follows changes nothing either.
+          ++actions_;
+          apply_(action);
+        } else if (action.fixture_N_per_m < current_N_per_m_) {
           current_N_per_m_ = action.fixture_N_per_m;
           ++actions_;
           apply_(action);
@@ -127,6 +149,7 @@ void DelayRecheck::Run() {
       Action failed;
       failed.measured_age_s = watch_.measured_age_s();
       failed.fixture_N_per_m = current_N_per_m_;
+      failed.failed = true;
       failed.message = std::string("delay re-check failed: ") + e.what();
       apply_(failed);
     }

@@ -35,11 +35,27 @@ void ParseOutages(const Field& f, std::vector<transport::Outage>& outages) {
   }
 }
 
+void ParseDelaySteps(const Field& f, std::vector<transport::DelayStep>& steps) {
+  if (!f.IsSequence()) {
+    f.Fail("must be a list of {at_s, delay_ms} maps, e.g. [{at_s: 3, delay_ms: 60}, {at_s: 8, delay_ms: 1}]");
+  }
+  for (const Field& item : f.AsList()) {
+    const Map map(item, {"at_s", "delay_ms"});
+    transport::DelayStep step;
+    const Field at = map.Required("at_s");
+    step.at_s = InRange(at, 0.0, 1e6, "s (since the link opened)");
+    step.delay_s = InRange(map.Required("delay_ms"), 0.0, 10000.0, "ms") * 1e-3;
+    if (!steps.empty() && step.at_s <= steps.back().at_s) at.Fail("the steps must be in ascending order of at_s");
+    steps.push_back(step);
+  }
+}
+
 }  // namespace
 
 void ParseLinkEmulate(const Field& f, double rate_hz, link::LinkConfig::Emulation& emulate) {
-  const Map map(f, {"enabled", "seed", "delay_ms", "jitter_ms", "loss_probability", "burst", "duplicate_probability",
-                    "reorder_probability", "corrupt_probability", "bandwidth_bit_per_s", "queue_ms", "outages"});
+  const Map map(
+      f, {"enabled", "seed", "delay_ms", "jitter_ms", "loss_probability", "burst", "duplicate_probability",
+          "reorder_probability", "corrupt_probability", "bandwidth_bit_per_s", "queue_ms", "outages", "delay_steps"});
   transport::ImpairmentConfig& c = emulate.impairments;
   emulate.enabled = true;
   if (auto v = map.Optional("enabled")) emulate.enabled = v->AsBool();
@@ -64,6 +80,7 @@ void ParseLinkEmulate(const Field& f, double rate_hz, link::LinkConfig::Emulatio
     c.queue_limit_s = InRange(*v, 0.0, 10000.0, "ms") * 1e-3;
   }
   if (auto v = map.Optional("outages")) ParseOutages(*v, c.outages);
+  if (auto v = map.Optional("delay_steps")) ParseDelaySteps(*v, c.delay_steps);
 }
 
 }  // namespace teleop::config::sections

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "sections.hpp"
+#include "teleop/config/delay_recheck_keys.hpp"
 
 namespace teleop::config::sections {
 
@@ -105,11 +106,33 @@ void ParseCan(const Field& f, bool emulated, transport::CanLinkConfig& can) {
   if (auto v = map.Optional("log_path")) can.log_path = v->AsString();  // opened (and refused) at start-up
 }
 
+// The `link.delay_recheck` section (docs/stability.md, "Run-time re-check"), read through its key table.
+void ParseDelayRecheck(const Field& f, link::LinkConfig::DelayRecheck& r) {
+  namespace k = delay_recheck_keys;
+  std::vector<std::string> leaves;
+  for (const KeySpec* spec : k::kAll) leaves.push_back(LeafOf(*spec));
+  const Map map(f, leaves);
+  r.enabled = ReadBool(map, k::kEnabled);
+  r.window_s = ReadNumber(map, k::kWindow);
+  r.percentile = ReadNumber(map, k::kPercentile);
+  r.trigger_ratio = ReadNumber(map, k::kTriggerRatio);
+  r.recover_ratio = ReadNumber(map, k::kRecoverRatio);
+  r.recover_hold_s = ReadNumber(map, k::kRecoverHold);
+  r.margin = ReadNumber(map, k::kMargin);
+  r.max_force_rate_N_per_s = ReadNumber(map, k::kMaxForceRate);
+  r.max_penetration_m = ReadNumber(map, k::kMaxPenetration);
+  r.on_unstable = ReadChoiceAs<link::LinkConfig::DelayRecheck::OnUnstable>(map, k::kOnUnstable);
+  if (r.recover_ratio > r.trigger_ratio) {
+    f.Fail("recover_ratio (" + Num(r.recover_ratio) + ") must be at most trigger_ratio (" + Num(r.trigger_ratio) +
+           "): the band between them is the hysteresis");
+  }
+}
+
 }  // namespace
 
 void ParseLink(const Field& f, Role role, double rate_hz, int dof, link::LinkConfig& link) {
   const Map map(f, {"transport", "bind", "peer", "timeout_ms", "expected_delay_ms", "accept_only_peer_address",
-                    "receive_buffer_bytes", "busy_poll_us", "can", "emulate", "security"});
+                    "receive_buffer_bytes", "busy_poll_us", "can", "emulate", "security", "delay_recheck"});
   if (auto v = map.Optional("transport")) {
     link.transport = v->AsString();
     if (link.transport != "udp" && link.transport != "can" && link.transport != "emulated-can") {
@@ -163,6 +186,7 @@ void ParseLink(const Field& f, Role role, double rate_hz, int dof, link::LinkCon
   }
   if (auto v = map.Optional("busy_poll_us")) link.udp.busy_poll_us = IntInRange(*v, 0, 100'000);
   if (auto v = map.Optional("emulate")) ParseLinkEmulate(*v, rate_hz, link.emulate);
+  if (auto v = map.Optional("delay_recheck")) ParseDelayRecheck(*v, link.delay_recheck);
 }
 
 }  // namespace teleop::config::sections

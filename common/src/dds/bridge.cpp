@@ -107,6 +107,8 @@ const char* EventKindName(node::Event::Kind kind) noexcept {
       return "plane_accepted";
     case Kind::kPlaneRefused:
       return "plane_refused";
+    case Kind::kDelayRecheck:
+      return "delay_recheck";
   }
   return "unknown";
 }

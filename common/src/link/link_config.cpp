@@ -70,8 +70,11 @@ std::unique_ptr<Link> Emulated(const LinkConfig& config, proto::SenderRole local
   if (!config.emulate.enabled) return link;
   ImpairmentConfig impairments = config.emulate.impairments;
   // Slots for everything in flight at the loop rate (one sample per cycle), duplicates included, plus margin.
-  const double in_flight_s = impairments.delay_s + impairments.jitter_s +
-                             (impairments.bandwidth_bit_per_s > 0 ? impairments.queue_limit_s : 0.0);
+  double longest_delay_s = impairments.delay_s;  // the delay line must hold the longest step's flight too
+  for (const transport::DelayStep& step : impairments.delay_steps)
+    longest_delay_s = std::max(longest_delay_s, step.delay_s);
+  const double in_flight_s =
+      longest_delay_s + impairments.jitter_s + (impairments.bandwidth_bit_per_s > 0 ? impairments.queue_limit_s : 0.0);
   const double slots = std::ceil(std::max(config.rate_hz, 1.0) * in_flight_s * 2.0) + 64.0;
   impairments.capacity = static_cast<int>(std::min(slots, 65536.0));
   const double periods = (impairments.delay_s + impairments.jitter_s) * config.rate_hz;

@@ -220,11 +220,12 @@ TeleopNode::FixtureChange TeleopNode::RequestFixturePlane(const DofVector& norma
   return change;
 }
 
-void TeleopNode::RecordCommandEvent(Event::Kind kind, double value) noexcept {
+void TeleopNode::RecordCommandEvent(Event::Kind kind, double value, std::uint16_t detail) noexcept {
   Impl& s = *impl_;
   PendingCommand p;
   p.kind = kind;
   p.value = value;
+  p.detail = detail;
   const std::lock_guard<std::mutex> lock(s.command_mutex);
   (void)s.commands.Post(p);
 }

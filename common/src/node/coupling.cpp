@@ -56,6 +56,7 @@ Applied Coupling::Step(const Sensed& sensed, const PeerView& peer, const Changes
     events_.Push({Event::Kind::kReindexed, cycle, in.largest_offset_m});
   }
   a.law = law_.Step(in.input, period_s);
+  a.fixture_stiffness_N_per_m = law_.fixture().config().stiffness_N_per_m;
   a.nonfinite = a.law.status == control::ThreeChannelLaw::StepStatus::kNonFiniteInput;
   if (a.nonfinite) {
     a.transition.coupling_lost =

@@ -33,6 +33,7 @@ struct Sensed {
 /// command made of it, and what the wire sample and the record need.
 struct Applied {
   control::ThreeChannelLaw::Output law;       ///< The law's own output (velocity, fixture, status, penetration).
+  double fixture_stiffness_N_per_m = 0.0;     ///< The fixture stiffness the law used (a ramp's value this cycle).
   control::ThreeChannelLaw::Output command;   ///< Applied: command_N (0 in the safe state), its fixture share.
   device::Command device_command;             ///< What Device::Write gets (not filled when `safe`).
   DofVector damping_Ns_per_m;                 ///< The passivity controller's α this cycle.

@@ -126,6 +126,28 @@ void LogCommandEvent(const Event& e) {
     case Event::Kind::kPlaneRefused:
       spdlog::warn("cycle {}: command refused: fixture plane", e.cycle);
       break;
+    case Event::Kind::kDelayRecheck:
+      switch (static_cast<DelayRecheckDetail>(e.detail)) {
+        case DelayRecheckDetail::kSlower:
+          spdlog::warn("cycle {}: delay re-check: the link is slower, fixture ramps to {:.0f} N/m", e.cycle, e.value);
+          break;
+        case DelayRecheckDetail::kRecovered:
+          spdlog::info("cycle {}: delay re-check: the link recovered, fixture ramps back to {:.0f} N/m", e.cycle,
+                       e.value);
+          break;
+        case DelayRecheckDetail::kCouplingUnstable:
+          spdlog::error("cycle {}: delay re-check: no fixture is stable at the measured delay, nothing changed",
+                        e.cycle);
+          break;
+        case DelayRecheckDetail::kDecoupled:
+          spdlog::error("cycle {}: delay re-check: no fixture is stable at the measured delay, decoupled (clutch)",
+                        e.cycle);
+          break;
+        case DelayRecheckDetail::kFailed:
+          spdlog::warn("cycle {}: delay re-check: nothing changed (see the re-check's message)", e.cycle);
+          break;
+      }
+      break;
     default:
       break;
   }
@@ -186,6 +208,7 @@ void EventLog::Drain() {
       case Event::Kind::kGainRefused:
       case Event::Kind::kPlaneAccepted:
       case Event::Kind::kPlaneRefused:
+      case Event::Kind::kDelayRecheck:
         LogCommandEvent(e);
         break;
     }

@@ -16,6 +16,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "teleop/config/delay_recheck.hpp"
 #include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/device/device_registry.hpp"
@@ -198,6 +199,80 @@ std::unique_ptr<ConnectionWatch> MakeConnectionWatch(const config::ProcessConfig
   return std::make_unique<ConnectionWatch>(c, [&node] { node.Stop(); });
 }
 
+/// What the delay re-check decided, done to the node (on the re-check's thread, never the cycle's): a new fixture
+/// stiffness through the run-time command API (checked and ramped like `teleop-ctl stiffness`), or, when no fixture is
+/// stable at the measured delay, an event only or the command clutch (link.delay_recheck.on_unstable). Every action
+/// is a delay_recheck event (log, DDS, dashboard) and its message a log line.
+void ApplyDelayRecheck(TeleopNode& node, link::LinkConfig::DelayRecheck::OnUnstable on_unstable,
+                       const config::DelayRecheck::Action& action) {
+  using Detail = DelayRecheckDetail;
+  const auto record = [&node](Detail detail, double stiffness_N_per_m) {
+    node.RecordCommandEvent(Event::Kind::kDelayRecheck, stiffness_N_per_m, static_cast<std::uint16_t>(detail));
+  };
+  if (action.failed) {
+    spdlog::error("{}", action.message);
+    record(Detail::kFailed, node.fixture_stiffness_N_per_m());
+    return;
+  }
+  if (action.coupling_unstable) {
+    if (on_unstable == link::LinkConfig::DelayRecheck::OnUnstable::kDecouple) {
+      node.SetClutch(true);
+      spdlog::error(
+          "{}; decoupled: the command clutch is pressed (link.delay_recheck.on_unstable decouple; "
+          "`teleop-ctl clutch off` releases it)",
+          action.message);
+      record(Detail::kDecoupled, node.fixture_stiffness_N_per_m());
+    } else {
+      spdlog::error(
+          "{}; nothing changed (link.delay_recheck.on_unstable event): lower the law's gains or turn "
+          "passivity on",
+          action.message);
+      record(Detail::kCouplingUnstable, node.fixture_stiffness_N_per_m());
+    }
+    return;
+  }
+  const TeleopNode::FixtureChange change = node.RequestFixtureStiffness(action.fixture_N_per_m, action.ramp_s);
+  if (!change.accepted) {
+    spdlog::error("{}; the node refused it: {}", action.message, change.message);
+    record(Detail::kFailed, node.fixture_stiffness_N_per_m());
+    return;
+  }
+  if (action.recovered) {
+    spdlog::info("{}", action.message);
+  } else {
+    spdlog::warn("{}", action.message);
+  }
+  record(action.recovered ? Detail::kRecovered : Detail::kSlower, action.fixture_N_per_m);
+}
+
+/// The run-time delay re-check (link.delay_recheck; docs/stability.md, "Run-time re-check"); nullptr when off. Its
+/// thread reads the node's measured data age (an atomic the cycle stores) and acts through ApplyDelayRecheck.
+std::unique_ptr<config::DelayRecheck> MakeDelayRecheck(const config::ProcessConfig& config, TeleopNode& node) {
+  const link::LinkConfig::DelayRecheck& r = config.link.delay_recheck;
+  if (!r.enabled) return nullptr;
+  config::DelayRecheck::Options options;
+  options.watch.window_s = r.window_s;
+  options.watch.percentile = r.percentile;
+  options.watch.trigger_ratio = r.trigger_ratio;
+  options.watch.recover_ratio = r.recover_ratio;
+  options.watch.recover_hold_s = r.recover_hold_s;
+  options.watch.assumed_age_s = 0.0;  // from the config: one period + the link delay the start-up check assumed
+  options.watch.capacity = static_cast<std::size_t>(std::ceil(r.window_s / options.poll_period_s)) + 16;
+  options.margin = r.margin;
+  options.max_force_rate_N_per_s = r.max_force_rate_N_per_s;
+  options.max_penetration_m = r.max_penetration_m;
+  spdlog::info(
+      "delay re-check on: the {:.0f}th percentile of the data age over {} s against {:.1f} ms (the age the start-up "
+      "check assumed) x {}",
+      r.percentile * 100.0, r.window_s, config::DelayRecheck::AssumedAge_s(config) * 1e3, r.trigger_ratio);
+  const auto on_unstable = r.on_unstable;
+  return std::make_unique<config::DelayRecheck>(
+      config, options, [&node] { return node.peer_data_age_s(); },
+      [&node, on_unstable](const config::DelayRecheck::Action& action) {
+        ApplyDelayRecheck(node, on_unstable, action);
+      });
+}
+
 /// The summary to stdout and --summary-json; returns the exit status (teleop/node/exit_codes.hpp).
 int Report(const RunSummary& summary, const std::string& summary_json) {
   std::cout << FormatSummaryText(summary) << std::flush;
@@ -238,6 +313,7 @@ int Run(const Options& o, Role role, const std::string& program) {
   if (!o.command_socket.empty()) {
     commands = std::make_unique<CommandServer>(node, CommandServer::Config{o.command_socket, 0600, o.command_ramp_s});
   }
+  std::unique_ptr<config::DelayRecheck> recheck = MakeDelayRecheck(config, node);  // before Activate, as above
   node.Activate();  // real-time settings on this thread, checked, before the device is activated
 
   g_running_node.store(&node);
@@ -249,6 +325,7 @@ int Run(const Options& o, Role role, const std::string& program) {
   // The session record's parts (deploy/teleop-session): what ran, as read at start-up.
   node.SetSessionRecord(std::filesystem::absolute(o.config_path).string(), ReadText(o.config_path), verdict);
   const RunSummary summary = node.Run();
+  recheck.reset();  // its thread acts on the node: stopped before the node is gone
   g_running_node.store(nullptr);
   return Report(summary, o.summary_json);
 }

@@ -136,6 +136,7 @@ const runtime::TelemetryRecord& Recorder::Row(const Sensed& sensed, const PeerVi
   r.engagement = static_cast<int>(applied.engagement);
   r.device_warnings = reading.warnings;
   r.clutch = applied.clutch_sources;
+  r.fixture_stiffness_N_per_m = applied.fixture_stiffness_N_per_m;
   return r;
 }
 

@@ -119,6 +119,7 @@ void TeleopNode::Impl::Cycle(std::uint64_t cycle, double period_s, std::int64_t 
   const Applied applied = coupling->Step(sensed, view, changes, cycle, t_s, period_s);   // 3. the command applied
   Actuate(applied, period_s);                                                            // 4. → device
   const std::uint8_t flags = transmitter->Send(sensed, view, applied, loop.stopping());  // 5. → peer
+  peer_sender_age_ns.store(view.usable ? peer->data_age().SenderAgeNs(law_start_ns) : -1, std::memory_order_relaxed);
   const std::int64_t age_ns = peer->UsedAt(law_start_ns, view.usable);
   recorder->Step(sensed, view, applied, Facts(cycle, t_s, flags, age_ns, cycle_start_mono_ns, view.usable));  // 6.
 }
@@ -275,6 +276,11 @@ double TeleopNode::gain(GainName name, int axis) const noexcept {
                        : name == GainName::kKv ? c.kv_Ns_per_m
                                                : c.kf;
   return axis >= 0 && axis < g.size() ? g[axis] : 0.0;
+}
+
+double TeleopNode::peer_data_age_s() const noexcept {
+  const std::int64_t ns = impl_->peer_sender_age_ns.load(std::memory_order_relaxed);
+  return ns >= 0 ? static_cast<double>(ns) * 1e-9 : -1.0;
 }
 
 double TeleopNode::fixture_stiffness_N_per_m() const noexcept {

@@ -79,6 +79,9 @@ struct TeleopNode::Impl {
   std::int64_t start_ns = 0;
   std::atomic<bool> stop_on_peer_shutdown{false};
   std::atomic<bool> stop_requested{false};
+  /// TeleopNode::peer_data_age_s: the last cycle's sender data age (ns; -1: none), for any thread.
+  std::atomic<std::int64_t> peer_sender_age_ns{-1};
+  static_assert(std::atomic<std::int64_t>::is_always_lock_free, "read by other threads, wait-free");
   std::atomic<bool> command_clutch{false};  ///< TeleopNode::SetClutch (any thread) → the cycle.
 
   /// Run-time commands (TeleopNode::Request*, command_handlers.cpp) to the cycle. Producers are serialised by

@@ -81,6 +81,14 @@ struct ImpairmentModel::Impl {
             "outage duration_s must be finite and > 0, got " + std::to_string(o.duration_s));
       outages_ns.push_back({ToNs(o.start_s), ToNs(o.start_s) + ToNs(o.duration_s)});
     }
+    std::int64_t previous_ns = -1;
+    for (const DelayStep& step : c.delay_steps) {
+      CheckTime(step.at_s, name, "delay step at_s");
+      CheckTime(step.delay_s, name, "delay step delay_s");
+      Check(ToNs(step.at_s) > previous_ns, name, "delay steps must be in ascending order of at_s");
+      previous_ns = ToNs(step.at_s);
+      delay_steps_ns.push_back({ToNs(step.at_s), ToNs(step.delay_s)});
+    }
     delay_ns = ToNs(c.delay_s);
     jitter_ns = ToNs(c.jitter_s);
     queue_limit_ns = ToNs(c.queue_limit_s);
@@ -121,6 +129,17 @@ struct ImpairmentModel::Impl {
     const std::int64_t t = now_ns - origin_ns;
     return std::any_of(outages_ns.begin(), outages_ns.end(),
                        [t](const std::pair<std::int64_t, std::int64_t>& o) { return t >= o.first && t < o.second; });
+  }
+
+  /// The fixed delay at `now_ns`: the last step at or before it, else delay_s.
+  std::int64_t DelayAt(std::int64_t now_ns) const noexcept {
+    const std::int64_t t = now_ns - origin_ns;
+    std::int64_t d = delay_ns;
+    for (const auto& [at_ns, step_ns] : delay_steps_ns) {
+      if (t < at_ns) break;
+      d = step_ns;
+    }
+    return d;
   }
 
   Verdict Offer(std::span<const std::uint8_t> bytes, std::int64_t now_ns) noexcept {
@@ -164,7 +183,7 @@ struct ImpairmentModel::Impl {
       leaves_ns = line_free_ns;
     }
     // In order: never before the one offered before it (jitter does not reorder).
-    const std::int64_t due_ns = std::max(leaves_ns + delay_ns + jitter, last_due_ns);
+    const std::int64_t due_ns = std::max(leaves_ns + DelayAt(now_ns) + jitter, last_due_ns);
     last_due_ns = due_ns;
     slot->used = true;
     slot->size = bytes.size();
@@ -237,7 +256,8 @@ struct ImpairmentModel::Impl {
   ImpairmentConfig config;
   std::uint64_t seed;
   std::array<std::mt19937_64, kStreams> streams;
-  std::vector<std::pair<std::int64_t, std::int64_t>> outages_ns;  // [start, end) since origin
+  std::vector<std::pair<std::int64_t, std::int64_t>> outages_ns;      // [start, end) since origin
+  std::vector<std::pair<std::int64_t, std::int64_t>> delay_steps_ns;  // (at, delay) since origin, ascending
   std::int64_t origin_ns = 0;
   std::int64_t delay_ns = 0;
   std::int64_t jitter_ns = 0;
@@ -290,6 +310,9 @@ std::uint64_t ImpairmentModel::seed() const noexcept { return impl_->seed; }
 std::string ImpairmentModel::Describe() const {
   const ImpairmentConfig& c = impl_->config;
   std::string out = "delay " + Fixed(c.delay_s * 1e3, 3) + " ms";
+  for (const DelayStep& step : c.delay_steps) {
+    out += ", then " + Fixed(step.delay_s * 1e3, 3) + " ms from " + Fixed(step.at_s, 3) + " s";
+  }
   if (c.jitter_s > 0) out += ", jitter " + Fixed(c.jitter_s * 1e3, 3) + " ms";
   if (c.loss_probability > 0) out += ", loss " + Fixed(c.loss_probability, 3);
   if (c.burst.enter_probability > 0) {

@@ -14,8 +14,11 @@ namespace teleop::config {
 
 /// Issue 32.3, the run-time re-check: a thread of its own (never the real-time one) samples the measured data age,
 /// and when its high percentile exceeds what the start-up check assumed (runtime::DelayWatch, with hysteresis) it
-/// runs the same check again with the measured delay and hands the node a new fixture stiffness, ramped at a bounded
-/// force rate; when the link recovers, the configured stiffness again. It drives the node only through `apply`
+/// waits one window (the watch fires on an age still climbing through a step) and runs the same check again with the
+/// percentile then as the measured delay and hands the node a new fixture stiffness, ramped at a bounded
+/// force rate; when the link recovers, the configured stiffness again. When no stiffness is stable at the measured
+/// delay (the coupling itself is not), `apply` gets the action with coupling_unstable and the fixture is left as it
+/// is (the process logs it, or decouples: link.delay_recheck.on_unstable). It drives the node only through `apply`
 /// (the process passes TeleopNode::RequestFixtureStiffness, the run-time command API the command server uses).
 class DelayRecheck {
  public:
@@ -34,6 +37,7 @@ class DelayRecheck {
     double ramp_s = 0.0;             ///< |Δk| × max_penetration_m / max_force_rate_N_per_s.
     bool recovered = false;          ///< Back to the configured stiffness.
     bool coupling_unstable = false;  ///< No stiffness is stable: the law's gains need lowering or passivity on.
+    bool failed = false;             ///< The re-check threw (message says why); nothing to apply.
     std::string message;             ///< For the event log.
   };
 

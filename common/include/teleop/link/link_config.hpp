@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -33,6 +34,23 @@ struct LinkConfig {
     transport::ImpairmentConfig impairments{};
     std::uint64_t seed = 1;
   } emulate{};
+  /// `link.delay_recheck` (docs/stability.md, "Run-time re-check"; keys: teleop/config/delay_recheck_keys.hpp, whose
+  /// defaults are these initialisers): when the measured data age's high percentile exceeds what the start-up check
+  /// assumed, the check runs again off the real-time thread with the measured delay and the fixture ramps to the new
+  /// limit; back when the link recovers.
+  struct DelayRecheck {
+    enum class OnUnstable : std::uint8_t { kEvent = 0, kDecouple = 1 };
+    bool enabled = false;
+    double window_s = 1.0;                 ///< The percentile is over this much of the newest data ages.
+    double percentile = 0.99;              ///< 0.5..1.
+    double trigger_ratio = 1.25;           ///< Slower: the percentile above the assumed age × this.
+    double recover_ratio = 1.1;            ///< Recovered: at or below the assumed age × this (≤ trigger_ratio) ..
+    double recover_hold_s = 2.0;           ///< .. for this long.
+    double margin = 0.9;                   ///< The new fixture stiffness is this × the limit at the measured delay.
+    double max_force_rate_N_per_s = 20.0;  ///< The ramp's force rate at max_penetration_m.
+    double max_penetration_m = 0.01;       ///< The penetration the ramp's force rate is bounded at.
+    OnUnstable on_unstable = OnUnstable::kEvent;  ///< No fixture is stable at the measured delay: event or decouple.
+  } delay_recheck{};
   /// `link.security` (docs/security.md): psk on UDP; CAN accepts only insecure (no room for a tag per frame).
   transport::LinkSecurityConfig security{};
 };

@@ -39,11 +39,23 @@ struct Event {
     kGainRefused,         ///< ... refused; value: the predicted fixture limit with it (N/m; 0: not analysed).
     kPlaneAccepted,       ///< A fixture plane move accepted; value: the target offset (m).
     kPlaneRefused,        ///< ... refused; value: 0.
+    /// The run-time delay re-check acted (docs/stability.md, "Run-time re-check"); value: the fixture stiffness it
+    /// ramps to (N/m); detail: DelayRecheckDetail.
+    kDelayRecheck,
   };
   Kind kind = Kind::kPeerConnected;
   std::uint64_t cycle = 0;
   double value = 0.0;        ///< Kind-specific: fault bits, overrun count, ...
   std::uint16_t detail = 0;  ///< Kind-specific (the gain events: GainDetail); not on DDS.
+};
+
+/// What a kDelayRecheck event says.
+enum class DelayRecheckDetail : std::uint16_t {
+  kSlower = 0,            ///< The link got slower: the fixture ramps down to the limit at the measured delay.
+  kRecovered = 1,         ///< The link recovered: the fixture ramps back to the configured stiffness.
+  kCouplingUnstable = 2,  ///< No fixture is stable at the measured delay; link.delay_recheck.on_unstable: event.
+  kDecoupled = 3,         ///< ... on_unstable: decouple: the command clutch is pressed.
+  kFailed = 4,            ///< The re-check or the node refused (the log says why); nothing changed.
 };
 
 /// Which law gain a gain event names: `detail` = gain index · 16 + axis (axis 15: every axis).

@@ -126,9 +126,15 @@ class TeleopNode {
   /// An outcome of the command channel that changes nothing (a malformed command, a refused peer, a clutch
   /// command) as an event: handed to the cycle with the changes, which logs it (DDS events topic too). Any thread;
   /// when the hand-over ring (64) is full the event is dropped and counted.
-  void RecordCommandEvent(Event::Kind kind, double value) noexcept;
+  void RecordCommandEvent(Event::Kind kind, double value, std::uint16_t detail = 0) noexcept;
   /// Command outcomes not handed to the cycle because its ring was full.
   std::uint64_t command_events_dropped() const noexcept;
+  /// The sender data age of the peer's sample the law used in the last cycle (s): that cycle's start − the peer's
+  /// send time on our clock (the clock offset from the round trip; docs/performance.md, "Round trip and data age"),
+  /// i.e. the link's one-way delay plus the wait for the cycle. < 0 when the last cycle used no peer sample or no
+  /// clock offset is known yet. Any thread: the cycle stores it in an atomic (wait-free), the run-time delay re-check
+  /// reads it (docs/stability.md, "Run-time re-check").
+  double peer_data_age_s() const noexcept;
   /// The process's DOF (the config's; any thread).
   int dof() const noexcept;
   /// The fixture plane the law uses now (after the last cycle; on the cycle's thread or between Step()s); a default

@@ -34,6 +34,12 @@ class DataAgeTracker {
     return have_sample_ ? cycle_start_ns - receive_ns_ : -1;
   }
 
+  /// The sender age of the newest sample at `cycle_start_ns` (ns), or -1 when there is none or its send time is
+  /// unknown (no clock offset yet).
+  std::int64_t SenderAgeNs(std::int64_t cycle_start_ns) const noexcept {
+    return have_sample_ && sent_local_ns_ != 0 ? cycle_start_ns - sent_local_ns_ : -1;
+  }
+
   const LatencyHistogram& receive_age_ns() const noexcept { return receive_age_ns_; }
   const LatencyHistogram& sender_age_ns() const noexcept { return sender_age_ns_; }
   /// Cycles that used the peer's sample, by age in cycles (0, 1, 2, 3+).

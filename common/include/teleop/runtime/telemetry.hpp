@@ -44,6 +44,8 @@ struct TelemetryRecord {
   double data_age_s = std::numeric_limits<double>::quiet_NaN();
   std::uint32_t device_warnings = 0;  ///< device::WarningBits the backend reported this cycle (0: none).
   int clutch = 0;  ///< Clutch sources held this cycle (node::ClutchSource bits: 1 device, 2 peer, 4 command; 0: none).
+  /// The fixture stiffness the law used this cycle (N/m; a ramped change shows its ramp; 0 without a fixture).
+  double fixture_stiffness_N_per_m = 0.0;
 };
 static_assert(std::is_trivially_copyable_v<TelemetryRecord>);
 

@@ -28,6 +28,13 @@ struct Outage {
   double duration_s = 0.0;
 };
 
+/// From `at_s` after the model's origin (Start()) on, the fixed delay is `delay_s` (a link that gets slower or faster
+/// mid-run; docs/link-emulation.md, "A delay that steps").
+struct DelayStep {
+  double at_s = 0.0;
+  double delay_s = 0.0;
+};
+
 /// What the channel does to one direction's datagrams. Probabilities are per datagram, drawn independently, each
 /// impairment from its own random stream (changing one setting never changes which datagrams another hits).
 struct ImpairmentConfig {
@@ -45,6 +52,9 @@ struct ImpairmentConfig {
                                      ///< after those queued before it.
   double queue_limit_s = 0.05;       ///< With a bandwidth cap: a datagram that would wait longer is dropped.
   std::vector<Outage> outages;       ///< Scheduled outages, since the model's origin (Start()).
+  /// The fixed delay steps to each one's delay_s at its at_s (ascending); before the first, delay_s. The queue still
+  /// holds: a datagram is never due before the one ahead of it, so a step down drains what is in flight first.
+  std::vector<DelayStep> delay_steps;
 };
 
 /// What the channel did. Every offered datagram ends in exactly one place:
@@ -89,7 +99,7 @@ class ImpairmentModel {
 
   /// Throws teleop::Error naming `name` and the setting: a probability outside [0, 1], a negative or non-finite
   /// time, exit_probability 0 with bursts on, capacity outside 1..65536, a negative bandwidth, an outage with a
-  /// negative start or a non-positive duration.
+  /// negative start or a non-positive duration, delay steps not ascending or with a negative time or delay.
   ImpairmentModel(const ImpairmentConfig& config, std::uint64_t seed, const std::string& name);
   ~ImpairmentModel();
   ImpairmentModel(const ImpairmentModel&) = delete;
