@@ -16,7 +16,9 @@
 
 #include "arm_chain.hpp"
 #include "arm_model.hpp"
+#include "teleop/cli_help.hpp"
 #include "teleop/error.hpp"
+#include "teleop/version.hpp"
 
 namespace {
 
@@ -71,6 +73,8 @@ std::string JointNames(const ArmModel& model) {
 
 int Run(int argc, char** argv) {
   CLI::App app{"teleop-arm: a URDF arm's kinematics and dynamics at one configuration (docs/arms.md)"};
+  app.set_version_flag("--version", teleop::VersionText("teleop-arm"));
+  teleop::StandardHelp(app);
   std::string command, urdf, base, tool, q_text, direction_text = "0,0,1", offset_text = "0,0,0",
                                                  gravity_text = "0,0,-9.81";
   bool json = false;
@@ -81,9 +85,9 @@ int Run(int argc, char** argv) {
   app.add_option("--base", base, "The base link (frame B)")->required();
   app.add_option("--tool", tool, "The tool link")->required();
   app.add_option("--q", q_text, "Joint positions q1,q2,... (rad; m for prismatic joints), base to tool")->required();
-  app.add_option("--tool-offset", offset_text, "Tool point in the tool link's frame x,y,z (m); default 0,0,0");
-  app.add_option("--direction", direction_text, "apparent-mass: the direction n in B (normalised); default 0,0,1");
-  app.add_option("--gravity", gravity_text, "Gravity in B (m/s^2); default 0,0,-9.81");
+  app.add_option("--tool-offset", offset_text, "Tool point in the tool link's frame x,y,z (m)");
+  app.add_option("--direction", direction_text, "apparent-mass: the direction n in B (normalised)");
+  app.add_option("--gravity", gravity_text, "Gravity in B (m/s^2)");
   app.add_flag("--json", json, "One JSON object instead of text");
   try {
     app.parse(argc, argv);
