@@ -250,6 +250,9 @@ def canvas_check(png):
     return ("canvas", "; ".join(msgs), ok and cut == 0)
 
 
+LABEL_COLOUR = re.compile(r"\b(?:tc|textcolor)\s+(?:rgb\s+(?:\"[^\"]*\"|'[^']*')|(?:lt|ls)\s+\S+|default)")
+
+
 def label_check(script):
     """('labels', message, ok): each `set label` of a gnuplot script is drawn, and inside the canvas. The figure is
     drawn again with every label white: a label whose text changes no pixel is placed off the canvas; one whose
@@ -262,7 +265,8 @@ def label_check(script):
     with tempfile.TemporaryDirectory() as tmp:
         a_png, w_png = os.path.join(tmp, "a.png"), os.path.join(tmp, "w.png")
         run(script, instrumented(stmts, a_png, "drawn")[0])
-        white = [s + " textcolor rgb 'white'" if re.match(r"set\s+label\b", s) else s for s in stmts]
+        white = [LABEL_COLOUR.sub("", s) + " textcolor rgb 'white'" if re.match(r"set\s+label\b", s) else s
+                 for s in stmts]
         run(script, instrumented(white, w_png, "drawn")[0])
         a, w = pixels(a_png), pixels(w_png)
     text = numpy.any(a != w, axis=2)
