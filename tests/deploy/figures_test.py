@@ -50,7 +50,7 @@ def main():
     build = os.environ.get("TELEOP_BUILD", os.path.join(ROOT, "build"))
     out = os.path.join(build, "tests", "deploy", "figures")
     r = subprocess.run([os.path.join(ROOT, "deploy", "figures.sh"), "--out", out], env=dict(os.environ,
-                       TELEOP_BUILD=build), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=300)
+                       TELEOP_BUILD=build), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=420)
     print(r.stdout[-1500:])
     check(r.returncode == 0, "deploy/figures.sh --out <scratch> exits 0")
     written = sorted(f for f in os.listdir(out) if f.endswith(".png"))
