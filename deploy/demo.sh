@@ -60,16 +60,9 @@ if [[ "${1:-}" == "--device" && "${2:-}" == "hybrid" ]]; then
   }
   shift_s=$(awk -v m="$(engaged_at "${out}/hybrid-master.csv")" -v s="$(engaged_at "${out}/hybrid-slave.csv")" \
     'BEGIN { print (m == "" || s == "") ? 0 : s - m }')
-  # The time axis ends at the last row of either side on the master's clock: a --duration 3 run ends a cycle or a few
-  # after 3 s (3.003 s on a loaded machine), and an axis cut at 3 s clips it (tests/deploy/figure_check.py).
-  last_time() {
-    awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next } { t = $col["time_s"] } END { print t }' "$1"
-  }
-  master_end_s=$(awk -v m="$(last_time "${out}/hybrid-master.csv")" -v s="$(last_time "${out}/hybrid-slave.csv")" \
-    -v shift="${shift_s}" 'BEGIN { e = (m == "") ? 3 : m; if (s != "" && s - shift > e) e = s - shift; print e }')
   {
     echo "master='${out}/hybrid-master.csv'; slave='${out}/hybrid-slave.csv'; png='${out}/demo-hybrid.png'"
-    echo "slave_shift=${shift_s}; master_end=${master_end_s}"
+    echo "slave_shift=${shift_s}"
     cat <<'GNUPLOT'
 set terminal pngcairo size 1000,650 noenhanced font ",10"
 set output png
@@ -80,19 +73,19 @@ set grid
 set key outside right top vertical reverse Left
 set lmargin 10
 set rmargin 42
-# The master's run (3 s and the cycles after); the slave's rows from before the master started (negative on the
-# master clock) and after the master's end are left out.
-set xrange [0:master_end]
+# The master's run (3 s); rows after it (a loaded machine runs a few ms over) and the slave's rows from before the
+# master started (negative on the master clock) are left out.
+set xrange [0:3]
 set ylabel 'position y (mm)'
-plot master using 'time_s':(1e3*column('position_m_1')) with lines lw 4 lc rgb '#9ad0f5' title 'master y', \
-     slave using (column('time_s') >= slave_shift ? column('time_s') - slave_shift : 1/0):(1e3*column('position_m_1')) \
+plot master using (column('time_s') <= 3 ? column('time_s') : 1/0):(1e3*column('position_m_1')) with lines lw 4 lc rgb '#9ad0f5' title 'master y', \
+     slave using (column('time_s') >= slave_shift && column('time_s') - slave_shift <= 3 ? column('time_s') - slave_shift : 1/0):(1e3*column('position_m_1')) \
        with lines lw 1 lc rgb '#0072b2' title 'slave y (on the master clock)', \
      30 with lines dt 2 lc rgb 'red' title 'master fixture'
 set ylabel 'force y (N)'
 set xlabel 't (s)'
-plot master using 'time_s':'command_N_1' with lines lw 3 lc rgb '#9ad0f5' title 'master command y (law + FRVF)', \
-     master using 'time_s':'rendered_force_N_1' with lines lc rgb '#0072b2' title 'rendered y (motors + brakes)', \
-     master using 'time_s':'fixture_force_N_1' with lines dt 2 lc rgb 'red' title 'fixture share y'
+plot master using (column('time_s') <= 3 ? column('time_s') : 1/0):'command_N_1' with lines lw 3 lc rgb '#9ad0f5' title 'master command y (law + FRVF)', \
+     master using (column('time_s') <= 3 ? column('time_s') : 1/0):'rendered_force_N_1' with lines lc rgb '#0072b2' title 'rendered y (motors + brakes)', \
+     master using (column('time_s') <= 3 ? column('time_s') : 1/0):'fixture_force_N_1' with lines dt 2 lc rgb 'red' title 'fixture share y'
 unset multiplot
 GNUPLOT
   } > "${out}/demo-hybrid.gp"
@@ -141,9 +134,16 @@ set arrow from first 500, graph 0 to first 500, graph 1 nohead lw 3 dt 2 lc rgb 
 # trajectories run down its right side.
 set label "master fixture y > 80 mm (steered wall)" at first 160, first 62 tc rgb "red"
 set label "slave wall x = 500 mm" at first 490, first -250 right tc rgb "black"
+# The axes always hold both walls and the labels (two unseen points at the corners of the scripted path's box), so a
+# run cut short on a loaded machine does not shrink them to its own extent and push the labels off the canvas.
+$box << EOD
+0,-480
+560,100
+EOD
 plot master using (1e3*column("position_m_0")):(1e3*column("position_m_1")) with lines lw 2 title "cobot master", \
      slave using (1e3*column("position_m_0")):(1e3*column("position_m_1")) with lines lw 1 title "slave", \
-     master every 250 using (1e3*column("position_m_0")):(1e3*column("position_m_1")):(2*column("force_sensor_N_0")):(2*column("force_sensor_N_1")) with vectors head filled lc rgb "dark-green" title "operator force (2 mm/N)"
+     master every 250 using (1e3*column("position_m_0")):(1e3*column("position_m_1")):(2*column("force_sensor_N_0")):(2*column("force_sensor_N_1")) with vectors head filled lc rgb "dark-green" title "operator force (2 mm/N)", \
+     $box using 1:2 with dots lc rgb "white" notitle
 GNUPLOT
   } > "${out}/demo-cobot.gp"
   gnuplot "${out}/demo-cobot.gp"

@@ -203,6 +203,82 @@ def check_script(script):
         return results
 
 
+# The canvas check (any PNG, gnuplot's or matplotlib's): what is drawn must use the canvas and stay on it.
+PLOT_AREA_MIN = 0.5  # of the canvas's width and of its height, the plot area (the axes' frames) must span
+EDGE_PX = 2  # nothing but the background within this many pixels of the canvas's edge
+
+
+def canvas_check(png):
+    """('canvas', message, ok) for a PNG. The plot area is the box around the axes' frames: the rows and columns
+    with a dark straight run (every channel below 128) over at least a quarter of the canvas, which frames, axes and
+    panel borders are and text, grid lines and curves are not. It must span PLOT_AREA_MIN of the canvas's width and
+    of its height (demo-cobot.png once drew its axes in the middle third). Text or a line cut by the canvas's edge
+    leaves pixels other than the background (the corner pixel's colour) in the outermost EDGE_PX pixels: a label
+    placed beyond the canvas fails. A label placed entirely beyond it draws nothing; check_script's passes are where
+    a gnuplot figure is checked for that."""
+    import numpy
+    img = pixels(png)
+    height, width = img.shape[:2]
+    dark = numpy.all(img < 128, axis=2)
+
+    def longest_runs(mask):  # per row: the longest run of True
+        best = numpy.zeros(mask.shape[0], dtype=int)
+        cur = numpy.zeros(mask.shape[0], dtype=int)
+        for col in range(mask.shape[1]):
+            cur = numpy.where(mask[:, col], cur + 1, 0)
+            best = numpy.maximum(best, cur)
+        return best
+
+    rows = numpy.nonzero(longest_runs(dark) >= width // 4)[0]
+    cols = numpy.nonzero(longest_runs(dark.T) >= height // 4)[0]
+    msgs, ok = [], True
+    if len(rows) < 2 or len(cols) < 2:
+        msgs.append("no axes frame found")
+        ok = False
+    else:
+        fw = (cols.max() - cols.min()) / width
+        fh = (rows.max() - rows.min()) / height
+        small = fw < PLOT_AREA_MIN or fh < PLOT_AREA_MIN
+        msgs.append(f"plot area {100 * fw:.0f} % of the width, {100 * fh:.0f} % of the height"
+                    + (" SQUEEZED" if small else ""))
+        ok = not small
+    background = img[0, 0]
+    edge = numpy.ones((height, width), dtype=bool)
+    edge[EDGE_PX:height - EDGE_PX, EDGE_PX:width - EDGE_PX] = False
+    cut = int((numpy.any(img != background, axis=2) & edge).sum())
+    msgs.append(f"{cut} drawn pixels at the canvas's edge" + (" CUT BY THE EDGE" if cut else ""))
+    return ("canvas", "; ".join(msgs), ok and cut == 0)
+
+
+LABEL_COLOUR = re.compile(r"\b(?:tc|textcolor)\s+(?:rgb\s+(?:\"[^\"]*\"|'[^']*')|(?:lt|ls)\s+\S+|default)")
+
+
+def label_check(script):
+    """('labels', message, ok): each `set label` of a gnuplot script is drawn, and inside the canvas. The figure is
+    drawn again with every label white: a label whose text changes no pixel is placed off the canvas; one whose
+    pixels reach the canvas's edge is cut by it."""
+    import numpy
+    stmts = statements(open(script).read())
+    labels = [s for s in stmts if re.match(r"set\s+label\b", s)]
+    if not labels:
+        return ("labels", "no set label", True)
+    with tempfile.TemporaryDirectory() as tmp:
+        a_png, w_png = os.path.join(tmp, "a.png"), os.path.join(tmp, "w.png")
+        run(script, instrumented(stmts, a_png, "drawn")[0])
+        white = [LABEL_COLOUR.sub("", s) + " textcolor rgb 'white'" if re.match(r"set\s+label\b", s) else s
+                 for s in stmts]
+        run(script, instrumented(white, w_png, "drawn")[0])
+        a, w = pixels(a_png), pixels(w_png)
+    text = numpy.any(a != w, axis=2)
+    height, width = text.shape
+    edge = numpy.ones((height, width), dtype=bool)
+    edge[EDGE_PX:height - EDGE_PX, EDGE_PX:width - EDGE_PX] = False
+    drawn, cut = int(text.sum()), int((text & edge).sum())
+    ok = drawn > 0 and cut == 0
+    return ("labels", f"{len(labels)} labels, {drawn} pixels of their text, {cut} at the canvas's edge"
+            + ("" if ok else " LABEL OFF THE CANVAS"), ok)
+
+
 def main(argv):
     bad = 0
     for script in argv:

@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
 """figure_check.py (deploy.figures' readability check) on small gnuplot scripts whose verdict is known by construction:
 a y range cut below the data's maximum, a key placed on a curve, the same key moved to an empty corner, a key outside
-the axes, a declared clip, and a key below the axes over the x label and then clear of it. Each must get the verdict
+the axes, a declared clip, a key below the axes over the x label and then clear of it, axes in a corner of the
+canvas, a label beyond the canvas and one cut by its edge. Each must get the verdict
 its construction gives; about 2 s.
 """
 import os
+import subprocess
 import sys
 import tempfile
 
@@ -20,11 +22,16 @@ DATA = "0 0 45\n10 50 45\n"
 PLOT = "plot 'd.dat' using 1:2 w l lw 3 t 'rising', '' using 1:3 w l lw 3 t 'flat at 45'\n"
 
 
-def verdict(directory, name, body, text=False):
-    """The verdict on the script's one plot, or with text=True the one on its key and label text."""
+def write(directory, name, body):
     path = os.path.join(directory, name)
     with open(path, "w") as f:
         f.write(HEAD + body)
+    return path
+
+
+def verdict(directory, name, body, text=False):
+    """The verdict on the script's one plot, or with text=True the one on its key and label text."""
+    path = write(directory, name, body)
     panels = figure_check.check_script(path)
     for panel, msg, ok in panels:
         print(f"  {name} {panel}: {'ok' if ok else 'FAIL'}: {msg}")
@@ -55,6 +62,21 @@ def main():
         check(not text[2] and "KEY ON A LABEL" in text[1], "a key below drawn over the x label fails")
         text = verdict(tmp, "below_margin.gp", below + "set bmargin 6\n" + PLOT, text=True)
         check(text[2], "the same key with a bottom margin of 6 lines passes")
+        # The canvas: axes in a corner of it, and labels placed beyond its edge.
+        for name, body, fails in (("full.gp", "", False), ("squeezed.gp", "set size 0.45,0.45\n", True)):
+            path = write(tmp, name, body + "set yrange [0:50]\nset key bottom right\n" + PLOT)
+            subprocess.run(["gnuplot", name], cwd=tmp, check=True)
+            _, msg, ok = figure_check.canvas_check(os.path.join(tmp, "x.png"))
+            print(f"  {name}: {msg}")
+            check(ok != fails and (("SQUEEZED" in msg) == fails),
+                  f"{name}: the canvas check {'fails' if fails else 'passes'}")
+        for name, label, fails in (("label_in.gp", "at first 2, first 40", False),
+                                   ("label_beyond.gp", "at screen 0.5, screen 1.2", True),
+                                   ("label_cut.gp", "at screen 0.97, screen 0.5", True)):
+            path = write(tmp, name, f"set yrange [0:50]\nset label 'a wall at x = 5' {label}\n" + PLOT)
+            _, msg, ok = figure_check.label_check(path)
+            print(f"  {name}: {msg}")
+            check(ok != fails, f"a label {label}: the label check {'fails' if fails else 'passes'}")
     return 0
 
 

@@ -5,7 +5,8 @@ shows must be produced and be a real plot, and the gallery must show every figur
 pixel rows hold at least 4 distinct byte values with no one value over 99 % of them (a blank or one-colour image
 fails both; a gnuplot palette image of a plot has about 10 values, an RGB one 256). Every gnuplot
 figure must show all of its data and keep its key off them (figure_check.py: each panel's axis ranges against the
-extent autoscaling finds; the pixels a key inside the axes covers against those the data draw). The
+extent autoscaling finds; the pixels a key inside the axes covers against those the data draw) and its labels on the
+canvas; every figure, matplotlib's too, must use most of the canvas and have nothing cut by its edge. The
 committed docs/figures/ must hold the same names and stay under 2 MB.
 """
 import os
@@ -49,7 +50,7 @@ def main():
     build = os.environ.get("TELEOP_BUILD", os.path.join(ROOT, "build"))
     out = os.path.join(build, "tests", "deploy", "figures")
     r = subprocess.run([os.path.join(ROOT, "deploy", "figures.sh"), "--out", out], env=dict(os.environ,
-                       TELEOP_BUILD=build), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=300)
+                       TELEOP_BUILD=build), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=420)
     print(r.stdout[-1500:])
     check(r.returncode == 0, "deploy/figures.sh --out <scratch> exits 0")
     written = sorted(f for f in os.listdir(out) if f.endswith(".png"))
@@ -73,6 +74,15 @@ def main():
     drawn_by_gnuplot = sorted(n for n in written if not re.match(r"demo-(master|slave)-", n))
     check(sorted(n for n, _ in manifest) == drawn_by_gnuplot,
           f"deploy/figures.sh names the gnuplot script of each of the {len(drawn_by_gnuplot)} gnuplot figures")
+    # Every PNG, matplotlib's too: its axes span at least half the canvas's width and height, and nothing is cut by
+    # the canvas's edge (figure_check.canvas_check); a gnuplot figure's `set label`s are drawn and on the canvas
+    # (figure_check.label_check).
+    for name in written:
+        _, msg, ok = figure_check.canvas_check(os.path.join(out, name))
+        check(ok, f"{name}: {msg}")
+    for name, script in manifest:
+        _, msg, ok = figure_check.label_check(script)
+        check(ok, f"{name}: {msg}")
     for name, script in manifest:
         panels = figure_check.check_script(script)
         for panel, msg, ok in panels:

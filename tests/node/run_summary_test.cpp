@@ -209,6 +209,16 @@ TEST(RunSummary, RoundTripNotMeasuredSaysWhyPerTransport) {
   EXPECT_THAT(FormatSummaryText(s), HasSubstr("not measured (no sample of the peer echoed one of ours)"));
 }
 
+// Over CAN there is no round trip, so no clock offset and no age since the peer sent: the line says so instead of
+// "p50 0.0 us" (demo.sh --can printed that).
+TEST(RunSummary, DataAgeSinceThePeerSentNotMeasuredWithoutARoundTrip) {
+  RunSummary s;
+  s.link_transport = "emulated-can";
+  s.data_age_us = Distribution{100, 315.0, 4928.0, 14328.6};
+  EXPECT_THAT(FormatSummaryText(s), HasSubstr("since receive; since the peer sent not measured (no round trip);"));
+  EXPECT_THAT(FormatSummaryText(s), Not(HasSubstr("us since the peer sent")));
+}
+
 TEST(RunSummary, LinkEmulationIsNullWithoutEmulation) {
   const RunSummary s;
   EXPECT_THAT(FormatSummaryJson(s), HasSubstr("\"link_emulation\": null,"));

@@ -30,6 +30,7 @@
 #include "teleop/analysis/human_bounds.hpp"
 #include "teleop/analysis/limit_sweep.hpp"
 #include "teleop/analysis/stability_limit.hpp"
+#include "teleop/cli_help.hpp"
 #include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/error.hpp"
@@ -403,7 +404,7 @@ static int Run(int argc, char** argv) {
   app.set_version_flag("--version", teleop::VersionText("teleop-analyze"));
   app.require_subcommand(1);
   // Every default in --help (the subcommands inherit this).
-  app.option_defaults()->always_capture_default();
+  teleop::StandardHelp(app);
 
   SystemOptions max_options;
   CLI::App* max = app.add_subcommand("max-stiffness", "Maximum stable fixture stiffness over the operator set (N/m)");

@@ -25,10 +25,12 @@
 #include "arm_section.hpp"
 #include "arm_sweep.hpp"
 #include "teleop/analysis/stability_limit.hpp"
+#include "teleop/cli_help.hpp"
 #include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
 #include "teleop/device/loopback.hpp"
 #include "teleop/error.hpp"
+#include "teleop/version.hpp"
 
 namespace {
 
@@ -145,7 +147,8 @@ int Run(int argc, char** argv) {
   CLI::App app{
       "teleop-arm: a URDF arm's kinematics and dynamics at one configuration, the fixture's stability "
       "limit there, and the start-up check of a process config (docs/arms.md)"};
-  app.option_defaults()->always_capture_default();
+  app.set_version_flag("--version", teleop::VersionText("teleop-arm"));
+  teleop::StandardHelp(app);
   std::string command, urdf, base, tool, q_text, direction_text = "0,0,1", offset_text = "0,0,0",
                                                  gravity_text = "0,0,-9.81", config_path;
   bool json = false;

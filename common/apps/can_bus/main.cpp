@@ -17,6 +17,7 @@
 #include <string>
 #include <thread>
 
+#include "teleop/cli_help.hpp"
 #include "teleop/error.hpp"
 #include "teleop/transport/can_bus_server.hpp"
 #include "teleop/transport/can_udp_bus_port.hpp"
@@ -34,7 +35,7 @@ static int Run(int argc, char** argv) {
   using namespace teleop::transport;
   CLI::App app{"teleop-canbus: emulated CAN bus for teleop-master/teleop-slave (transport emulated-can)"};
   app.set_version_flag("--version", teleop::VersionText("teleop-canbus"));
-  app.option_defaults()->always_capture_default();
+  teleop::StandardHelp(app);
   CanBusServerConfig config;
   double duration_s = 0.0;
   double stats_every_s = 5.0;

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "teleop/cli_help.hpp"
 #include "teleop/version.hpp"
 
 namespace {
@@ -26,7 +27,7 @@ int Run(int argc, char** argv) {
       "  fixture-plane <offset_m> <normal: dof numbers> [rate_m_per_s]\n"
       "  gain kp_N_per_m|kd_Ns_per_m|kv_Ns_per_m|kf[:<axis>] <value> [ramp_s]"};
   app.set_version_flag("--version", teleop::VersionText("teleop-ctl"));
-  app.option_defaults()->always_capture_default();
+  teleop::StandardHelp(app);
   std::string path;
   std::vector<std::string> words;
   app.add_option("--socket", path, "the process's command socket")->required();

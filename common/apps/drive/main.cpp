@@ -31,6 +31,7 @@
 #include <thread>
 #include <vector>
 
+#include "teleop/cli_help.hpp"
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/can_port_config.hpp"
 #include "teleop/fieldbus/canopen_sdo.hpp"
@@ -467,7 +468,7 @@ int Simulate(const Options& o, const std::vector<int>& nodes, double for_s, cons
 int Main(int argc, char** argv) {
   CLI::App app{"teleop-drive: commissioning of CiA 402 drives (scan, info, sdo, enable, jog, fault-reset, record)"};
   app.set_version_flag("--version", teleop::VersionText("teleop-drive"));
-  app.option_defaults()->always_capture_default();
+  teleop::StandardHelp(app);
   app.require_subcommand(1);
   Options o;
   app.add_option("--can", o.can_interface, "SocketCAN interface (default can0)");

@@ -6,6 +6,7 @@
 #include <iostream>
 #include <string>
 
+#include "teleop/cli_help.hpp"
 #include "teleop/error.hpp"
 #include "teleop/transport/secure_key_file.hpp"
 #include "teleop/version.hpp"
@@ -14,7 +15,7 @@ int main(int argc, char** argv) {
   try {
     CLI::App app{"teleop-keygen: write a new pre-shared key file (mode 0600) for link.security.mode psk"};
     app.set_version_flag("--version", teleop::VersionText("teleop-keygen"));
-    app.option_defaults()->always_capture_default();
+    teleop::StandardHelp(app);
     std::string path;
     app.add_option("path", path, "Key file to create (refused when it exists)")->required();
     CLI11_PARSE(app, argc, argv);

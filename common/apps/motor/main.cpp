@@ -32,11 +32,13 @@
 #include <thread>
 #include <vector>
 
+#include "teleop/cli_help.hpp"
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/can_port_config.hpp"
 #include "teleop/fieldbus/mit_motor_bus.hpp"
 #include "teleop/fieldbus/mit_motor_models.hpp"
 #include "teleop/fieldbus/simulated_mit_motor.hpp"
+#include "teleop/version.hpp"
 
 namespace {
 
@@ -420,10 +422,13 @@ int Main(int argc, char** argv) {
   CLI::App app{
       "teleop-motor: commissioning of MIT-mode joint motors (scan, info, enable, disable, clear, zero, jog, "
       "param, record, simulate, bus-load)"};
+  app.set_version_flag("--version", teleop::VersionText("teleop-motor"));
+  teleop::StandardHelp(app);
   app.require_subcommand(1);
   Options o;
   app.add_option("--can", o.can_interface, "SocketCAN interface (default can0)");
-  app.add_option("--bus-port", o.bus_port, "the teleop-canbus emulated bus on UDP 127.0.0.1:PORT instead");
+  app.add_option("--bus-port", o.bus_port,
+                 "the teleop-canbus emulated bus on UDP 127.0.0.1:PORT instead (0: SocketCAN)");
   app.add_option("--bus-host", o.bus_host, "teleop-canbus address")->capture_default_str();
   app.add_flag("--fd", o.fd, "send CAN FD frames (bit-rate switch): motors configured for CAN FD");
   app.add_option("--model", o.model, "motor model in the models file")->capture_default_str();

@@ -206,9 +206,12 @@ int RunCaster(const CasterOptions& o) {
     title << "cobot-caster " << o.speed_m_per_s << " m/s, " << o.lateral_acceleration_m_per_s2
           << " m/s^2: apparent lateral mass " << std::setprecision(3) << apparent << " kg";
     const std::string png = o.common.output + ".png";
-    RunGnuplot(o.common.output + ".gp",
-               TrajectoryPlot(png, title.str(), {{o.common.output + ".csv", "cart (virtual caster)"}}, "",
-                              CasterArrowScale_mm_per_N(o, config), 100, true));
+    std::string gp = TrajectoryPlot(png, title.str(), {{o.common.output + ".csv", "cart (virtual caster)"}}, "",
+                                    CasterArrowScale_mm_per_N(o, config), 100, true);
+    // The turn is taller than wide and the axes are to scale: a portrait canvas, or the axes fill its middle only.
+    const std::string terminal = "set terminal png size 900,700\n";
+    gp.replace(gp.find(terminal), terminal.size(), "set terminal png size 800,1000\n");
+    RunGnuplot(o.common.output + ".gp", gp);
   }
   if (o.common.json) {
     std::cout << std::setprecision(6) << "{\"scenario\":\"cobot-caster\",\"speed_m_per_s\":" << mean_speed

@@ -1,6 +1,7 @@
 // Kwon & Song, "Force display using a hybrid haptic device composed of motors and brakes": the FME map (§2.2),
 // the wall contact of §4 (Figs. 8, 9, Table 1) and the friction display of §5 (Figs. 11, 12) on the simulated rig.
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <iomanip>
@@ -175,9 +176,11 @@ void PrintMetrics(const hy::ContactMetrics& m, bool json, bool friction, const s
 }
 
 /// depth_range_mm: the depth axis of a wall plot (lower, upper); the approach is cut off so that a bounce of a
-/// fraction of a millimetre shows (empty for the friction plot).
+/// fraction of a millimetre shows (empty for the friction plot). time_range_s: the time axis of a wall plot's time
+/// panels (empty: the whole run), so that the contact is not a sliver of the run.
 void PlotContact(const std::string& prefix, const std::string& title, bool friction,
-                 std::pair<double, double> depth_range_mm = {0.0, 0.0}) {
+                 std::pair<double, double> depth_range_mm = {0.0, 0.0},
+                 std::pair<double, double> time_range_s = {0.0, 0.0}) {
   const std::string csv = prefix + ".csv";
   std::ostringstream gp;
   // Each panel's key sits below its axes (the bottom margin is set so that gnuplot does not draw the key over the
@@ -204,18 +207,36 @@ void PlotContact(const std::string& prefix, const std::string& title, bool frict
     std::ostringstream range;
     range << "[" << depth_range_mm.first << ":" << depth_range_mm.second << "]";
     // The depth axis spans the contact, so a sub-millimetre bounce shows; the approach is off it, as the title says.
-    if (ranged) gp << "# ranges: y clipped (the approach is off the depth axis)\nset yrange " << range.str() << "\n";
+    if (ranged) gp << "set yrange " << range.str() << "\n";
+    // The time panels show the contact and its settling (the x label says which part of the run that is).
+    const bool timed = time_range_s.second > time_range_s.first;
+    std::ostringstream time_axis;
+    if (timed) {
+      time_axis << std::fixed << std::setprecision(2) << "set xrange [" << time_range_s.first << ":"
+                << time_range_s.second << "]\nset xlabel 't (s): " << time_range_s.first << " to "
+                << time_range_s.second << " s of the run'\n";
+    }
+    const std::string time_clip =
+        timed ? "# ranges: x clipped (the time axis shows the contact, as its label says)\n" : std::string();
+    gp << time_axis.str();
+    if (ranged || timed) {
+      gp << "# ranges: " << (timed ? "x" : "") << (ranged ? "y" : "")
+         << " clipped (the approach is off the depth axis; the time axis shows the contact)\n";
+    }
     gp << "set ylabel 'depth (mm)'\nset title 'position (depth into the wall; the approach is off the axis)'\nplot '"
        << csv << "' skip 1 using 1:6 w l lc rgb '#9400d3' t 'depth', 0 w l dt 2 lc rgb 'gray' t 'surface'\n"
-       << "set autoscale y\nset ylabel 'velocity (mm/s)'\nset title 'velocity'\nplot '" << csv
-       << "' skip 1 using 1:5 w l lc rgb '#9400d3' t 'v_y'\n";
-    gp << "set ylabel 'force (N)'\nset title 'force'\nplot '" << csv
-       << "' skip 1 using 1:7 w l lw 2 lc rgb '#9400d3' t 'wall (rendered)', '" << csv
+       << "set autoscale y\nset ylabel 'velocity (mm/s)'\nset title 'velocity'\n"
+       << (timed ? "# ranges: xy clipped (the time axis shows the contact; the approach's speed before it is off "
+                   "the axes)\n"
+                 : "")
+       << "plot '" << csv << "' skip 1 using 1:5 w l lc rgb '#9400d3' t 'v_y'\n";
+    gp << "set ylabel 'force (N)'\nset title 'force'\n"
+       << time_clip << "plot '" << csv << "' skip 1 using 1:7 w l lw 2 lc rgb '#9400d3' t 'wall (rendered)', '" << csv
        << "' skip 1 using 1:8 w l lc rgb '#0072b2' t 'motors', '" << csv
        << "' skip 1 using 1:9 w l lc rgb '#e51e10' t 'brakes', '" << csv
        << "' skip 1 using 1:10 w l lc rgb '#e69f00' t 'hand'\n"
        << (ranged ? "# ranges: x clipped (the approach is off the depth axis)\nset xrange " + range.str() + "\n"
-                  : std::string())
+                  : std::string("set autoscale x\n"))
        << "set xlabel 'depth (mm)'\nset ylabel 'force (N)'\nset title 'force vs position (the approach is off the "
           "axis)'\nplot '"
        << csv << "' skip 1 using 6:7 w l lc rgb '#9400d3' t 'wall (rendered)'\nunset multiplot\n";
@@ -281,8 +302,15 @@ int RunWall(const WallOptions& o) {
   label << "hybrid-wall " << o.model << " " << o.speed_mm_s << " mm/s" << (o.at_contact_speed ? " at contact" : "");
   if (!o.no_plot) {
     const hy::ContactMetrics& m = r.metrics;
+    // From 0.1 s before the contact to its settling (three transients, at least 0.1 s), within the run.
+    std::pair<double, double> time_range{0.0, 0.0};
+    if (m.contact_time_s >= 0.0) {
+      const double end = std::ceil(20.0 * (m.contact_time_s + std::max(0.1, 3.0 * m.transient_s))) / 20.0;
+      const double start = std::max(0.0, std::floor(20.0 * (m.contact_time_s - 0.1)) / 20.0);
+      if (end < config.duration_s) time_range = {start, end};
+    }
     PlotContact(prefix, label.str() + " (" + ModelNote(o) + ")", false,
-                {-std::max(1.0, 1.5 * m.largest_bounce_mm), std::max(0.5, 1.2 * m.max_depth_mm)});
+                {-std::max(1.0, 1.5 * m.largest_bounce_mm), std::max(0.5, 1.2 * m.max_depth_mm)}, time_range);
   }
   if (o.json) {
     std::ostringstream extra;

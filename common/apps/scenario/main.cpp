@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "scenarios.hpp"
+#include "teleop/cli_help.hpp"
 #include "teleop/version.hpp"
 
 namespace {
@@ -11,7 +12,7 @@ namespace {
 int Run(int argc, char** argv) {
   CLI::App app{"teleop-scenario: the papers' experiments on the simulated rigs (CSV, PNG, metrics)"};
   app.set_version_flag("--version", teleop::VersionText("teleop-scenario"));
-  app.option_defaults()->always_capture_default();
+  teleop::StandardHelp(app);
   app.require_subcommand(1);
   teleop::scenario::AddHybridScenarios(app);
   teleop::scenario::AddCobotScenarios(app);

@@ -22,6 +22,7 @@
 #include <thread>
 #include <vector>
 
+#include "teleop/cli_help.hpp"
 #include "teleop/dds/dashboard_server.hpp"
 #include "teleop/dds/process_view.hpp"
 #include "teleop/dds/supervisor.hpp"
@@ -117,7 +118,7 @@ int Run(int argc, char** argv) {
       "teleop-supervise: every teleop master/slave pair on a DDS domain (rate, loss, round trip, engagement, "
       "faults), live; see docs/dds.md"};
   app.set_version_flag("--version", teleop::VersionText("teleop-supervise"));
-  app.option_defaults()->always_capture_default();
+  teleop::StandardHelp(app);
   int domain_id = 0;
   double interval_s = 0.5;
   double stale_after_s = 1.0;

@@ -16,6 +16,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "teleop/cli_help.hpp"
 #include "teleop/config/delay_recheck.hpp"
 #include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
@@ -118,7 +119,7 @@ const CLI::Validator kFinite(
     "FINITE");
 
 void AddOptions(CLI::App& app, Options& o) {
-  app.option_defaults()->always_capture_default();
+  teleop::StandardHelp(app);
   app.add_option("-c,--config", o.config_path, "Process configuration (YAML); see docs/configuration.md")
       ->required()
       ->check(CLI::ExistingFile);

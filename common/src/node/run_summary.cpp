@@ -327,10 +327,14 @@ constexpr auto kTextLines = std::to_array<TextLine>({
      [](const S& s) {
        if (s.data_age_us.count == 0) return Lines{};
        const auto& c = s.data_age_cycles;
-       return Lines{fmt::format(
-           "p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us since receive; p50 {:.1f} us since the peer sent; in cycles "
-           "0/1/2/3+: {}/{}/{}/{}",
-           s.data_age_us.p50, s.data_age_us.p99, s.data_age_us.max, s.data_age_sender_us.p50, c[0], c[1], c[2], c[3])};
+       // The age since the peer sent needs the peers' clock offset, which comes from the round trip: where that is
+       // not measured (CAN), neither is this age (it is not 0).
+       const std::string sent = s.data_age_sender_us.count == 0
+                                    ? std::string("since the peer sent not measured (no round trip)")
+                                    : fmt::format("p50 {:.1f} us since the peer sent", s.data_age_sender_us.p50);
+       return Lines{
+           fmt::format("p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us since receive; {}; in cycles 0/1/2/3+: {}/{}/{}/{}",
+                       s.data_age_us.p50, s.data_age_us.p99, s.data_age_us.max, sent, c[0], c[1], c[2], c[3])};
      }},
     {"sync",
      [](const S& s) {

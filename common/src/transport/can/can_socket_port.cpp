@@ -38,7 +38,8 @@ namespace {
 
 constexpr const char* kNoAfCan =
     "AF_CAN not supported by this kernel: load can, can-raw, vcan (sudo modprobe can can-raw vcan; sudo ip link add "
-    "dev vcan0 type vcan; sudo ip link set vcan0 up) or use transport emulated-can (teleop-canbus)";
+    "dev vcan0 type vcan; sudo ip link set vcan0 up) or use the emulated bus, teleop-canbus (docs/can.md: "
+    "link.transport emulated-can in a process's config, --bus-port PORT of teleop-drive and teleop-motor)";
 
 std::string Errno(const std::string& what) { return what + ": " + std::strerror(errno); }
 
