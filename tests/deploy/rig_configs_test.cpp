@@ -88,6 +88,11 @@ TEST(RigConfigs, EveryConfigLoadsAndPassesItsStartUpCheck) {
       continue;
     }
     ++loaded;
+#ifdef TELEOP_SANITIZED_BUILD
+    // An arm's start-up check analyses every configuration bucket near its fixture plane: 2 s per config in the
+    // release run, which checks them; minutes each under ASan + UBSan.
+    if (config.device.backend == "arm") continue;
+#endif
     if (config.stability.check) {
       const StabilityReport report = CheckProcessStability(config);
       EXPECT_TRUE(report.stable()) << DescribeFailure(config, report);

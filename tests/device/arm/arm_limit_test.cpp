@@ -91,6 +91,10 @@ config::ProcessConfig StylusSlave(double fixture_N_per_m, const ArmSection& sect
 }
 
 TEST(ArmStability, StartUpRefusesAFixtureAboveTheSmallestLimitNamingTheWorstConfiguration) {
+#ifdef TELEOP_SANITIZED_BUILD
+  GTEST_SKIP() << "dozens of stability analyses: minutes under ASan + UBSan; the release run checks this (the sweep "
+                  "itself runs here in ArmSweep.*)";
+#endif
   const ArmSection section = SevenJointSlave();
   const config::StabilityReport pass = config::CheckProcessStability(StylusSlave(2000.0, section));
   ASSERT_TRUE(pass.sweep.has_value());
