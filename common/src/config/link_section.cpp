@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <string>
+#include <vector>
 
 #include "sections.hpp"
 #include "teleop/config/delay_recheck_keys.hpp"
@@ -110,6 +111,7 @@ void ParseCan(const Field& f, bool emulated, transport::CanLinkConfig& can) {
 void ParseDelayRecheck(const Field& f, link::LinkConfig::DelayRecheck& r) {
   namespace k = delay_recheck_keys;
   std::vector<std::string> leaves;
+  leaves.reserve(k::kAll.size());
   for (const KeySpec* spec : k::kAll) leaves.push_back(LeafOf(*spec));
   const Map map(f, leaves);
   r.enabled = ReadBool(map, k::kEnabled);
