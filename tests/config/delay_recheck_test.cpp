@@ -106,26 +106,37 @@ TEST(DelayRecheck, EvaluateLowersTheShippedSlaveFixtureToTheLimitAtTheMeasuredDe
   EXPECT_THAT(at8.message, HasSubstr("the coupling itself is unstable"));
 }
 
-// The thread: a data age that steps 1 -> 4 -> 1 ms; the re-check lowers the fixture once (to 0.9 x the limit at
-// 4 ms) and restores it once, each over |dk| x 10 mm / 20 N/s.
-TEST(DelayRecheck, ThreadLowersOnAStepAndRestoresWhenTheLinkRecovers) {
-  const config::ProcessConfig config = config::ParseProcessConfig(ShippedSlave(), "slave.yaml");
-  config::DelayRecheck::Options options;
-  options.poll_period_s = 1e-3;
-  options.watch.window_s = 0.02;
-  options.watch.recover_hold_s = 0.02;
+// The thread on the shipped slave with a short window and hold, fed the data age `age_s`; every action it takes is
+// appended to `actions` under `mutex`, and `changed` is notified.
+struct Recorded {
+  static config::DelayRecheck::Options ShortWindow() {
+    config::DelayRecheck::Options o;
+    o.poll_period_s = 1e-3;
+    o.watch.window_s = 0.02;
+    o.watch.recover_hold_s = 0.02;
+    return o;
+  }
   std::atomic<double> age_s{1e-3};
   std::mutex mutex;
   std::condition_variable changed;
   std::vector<config::DelayRecheck::Action> actions;
-  config::DelayRecheck recheck(
-      config, options, [&] { return age_s.load(); },
-      [&](const config::DelayRecheck::Action& a) {
-        const std::lock_guard<std::mutex> lock(mutex);
-        actions.push_back(a);
-        changed.notify_all();
-      });
-  std::unique_lock<std::mutex> lock(mutex);
+  config::DelayRecheck recheck{config::ParseProcessConfig(ShippedSlave(), "slave.yaml"), ShortWindow(),
+                               [this] { return age_s.load(); },
+                               [this](const config::DelayRecheck::Action& a) {
+                                 const std::lock_guard<std::mutex> lock(mutex);
+                                 actions.push_back(a);
+                                 changed.notify_all();
+                               }};
+};
+
+// The thread: a data age that steps 1 -> 4 -> 1 ms; the re-check lowers the fixture once (to 0.9 x the limit at
+// 4 ms) and restores it once, each over |dk| x 10 mm / 20 N/s.
+TEST(DelayRecheck, ThreadLowersOnAStepAndRestoresWhenTheLinkRecovers) {
+  Recorded r;
+  std::atomic<double>& age_s = r.age_s;
+  std::condition_variable& changed = r.changed;
+  std::vector<config::DelayRecheck::Action>& actions = r.actions;
+  std::unique_lock<std::mutex> lock(r.mutex);
   EXPECT_FALSE(changed.wait_for(lock, std::chrono::milliseconds(50), [&] { return !actions.empty(); }));
   age_s = 4e-3;
   ASSERT_TRUE(changed.wait_for(lock, std::chrono::seconds(10), [&] { return actions.size() >= 1; }));
@@ -146,23 +157,12 @@ TEST(DelayRecheck, ThreadLowersOnAStepAndRestoresWhenTheLinkRecovers) {
 // the fixture where it is (the process decides: an event, or decouple), so the recovery that follows changes
 // nothing and reports nothing.
 TEST(DelayRecheck, ACouplingUnstableAtTheMeasuredDelayLeavesTheFixtureAlone) {
-  const config::ProcessConfig config = config::ParseProcessConfig(ShippedSlave(), "slave.yaml");
-  config::DelayRecheck::Options options;
-  options.poll_period_s = 1e-3;
-  options.watch.window_s = 0.02;
-  options.watch.recover_hold_s = 0.02;
-  std::atomic<double> age_s{1e-3};
-  std::mutex mutex;
-  std::condition_variable changed;
-  std::vector<config::DelayRecheck::Action> actions;
-  config::DelayRecheck recheck(
-      config, options, [&] { return age_s.load(); },
-      [&](const config::DelayRecheck::Action& a) {
-        const std::lock_guard<std::mutex> lock(mutex);
-        actions.push_back(a);
-        changed.notify_all();
-      });
-  std::unique_lock<std::mutex> lock(mutex);
+  Recorded r;
+  std::atomic<double>& age_s = r.age_s;
+  std::condition_variable& changed = r.changed;
+  std::vector<config::DelayRecheck::Action>& actions = r.actions;
+  config::DelayRecheck& recheck = r.recheck;
+  std::unique_lock<std::mutex> lock(r.mutex);
   age_s = 8e-3;  // not 60: ~15 s per check under ASan + UBSan (above)
   ASSERT_TRUE(changed.wait_for(lock, std::chrono::seconds(10), [&] { return actions.size() >= 1; }));
   EXPECT_TRUE(actions[0].coupling_unstable);
