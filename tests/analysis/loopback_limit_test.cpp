@@ -59,6 +59,11 @@ class LoopbackLimit : public ::testing::TestWithParam<LoopCase> {};
 
 TEST_P(LoopbackLimit, SettlesAtNinetyPercentOscillatesAtHundredTenPercent) {
   const LoopCase& c = GetParam();
+#ifdef TELEOP_SANITIZED_BUILD
+  // 100 samples of delay is a 208-state model searched over the operator grid: 64 s under ASan + UBSan, 1 s in
+  // release. The release suite runs it; the sanitizer pass keeps the cases up to 40 samples, the same code paths.
+  if (c.delay > 50) GTEST_SKIP() << "the 100-sample case runs in the release suite only";
+#endif
   SampledTeleoperator system;
   system.rate_hz = c.rate_hz;
   system.gains = c.gains;
