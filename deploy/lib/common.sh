@@ -13,7 +13,7 @@ TELEOP_PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev libsodium-dev libmodbus-dev
   # arms (docs/arms.md): URDF parsing and the kinematics and dynamics
   liburdfdom-dev liborocos-kdl-dev
-  clang-format clang-tidy clang libclang-rt-14-dev
+  clang-format clang-tidy clang libclang-rt-14-dev lld
   gnuplot-nox python3
   iproute2 can-utils
   python3-pymodbus python3-serial python3-serial-asyncio mbpoll socat
