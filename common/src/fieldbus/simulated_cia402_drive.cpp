@@ -442,6 +442,7 @@ void SimulatedCia402Drive::Integrate(std::uint64_t now_ns) noexcept {
     applied_torque_Nm_ += j.torque_lag_s > 0.0
                               ? (command_Nm - applied_torque_Nm_) * (1.0 - std::exp(-h / j.torque_lag_s))
                               : command_Nm - applied_torque_Nm_;
+    if (j.external_shaft) continue;  // the shaft is moved from outside (SetJointState)
     const double drive_Nm = applied_torque_Nm_ + external_torque_Nm_ - j.viscous_Nms_per_rad * velocity_rad_per_s_;
     if (velocity_rad_per_s_ == 0.0 && std::abs(drive_Nm) <= j.coulomb_Nm) continue;  // sticks
     const double direction =

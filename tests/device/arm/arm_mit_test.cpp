@@ -140,10 +140,11 @@ TEST(MitArm, FollowsAndStopsAtThePlane) {
   EXPECT_LT(z, kPlane_m);
   EXPECT_GT(z, kPlane_m - 0.004);
   EXPECT_LT(std::abs(rig.r.velocity_m_per_s[2]), 0.005);
-  // The motors carried it: every one enabled, every command answered.
+  // The motors carried it: every one enabled, every command answered (a command every cycle but the first, which
+  // enables them).
   for (int i = 0; i < 7; ++i) {
     EXPECT_TRUE(rig.plant->motor(i).enabled()) << i;
-    EXPECT_GE(rig.plant->motor(i).commands_received(), 2000u) << i;
+    EXPECT_EQ(rig.plant->motor(i).commands_received(), 1999u) << i;
     EXPECT_EQ(rig.bus->bus().state(static_cast<std::size_t>(i)).missing, 0u) << i;
   }
   // Motor 3 turns against its joint: its command's torque has the opposite sign of the joint's.
@@ -216,6 +217,27 @@ TEST(MitArm, AHostThatDiesLeavesEveryMotorDisabledByItsOwnTimeout) {
     EXPECT_EQ(rig.arm->ActuatorFaultText(), "joint 1 'joint1': communication lost (code 0xD)");
     EXPECT_TRUE(rig.AllDisabled());
   }
+}
+
+// The loop's first cycle may come long after Activate (the peer, the start-up check's sweep): the motors' own
+// timeout (50 ms) must count from the loop's first exchange, not from the enable at Activate. Activate leaves them
+// disabled (verified enabled, then disabled again); the first exchange enables them, the commands follow. Before,
+// the 200 ms here left every motor in communication lost (0xD) at the first cycle.
+TEST(MitArm, TheMotorTimeoutCountsFromTheFirstCommandNotFromActivate) {
+  MitArmRig rig;
+  for (int k = 0; k < 200; ++k) rig.plant->Advance(kPeriod_s);  // 200 ms before the loop's first cycle
+  for (int i = 0; i < 7; ++i) {
+    EXPECT_EQ(rig.plant->motor(i).status(), static_cast<std::uint8_t>(mit::MotorStatus::kDisabled)) << i;
+  }
+  for (int k = 0; k < 100; ++k) rig.Cycle(Eigen::Vector3d::Zero());
+  EXPECT_EQ(rig.r.faults, kFaultNone) << rig.arm->ActuatorFaultText();
+  for (int i = 0; i < 7; ++i) {
+    EXPECT_TRUE(rig.plant->motor(i).enabled()) << i;
+    EXPECT_EQ(rig.plant->motor(i).commands_received(), 99u) << i;  // the first cycle enables
+  }
+  // And the timeout still guards the cycle: 60 ms without a frame after the last command disables every motor.
+  for (int k = 0; k < 60; ++k) rig.plant->Advance(kPeriod_s);
+  EXPECT_TRUE(rig.AllDisabled());
 }
 
 TEST(MitArm, TheCycleDoesNotAllocate) {

@@ -29,6 +29,9 @@ struct SimulatedJointConfig {
   double coulomb_Nm = 5e-3;
   double torque_lag_s = 5e-4;
   double integration_step_s = 1e-4;  ///< Sub-step of the joint's integration.
+  /// The joint is moved from outside (SetJointState each step; an arm's dynamics, simulated_cia402_arm.hpp): the
+  /// drive runs its loops and torque lag only, and applied_torque_Nm() is what it puts on the shaft.
+  bool external_shaft = false;
 };
 
 /// The drive's own control loops (cyclic synchronous position and velocity, CiA 402 modes 8 and 9), run at the

@@ -10,6 +10,7 @@
 
 #include "arm_keys.hpp"
 #include "arm_section.hpp"
+#include "simulated_cia402_arm.hpp"
 #include "simulated_mit_arm.hpp"
 #include "teleop/config/key_table.hpp"
 #include "teleop/config/yaml_reader.hpp"
@@ -147,6 +148,82 @@ void ReadMit(const Field& f, MitJointBusConfig& mit) {
   }
 }
 
+Cia402JointConfig ReadCia402Joint(const Field& f) {
+  const Map map(f, {"bus", "node_id", "rated_torque_Nm", "max_torque_Nm", "position_rad_per_count",
+                    "velocity_rad_per_s_per_unit", "sign", "offset_rad", "gear_ratio"});
+  Cia402JointConfig j;
+  if (auto v = map.Optional("bus")) j.bus = config::IntInRange(*v, 0, 15);
+  j.node_id = static_cast<std::uint8_t>(config::IntInRange(map.Required("node_id"), 1, 127));
+  j.rated_torque_Nm = config::Positive(map.Required("rated_torque_Nm"), "N·m");
+  j.max_torque_Nm = config::Positive(map.Required("max_torque_Nm"), "N·m");
+  if (auto v = map.Optional("position_rad_per_count")) j.position_rad_per_count = config::Positive(*v, "rad");
+  if (auto v = map.Optional("velocity_rad_per_s_per_unit")) {
+    j.velocity_rad_per_s_per_unit = config::Positive(*v, "rad/s");
+  }
+  if (auto v = map.Optional("sign")) {
+    j.sign = config::Finite(*v);
+    if (j.sign != 1.0 && j.sign != -1.0) v->Fail("must be 1 or -1");
+  }
+  if (auto v = map.Optional("offset_rad")) j.offset_rad = config::Finite(*v);
+  if (auto v = map.Optional("gear_ratio")) j.gear_ratio = config::Positive(*v, "");
+  return j;
+}
+
+void ReadCia402(const Field& f, Cia402JointBusConfig& c) {
+  const Map map(
+      f, {"bus", "buses", "nominal_bitrate_bit_per_s", "max_bus_load", "rate_hz", "stale_after_ms",
+          "drive_heartbeat_period_ms", "heartbeat_timeout_ms", "sdo_timeout_ms", "activate_timeout_ms", "joints"});
+  const Field bus = map.Required("bus");
+  const std::string bus_kind = bus.AsString();
+  if (bus_kind == "simulated") {
+    c.simulated = true;
+  } else if (bus_kind == "can") {
+    c.simulated = false;
+    for (const Field& item : map.Required("buses").AsList()) {
+      c.buses.emplace_back();
+      fieldbus::ReadCanPortSection(item, c.buses.back());
+    }
+  } else {
+    bus.Fail("must be simulated (the simulated arm on simulated CiA 402 drives in this process) or can (the buses)");
+  }
+  if (auto v = map.Optional("buses"); v && c.simulated) v->Fail("bus sections, but bus is simulated; remove them");
+  if (auto v = map.Optional("nominal_bitrate_bit_per_s")) c.nominal_bitrate_bit_per_s = config::Positive(*v, "bit/s");
+  if (auto v = map.Optional("max_bus_load")) c.max_bus_load = config::InRange(*v, 0.01, 1.0, "");
+  if (auto v = map.Optional("rate_hz")) c.rate_hz = config::InRange(*v, 1.0, 100000.0, "Hz");
+  if (auto v = map.Optional("stale_after_ms")) c.stale_after_ms = config::InRange(*v, 1.0, 1000.0, "ms");
+  if (auto v = map.Optional("drive_heartbeat_period_ms")) {
+    c.drive_heartbeat_period_ms = config::InRange(*v, 1.0, 10000.0, "ms");
+  }
+  if (auto v = map.Optional("heartbeat_timeout_ms")) c.heartbeat_timeout_ms = config::InRange(*v, 1.0, 60000.0, "ms");
+  if (auto v = map.Optional("sdo_timeout_ms")) c.sdo_timeout_ms = config::InRange(*v, 1.0, 10000.0, "ms");
+  if (auto v = map.Optional("activate_timeout_ms")) c.activate_timeout_ms = config::InRange(*v, 1.0, 10000.0, "ms");
+  const Field joints = map.Required("joints");
+  for (const Field& item : joints.AsList()) c.joints.push_back(ReadCia402Joint(item));
+  if (c.joints.empty()) joints.Fail("needs one drive per joint");
+  if (!c.simulated && c.bus_count() > static_cast<int>(c.buses.size())) {
+    joints.Fail("the joints use " + std::to_string(c.bus_count()) + " buses, buses has " +
+                std::to_string(c.buses.size()));
+  }
+  for (int b = 0; b < c.bus_count(); ++b) {
+    bool used = false;
+    for (const Cia402JointConfig& j : c.joints) used = used || j.bus == b;
+    if (!used) joints.Fail("no joint on bus " + std::to_string(b) + " (bus indices run from 0 without gaps)");
+  }
+  for (std::size_t i = 0; i < c.joints.size(); ++i) {
+    for (std::size_t k = 0; k < i; ++k) {
+      if (c.joints[k].bus == c.joints[i].bus && c.joints[k].node_id == c.joints[i].node_id) {
+        joints.Fail("joints " + std::to_string(k + 1) + " and " + std::to_string(i + 1) + " share node " +
+                    std::to_string(c.joints[i].node_id) + " on bus " + std::to_string(c.joints[i].bus));
+      }
+    }
+  }
+  try {
+    CheckCia402BusLoad(c, "device.arm.cia402");
+  } catch (const Error& e) {
+    joints.Fail(e.what());
+  }
+}
+
 void ReadFixtureSweep(const Field& f, FixtureSweepConfig& sweep) {
   namespace k = arm_keys;
   const Map map(f, {"samples", "plane_distance_m", "seed", "bucket"});
@@ -179,6 +256,7 @@ ArmSection ReadArm(const Field& f, int dof) {
                     "joint_limits",
                     "actuators",
                     "mit",
+                    "cia402",
                     "simulation",
                     "fixture_sweep"});
   if (dof != 3) {
@@ -208,12 +286,19 @@ ArmSection ReadArm(const Field& f, int dof) {
   if (auto v = map.Optional("joint_limits")) {
     for (const Field& item : v->AsList()) s.chain.limit_overrides.push_back(ReadLimit(item));
   }
-  s.mit_actuators = config::ReadChoice(map, k::kActuators) == 1;
+  const int actuators = config::ReadChoice(map, k::kActuators);
+  s.mit_actuators = actuators == 1;
+  s.cia402_actuators = actuators == 2;
   if (auto v = map.Optional("simulation")) ReadSimulation(*v, s.simulation, s.initial_q_rad);
   if (s.mit_actuators) {
     ReadMit(map.Required("mit"), s.mit);
   } else if (auto v = map.Optional("mit")) {
-    v->Fail("an MIT motors section, but actuators is simulated; remove it or set actuators: mit");
+    v->Fail("an MIT motors section, but actuators is not mit; remove it or set actuators: mit");
+  }
+  if (s.cia402_actuators) {
+    ReadCia402(map.Required("cia402"), s.cia402);
+  } else if (auto v = map.Optional("cia402")) {
+    v->Fail("a CiA 402 drives section, but actuators is not cia402; remove it or set actuators: cia402");
   }
   if (auto v = map.Optional("fixture_sweep")) ReadFixtureSweep(*v, s.fixture_sweep);
   return s;
@@ -293,6 +378,25 @@ std::unique_ptr<MitJointBus> MakeMitJointBus(const ArmSection& section) {
   return std::make_unique<MitJointBus>(section.mit, nullptr, std::move(port), names);
 }
 
+std::unique_ptr<Cia402JointBus> MakeCia402JointBus(const ArmSection& section) {
+  const ArmChain chain = BuildArmChain(section.chain);
+  if (static_cast<int>(section.cia402.joints.size()) != chain.joint_count()) {
+    throw Error("device.arm.cia402.joints has " + std::to_string(section.cia402.joints.size()) +
+                " drives; the chain '" + section.chain.base_link + "' to '" + section.chain.tool_link + "' in '" +
+                section.chain.urdf_file + "' has " + std::to_string(chain.joint_count()) + " joints");
+  }
+  std::vector<std::string> names;
+  for (const JointSpec& j : chain.joints) names.push_back(j.name);
+  std::unique_ptr<Cia402Plant> plant;
+  if (section.cia402.simulated) {
+    ArmSection plant_section = section;
+    plant_section.simulation.substeps = 1;  // the plant steps the arm once per its own substep
+    plant = std::make_unique<SimulatedCia402Arm>(MakeSimulatedArm(plant_section), section.cia402,
+                                                 section.simulation.substeps);
+  }
+  return std::make_unique<Cia402JointBus>(section.cia402, std::move(plant), names);
+}
+
 std::unique_ptr<ArmDevice> MakeArmDevice(const ArmSection& section) {
   auto model = std::make_unique<ArmModel>(BuildArmChain(section.chain), section.gravity_B());
   ArmDeviceConfig device = section.device;
@@ -301,6 +405,8 @@ std::unique_ptr<ArmDevice> MakeArmDevice(const ArmSection& section) {
   std::unique_ptr<JointBus> bus;
   if (section.mit_actuators) {
     bus = MakeMitJointBus(section);
+  } else if (section.cia402_actuators) {
+    bus = MakeCia402JointBus(section);
   } else {
     bus = MakeSimulatedArm(section);
   }
@@ -350,6 +456,29 @@ DeviceBackend ArmBackend() {
       {"mit.joints[].gear_ratio", "motor turns per joint turn, > 0 (default 1)"},
       {"mit.joints[].kp_Nm_per_rad", "control: pd, joint side (N·m/rad)"},
       {"mit.joints[].kd_Nms_per_rad", "control: pd, joint side (N·m·s/rad)"},
+      {"cia402",
+       "CiA 402 drives in cyclic synchronous torque mode (actuators: cia402; docs/arms.md, \"CiA 402 joints\")"},
+      {"cia402.bus", "simulated (the simulated arm on simulated CiA 402 drives, in this process) | can (cia402.buses)"},
+      {"cia402.buses", "one CAN section per bus index: medium, interface, bus, connect_timeout_ms (docs/can.md)"},
+      {"cia402.nominal_bitrate_bit_per_s",
+       "the bus-load budget's (and the emulated buses') bit rate (default 1000000)"},
+      {"cia402.max_bus_load", "the budget: a bus above this fraction is refused (default 0.8)"},
+      {"cia402.rate_hz", "the cycle rate: the SYNC period and the budget's rate; the process's rate_hz (default 1000)"},
+      {"cia402.stale_after_ms", "no TPDO for this long faults the joint (ms, default 10)"},
+      {"cia402.drive_heartbeat_period_ms", "each drive's heartbeat, 0x1017 (ms, default 50)"},
+      {"cia402.heartbeat_timeout_ms", "the host's consumer of each drive's heartbeat (ms, default 150)"},
+      {"cia402.sdo_timeout_ms", "set-up: how long one SDO waits (ms, default 50)"},
+      {"cia402.activate_timeout_ms", "set-up: each state machine step and the first TPDOs (ms, default 500)"},
+      {"cia402.joints", "one drive per joint in the chain's order"},
+      {"cia402.joints[].bus", "the joint's bus: an index into cia402.buses from 0 (default 0)"},
+      {"cia402.joints[].node_id", "the drive's node ID (1..127, unique on its bus)"},
+      {"cia402.joints[].rated_torque_Nm", "0x6076, drive side (N·m): 0x6071 is in per mille of it"},
+      {"cia402.joints[].max_torque_Nm", "0x6072, drive side (N·m): every target is clamped to it"},
+      {"cia402.joints[].position_rad_per_count", "0x6064's unit, drive side (default 1/4096)"},
+      {"cia402.joints[].velocity_rad_per_s_per_unit", "0x606C's unit, drive side (default 1/4096)"},
+      {"cia402.joints[].sign", "1 or -1: the drive turns with or against the URDF joint's axis (default 1)"},
+      {"cia402.joints[].offset_rad", "the joint's position when the drive reads 0 (rad, default 0)"},
+      {"cia402.joints[].gear_ratio", "drive turns per joint turn, > 0 (default 1)"},
   };
   AdoptKeyTable(b, arm_keys::All());
   b.section_required = true;

@@ -18,6 +18,7 @@
 #include "arm_model.hpp"
 #include "arm_torque.hpp"
 #include "joint_actuator.hpp"
+#include "teleop/device/bus_exchange.hpp"
 #include "teleop/device/device.hpp"
 
 namespace teleop::device::arm {
@@ -48,7 +49,7 @@ struct ArmDeviceConfig {
   Eigen::Vector3d workspace_origin_m = Eigen::Vector3d::Zero();
 };
 
-class ArmDevice final : public Device {
+class ArmDevice final : public Device, public BusExchange {
  public:
   /// Takes the model and the bus (their joint counts must agree). Throws teleop::Error.
   ArmDevice(std::unique_ptr<ArmModel> model, std::unique_ptr<JointBus> bus, ArmDeviceConfig config);
@@ -58,6 +59,8 @@ class ArmDevice final : public Device {
   void Configure() override { bus_->Configure(); }
   void Activate() override;
   void Deactivate() noexcept override;
+  /// The bus's StartCycle (JointBus): a CiA 402 bus's TPDOs in and its SYNC out; nothing for the others.
+  void Exchange() noexcept override { bus_->StartCycle(); }
 
   void Read(Reading& out) noexcept override;
   void Write(const Command& command) noexcept override;

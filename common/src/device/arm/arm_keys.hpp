@@ -192,9 +192,9 @@ inline const KeySpec kActuators = [] {
             KeyRange::kFinite,
             true,
             0.0,
-            "The joint actuators: simulated (the simulated arm of the same URDF) or mit (MIT-mode CAN motors, the mit "
-            "section)."};
-  s.choices = {"simulated", "mit"};
+            "The joint actuators: simulated (the simulated arm of the same URDF), mit (MIT-mode CAN motors, the mit "
+            "section) or cia402 (CiA 402 drives in cyclic synchronous torque mode, the cia402 section)."};
+  s.choices = {"simulated", "mit", "cia402"};
   return s;
 }();
 inline const KeySpec kSimViscous = [] {

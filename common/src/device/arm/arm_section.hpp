@@ -9,6 +9,7 @@
 #include "arm_chain.hpp"
 #include "arm_device.hpp"
 #include "arm_sweep.hpp"
+#include "cia402_joint_bus.hpp"
 #include "mit_joint_bus.hpp"
 #include "simulated_arm.hpp"
 
@@ -23,6 +24,8 @@ struct ArmSection {
   SimulatedArmConfig simulation;  ///< actuators: simulated (and the plant of actuators: mit with mit.bus simulated).
   bool mit_actuators = false;     ///< actuators: mit.
   MitJointBusConfig mit;          ///< actuators: mit.
+  bool cia402_actuators = false;  ///< actuators: cia402.
+  Cia402JointBusConfig cia402;    ///< actuators: cia402.
   std::vector<double> initial_q_rad;  ///< The simulated arm's start; empty: the middle of each joint's range.
   FixtureSweepConfig fixture_sweep;   ///< The start-up check's configurations near a fixture plane.
 
@@ -39,5 +42,9 @@ std::unique_ptr<SimulatedArm> MakeSimulatedArm(const ArmSection& section);
 /// The joint bus of a section with actuators: mit: on its CAN port, or (mit.simulated) on the simulated MIT arm of
 /// the section's simulation.
 std::unique_ptr<MitJointBus> MakeMitJointBus(const ArmSection& section);
+
+/// The joint bus of a section with actuators: cia402: on its CAN buses, or (cia402.simulated) on the simulated
+/// CiA 402 arm of the section's simulation.
+std::unique_ptr<Cia402JointBus> MakeCia402JointBus(const ArmSection& section);
 
 }  // namespace teleop::device::arm

@@ -67,6 +67,10 @@ class JointBus {
   virtual void Configure() {}
   virtual void Activate() {}
   virtual void Deactivate() noexcept {}
+  /// The cycle's bus exchange (device::BusExchange, before the arm's Read): what the bus brought since the last
+  /// cycle in, and what must leave at the start of the cycle out (a CiA 402 bus's SYNC). A bus that exchanges in
+  /// Exchange alone (MIT motors, the simulated arm) does nothing here.
+  virtual void StartCycle() noexcept {}
   /// After every joint's WriteTorque: sends the torques and receives the next samples (a driver), or integrates the
   /// dynamics over `period_s` under the written torques (a simulation).
   virtual void Exchange(double period_s) noexcept = 0;

@@ -46,8 +46,12 @@ class MitJointBus::Joint final : public JointActuator {
   }
 
   /// The joint's sample from the motor's newest feedback; a fault found here is latched until ClearFault.
-  void Update(const fieldbus::MitMotorState& s, const MitJointBusConfig& bus, bool check_disabled) noexcept {
+  void Update(const fieldbus::MitMotorState& s, const MitJointBusConfig& bus, bool check_disabled,
+              int exchanges_since_enable) noexcept {
     const MitJointConfig& c = config_;
+    if (s.answered && s.feedback.status == static_cast<std::uint8_t>(mit::MotorStatus::kEnabled)) {
+      enabled_seen_ = true;
+    }
     if (!s.answered) {
       sample_.position = std::numeric_limits<double>::quiet_NaN();
       sample_.velocity = std::numeric_limits<double>::quiet_NaN();
@@ -73,11 +77,16 @@ class MitJointBus::Joint final : public JointActuator {
     } else if (s.answered && sample_.temperature_C >= bus.temperature_fault_C) {
       Latch(JointFaultKind::kOverTemperature, kMitFaultHostTemperature);
     } else if (check_disabled && s.answered &&
-               s.feedback.status == static_cast<std::uint8_t>(mit::MotorStatus::kDisabled)) {
+               s.feedback.status == static_cast<std::uint8_t>(mit::MotorStatus::kDisabled) &&
+               (enabled_seen_ || exchanges_since_enable >= bus.missing_limit)) {
+      // Before the first feedback that shows it enabled, the newest may still be the answer to Activate's disable
+      // (the first exchange carries the enables too, and its replies can come a cycle late): a motor that has not
+      // shown enabled within missing_limit exchanges did not enable.
       Latch(JointFaultKind::kDriver, kMitFaultDisabled);
     }
   }
   void ClearFault() noexcept {
+    enabled_seen_ = false;
     sample_.fault = false;
     sample_.fault_code = 0;
     torque_Nm_ = 0.0;
@@ -100,6 +109,7 @@ class MitJointBus::Joint final : public JointActuator {
   double target_position_ = 0.0;
   double target_velocity_ = 0.0;
   bool has_target_ = false;
+  bool enabled_seen_ = false;  ///< A feedback showed the motor enabled since the last ClearFault (Activate).
 };
 
 void CheckMitBusLoad(const MitJointBusConfig& config, const std::string& where) {
@@ -253,6 +263,14 @@ void MitJointBus::Activate() {
               : fmt::format("it reports {} (code 0x{:X})", mit::StatusName(s.feedback.status), s.feedback.status)));
     }
   }
+  // Each motor's own CAN timeout (register 9) counts from the last frame it received, but only while enabled: the
+  // loop's first cycle may come long after this (the peer, the start-up check), so the motors go back to disabled
+  // here and the first Exchange enables them again right before their first command.
+  if (!bus_->SendSpecialAndWait(mit::Special::kDisable, timeout_s).empty()) {
+    throw Error(fmt::format("arm: a motor did not answer the disable after its enable within {} ms",
+                            config_.answer_timeout_ms));
+  }
+  enable_pending_ = true;
   faulted_ = false;
   active_ = true;
   UpdateSamples();
@@ -260,6 +278,7 @@ void MitJointBus::Activate() {
 
 void MitJointBus::Deactivate() noexcept {
   active_ = false;
+  enable_pending_ = false;
   try {
     (void)bus_->SendSpecialAndWait(mit::Special::kDisable, config_.answer_timeout_ms * 1e-3);
   } catch (...) {  // set-up allocation failed: disable without waiting
@@ -275,7 +294,7 @@ void MitJointBus::Fault() noexcept {
 void MitJointBus::UpdateSamples() noexcept {
   bool any = false;
   for (std::size_t i = 0; i < joints_.size(); ++i) {
-    joints_[i]->Update(bus_->state(i), config_, active_ && !faulted_);
+    joints_[i]->Update(bus_->state(i), config_, active_ && !faulted_ && !enable_pending_, exchanges_since_enable_);
     any = any || joints_[i]->fault();
   }
   if (any && active_ && !faulted_) Fault();
@@ -283,8 +302,20 @@ void MitJointBus::UpdateSamples() noexcept {
 
 void MitJointBus::Exchange(double period_s) noexcept {
   if (active_ && !faulted_) {
-    for (std::size_t i = 0; i < joints_.size(); ++i) bus_->SetCommand(i, joints_[i]->MotorCommand(config_.control));
-    (void)bus_->Exchange();  // a failed write is a reply that does not come: counted as missing
+    if (exchanges_since_enable_ < config_.missing_limit) ++exchanges_since_enable_;
+    if (enable_pending_) {
+      // The first cycle: every motor's enable instead of its command (Activate), answered as a command is; the
+      // commands follow from the next cycle on, so the motor's timeout counts from this exchange.
+      bus_->Drain();
+      for (std::size_t i = 0; i < bus_->size(); ++i) bus_->SendSpecial(i, mit::Special::kEnable);
+      enable_pending_ = false;
+      exchanges_since_enable_ = 0;
+    } else {
+      for (std::size_t i = 0; i < joints_.size(); ++i) {
+        bus_->SetCommand(i, joints_[i]->MotorCommand(config_.control));
+      }
+      (void)bus_->Exchange();  // a failed write is a reply that does not come: counted as missing
+    }
   } else if (faulted_) {
     for (std::size_t i = 0; i < bus_->size(); ++i) bus_->SendSpecial(i, mit::Special::kDisable);
   }

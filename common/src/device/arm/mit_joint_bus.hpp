@@ -12,7 +12,10 @@
 //                   arm's torque as the feed-forward.
 //   Configure:      checks every motor's ranges (registers 21..23) and control mode (MIT), writes its CAN timeout
 //                   (register 9) so a dead host leaves it disabled.
-//   Activate:       enables every motor (an error naming the joints that do not answer or report a fault).
+//   Activate:       enables every motor (an error naming the joints that do not answer or report a fault), then
+//                   disables them again: a motor's own CAN timeout counts only while it is enabled, and the loop's
+//                   first cycle may come long after Activate. The first Exchange sends every motor its enable right
+//                   before its first command, so the timeout counts from the first command.
 //   Exchange:       one bus exchange per cycle: the replies of the last exchange in, the commands out, then (a real
 //                   bus) up to `reply_wait_us` for this exchange's replies, or (the simulated arm) the plant advanced
 //                   over the period. A motor without a reply for `missing_limit` exchanges in a row, a motor's fault
@@ -132,6 +135,8 @@ class MitJointBus final : public JointBus {
   std::vector<std::unique_ptr<Joint>> joints_;
   bool active_ = false;
   bool faulted_ = false;
+  bool enable_pending_ = false;     ///< Activate verified the enable and disabled again; the first Exchange enables.
+  int exchanges_since_enable_ = 0;  ///< Exchanges since that enable (counted up to missing_limit).
 };
 
 }  // namespace teleop::device::arm
