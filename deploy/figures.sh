@@ -65,6 +65,12 @@ for side in slave master; do
   cp "${work}/sweep-delay-${side}.png" "${out}/analyze-sweep-delay-${side}.png"
   echo "analyze-sweep-delay-${side}.png ${work}/sweep-delay-${side}.png.gp" >> "${scripts}"
 done
+# Softer coupling for a WAN (K_p 50, K_d 1: stable alone out to 100 ms; docs/link-emulation.md, "Setting a pair up
+# for a WAN"), 8 operators (--human-steps 1: a few seconds; the 64 of the docs' table take about a minute).
+"${bin}/teleop-analyze" sweep --side slave --kp 50 --kd 1 --human-steps 1 --over delay \
+  --values 0,5,10,15,20,30,40,50,60,70,80,90,100 --output "${work}/sweep-delay-wan" > "${work}/sweep-delay-wan.log"
+cp "${work}/sweep-delay-wan.png" "${out}/analyze-sweep-delay-wan.png"
+echo "analyze-sweep-delay-wan.png ${work}/sweep-delay-wan.png.gp" >> "${scripts}"
 
 # Every scenario with its defaults, in a directory of its own (each writes its PNG to the working directory).
 table_only=(hybrid-table)

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "teleop/analysis/damping_ratio.hpp"
+#include "teleop/analysis/discrete_model.hpp"
 #include "teleop/analysis/human_bounds.hpp"
 #include "teleop/analysis/stability_limit.hpp"
 #include "test_utilities/closed_loop.hpp"
@@ -138,6 +140,74 @@ INSTANTIATE_TEST_SUITE_P(
         LoopCase{"slave_kp50_kd1_delay40", FixtureSide::kSlave, 1000.0, Symmetric(50, 1), false, 40, true, 30.0},
         LoopCase{"slave_kp20_kd05_delay100", FixtureSide::kSlave, 1000.0, Symmetric(20, 0.5), false, 100, true, 30.0}),
     [](const ::testing::TestParamInfo<LoopCase>& param_info) { return param_info.param.name; });
+
+// Over a delay of several samples the stable fixture stiffnesses need not start at 0: with K_p 400, K_d 1 and a
+// 10 ms link (11 samples each way) the coupling alone is unstable, and so is a soft fixture, while a stiff one
+// between about 1000 and 2700 N/m is stable (a window: the fixture's stiffness moves the delayed loop's crossing).
+// The search once took a stable first guess (1000 N/m) as proof that everything below it was stable too, and
+// reported 2711 N/m here (2927 N/m at 18 ms, where 1500 N/m is unstable as well). The limit is the first unstable
+// stiffness counting up from 0: here 0, the coupling unstable. The closed loop agrees with the model at each point:
+// the pair pushed into a fixture below the old "limit" (300 N/m at 10 ms, 1500 N/m at 18 ms) keeps oscillating,
+// into one in a window (2000 N/m at 10 ms, 2600 N/m at 18 ms) it settles.
+struct WindowCase {
+  int link_ms;
+  double unstable_N_per_m;  ///< below the old reported "limit", unstable
+  double stable_N_per_m;    ///< in a window
+};
+
+std::ostream& operator<<(std::ostream& out, const WindowCase& w) { return out << w.link_ms << " ms"; }
+
+class StiffnessWindow : public ::testing::TestWithParam<WindowCase> {};
+
+TEST_P(StiffnessWindow, LimitCountsUpFromZeroAndTheClosedLoopAgreesAtEachSide) {
+  const WindowCase& w = GetParam();
+  SampledTeleoperator system;
+  system.gains = LawGains::Symmetric(400, 1);
+  system.velocity_filter_hz = 200.0;
+  system.peer_delay_samples = 1 + w.link_ms;  // the processes' sample + the link at 1 kHz
+  const std::vector<HumanModel> humans = MakeHumanGrid(DefaultFingerBounds(), 1);
+  const StabilityLimit limit = FindMaxStableStiffness(system, FixtureSide::kSlave, humans);
+  EXPECT_TRUE(limit.unstable_without_fixture);
+  EXPECT_EQ(limit.max_stable_stiffness_N_per_m, 0.0);
+
+  const LoopCase c{"window", FixtureSide::kSlave, 1000.0, system.gains, false, system.peer_delay_samples};
+  const HumanModel& human = limit.limiting_human;
+  const auto radius = [&](double stiffness) {
+    SampledTeleoperator s = system;
+    s.gains.slave_fixture_N_per_m = stiffness;
+    return SpectralRadius(BuildDelayedStateMatrix(s, human));
+  };
+  const auto run = [&](double stiffness) {
+    test::OneDofSetup setup = MakeSetup(c, human, stiffness);
+    setup.velocity_filter_hz = system.velocity_filter_hz;
+    test::ClosedLoop loop(test::MakeOneDofConfig(setup));
+    return loop.Run(4.0);
+  };
+  const test::Signal position = test::Signal::kSlavePosition;
+  {
+    ASSERT_GT(radius(w.unstable_N_per_m), 1.0) << "the model no longer has this stiffness unstable";
+    const auto trace = run(w.unstable_N_per_m);
+    const test::WindowStats earlier = test::Stats(trace, position, 2.0, 3.0);
+    const test::WindowStats last = test::Stats(trace, position, 3.0, 4.0);
+    EXPECT_GT(last.std_dev, 2e-5) << "did not oscillate";
+    EXPECT_GT(last.std_dev, 0.8 * earlier.std_dev) << "the oscillation is decaying";
+  }
+  {
+    ASSERT_LT(radius(w.stable_N_per_m), 1.0) << "the model no longer has this stiffness in a stable window";
+    const auto trace = run(w.stable_N_per_m);
+    const test::WindowStats second = test::Stats(trace, position, 1.0, 2.0);
+    const test::WindowStats last = test::Stats(trace, position, 3.0, 4.0);
+    EXPECT_LT(last.std_dev, 1e-5) << "did not settle";
+    EXPECT_TRUE(last.std_dev < 0.5 * second.std_dev || last.std_dev < 1e-9) << "not decaying";
+    EXPECT_GT(test::Stats(trace, test::Signal::kSlavePenetration, 3.0, 4.0).mean, 1e-4) << "not in the region";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Delays, StiffnessWindow,
+                         ::testing::Values(WindowCase{10, 300.0, 2000.0}, WindowCase{18, 1500.0, 2600.0}),
+                         [](const ::testing::TestParamInfo<WindowCase>& param_info) {
+                           return "link_" + std::to_string(param_info.param.link_ms) + "ms";
+                         });
 
 }  // namespace
 }  // namespace teleop::analysis

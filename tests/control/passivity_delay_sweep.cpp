@@ -20,6 +20,35 @@ namespace {
 
 using teleop::control::PassivityMode;
 
+// The transparency table of docs/link-emulation.md (issue 32.4).
+int Transparency(const teleop::test::PassivityDelaySetup& setup, double wall_N_per_m, double press_force_N,
+                 std::vector<int> delays) {
+  if (delays.empty()) delays = {0, 10, 40, 100};
+  std::printf(
+      "K_p = %g N/m, K_d = %g N·s/m both sides, %g Hz, paper §4.1 masses; tracking: operator %g N sine at %g Hz, "
+      "slave starts %g mm off, RMS of x_s - x_m over the last 0.5 s of %g s; wall: %g N/m on the slave, the "
+      "operator ramps to %g N over %g s; alpha <= %g N·s/m\n",
+      setup.kp_N_per_m, setup.kd_Ns_per_m, setup.rate_hz, setup.operator_amplitude_N, setup.operator_frequency_hz,
+      setup.initial_offset_m * 1e3, setup.duration_s, wall_N_per_m, press_force_N, setup.duration_s * 2.0 / 3.0,
+      setup.max_damping_Ns_per_m);
+  std::printf("hand %g kg, %g N·s/m, %g N/m\n", setup.hand_mass_kg, setup.hand_damping_Ns_per_m,
+              setup.hand_stiffness_N_per_m);
+  std::printf("%6s %-16s %12s %13s %14s %10s %14s %14s %16s\n", "ms", "mode", "track_rms_mm", "perceived_N/m",
+              "ideal_N/m", "drift_mm", "wall_ripple_mm", "min_energy_mJ", "wall_min_energy_mJ");
+  for (const int d : delays) {
+    for (const PassivityMode mode : {PassivityMode::kOff, PassivityMode::kEnergyExchange}) {
+      const auto sine = teleop::test::RunPassivityDelay(setup, d, mode);
+      const auto wall = teleop::test::RunWallPress(setup, d, mode, wall_N_per_m, press_force_N);
+      std::printf("%6.1f %-16s %12.4f %13.1f %14.1f %10.3f %14.4f %14.4f %16.4f%s\n", 1e3 * d / setup.rate_hz,
+                  teleop::control::ToString(mode), sine.late_tracking_rms_m * 1e3, wall.perceived_stiffness_N_per_m,
+                  wall.ideal_stiffness_N_per_m, wall.hold_drift_m * 1e3, wall.hold_slave_std_m * 1e3,
+                  sine.min_network_energy_J * 1e3, wall.min_network_energy_J * 1e3,
+                  sine.diverged || wall.diverged ? " DIVERGED" : "");
+    }
+  }
+  return 0;
+}
+
 int Run(int argc, char** argv) {
   teleop::test::PassivityDelaySetup setup;
   int first = 0;
@@ -41,6 +70,25 @@ int Run(int argc, char** argv) {
   app.add_option("--duration", setup.duration_s, "simulated seconds per run")->check(CLI::Range(1.5, 600.0));
   app.add_option("--first", first, "first delay, samples per direction")->check(CLI::Range(0, 1000));
   app.add_option("--last", last, "last delay, samples per direction")->check(CLI::Range(0, 1000));
+  double wall_N_per_m = 0.0;
+  double press_force_N = 2.0;
+  std::vector<int> delays;
+  app.add_option("--transparency", wall_N_per_m,
+                 "instead of the sweep: the transparency table at --delays, plain and energy_exchange: tracking "
+                 "(the sine run), perceived stiffness at the master pressing the slave into a wall of this "
+                 "stiffness (N/m), lowest network energy")
+      ->check(CLI::Range(1.0, 1e6));
+  app.add_option("--press-force", press_force_N, "--transparency: the operator's final push, N")
+      ->check(CLI::Range(0.01, 100.0));
+  app.add_option("--delays", delays, "--transparency: one-way delays in samples, comma-separated")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 1000));
+  app.add_option("--hand-mass", setup.hand_mass_kg, "operator's hand mass on the master, kg (0: a force source)")
+      ->check(CLI::Range(0.0, 10.0));
+  app.add_option("--hand-damping", setup.hand_damping_Ns_per_m, "operator's hand damping, N·s/m")
+      ->check(CLI::Range(0.0, 1e3));
+  app.add_option("--hand-stiffness", setup.hand_stiffness_N_per_m, "operator's hand stiffness, N/m")
+      ->check(CLI::Range(0.0, 1e5));
   app.add_option("--csv", csv, "also write the table as CSV here");
   app.add_option("--png", png, "also plot late amplitude vs delay with gnuplot (needs --csv)");
   try {
@@ -48,6 +96,7 @@ int Run(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
+  if (wall_N_per_m > 0.0) return Transparency(setup, wall_N_per_m, press_force_N, delays);
   if (last < first) {
     std::cerr << "passivity-delay-sweep: --last must be >= --first\n";
     return 2;

@@ -38,7 +38,9 @@ PassivityDelayResult RunPassivityDelay(const PassivityDelaySetup& setup, int del
   ClosedLoopConfig config = MakeOneDofConfig(s);
   device::SimulatedOperatorConfig& human = config.master_plant.human;  // a pure force source on the master
   human.enabled = true;
-  human.mass_kg = human.damping_Ns_per_m = human.stiffness_N_per_m = 0.0;
+  human.mass_kg = setup.hand_mass_kg;
+  human.damping_Ns_per_m = setup.hand_damping_Ns_per_m;
+  human.stiffness_N_per_m = setup.hand_stiffness_N_per_m;
   human.segment_count = 1;
   human.segments[0] = {};
   human.segments[0].kind = device::OperatorSegment::Kind::kSine;
@@ -90,6 +92,80 @@ PassivityDelayResult RunPassivityDelay(const PassivityDelaySetup& setup, int del
   r.late_master_pp_m = late_master.PeakToPeak();
   r.growth = r.early_amplitude_m > 0.0 ? r.late_amplitude_m / r.early_amplitude_m : 0.0;
   r.dissipated_J = loop.master_passivity().total_dissipated_J() + loop.slave_passivity().total_dissipated_J();
+  return r;
+}
+
+WallPressResult RunWallPress(const PassivityDelaySetup& setup, int delay_cycles, control::PassivityMode mode,
+                             double wall_N_per_m, double press_force_N) {
+  OneDofSetup s;
+  s.rate_hz = setup.rate_hz;
+  s.delay_cycles = delay_cycles;
+  s.kpm_N_per_m = s.kps_N_per_m = setup.kp_N_per_m;
+  s.kdm_Ns_per_m = s.kds_Ns_per_m = setup.kd_Ns_per_m;
+  s.max_force_N = setup.max_force_N;
+  s.slave_fixture_N_per_m = wall_N_per_m;
+  s.operator_force_N = press_force_N;
+  s.operator_ramp_s = setup.duration_s * 2.0 / 3.0;
+  s.human_mass_kg = setup.hand_mass_kg;
+  s.human_damping_Ns_per_m = setup.hand_damping_Ns_per_m;
+  s.human_stiffness_N_per_m = setup.hand_stiffness_N_per_m;
+  ClosedLoopConfig config = MakeOneDofConfig(s);
+  for (control::PassivityController::Config* pc : {&config.master_passivity, &config.slave_passivity}) {
+    pc->mode = mode;
+    pc->max_damping_Ns_per_m = DofVector::Constant(1, setup.max_damping_Ns_per_m);
+    pc->max_force_N = setup.max_force_N;
+  }
+  ClosedLoop loop(config);
+
+  WallPressResult r;
+  r.delay_cycles = delay_cycles;
+  r.mode = mode;
+  r.ideal_stiffness_N_per_m = setup.kp_N_per_m * wall_N_per_m / (setup.kp_N_per_m + wall_N_per_m);
+  const double ramp_from_s = s.operator_ramp_s / 2.0;
+  double n = 0.0;
+  double sx = 0.0;
+  double sf = 0.0;
+  double sxx = 0.0;
+  double sxf = 0.0;
+  double hold_first = 0.0;
+  double hold_last = 0.0;
+  double hold_sum = 0.0;
+  double slave_sum = 0.0;
+  double slave_sq = 0.0;
+  int hold_count = 0;
+  const auto cycles = static_cast<std::int64_t>(std::llround(setup.duration_s * setup.rate_hz));
+  for (std::int64_t k = 0; k < cycles; ++k) {
+    const ClosedLoopSample& x = loop.Step();
+    const double xm = x.master_position_m[0];
+    if (!std::isfinite(xm) || std::fabs(xm) > kDivergedPosition_m) {
+      r.diverged = true;
+      break;
+    }
+    const double f = x.operator_force_N[0];
+    if (x.time_s >= ramp_from_s && x.time_s < s.operator_ramp_s) {
+      n += 1.0;
+      sx += xm;
+      sf += f;
+      sxx += xm * xm;
+      sxf += xm * f;
+    } else if (x.time_s >= s.operator_ramp_s) {
+      if (hold_count == 0) hold_first = xm;
+      hold_last = xm;
+      hold_sum += xm;
+      slave_sum += x.slave_position_m[0];
+      slave_sq += x.slave_position_m[0] * x.slave_position_m[0];
+      ++hold_count;
+    }
+    r.min_network_energy_J = std::min(r.min_network_energy_J, x.network_energy_J);
+  }
+  const double var = n * sxx - sx * sx;
+  r.perceived_stiffness_N_per_m = var > 0.0 ? (n * sxf - sx * sf) / var : 0.0;
+  if (hold_count > 0) {
+    r.hold_master_m = hold_sum / hold_count;
+    r.hold_drift_m = hold_last - hold_first;
+    const double mean = slave_sum / hold_count;
+    r.hold_slave_std_m = std::sqrt(std::max(0.0, slave_sq / hold_count - mean * mean));
+  }
   return r;
 }
 

@@ -23,6 +23,10 @@ struct PassivityDelaySetup {
   double operator_amplitude_N = 0.2;
   double operator_frequency_hz = 1.0;
   double duration_s = 4.0;
+  /// The operator's hand (eq. 2) on the master; all 0 (the default): a pure force source.
+  double hand_mass_kg = 0.0;
+  double hand_damping_Ns_per_m = 0.0;
+  double hand_stiffness_N_per_m = 0.0;
 };
 
 /// What one run did. Amplitudes are the peak-to-peak of the tracking error x_s - x_m in a window.
@@ -45,6 +49,26 @@ struct PassivityDelayResult {
 };
 
 PassivityDelayResult RunPassivityDelay(const PassivityDelaySetup& setup, int delay_cycles, control::PassivityMode mode);
+
+/// Transparency (issue 32.4): the same pair with the operator pressing the slave into a wall (a slave fixture of
+/// `wall_N_per_m` at X = 0, both devices starting at 0): the operator, a pure force source, ramps F_h from 0 to
+/// `press_force_N` over the run's first 2/3 and holds it. The perceived stiffness is the slope of the force at the
+/// handle (the master's force sensor) against the master's position over the ramp's second half (least squares),
+/// what the operator's hand feels; a transparent pair renders the wall in series with the coupling spring,
+/// K_p·K_w / (K_p + K_w).
+struct WallPressResult {
+  int delay_cycles = 0;
+  control::PassivityMode mode = control::PassivityMode::kOff;
+  double perceived_stiffness_N_per_m = 0.0;
+  double ideal_stiffness_N_per_m = 0.0;  ///< K_p·K_w / (K_p + K_w).
+  double hold_master_m = 0.0;            ///< Mean master position while the force is held (the last third).
+  double hold_drift_m = 0.0;             ///< How far the master moved while the force was held (last - first).
+  double hold_slave_std_m = 0.0;         ///< The slave's position ripple while held (RMS about its mean).
+  double min_network_energy_J = 0.0;
+  bool diverged = false;
+};
+WallPressResult RunWallPress(const PassivityDelaySetup& setup, int delay_cycles, control::PassivityMode mode,
+                             double wall_N_per_m, double press_force_N);
 
 /// Runs every delay in [first, last] with every mode given.
 std::vector<PassivityDelayResult> SweepPassivityDelay(const PassivityDelaySetup& setup, int first_delay, int last_delay,

@@ -237,24 +237,42 @@ StabilityLimit FindMaxStableStiffness(const SampledTeleoperator& system, Fixture
 
   double lo = 0.0;
   double hi = 0.0;
-  // Bracket: from a first guess, grow ×4 while stable, or check that the law is stable without the fixture. (A
-  // stable first guess is taken as the lower end without probing 0: the fixture only adds stiffness.)
-  hi = std::min(options.max_stiffness_N_per_m, std::max(kFirstGuess_N_per_m, result.passivity_bound_N_per_m));
-  limiting = probe(hi);
-  if (limiting >= 0) {
-    const int at_zero = probe(0.0);
-    if (at_zero >= 0) {
-      result.unstable_without_fixture = true;
-      limiting = at_zero;
-      hi = 0.0;
-    }
+  // The limit is the first stiffness, counting up from 0, at which an operator goes unstable: everything below it
+  // is stable. So 0 (the coupling alone, the device in free space) is probed first. Over a delay of a few samples
+  // the stable stiffnesses need not start at 0 nor be one interval (the delayed coupling can be unstable alone and
+  // stable with a stiff fixture, docs/stability.md "Stiffness windows"): a stable guess above 0 says nothing of
+  // the stiffnesses below it.
+  const int at_zero = probe(0.0);
+  if (at_zero >= 0) {
+    result.unstable_without_fixture = true;
+    limiting = at_zero;
   } else {
-    for (;;) {
+    // Bracket: from a first guess, grow ×4 while stable.
+    hi = std::min(options.max_stiffness_N_per_m, std::max(kFirstGuess_N_per_m, result.passivity_bound_N_per_m));
+    limiting = probe(hi);
+    while (limiting < 0) {
       lo = hi;
       if (hi >= options.max_stiffness_N_per_m || result.bisection_steps > kMaxSteps) break;
       hi = std::min(options.max_stiffness_N_per_m, hi * 4.0);
       limiting = probe(hi);
-      if (limiting >= 0) break;
+    }
+    // With delay lines, walk [0, hi] up in steps of hi / scan_points: the first unstable step is the bracket's
+    // upper end, the step before its lower (an unstable window between 0 and the first guess, or between two
+    // stable probes of the growth, would otherwise be bisected past). Windows narrower than a step can be missed.
+    if (prepared.lines && limiting >= 0 && options.delay_scan_points > 1) {
+      const double top = hi;
+      double below = 0.0;
+      for (int i = 1; i < options.delay_scan_points; ++i) {
+        const double stiffness = top * i / options.delay_scan_points;
+        const int index = probe(stiffness);
+        if (index >= 0) {
+          hi = stiffness;
+          limiting = index;
+          break;
+        }
+        below = stiffness;
+      }
+      lo = below;
     }
   }
   if (!result.unstable_without_fixture) {

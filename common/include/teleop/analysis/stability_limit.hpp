@@ -42,10 +42,16 @@ struct LimitOptions {
   double relative_tolerance = 1e-3;    ///< Bracket width / limit at which the bisection stops (0.1 %).
   double max_stiffness_N_per_m = 1e9;  ///< Search cap; reported as the limit if nothing below it is unstable.
   int threads = 0;  ///< Operator set split over this many threads; 0: one per hardware thread (≤ 8).
+  /// Delays over one sample only (the delay-line model): the bracket [0, hi] is walked up in this many equal steps
+  /// before the bisection, so an unstable window below a stable probe is found (each step is a pass over the set).
+  /// ≤ 1: no walk.
+  int delay_scan_points = 8;
 };
 
-/// Maximum stable fixture stiffness of `side` over the operator set, by bracketing and bisection on the largest
-/// eigenvalue magnitude. The gains of `system` for the searched fixture are ignored (they are the unknown); the
+/// Maximum stable fixture stiffness of `side` over the operator set: the first stiffness, counting up from 0, at
+/// which an operator is unstable (0 and unstable_without_fixture when the coupling alone is), by bracketing (0, a
+/// first guess growing ×4, with delay lines a walk over the bracket) and bisection on the largest eigenvalue
+/// magnitude. The gains of `system` for the searched fixture are ignored (they are the unknown); the
 /// other side's fixture is kept. Each step stops at the first unstable operator, trying the last one that was
 /// unstable first. Throws teleop::Error on invalid input.
 StabilityLimit FindMaxStableStiffness(const SampledTeleoperator& system, FixtureSide side,
