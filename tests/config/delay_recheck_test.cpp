@@ -154,9 +154,9 @@ TEST(DelayRecheck, ThreadLowersOnAStepAndRestoresWhenTheLinkRecovers) {
 }
 
 // At 8 ms no fixture is stable with the shipped gains (the coupling itself is not): the action says so and leaves
-// the fixture where it is (the process decides: an event, or decouple), so the recovery that follows changes
-// nothing and reports nothing.
-TEST(DelayRecheck, ACouplingUnstableAtTheMeasuredDelayLeavesTheFixtureAlone) {
+// the fixture where it is (the process decides: an event, decouple or passivity on); the recovery that follows
+// is reported (the process undoes what it switched) with the stiffness unchanged and no ramp.
+TEST(DelayRecheck, ACouplingUnstableAtTheMeasuredDelayLeavesTheFixtureAloneAndReportsTheRecovery) {
   Recorded r;
   std::atomic<double>& age_s = r.age_s;
   std::condition_variable& changed = r.changed;
@@ -168,8 +168,13 @@ TEST(DelayRecheck, ACouplingUnstableAtTheMeasuredDelayLeavesTheFixtureAlone) {
   EXPECT_TRUE(actions[0].coupling_unstable);
   EXPECT_FALSE(actions[0].failed);
   age_s = 1e-3;
-  EXPECT_FALSE(changed.wait_for(lock, std::chrono::milliseconds(300), [&] { return actions.size() >= 2; }));
-  EXPECT_EQ(recheck.actions(), 1);
+  ASSERT_TRUE(changed.wait_for(lock, std::chrono::seconds(10), [&] { return actions.size() >= 2; }));
+  EXPECT_TRUE(actions[1].recovered);
+  EXPECT_FALSE(actions[1].coupling_unstable);
+  EXPECT_EQ(actions[1].fixture_N_per_m, 2000.0);
+  EXPECT_EQ(actions[1].ramp_s, 0.0);
+  EXPECT_FALSE(changed.wait_for(lock, std::chrono::milliseconds(300), [&] { return actions.size() >= 3; }));
+  EXPECT_EQ(recheck.actions(), 2);
 }
 
 }  // namespace

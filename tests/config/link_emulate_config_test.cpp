@@ -100,6 +100,8 @@ TEST(DelayRecheckConfig, KeysDefaultsAndRanges) {
   EXPECT_DOUBLE_EQ(r.max_force_rate_N_per_s, 40.0);
   EXPECT_DOUBLE_EQ(r.max_penetration_m, 0.005);
   EXPECT_EQ(r.on_unstable, link::LinkConfig::DelayRecheck::OnUnstable::kDecouple);
+  EXPECT_EQ(with("{on_unstable: passivity}").link.delay_recheck.on_unstable,
+            link::LinkConfig::DelayRecheck::OnUnstable::kPassivity);
   EXPECT_THAT([&] { with("{percentile: 1.5}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("percentile")));
   EXPECT_THAT([&] { with("{trigger_ratio: 1}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("trigger_ratio")));
   EXPECT_THAT([&] { with("{trigger_ratio: 1.2, recover_ratio: 1.5}"); },
@@ -107,7 +109,7 @@ TEST(DelayRecheckConfig, KeysDefaultsAndRanges) {
   EXPECT_THAT([&] { with("{margin: 0}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("margin")));
   EXPECT_THAT([&] { with("{max_force_rate_N_per_s: 0}"); },
               ::testing::ThrowsMessage<Error>(HasSubstr("max_force_rate_N_per_s")));
-  EXPECT_THAT([&] { with("{on_unstable: panic}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("event or decouple")));
+  EXPECT_THAT([&] { with("{on_unstable: panic}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("event, decouple or passivity")));
   EXPECT_THAT([&] { with("{windows: 1}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("windows")));
 }
 

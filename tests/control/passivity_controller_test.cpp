@@ -88,6 +88,32 @@ TEST(PassivityController, ObserverDissipatesExactlyTheActiveEnergy) {
   EXPECT_EQ(pc.state().acting_steps, 12u);
 }
 
+// The delay re-check switches an observe-only port on at run time (link.delay_recheck.on_unstable: passivity):
+// the 3 mJ generated before the switch are not paid back at once (no jolt), but from the switch on the port delivers
+// nothing beyond what it absorbs after it; the cumulative energies and the record of the deficit stay.
+TEST(PassivityController, SwitchingOnAtRunTimeMakesThePortPassiveFromTheSwitchOn) {
+  PassivityController pc(Make(PassivityMode::kOff));
+  for (int k = 0; k < 5; ++k) (void)pc.Step(In(3.0, 0.2), kT);  // 0.6 mJ generated per step, unchanged
+  pc.SwitchMode(PassivityMode::kObserver);
+  EXPECT_EQ(pc.config().mode, PassivityMode::kObserver);
+  // The first step after the switch settles the last off interval (0.6 mJ more), then predicts 0.6 mJ more: the
+  // damper takes out the prediction only, not the 3 mJ before.
+  double net_delivered_J = 0.0;
+  for (int k = 0; k < 10; ++k) {
+    const auto out = pc.Step(In(3.0, 0.2), kT);
+    EXPECT_TRUE(out.acted) << "step " << k;
+    EXPECT_GE(out.force_N[0], -1e-12) << "a damper sized for the old deficit would reverse the force";
+    if (k > 0) net_delivered_J += out.force_N[0] * 0.2 * kT;
+  }
+  EXPECT_LE(net_delivered_J, 1e-14);
+  // 4 intervals settled before the switch, 10 after: the law's delivery, before the damper.
+  EXPECT_NEAR(pc.state().output_energy_J[0], 14 * 0.6e-3, 1e-12) << "cumulative energies kept across the switch";
+  EXPECT_LE(pc.state().min_observed_J, -3e-3 + 1e-15) << "the deficit before the switch stays on record";
+  // And off again: the command passes unchanged.
+  pc.SwitchMode(PassivityMode::kOff);
+  EXPECT_EQ(pc.Step(In(3.0, 0.2), kT).force_N[0], 3.0);
+}
+
 TEST(PassivityController, SeededRandomSequencesNeverAddEnergy) {
   const int trials = 200;  // raise to search harder
   std::mt19937_64 rng(7);

@@ -19,6 +19,11 @@ master's finger pushes the slave into the fixture and holds it there for the who
                   says so (on_unstable: event, the fixture left alone), the passivity controllers act, the energy
                   stays bounded (each side's lowest observed energy above -1 mJ, every peer sample carried its
                   energies), nothing saturates and the slave's motion while slow does not grow.
+  --scenario passivity_switch  the shipped gains with passivity off on both sides and
+                  link.delay_recheck.on_unstable: passivity: each side's re-check finds the coupling unstable at
+                  60 ms and switches its passivity controller on (observer, passive from the switch on), the pull
+                  into free space does not grow an oscillation and nothing saturates; when the link recovers the
+                  controllers go back off.
 
   tests/integration/delay_recheck_test.py --master build/bin/teleop-master --slave build/bin/teleop-slave \\
       --configs deploy/configs --workdir /tmp/delay-recheck --scenario on
@@ -54,7 +59,7 @@ MAX_PENETRATION = 0.01  # link.delay_recheck.max_penetration_m (the default)
 # ages still climbing through the step, and trigger_ratio 5 would then not fire again at 60 ms).
 RECHECK = ("  delay_recheck: {enabled: %s, window_s: 0.5, percentile: 0.5, trigger_ratio: 5, recover_ratio: 2, "
            "recover_hold_s: 1.0, "
-           "max_force_rate_N_per_s: %g, max_penetration_m: %g}\n")
+           "max_force_rate_N_per_s: %g, max_penetration_m: %g, on_unstable: %s}\n")
 EMULATE = ("  timeout_ms: 300            # longer than the 59 ms without arrivals after the step up\n"
            "  emulate: {seed: %d, delay_ms: 1, delay_steps: [{at_s: %g, delay_ms: %g}, {at_s: %g, delay_ms: 1}]}\n")
 SCRIPT = ("      script:\n"
@@ -74,7 +79,9 @@ FREE_FROM_S = 5.2  # the finger's pull is over: the pair in free space, the link
 PASSIVITY = "passivity: {mode: energy_exchange, max_damping_Ns_per_m: 100}\n"
 
 
-def configure(path, role, on, seed, passivity=False):
+def configure(path, role, on, seed, passivity=False, switch=False):
+    """passivity: the shipped gains and fixture, energy exchange from the start (switch: off, the re-check turns
+    each side's controller on)."""
     text = open(path).read()
     if not passivity:  # with passivity: the shipped gains and fixture
         text = re.sub(r"(?m)^(\s*kp_N_per_m:).*$", lambda m: f"{m.group(1)} {GAIN_KP:g}", text)
@@ -88,12 +95,13 @@ def configure(path, role, on, seed, passivity=False):
     # The latency gate (engagement.max_rtt_ms, 100 ms by default) would decouple at a 120 ms round trip: off, so
     # the coupling runs over the slow link and the re-check is what keeps it stable.
     text += "\nengagement: {max_rtt_ms: 0}\n"
-    if passivity:
+    if passivity and not switch:
         text += PASSIVITY
     text = re.sub(r"(?m)^(\s*timeout_ms:).*\n", "", text)
     link_end = text.index("  security:")
     text = text[:link_end] + EMULATE % (seed, STEP_UP_S, SLOW_DELAY_MS, STEP_DOWN_S) + \
-        RECHECK % ("true" if on else "false", MAX_FORCE_RATE, MAX_PENETRATION) + text[link_end:]
+        RECHECK % ("true" if on else "false", MAX_FORCE_RATE, MAX_PENETRATION, "passivity" if switch else "event") + \
+        text[link_end:]
     if role == "master":
         script = SCRIPT_PASSIVITY % (PUSH_N, PUSH_N) if passivity else SCRIPT % PUSH_N
         text = re.sub(r"(?ms)^      script:.*?(?=^\S|^\s{0,4}\S)", script, text)
@@ -107,10 +115,11 @@ def main():
     ap.add_argument("--slave", required=True)
     ap.add_argument("--configs", required=True)
     ap.add_argument("--workdir", required=True)
-    ap.add_argument("--scenario", required=True, choices=["on", "off", "passivity"])
+    ap.add_argument("--scenario", required=True, choices=["on", "off", "passivity", "passivity_switch"])
     args = ap.parse_args()
-    on = args.scenario in ("on", "passivity")
-    passivity = args.scenario == "passivity"
+    on = args.scenario in ("on", "passivity", "passivity_switch")
+    switch = args.scenario == "passivity_switch"
+    passivity = args.scenario == "passivity" or switch
     os.makedirs(args.workdir, exist_ok=True)
     ports = (tp.free_udp_port(), tp.free_udp_port())
     paths = {k: os.path.join(args.workdir, k) for k in ("master.yaml", "slave.yaml", "master.csv", "slave.csv",
@@ -121,7 +130,7 @@ def main():
     for role, seed in (("master", 2), ("slave", 1)):
         tp.write_config(os.path.join(args.configs, f"{role}.yaml"), paths[f"{role}.yaml"], ports,
                         paths[f"{role}.csv"])
-        configure(paths[f"{role}.yaml"], role, on, seed, passivity)
+        configure(paths[f"{role}.yaml"], role, on, seed, passivity, switch)
 
     with open(paths["slave.log"], "w") as slog, open(paths["master.log"], "w") as mlog:
         slave = subprocess.Popen([args.slave, "--config", paths["slave.yaml"], "--duration", "60", "--summary-json",
@@ -150,6 +159,8 @@ def main():
         tp.check(len(xs) > 100, f"telemetry between {lo:.2f} and {hi:.2f} s")
         return max(xs) - min(xs)
 
+    if switch:
+        return check_passivity_switch(paths, slave_log, open(paths["master.log"]).read(), k, ptp)
     if passivity:
         return check_passivity(paths, slave_log, k, t, ptp)
     if not on:
@@ -238,6 +249,36 @@ def check_passivity(paths, slave_log, k, t, ptp):
     mid = 0.5 * (FREE_FROM_S + STEP_DOWN_S)
     first, second = ptp(FREE_FROM_S, mid), ptp(mid, STEP_DOWN_S)
     # (The slave is still following the finger's pull to its new rest; the plain law: 66 then 85 mm, saturating.)
+    print(f"  slave position peak-to-peak in free space while slow: {first * 1e3:.3f} then {second * 1e3:.3f} mm")
+    tp.check(second <= max(first, 0.2e-3) and second < 20e-3,
+             f"no growing oscillation while slow ({first * 1e3:.3f} then {second * 1e3:.3f} mm peak-to-peak)")
+    return 0
+
+
+def check_passivity_switch(paths, slave_log, master_log, k, ptp):
+    """on_unstable: passivity, the shipped gains: each side's re-check switches its controller on, and back."""
+    shipped = 2000.0
+    for side, log in (("slave", slave_log), ("master", master_log)):
+        m = re.search(r"delay re-check: data age ([0-9.]+) ms .*; passivity controller on: observer", log)
+        tp.check(m is not None, f"{side}: the re-check found the coupling unstable and switched passivity on")
+        print(f"  {side}: passivity switched on at a data age of {m.group(1)} ms")
+        tp.check(float(m.group(1)) > 0.5 * SLOW_DELAY_MS, f"{side}: the measured age {m.group(1)} ms is the slow link's")
+        tp.check("passivity controller on (observer)" in log, f"{side}: the delay_recheck event (passivity on)")
+        tp.check("passivity back to off" in log, f"{side}: passivity back off after the link recovered")
+    tp.check(all(ki == shipped for ki in k), f"the fixture stays {shipped:g} N/m throughout")
+    acted = 0
+    for side in ("master", "slave"):
+        x = json.load(open(paths[f"{side}.json"]))
+        pv = x["passivity"]
+        acted += pv["cycles"]
+        print(f"  {side}: lowest observed energy {pv['min_observed_J']:.2e} J (before the switch included), "
+              f"dissipated {pv['dissipated_J']:.2e} J in {pv['cycles']} cycles, {x['saturated_cycles']} saturated, "
+              f"mode at the end {pv['mode']}")
+        tp.check(pv["mode"] == "off", f"{side}: the configured mode (off) at the end")
+        tp.check(x["saturated_cycles"] == 0, f"{side}: no saturated cycle")
+    tp.check(acted > 0, f"the passivity controllers acted ({acted} cycles)")
+    mid = 0.5 * (FREE_FROM_S + STEP_DOWN_S)
+    first, second = ptp(FREE_FROM_S, mid), ptp(mid, STEP_DOWN_S)
     print(f"  slave position peak-to-peak in free space while slow: {first * 1e3:.3f} then {second * 1e3:.3f} mm")
     tp.check(second <= max(first, 0.2e-3) and second < 20e-3,
              f"no growing oscillation while slow ({first * 1e3:.3f} then {second * 1e3:.3f} mm peak-to-peak)")

@@ -121,11 +121,13 @@ void DelayRecheck::Run() {
       if (verdict == runtime::DelayWatch::Verdict::kSlower) {
         const Action action = Evaluate(config_, options_, watch_.measured_age_s(), current_N_per_m_);
         if (action.coupling_unstable) {
-          // No stiffness helps: the fixture is left as it is (the caller decides: an event, or decouple), so a
-          // recovery that follows changes nothing either.
+          // No stiffness helps: the fixture is left as it is (the caller decides: an event, decouple, or passivity
+          // on); the recovery that follows is an action, so the caller can undo what it switched.
+          unstable_reported_ = true;
           ++actions_;
           apply_(action);
         } else if (action.fixture_N_per_m < current_N_per_m_) {
+          unstable_reported_ = false;
           current_N_per_m_ = action.fixture_N_per_m;
           ++actions_;
           apply_(action);
@@ -139,7 +141,8 @@ void DelayRecheck::Run() {
                         options_.max_force_rate_N_per_s;
         action.message = "delay re-check: the link recovered (data age " + Ms(action.measured_age_s) +
                          "): fixture back to " + Whole(action.fixture_N_per_m) + " over " + Ms(action.ramp_s);
-        if (action.fixture_N_per_m != current_N_per_m_) {
+        if (action.fixture_N_per_m != current_N_per_m_ || unstable_reported_) {
+          unstable_reported_ = false;
           current_N_per_m_ = action.fixture_N_per_m;
           ++actions_;
           apply_(action);

@@ -61,6 +61,13 @@ PassivityController::PassivityController(const Config& config) : config_(Validat
 
 void PassivityController::Reset() noexcept { state_ = State{}; }
 
+void PassivityController::SwitchMode(PassivityMode mode) noexcept {
+  if (mode != PassivityMode::kOff && mode != PassivityMode::kObserver && mode != PassivityMode::kEnergyExchange) return;
+  if (mode == config_.mode) return;
+  config_.mode = mode;
+  state_.rebase_pending = true;  // the next Step settles the interval before the switch, then W starts at 0
+}
+
 double PassivityController::total_dissipated_J() const noexcept {
   double sum = 0.0;
   for (int i = 0; i < config_.dof; ++i) sum += state_.dissipated_J[static_cast<std::size_t>(i)];
@@ -104,6 +111,10 @@ PassivityController::Output PassivityController::Step(const Input& input, double
       state_.dissipated_J[k] += damper_J;
       w += damper_J;
     }
+    if (state_.rebase_pending) {  // SwitchMode: passive from the switch on; the deficit before it stays on record
+      state_.min_observed_J = std::min(state_.min_observed_J, w);
+      w = 0.0;
+    }
     if (exchange && input.peer_energy_valid) {
       const double peer = input.peer_input_energy_J[i];
       if (std::isfinite(peer) && peer >= 0.0) {
@@ -141,6 +152,7 @@ PassivityController::Output PassivityController::Step(const Input& input, double
     state_.last_velocity_m_per_s[k] = v;
   }
   state_.has_last = true;
+  state_.rebase_pending = false;
   out.acted = acted;
   if (acted) ++state_.acting_steps;
   if (saturated) ++state_.saturated_steps;

@@ -220,6 +220,19 @@ TeleopNode::FixtureChange TeleopNode::RequestFixturePlane(const DofVector& norma
   return change;
 }
 
+bool TeleopNode::RequestPassivityMode(control::PassivityMode mode, Event::Kind kind, double value,
+                                      std::uint16_t detail) noexcept {
+  Impl& s = *impl_;
+  PendingCommand p;
+  p.kind = kind;
+  p.value = value;
+  p.detail = detail;
+  p.change = PendingCommand::Change::kPassivity;
+  p.passivity_mode = mode;
+  const std::lock_guard<std::mutex> lock(s.command_mutex);
+  return s.commands.Post(p);
+}
+
 void TeleopNode::RecordCommandEvent(Event::Kind kind, double value, std::uint16_t detail) noexcept {
   Impl& s = *impl_;
   PendingCommand p;

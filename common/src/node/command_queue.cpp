@@ -28,6 +28,10 @@ void Fold(const PendingCommand& p, int dof, Changes& changes) noexcept {
       changes.has_plane = true;
       changes.plane = {0, FromArray(p.normal, dof), p.offset_m, p.offset_rate_m_per_s, p.normal_rate_rad_per_s};
       break;
+    case Change::kPassivity:
+      changes.has_passivity = true;
+      changes.passivity_mode = p.passivity_mode;
+      break;
   }
 }
 

@@ -17,7 +17,7 @@ namespace teleop::node {
 /// A command's outcome (and, when accepted, its change). The cycle applies the change and logs the event (the event
 /// ring has one producer, the cycle).
 struct PendingCommand {
-  enum class Change : std::uint8_t { kNone, kStiffness, kGains, kPlane };
+  enum class Change : std::uint8_t { kNone, kStiffness, kGains, kPlane, kPassivity };
   Event::Kind kind = Event::Kind::kCommandRefused;
   double value = 0.0;
   std::uint16_t detail = 0;
@@ -29,6 +29,7 @@ struct PendingCommand {
   double offset_m = 0.0;
   double offset_rate_m_per_s = 0.0;
   double normal_rate_rad_per_s = 0.0;
+  control::PassivityMode passivity_mode = control::PassivityMode::kOff;
 };
 
 /// Single producer (the callers serialise themselves, TeleopNode::Impl::command_mutex), single consumer (the cycle).

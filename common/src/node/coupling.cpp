@@ -68,6 +68,7 @@ Applied Coupling::Step(const Sensed& sensed, const PeerView& peer, const Changes
       shaper_.Step({path, &a.law, in.aligned, a.transition.aligning_started, t_s, period_s}, reactions_);
   const bool may_act =
       !shaped.safe && !(path == CouplingPath::kReaction && reactions_.reaction.reaction() == Reaction::kZeroForce);
+  if (changes.has_passivity) passivity_.SwitchMode(changes.passivity_mode);
   PassivityPort::Output port =
       passivity_.Step({&shaped.command.command_N, &a.law.velocity_m_per_s, may_act, sample}, period_s);
   shaped.command.command_N = port.force_N;

@@ -143,6 +143,16 @@ void LogCommandEvent(const Event& e) {
           spdlog::error("cycle {}: delay re-check: no fixture is stable at the measured delay, decoupled (clutch)",
                         e.cycle);
           break;
+        case DelayRecheckDetail::kPassivityOn:
+          spdlog::error(
+              "cycle {}: delay re-check: no fixture is stable at the measured delay, passivity controller on "
+              "(observer)",
+              e.cycle);
+          break;
+        case DelayRecheckDetail::kPassivityRestored:
+          spdlog::info("cycle {}: delay re-check: stable at the measured delay again, passivity back to its config",
+                       e.cycle);
+          break;
         case DelayRecheckDetail::kFailed:
           spdlog::warn("cycle {}: delay re-check: nothing changed (see the re-check's message)", e.cycle);
           break;

@@ -200,13 +200,21 @@ std::unique_ptr<ConnectionWatch> MakeConnectionWatch(const config::ProcessConfig
   return std::make_unique<ConnectionWatch>(c, [&node] { node.Stop(); });
 }
 
+/// What the delay re-check's actions have switched (on its thread only).
+struct DelayRecheckState {
+  link::LinkConfig::DelayRecheck::OnUnstable on_unstable = link::LinkConfig::DelayRecheck::OnUnstable::kEvent;
+  control::PassivityMode configured_passivity = control::PassivityMode::kOff;
+  bool passivity_switched_on = false;  ///< on_unstable: passivity switched the controller on; not yet back.
+};
+
 /// What the delay re-check decided, done to the node (on the re-check's thread, never the cycle's): a new fixture
 /// stiffness through the run-time command API (checked and ramped like `teleop-ctl stiffness`), or, when no fixture is
-/// stable at the measured delay, an event only or the command clutch (link.delay_recheck.on_unstable). Every action
-/// is a delay_recheck event (log, DDS, dashboard) and its message a log line.
-void ApplyDelayRecheck(TeleopNode& node, link::LinkConfig::DelayRecheck::OnUnstable on_unstable,
-                       const config::DelayRecheck::Action& action) {
+/// stable at the measured delay, an event only, the command clutch or the passivity controller
+/// (link.delay_recheck.on_unstable). Every action is a delay_recheck event (log, DDS, dashboard) and its message a log
+/// line.
+void ApplyDelayRecheck(TeleopNode& node, DelayRecheckState& state, const config::DelayRecheck::Action& action) {
   using Detail = DelayRecheckDetail;
+  using OnUnstable = link::LinkConfig::DelayRecheck::OnUnstable;
   const auto record = [&node](Detail detail, double stiffness_N_per_m) {
     node.RecordCommandEvent(Event::Kind::kDelayRecheck, stiffness_N_per_m, static_cast<std::uint16_t>(detail));
   };
@@ -215,8 +223,37 @@ void ApplyDelayRecheck(TeleopNode& node, link::LinkConfig::DelayRecheck::OnUnsta
     record(Detail::kFailed, node.fixture_stiffness_N_per_m());
     return;
   }
+  if (!action.coupling_unstable && state.passivity_switched_on) {
+    // Stable at the measured delay again (a slower link with a fixture that helps, or recovered).
+    if (node.RequestPassivityMode(state.configured_passivity, Event::Kind::kDelayRecheck,
+                                  node.fixture_stiffness_N_per_m(),
+                                  static_cast<std::uint16_t>(Detail::kPassivityRestored))) {
+      state.passivity_switched_on = false;
+      spdlog::info("delay re-check: the coupling is stable at the measured delay again: passivity back to {}",
+                   control::ToString(state.configured_passivity));
+    }
+  }
   if (action.coupling_unstable) {
-    if (on_unstable == link::LinkConfig::DelayRecheck::OnUnstable::kDecouple) {
+    if (state.on_unstable == OnUnstable::kPassivity &&
+        state.configured_passivity == control::PassivityMode::kOff && !state.passivity_switched_on) {
+      if (node.RequestPassivityMode(control::PassivityMode::kObserver, Event::Kind::kDelayRecheck,
+                                    node.fixture_stiffness_N_per_m(),
+                                    static_cast<std::uint16_t>(Detail::kPassivityOn))) {
+        state.passivity_switched_on = true;
+        spdlog::error(
+            "{}; passivity controller on: observer on this device's port (link.delay_recheck.on_unstable "
+            "passivity; back to off when the coupling is stable at the measured delay again)",
+            action.message);
+      } else {
+        spdlog::error("{}; passivity controller NOT switched on: the command ring was full", action.message);
+        record(Detail::kFailed, node.fixture_stiffness_N_per_m());
+      }
+    } else if (state.on_unstable == OnUnstable::kPassivity) {
+      spdlog::error("{}; the passivity controller is already on ({})", action.message,
+                    state.passivity_switched_on ? "observer, switched on by the re-check"
+                                                : control::ToString(state.configured_passivity));
+      record(Detail::kCouplingUnstable, node.fixture_stiffness_N_per_m());
+    } else if (state.on_unstable == OnUnstable::kDecouple) {
       node.SetClutch(true);
       spdlog::error(
           "{}; decoupled: the command clutch is pressed (link.delay_recheck.on_unstable decouple; "
@@ -226,7 +263,7 @@ void ApplyDelayRecheck(TeleopNode& node, link::LinkConfig::DelayRecheck::OnUnsta
     } else {
       spdlog::error(
           "{}; nothing changed (link.delay_recheck.on_unstable event): lower the law's gains or turn "
-          "passivity on",
+          "passivity on (passivity.mode, or link.delay_recheck.on_unstable passivity)",
           action.message);
       record(Detail::kCouplingUnstable, node.fixture_stiffness_N_per_m());
     }
@@ -266,12 +303,12 @@ std::unique_ptr<config::DelayRecheck> MakeDelayRecheck(const config::ProcessConf
       "delay re-check on: the {:.0f}th percentile of the data age over {} s against {:.1f} ms (the age the start-up "
       "check assumed) x {}",
       r.percentile * 100.0, r.window_s, config::DelayRecheck::AssumedAge_s(config) * 1e3, r.trigger_ratio);
-  const auto on_unstable = r.on_unstable;
+  DelayRecheckState state;
+  state.on_unstable = r.on_unstable;
+  state.configured_passivity = config.passivity.mode;
   return std::make_unique<config::DelayRecheck>(
       config, options, [&node] { return node.peer_data_age_s(); },
-      [&node, on_unstable](const config::DelayRecheck::Action& action) {
-        ApplyDelayRecheck(node, on_unstable, action);
-      });
+      [&node, state](const config::DelayRecheck::Action& action) mutable { ApplyDelayRecheck(node, state, action); });
 }
 
 /// The summary to stdout and --summary-json; returns the exit status (teleop/node/exit_codes.hpp).

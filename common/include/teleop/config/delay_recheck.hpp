@@ -18,7 +18,9 @@ namespace teleop::config {
 /// percentile then as the measured delay and hands the node a new fixture stiffness, ramped at a bounded
 /// force rate; when the link recovers, the configured stiffness again. When no stiffness is stable at the measured
 /// delay (the coupling itself is not), `apply` gets the action with coupling_unstable and the fixture is left as it
-/// is (the process logs it, or decouples: link.delay_recheck.on_unstable). It drives the node only through `apply`
+/// is (the process logs it, decouples or switches passivity on: link.delay_recheck.on_unstable), and the recovery
+/// that follows is an action even when the stiffness is already the configured one (the process undoes what it
+/// switched). It drives the node only through `apply`
 /// (the process passes TeleopNode::RequestFixtureStiffness, the run-time command API the command server uses).
 class DelayRecheck {
  public:
@@ -66,6 +68,7 @@ class DelayRecheck {
   std::function<void(const Action&)> apply_;
   runtime::DelayWatch watch_;
   double current_N_per_m_ = 0.0;
+  bool unstable_reported_ = false;  ///< The last action found the coupling unstable: a recovery is an action.
   std::atomic<int> actions_{0};
   std::mutex mutex_;
   std::condition_variable wake_;

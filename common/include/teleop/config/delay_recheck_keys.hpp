@@ -83,8 +83,11 @@ inline const KeySpec kOnUnstable{.key = "on_unstable",
                                  .meaning =
                                      "When no fixture is stable at the measured delay (the coupling itself is "
                                      "not): `event` logs it and changes nothing; `decouple` also presses the "
-                                     "command clutch (released by `teleop-ctl clutch off`).",
-                                 .choices = {"event", "decouple"},
+                                     "command clutch (released by `teleop-ctl clutch off`); `passivity` switches "
+                                     "the passivity controller on (`observer`, passive from the switch on, any "
+                                     "delay) where `passivity.mode` is `off`, and back off when the coupling is "
+                                     "stable at the measured delay again.",
+                                 .choices = {"event", "decouple", "passivity"},
                                  .default_choice = static_cast<int>(kDefaults.on_unstable)};
 
 /// In the order of docs/configuration.md's table.

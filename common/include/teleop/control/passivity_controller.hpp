@@ -83,6 +83,7 @@ class PassivityController {
     std::array<double, kMaxDof> last_damping_Ns_per_m{};  ///< α(n-1).
     std::array<double, kMaxDof> last_velocity_m_per_s{};  ///< v(n-1), the velocity α(n-1) acted on.
     bool has_last = false;
+    bool rebase_pending = false;  ///< SwitchMode: the next step starts W at 0 after settling the last interval.
     double min_observed_J = 0.0;  ///< min over steps and DOF of W before the controller acted (the PO's deficit).
     std::uint64_t steps = 0;
     std::uint64_t acting_steps = 0;      ///< Steps in which α > 0 on some DOF.
@@ -101,6 +102,11 @@ class PassivityController {
   [[nodiscard]] Output Step(const Input& input, double period_s) noexcept;
   /// Zeroes the energies and counters.
   void Reset() noexcept;
+  /// Changes the mode at run time (the delay re-check's `on_unstable: passivity`, docs/stability.md). The observed
+  /// energy W starts again from 0 on every DOF: what the port generated before the switch is not paid back by a
+  /// damper at once (that would be a jolt of up to max_damping), the port is passive from the switch on. The
+  /// cumulative energies, the peer's credited base and the counters are kept. Allocation-free.
+  void SwitchMode(PassivityMode mode) noexcept;
 
   /// Sum over DOF of E_pc (J).
   double total_dissipated_J() const noexcept;

@@ -39,7 +39,7 @@ struct LinkConfig {
   /// assumed, the check runs again off the real-time thread with the measured delay and the fixture ramps to the new
   /// limit; back when the link recovers.
   struct DelayRecheck {
-    enum class OnUnstable : std::uint8_t { kEvent = 0, kDecouple = 1 };
+    enum class OnUnstable : std::uint8_t { kEvent = 0, kDecouple = 1, kPassivity = 2 };
     bool enabled = false;
     double window_s = 1.0;                 ///< The percentile is over this much of the newest data ages.
     double percentile = 0.99;              ///< 0.5..1.
@@ -49,7 +49,7 @@ struct LinkConfig {
     double margin = 0.9;                   ///< The new fixture stiffness is this × the limit at the measured delay.
     double max_force_rate_N_per_s = 20.0;  ///< The ramp's force rate at max_penetration_m.
     double max_penetration_m = 0.01;       ///< The penetration the ramp's force rate is bounded at.
-    OnUnstable on_unstable = OnUnstable::kEvent;  ///< No fixture is stable at the measured delay: event or decouple.
+    OnUnstable on_unstable = OnUnstable::kEvent;  ///< No fixture is stable at the measured delay: event, decouple, passivity.
   } delay_recheck{};
   /// `link.security` (docs/security.md): psk on UDP; CAN accepts only insecure (no room for a tag per frame).
   transport::LinkSecurityConfig security{};

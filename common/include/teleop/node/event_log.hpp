@@ -56,6 +56,8 @@ enum class DelayRecheckDetail : std::uint16_t {
   kCouplingUnstable = 2,  ///< No fixture is stable at the measured delay; link.delay_recheck.on_unstable: event.
   kDecoupled = 3,         ///< ... on_unstable: decouple: the command clutch is pressed.
   kFailed = 4,            ///< The re-check or the node refused (the log says why); nothing changed.
+  kPassivityOn = 5,       ///< ... on_unstable: passivity: the passivity controller switched on (observer).
+  kPassivityRestored = 6,  ///< The coupling is stable again at the measured delay: passivity back to its config.
 };
 
 /// Which law gain a gain event names: `detail` = gain index · 16 + axis (axis 15: every axis).

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "teleop/config/process_config.hpp"
+#include "teleop/control/passivity_controller.hpp"
 #include "teleop/control/three_channel_law.hpp"
 #include "teleop/device/device.hpp"
 #include "teleop/node/cycle_sink.hpp"
@@ -127,6 +128,11 @@ class TeleopNode {
   /// command) as an event: handed to the cycle with the changes, which logs it (DDS events topic too). Any thread;
   /// when the hand-over ring (64) is full the event is dropped and counted.
   void RecordCommandEvent(Event::Kind kind, double value, std::uint16_t detail = 0) noexcept;
+  /// Switches the time-domain passivity controller to `mode` at run time (the delay re-check's `on_unstable:
+  /// passivity`, docs/stability.md): the cycle applies it at its drain point (PassivityController::SwitchMode: passive
+  /// from the switch on) and logs the event `kind`/`value`/`detail`. Any thread. False when the hand-over ring was
+  /// full: nothing changes.
+  bool RequestPassivityMode(control::PassivityMode mode, Event::Kind kind, double value, std::uint16_t detail) noexcept;
   /// Command outcomes not handed to the cycle because its ring was full.
   std::uint64_t command_events_dropped() const noexcept;
   /// The sender data age of the peer's sample the law used in the last cycle (s): that cycle's start − the peer's

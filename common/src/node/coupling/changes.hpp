@@ -5,6 +5,7 @@
 
 #include <cstdint>
 
+#include "teleop/control/passivity_controller.hpp"
 #include "teleop/types.hpp"
 
 namespace teleop::node {
@@ -38,6 +39,8 @@ struct Changes {
   GainRamp gains;
   bool has_plane = false;
   PlaneMove plane;
+  bool has_passivity = false;  ///< The passivity controller's mode changes (the delay re-check, on_unstable: passivity).
+  control::PassivityMode passivity_mode = control::PassivityMode::kOff;
 };
 
 }  // namespace teleop::node

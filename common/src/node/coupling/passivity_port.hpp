@@ -42,6 +42,8 @@ class PassivityPort {
   explicit PassivityPort(const Config& config);
 
   Output Step(const Input& in, double period_s) noexcept;
+  /// A run-time mode change (Changes::has_passivity): PassivityController::SwitchMode.
+  void SwitchMode(control::PassivityMode mode) noexcept { controller_.SwitchMode(mode); }
 
   const control::PassivityController& controller() const noexcept { return controller_; }
   const State& state() const noexcept { return state_; }
