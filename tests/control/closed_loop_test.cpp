@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "teleop/error.hpp"
 
 namespace teleop::test {
@@ -38,6 +40,42 @@ TEST(ClosedLoop, PeerMissingUntilTheFirstSampleArrives) {
     EXPECT_EQ(sample.slave_status, Status::kPeerMissing) << k;
   }
   EXPECT_EQ(loop.Step().slave_status, Status::kOk);
+}
+
+// The WAN link of the harness (docs/link-emulation.md, "What passivity costs in transparency"): without jitter or
+// loss every cycle gets the sample sent exactly delay_cycles before; with jitter the age of a fresh sample lies in
+// delay..delay+jitter and an older sample overtaken by a newer one is never used; with loss about that fraction is
+// lost and the cycles without a newer sample hold the last one. Seeded: the same numbers every run.
+TEST(ClosedLoop, TheLinksJitterAndLossAreWhatTheConfigSays) {
+  OneDofSetup s = Symmetric(1000.0, 50.0, 1.0);
+  s.delay_cycles = 20;
+  {
+    ClosedLoop loop(MakeOneDofConfig(s));
+    for (int k = 0; k < 2000; ++k) (void)loop.Step();
+    const LinkStats& l = loop.master_to_slave_stats();
+    EXPECT_EQ(l.lost, 0u);
+    EXPECT_EQ(l.fresh, 2000u - 20u);
+    EXPECT_EQ(l.held, 0u);
+    EXPECT_EQ(l.min_age_cycles, 20u);
+    EXPECT_EQ(l.max_age_cycles, 20u);
+  }
+  s.jitter_cycles = 10;
+  s.loss = 0.05;
+  ClosedLoop loop(MakeOneDofConfig(s));
+  for (int k = 0; k < 20000; ++k) (void)loop.Step();
+  for (const LinkStats* l : {&loop.master_to_slave_stats(), &loop.slave_to_master_stats()}) {
+    EXPECT_EQ(l->sent, 20000u);
+    EXPECT_NEAR(static_cast<double>(l->lost) / static_cast<double>(l->sent), 0.05, 0.01);
+    EXPECT_GE(l->min_age_cycles, 20u);
+    EXPECT_LE(l->max_age_cycles, 30u);
+    EXPECT_GT(l->max_age_cycles, 25u) << "the jitter is drawn over its whole range";
+    EXPECT_GT(l->held, l->lost) << "jitter overtakes samples: more cycles hold than samples are lost";
+    // From the first arrival on (20..30 cycles, or later if the first ones are lost), every cycle has a sample.
+    EXPECT_GE(l->fresh + l->held, 20000u - 40u);
+    EXPECT_LE(l->fresh + l->held, 20000u - 20u);
+  }
+  EXPECT_LT(std::abs(loop.last().slave_position_m[0] - loop.last().master_position_m[0]), 0.01)
+      << "a stable coupling still tracks over the lossy link";
 }
 
 // (a) Free space, K_p = 600 N/m, K_d = 2 N·s/m at 1 kHz, link delay 1 cycle, operator F_h* = 1 N·sin(2π·1 Hz·t):

@@ -31,8 +31,9 @@ int Transparency(const teleop::test::PassivityDelaySetup& setup, double wall_N_p
       setup.kp_N_per_m, setup.kd_Ns_per_m, setup.rate_hz, setup.operator_amplitude_N, setup.operator_frequency_hz,
       setup.initial_offset_m * 1e3, setup.duration_s, wall_N_per_m, press_force_N, setup.duration_s * 2.0 / 3.0,
       setup.max_damping_Ns_per_m);
-  std::printf("hand %g kg, %g N·s/m, %g N/m\n", setup.hand_mass_kg, setup.hand_damping_Ns_per_m,
-              setup.hand_stiffness_N_per_m);
+  std::printf("hand %g kg, %g N·s/m, %g N/m; link: + 0..%d samples of jitter, %g %% loss each way (seed %u)\n",
+              setup.hand_mass_kg, setup.hand_damping_Ns_per_m, setup.hand_stiffness_N_per_m, setup.jitter_cycles,
+              setup.loss * 100.0, setup.seed);
   std::printf("%6s %-16s %12s %13s %14s %10s %14s %14s %16s\n", "ms", "mode", "track_rms_mm", "perceived_N/m",
               "ideal_N/m", "drift_mm", "wall_ripple_mm", "min_energy_mJ", "wall_min_energy_mJ");
   for (const int d : delays) {
@@ -89,6 +90,11 @@ int Run(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1e3));
   app.add_option("--hand-stiffness", setup.hand_stiffness_N_per_m, "operator's hand stiffness, N/m")
       ->check(CLI::Range(0.0, 1e5));
+  app.add_option("--jitter", setup.jitter_cycles, "link jitter: each sample's delay + uniform 0..this, samples")
+      ->check(CLI::Range(0, 1000));
+  app.add_option("--loss", setup.loss, "link loss: each sample lost with this probability, each way")
+      ->check(CLI::Range(0.0, 0.99));
+  app.add_option("--seed", setup.seed, "seed of the jitter and loss draws");
   app.add_option("--csv", csv, "also write the table as CSV here");
   app.add_option("--png", png, "also plot late amplitude vs delay with gnuplot (needs --csv)");
   try {

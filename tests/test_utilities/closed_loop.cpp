@@ -36,6 +36,9 @@ ClosedLoopConfig MakeOneDofConfig(const OneDofSetup& setup) {
   ClosedLoopConfig config;
   config.rate_hz = setup.rate_hz;
   config.delay_cycles = setup.delay_cycles;
+  config.jitter_cycles = setup.jitter_cycles;
+  config.loss = setup.loss;
+  config.seed = setup.seed;
   config.master_law = OneDofLaw(Role::kMaster, setup.kpm_N_per_m, setup.kdm_Ns_per_m, setup.kvm_Ns_per_m, setup.kfm,
                                 setup.master_fixture_N_per_m, setup);
   config.slave_law = OneDofLaw(Role::kSlave, setup.kps_N_per_m, setup.kds_Ns_per_m, setup.kvs_Ns_per_m, 0.0,
@@ -71,15 +74,41 @@ control::PassivityController::Config ClosedLoopConfig::PassivityOff(int dof) {
   return config;
 }
 
-void ClosedLoop::DelayLine::Push(const WireSample& sample) {
-  ring[pushed % ring.size()] = sample;
+void ClosedLoop::DelayLine::Push(const WireSample& sample, std::uint64_t cycle, const ClosedLoopConfig& config) {
+  Slot& slot = ring[pushed % ring.size()];
+  slot.sample = sample;
+  slot.index = pushed;
+  slot.sent_cycle = cycle;
+  slot.filled = true;
+  std::uint64_t delay = static_cast<std::uint64_t>(config.delay_cycles);
+  if (config.jitter_cycles > 0) {
+    delay += std::uniform_int_distribution<std::uint64_t>(0, static_cast<std::uint64_t>(config.jitter_cycles))(random);
+  }
+  slot.arrival = cycle + delay;
+  slot.lost = config.loss > 0.0 && std::uniform_real_distribution<double>(0.0, 1.0)(random) < config.loss;
+  ++stats.sent;
+  if (slot.lost) ++stats.lost;
   ++pushed;
 }
 
-const ClosedLoop::WireSample* ClosedLoop::DelayLine::Delayed(int delay) const {
-  const auto d = static_cast<std::uint64_t>(delay);
-  if (pushed < d + 1) return nullptr;
-  return &ring[(pushed - 1 - d) % ring.size()];
+const ClosedLoop::WireSample* ClosedLoop::DelayLine::Received(std::uint64_t cycle) {
+  const Slot* newest = nullptr;
+  for (const Slot& slot : ring) {
+    if (!slot.filled || slot.lost || slot.arrival > cycle) continue;  // empty, lost or still in flight
+    if (has_held && slot.index <= held_index) continue;                       // not newer than what we have
+    if (newest == nullptr || slot.index > newest->index) newest = &slot;
+  }
+  if (newest != nullptr) {
+    ++stats.fresh;
+    const std::uint64_t age = cycle - newest->sent_cycle;
+    stats.min_age_cycles = std::min(stats.min_age_cycles, age);
+    stats.max_age_cycles = std::max(stats.max_age_cycles, age);
+    held = newest->sample;
+    held_index = newest->index;
+    has_held = true;
+  }
+  if (newest == nullptr && has_held) ++stats.held;
+  return has_held ? &held : nullptr;
 }
 
 ClosedLoop::ClosedLoop(const ClosedLoopConfig& config)
@@ -100,9 +129,15 @@ ClosedLoop::ClosedLoop(const ClosedLoopConfig& config)
       config.master_passivity.dof != dof || config.slave_passivity.dof != dof) {
     throw Error("closed loop: master law, slave law, both plants and both passivity configs must have the same dof");
   }
-  const auto slots = static_cast<std::size_t>(config.delay_cycles) + 1;
-  master_to_slave_.ring.assign(slots, WireSample{});
-  slave_to_master_.ring.assign(slots, WireSample{});
+  if (config.jitter_cycles < 0 || config.jitter_cycles > 1000) {
+    throw Error("closed loop: jitter_cycles must be 0..1000");
+  }
+  if (!(config.loss >= 0.0 && config.loss < 1.0)) throw Error("closed loop: loss must be in [0, 1)");
+  const auto slots = static_cast<std::size_t>(config.delay_cycles + config.jitter_cycles) + 1;
+  master_to_slave_.ring.assign(slots, DelayLine::Slot{});
+  slave_to_master_.ring.assign(slots, DelayLine::Slot{});
+  master_to_slave_.random.seed(config.seed);
+  slave_to_master_.random.seed(config.seed * 2654435761u + 1u);
 }
 
 const ClosedLoopSample& ClosedLoop::Step() {
@@ -118,9 +153,11 @@ const ClosedLoopSample& ClosedLoop::Step() {
     return e;
   };
   master_to_slave_.Push({master_reading.position_m, master_sender_velocity_.Step(master_reading.position_m, period_s_),
-                         master_reading.force_N, energy_of(master_pc_)});
+                         master_reading.force_N, energy_of(master_pc_)},
+                        cycle_, config_);
   slave_to_master_.Push({slave_reading.position_m, slave_sender_velocity_.Step(slave_reading.position_m, period_s_),
-                         slave_reading.force_N, energy_of(slave_pc_)});
+                         slave_reading.force_N, energy_of(slave_pc_)},
+                        cycle_, config_);
 
   auto make_input = [](const device::Reading& own, const WireSample* peer) {
     ThreeChannelLaw::Input input;
@@ -133,8 +170,8 @@ const ClosedLoopSample& ClosedLoop::Step() {
     }
     return input;
   };
-  const WireSample* from_slave = slave_to_master_.Delayed(config_.delay_cycles);
-  const WireSample* from_master = master_to_slave_.Delayed(config_.delay_cycles);
+  const WireSample* from_slave = slave_to_master_.Received(cycle_);
+  const WireSample* from_master = master_to_slave_.Received(cycle_);
   ThreeChannelLaw::Output master_out = master_law_.Step(make_input(master_reading, from_slave), period_s_);
   ThreeChannelLaw::Output slave_out = slave_law_.Step(make_input(slave_reading, from_master), period_s_);
   // Time-domain passivity: the law's command passes through the port's controller, as in the processes.

@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <random>
 #include <vector>
 
 #include "teleop/control/passivity_controller.hpp"
@@ -26,6 +27,13 @@ namespace teleop::test {
 struct ClosedLoopConfig {
   double rate_hz = 1000.0;
   int delay_cycles = 1;  ///< Per direction, 0..1000.
+  /// A WAN on top of the fixed delay (docs/link-emulation.md): each sample's delay is delay_cycles plus a uniform
+  /// 0..jitter_cycles, each sample is lost with probability `loss`, and a side uses the newest sample that has
+  /// arrived (an older one arriving after it is dropped, as the processes do; nothing new: the last one again).
+  /// Seeded per direction from `seed`: deterministic. 0 and 0: the lock-step fixed delay.
+  int jitter_cycles = 0;  ///< 0..1000.
+  double loss = 0.0;      ///< 0..1 (exclusive).
+  std::uint32_t seed = 1;
   control::ThreeChannelLaw::Config master_law = control::ThreeChannelLaw::ZeroGains(Role::kMaster, 1);
   control::ThreeChannelLaw::Config slave_law = control::ThreeChannelLaw::ZeroGains(Role::kSlave, 1);
   device::LoopbackPlantConfig master_plant = device::LoopbackPlantConfig::PaperMaster();
@@ -44,6 +52,9 @@ struct ClosedLoopConfig {
 struct OneDofSetup {
   double rate_hz = 1000.0;
   int delay_cycles = 1;
+  int jitter_cycles = 0;  ///< ClosedLoopConfig::jitter_cycles.
+  double loss = 0.0;      ///< ClosedLoopConfig::loss.
+  std::uint32_t seed = 1;
   double kpm_N_per_m = 0.0;
   double kps_N_per_m = 0.0;
   double kdm_Ns_per_m = 0.0;
@@ -100,6 +111,16 @@ struct ClosedLoopSample {
   bool slave_pc_acted = false;
 };
 
+/// What one direction of the loop's link did (ClosedLoopConfig's jitter and loss).
+struct LinkStats {
+  std::uint64_t sent = 0;
+  std::uint64_t lost = 0;
+  std::uint64_t fresh = 0;  ///< Cycles in which a newer sample arrived.
+  std::uint64_t held = 0;   ///< Cycles that used the last sample again (nothing newer arrived).
+  std::uint64_t min_age_cycles = ~std::uint64_t{0};  ///< The age of a fresh sample when used: now - its send cycle.
+  std::uint64_t max_age_cycles = 0;
+};
+
 class ClosedLoop {
  public:
   /// Validates through the law and plant constructors (teleop::Error); rate_hz must be > 0, delay 0..1000.
@@ -123,6 +144,8 @@ class ClosedLoop {
   const control::ThreeChannelLaw& slave_law() const noexcept { return slave_law_; }
   const control::PassivityController& master_passivity() const noexcept { return master_pc_; }
   const control::PassivityController& slave_passivity() const noexcept { return slave_pc_; }
+  const LinkStats& master_to_slave_stats() const noexcept { return master_to_slave_.stats; }
+  const LinkStats& slave_to_master_stats() const noexcept { return slave_to_master_.stats; }
 
  private:
   struct WireSample {
@@ -131,13 +154,27 @@ class ClosedLoop {
     DofVector force_N;
     DofVector input_energy_J;  ///< The sender's passivity E_in (energy_exchange).
   };
-  /// Fixed ring of delay+1 samples, one per direction.
+  /// Fixed ring of delay+jitter+1 samples, one per direction, each with its arrival cycle.
   struct DelayLine {
-    std::vector<WireSample> ring;
+    struct Slot {
+      WireSample sample;
+      std::uint64_t index = 0;
+      std::uint64_t sent_cycle = 0;
+      std::uint64_t arrival = 0;
+      bool lost = false;
+      bool filled = false;
+    };
+    std::vector<Slot> ring;
     std::uint64_t pushed = 0;
-    void Push(const WireSample& sample);
-    /// The sample pushed `delay` pushes ago, or nullptr if none yet.
-    const WireSample* Delayed(int delay) const;
+    WireSample held;              ///< The newest sample received so far.
+    std::uint64_t held_index = 0;
+    bool has_held = false;
+    std::mt19937 random;
+    LinkStats stats;
+    /// Pushes the sample sent at `cycle` with its delay and fate drawn from the config.
+    void Push(const WireSample& sample, std::uint64_t cycle, const ClosedLoopConfig& config);
+    /// The newest sample arrived by `cycle` (held when none newer arrived), or nullptr if none yet.
+    const WireSample* Received(std::uint64_t cycle);
   };
 
   ClosedLoopConfig config_;

@@ -32,6 +32,9 @@ PassivityDelayResult RunPassivityDelay(const PassivityDelaySetup& setup, int del
   OneDofSetup s;
   s.rate_hz = setup.rate_hz;
   s.delay_cycles = delay_cycles;
+  s.jitter_cycles = setup.jitter_cycles;
+  s.loss = setup.loss;
+  s.seed = setup.seed;
   s.kpm_N_per_m = s.kps_N_per_m = setup.kp_N_per_m;
   s.kdm_Ns_per_m = s.kds_Ns_per_m = setup.kd_Ns_per_m;
   s.max_force_N = setup.max_force_N;
@@ -100,6 +103,9 @@ WallPressResult RunWallPress(const PassivityDelaySetup& setup, int delay_cycles,
   OneDofSetup s;
   s.rate_hz = setup.rate_hz;
   s.delay_cycles = delay_cycles;
+  s.jitter_cycles = setup.jitter_cycles;
+  s.loss = setup.loss;
+  s.seed = setup.seed;
   s.kpm_N_per_m = s.kps_N_per_m = setup.kp_N_per_m;
   s.kdm_Ns_per_m = s.kds_Ns_per_m = setup.kd_Ns_per_m;
   s.max_force_N = setup.max_force_N;

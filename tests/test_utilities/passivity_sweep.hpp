@@ -27,6 +27,10 @@ struct PassivityDelaySetup {
   double hand_mass_kg = 0.0;
   double hand_damping_Ns_per_m = 0.0;
   double hand_stiffness_N_per_m = 0.0;
+  /// The link beyond its fixed delay (ClosedLoopConfig): jitter in samples, loss probability, seed.
+  int jitter_cycles = 0;
+  double loss = 0.0;
+  std::uint32_t seed = 1;
 };
 
 /// What one run did. Amplitudes are the peak-to-peak of the tracking error x_s - x_m in a window.
