@@ -37,7 +37,7 @@ int Transparency(const teleop::test::PassivityDelaySetup& setup, double wall_N_p
   std::printf("%6s %-16s %12s %13s %14s %10s %14s %14s %16s\n", "ms", "mode", "track_rms_mm", "perceived_N/m",
               "ideal_N/m", "drift_mm", "wall_ripple_mm", "min_energy_mJ", "wall_min_energy_mJ");
   for (const int d : delays) {
-    for (const PassivityMode mode : {PassivityMode::kOff, PassivityMode::kEnergyExchange}) {
+    for (const PassivityMode mode : {PassivityMode::kOff, PassivityMode::kObserver, PassivityMode::kEnergyExchange}) {
       const auto sine = teleop::test::RunPassivityDelay(setup, d, mode);
       const auto wall = teleop::test::RunWallPress(setup, d, mode, wall_N_per_m, press_force_N);
       std::printf("%6.1f %-16s %12.4f %13.1f %14.1f %10.3f %14.4f %14.4f %16.4f%s\n", 1e3 * d / setup.rate_hz,
@@ -75,7 +75,7 @@ int Run(int argc, char** argv) {
   double press_force_N = 2.0;
   std::vector<int> delays;
   app.add_option("--transparency", wall_N_per_m,
-                 "instead of the sweep: the transparency table at --delays, plain and energy_exchange: tracking "
+                 "instead of the sweep: the transparency table at --delays, plain, observer and energy_exchange: tracking "
                  "(the sine run), perceived stiffness at the master pressing the slave into a wall of this "
                  "stiffness (N/m), lowest network energy")
       ->check(CLI::Range(1.0, 1e6));
