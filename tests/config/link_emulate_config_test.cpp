@@ -102,6 +102,16 @@ TEST(DelayRecheckConfig, KeysDefaultsAndRanges) {
   EXPECT_EQ(r.on_unstable, link::LinkConfig::DelayRecheck::OnUnstable::kDecouple);
   EXPECT_EQ(with("{on_unstable: passivity}").link.delay_recheck.on_unstable,
             link::LinkConfig::DelayRecheck::OnUnstable::kPassivity);
+  // Switching passivity on at run time needs the controller's damping bound, given with mode off.
+  EXPECT_THAT([&] { with("{enabled: true, on_unstable: passivity}"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("passivity.max_damping_Ns_per_m")));
+  EXPECT_EQ(ParseProcessConfig(Config("    delay_ms: 1\n").insert(Config("    delay_ms: 1\n").find("  emulate:\n"),
+                                                                   "  delay_recheck: {enabled: true, on_unstable: "
+                                                                   "passivity}\n") +
+                                   "passivity: {mode: off, max_damping_Ns_per_m: 100}\n",
+                               "test.yaml")
+                .passivity.max_damping_Ns_per_m[0],
+            100.0);
   EXPECT_THAT([&] { with("{percentile: 1.5}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("percentile")));
   EXPECT_THAT([&] { with("{trigger_ratio: 1}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("trigger_ratio")));
   EXPECT_THAT([&] { with("{trigger_ratio: 1.2, recover_ratio: 1.5}"); },

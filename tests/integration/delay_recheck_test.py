@@ -97,6 +97,8 @@ def configure(path, role, on, seed, passivity=False, switch=False):
     text += "\nengagement: {max_rtt_ms: 0}\n"
     if passivity and not switch:
         text += PASSIVITY
+    if switch:  # off, with the bound the re-check's switch needs
+        text += "passivity: {mode: off, max_damping_Ns_per_m: 100}\n"
     text = re.sub(r"(?m)^(\s*timeout_ms:).*\n", "", text)
     link_end = text.index("  security:")
     text = text[:link_end] + EMULATE % (seed, STEP_UP_S, SLOW_DELAY_MS, STEP_DOWN_S) + \

@@ -85,8 +85,9 @@ inline const KeySpec kOnUnstable{.key = "on_unstable",
                                      "not): `event` logs it and changes nothing; `decouple` also presses the "
                                      "command clutch (released by `teleop-ctl clutch off`); `passivity` switches "
                                      "the passivity controller on (`observer`, passive from the switch on, any "
-                                     "delay) where `passivity.mode` is `off`, and back off when the coupling is "
-                                     "stable at the measured delay again.",
+                                     "delay) where `passivity.mode` is `off` (with `passivity.max_damping_Ns_per_m` "
+                                     "given), and back off when the coupling is stable at the measured delay "
+                                     "again.",
                                  .choices = {"event", "decouple", "passivity"},
                                  .default_choice = static_cast<int>(kDefaults.on_unstable)};
 
