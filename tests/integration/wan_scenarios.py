@@ -21,7 +21,6 @@ cycles and the passivity controllers' acting cycles (master/slave).
 """
 import argparse
 import json
-import math
 import os
 import re
 import subprocess
@@ -30,7 +29,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import two_process_test as tp  # noqa: E402  (configs, ports, telemetry)
 
-GAINS = {"shipped": (600.0, 2.0), "soft": (50.0, 1.0)}
+GAINS = {"shipped": (600.0, 2.0, 2000.0), "soft": (50.0, 1.0, 2800.0)}  # K_p, K_d, the slave's fixture
 MASTER_S = 7.0
 HOLD = (2.5, 4.0)   # the hold in the fixture (s since the slave's start, about the master's)
 FREE = (5.5, 6.5)   # free space after the pull
@@ -41,12 +40,15 @@ SCRIPT = ("      script:\n"
           "        - {type: hold, axis: 0, start_s: 5.0}\n")
 
 
-def configure(path, role, kp, kd, delay_ms, seed, on_unstable):
+def configure(path, role, kp, kd, fixture, delay_ms, seed, on_unstable):
     text = open(path).read()
+    text = re.sub(r"(?m)^(\s*(?:fixture_)?stiffness_N_per_m:) 2000\b", lambda m: f"{m.group(1)} {fixture:g}", text)
     text = re.sub(r"(?m)^(\s*kp_N_per_m:).*$", lambda m: f"{m.group(1)} {kp:g}", text)
     text = re.sub(r"(?m)^(\s*kd_Ns_per_m:).*$", lambda m: f"{m.group(1)} {kd:g}", text)
     text = re.sub(r"(?m)^(\s*human_grid_steps:).*$", r"\1 1", text)
     text += "\nengagement: {max_rtt_ms: 0}\n"  # the latency gate off: the re-check decides
+    if on_unstable == "passivity":  # the bound of the controller the re-check switches on
+        text += "passivity: {mode: off, max_damping_Ns_per_m: 100}\n"
     text = re.sub(r"(?m)^(\s*timeout_ms:).*\n", "", text)
     link_end = text.index("  security:")
     link = "  timeout_ms: 500\n  expected_delay_ms: 0\n"
@@ -66,6 +68,8 @@ def predicted(analyze, kp, kd, delay_ms):
     out = subprocess.run([analyze, "max-stiffness", "--side", "slave", "--kp", f"{kp:g}", "--kd", f"{kd:g}",
                           "--human-steps", "1", "--link-delay-ms", f"{delay_ms:g}", "--json"],
                          capture_output=True, text=True)
+    if "predicted UNSTABLE" in out.stderr:
+        return "none (coupling unstable)"
     try:
         j = json.loads(out.stdout)
     except json.JSONDecodeError:
@@ -75,7 +79,35 @@ def predicted(analyze, kp, kd, delay_ms):
     return f"{j.get('max_stable_stiffness_N_per_m', float('nan')):.0f} N/m"
 
 
-def run(args, name, kp, kd, delay_ms):
+def action(log):
+    """What one side's re-check did, from its log."""
+    if "passivity controller on: observer" in log:
+        did = "coupling unstable: passivity on"
+        if "passivity back to off" in log:
+            did += ", back off"
+        return did
+    m = re.findall(r"predicted limit ([0-9]+) N/m; fixture [0-9]+ N/m -> ([0-9]+) N/m", log)
+    if m:
+        return f"limit {m[-1][0]}: fixture to {m[-1][1]} N/m"
+    if "no fixture is stable" in log or "coupling itself is unstable" in log:
+        return "coupling unstable: event only"
+    return "nothing"
+
+
+def oscillation(t, x, lo, hi):
+    """Peak-to-peak of x minus its 0.1 s centred moving average over [lo, hi): the oscillating part of the motion
+    (a slow creep or a rest reads about 0)."""
+    idx = [i for i, ti in enumerate(t) if lo <= ti < hi]
+    if len(idx) < 200:
+        return float("nan")
+    resid = []
+    for i in idx:
+        w = [x[j] for j in range(max(0, i - 50), min(len(x), i + 51))]
+        resid.append(x[i] - sum(w) / len(w))
+    return max(resid) - min(resid)
+
+
+def run(args, name, kp, kd, fixture, delay_ms):
     work = os.path.join(args.workdir, f"{name}-{delay_ms:g}ms")
     os.makedirs(work, exist_ok=True)
     ports = (tp.free_udp_port(), tp.free_udp_port())
@@ -83,7 +115,8 @@ def run(args, name, kp, kd, delay_ms):
                                              "slave.json", "master.log", "slave.log")}
     for role, seed in (("master", 2), ("slave", 1)):
         tp.write_config(os.path.join(args.configs, f"{role}.yaml"), p[f"{role}.yaml"], ports, p[f"{role}.csv"])
-        configure(p[f"{role}.yaml"], role, kp, kd, delay_ms, seed, "passivity" if name == "shipped" else "event")
+        configure(p[f"{role}.yaml"], role, kp, kd, fixture, delay_ms, seed,
+                  "passivity" if name == "shipped" else "event")
     with open(p["slave.log"], "w") as slog, open(p["master.log"], "w") as mlog:
         slave = subprocess.Popen([args.slave, "--config", p["slave.yaml"], "--duration", "60", "--summary-json",
                                   p["slave.json"]], stdout=slog, stderr=subprocess.STDOUT)
@@ -95,31 +128,17 @@ def run(args, name, kp, kd, delay_ms):
         except subprocess.TimeoutExpired:
             slave.kill()
             slave.wait()
-    log = open(p["slave.log"]).read()
     rows = tp.read_telemetry(p["slave.csv"])
     t = [r["time_s"] for r in rows]
-
-    def window(lo, hi, f):
-        return [f(r) for ti, r in zip(t, rows) if lo <= ti < hi]
-
-    err = window(*HOLD, lambda r: r["position_m_0"] - r["peer_position_m_0"])
-    free = window(*FREE, lambda r: r["position_m_0"])
-    rms = math.sqrt(sum(e * e for e in err) / len(err)) if err else float("nan")
-    pp = max(free) - min(free) if free else float("nan")
-    k_end = rows[-1]["fixture_stiffness_N_per_m"] if rows else float("nan")
-    if "passivity controller on: observer" in log:
-        did = "coupling unstable: passivity on"
-    elif re.search(r"fixture [0-9]+ N/m -> [0-9]+ N/m", log):
-        m = re.findall(r"predicted limit ([0-9]+) N/m; fixture [0-9]+ N/m -> ([0-9]+) N/m", log)
-        did = f"limit {m[-1][0]}: fixture to {m[-1][1]} N/m" if m else "fixture lowered"
-    elif "no fixture is stable" in log or "coupling itself is unstable" in log:
-        did = "coupling unstable: event only"
-    else:
-        did = "nothing"
+    x = [r["position_m_0"] for r in rows]
+    hold = oscillation(t, x, *HOLD)
+    free = oscillation(t, x, *FREE)
+    k_min = min(r["fixture_stiffness_N_per_m"] for r in rows) if rows else float("nan")
+    did = "slave: " + action(open(p["slave.log"]).read()) + "; master: " + action(open(p["master.log"]).read())
     summaries = [json.load(open(p[f"{s}.json"])) for s in ("master", "slave")]
     sat = "/".join(str(s.get("saturated_cycles", "?")) for s in summaries)
     pc = "/".join(str(s.get("passivity", {}).get("cycles", "?")) for s in summaries)
-    return did, k_end, rms, pp, sat, pc
+    return did, k_min, hold, free, sat, pc, (t, x)
 
 
 def main():
@@ -127,17 +146,42 @@ def main():
     for a in ("--master", "--slave", "--analyze", "--configs", "--workdir"):
         ap.add_argument(a, required=True)
     ap.add_argument("--delays", default="0,10,40,100")
+    ap.add_argument("--png", default="", help="also plot the slave's position against time, one panel per gain set")
     args = ap.parse_args()
-    print("| gains | one-way delay | predicted slave limit | re-check did | fixture at the end | tracking rms in the "
-          "hold (mm) | free-space p-p, last s (mm) | saturated m/s | passivity cycles m/s |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    for name, (kp, kd) in GAINS.items():
+    traces = {}
+    print("| gains, slave fixture | one-way delay | predicted slave limit | what the re-check did | lowest fixture "
+          "applied | oscillation in contact / in free space (mm p-p) | saturated cycles m/s | passivity cycles m/s |")
+    print("|---|---|---|---|---|---|---|---|")
+    for name, (kp, kd, fixture) in GAINS.items():
         for d in (float(x) for x in args.delays.split(",")):
             limit = predicted(args.analyze, kp, kd, d)
-            did, k_end, rms, pp, sat, pc = run(args, name, kp, kd, d)
-            print(f"| K_p {kp:g} / K_d {kd:g} | {d:g} ms | {limit} | {did} | {k_end:.0f} N/m | {rms * 1e3:.3f} | "
-                  f"{pp * 1e3:.3f} | {sat} | {pc} |", flush=True)
+            did, k_min, hold, free, sat, pc, traces[(name, d)] = run(args, name, kp, kd, fixture, d)
+            print(f"| K_p {kp:g} / K_d {kd:g}, {fixture:g} N/m | {d:g} ms | {limit} | {did} | {k_min:.0f} N/m | "
+                  f"{hold * 1e3:.3f} / {free * 1e3:.3f} | {sat} | {pc} |", flush=True)
+    if args.png:
+        plot(args.png, traces)
     return 0
+
+
+def plot(png, traces):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
+    for ax, (name, (kp, kd, fixture)) in zip(axes, GAINS.items()):
+        for (n, d), (t, x) in sorted(traces.items()):
+            if n == name:
+                ax.plot(t, [xi * 1e3 for xi in x], label=f"{d:g} ms", linewidth=1.2)
+        ax.axvspan(*HOLD, color="0.92", zorder=0)
+        ax.set_title(f"K_p {kp:g} N/m, K_d {kd:g} N·s/m, slave fixture {fixture:g} N/m", fontsize=10)
+        ax.set_xlabel("slave time (s)")
+        ax.legend(title="one-way delay", fontsize=8, title_fontsize=8, loc="lower left")
+        ax.grid(True, linewidth=0.3)
+    axes[0].set_ylabel("slave position (mm)")
+    fig.suptitle("The pair over a WAN link (10 % jitter, 5 % loss), the re-check on; grey: the push into the fixture",
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(png, dpi=90)
 
 
 if __name__ == "__main__":
