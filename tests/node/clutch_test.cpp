@@ -537,6 +537,28 @@ TEST(NodeTune, AnAcceptedGainChangeRampsAndIsAnEvent) {
   EXPECT_EQ(seen.Last(Event::Kind::kGainAccepted).detail, GainDetail(GainName::kKp, -1));
 }
 
+// The delay re-check's on_unstable: passivity (docs/stability.md): the switch is handed to the cycle like a command,
+// taken at its drain point (allocation-free), logged as the event the caller named, and the summary reports the mode
+// the controller ended in.
+TEST(NodeTune, APassivitySwitchIsTakenByTheCycleWithItsEvent) {
+  RecordingSink::Seen seen;
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture, Medium::kUdp, &seen);
+  rig.StepUntil(500);
+  test::AllocationCounter counter;
+  ASSERT_TRUE(rig.slave->RequestPassivityMode(control::PassivityMode::kObserver, Event::Kind::kDelayRecheck, 2000.0,
+                                              static_cast<std::uint16_t>(DelayRecheckDetail::kPassivityOn)));
+  const std::uint64_t requested = counter.count();
+  rig.StepUntil(700);
+  EXPECT_EQ(counter.count(), requested) << "the cycle takes the switch without allocating";
+  EXPECT_EQ(rig.slave->engagement(), EngagementState::kEngaged);
+  const RunSummary summary = rig.slave->Finish();
+  EXPECT_EQ(summary.passivity_mode, "observer");
+  ASSERT_EQ(seen.Count(Event::Kind::kDelayRecheck), 1u);
+  EXPECT_EQ(seen.Last(Event::Kind::kDelayRecheck).detail,
+            static_cast<std::uint16_t>(DelayRecheckDetail::kPassivityOn));
+  EXPECT_EQ(rig.master->Finish().passivity_mode, "off") << "the other side's controller is its own";
+}
+
 TEST(NodeTune, AnUnstableGainIsRefusedWithThePredictedLimit) {
   RecordingSink::Seen seen;
   Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture, Medium::kUdp, &seen);
