@@ -105,9 +105,10 @@ TEST(DelayRecheckConfig, KeysDefaultsAndRanges) {
   // Switching passivity on at run time needs the controller's damping bound, given with mode off.
   EXPECT_THAT([&] { with("{enabled: true, on_unstable: passivity}"); },
               ::testing::ThrowsMessage<Error>(HasSubstr("passivity.max_damping_Ns_per_m")));
-  EXPECT_EQ(ParseProcessConfig(Config("    delay_ms: 1\n").insert(Config("    delay_ms: 1\n").find("  emulate:\n"),
-                                                                   "  delay_recheck: {enabled: true, on_unstable: "
-                                                                   "passivity}\n") +
+  EXPECT_EQ(ParseProcessConfig(Config("    delay_ms: 1\n")
+                                       .insert(Config("    delay_ms: 1\n").find("  emulate:\n"),
+                                               "  delay_recheck: {enabled: true, on_unstable: "
+                                               "passivity}\n") +
                                    "passivity: {mode: off, max_damping_Ns_per_m: 100}\n",
                                "test.yaml")
                 .passivity.max_damping_Ns_per_m[0],
@@ -119,7 +120,8 @@ TEST(DelayRecheckConfig, KeysDefaultsAndRanges) {
   EXPECT_THAT([&] { with("{margin: 0}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("margin")));
   EXPECT_THAT([&] { with("{max_force_rate_N_per_s: 0}"); },
               ::testing::ThrowsMessage<Error>(HasSubstr("max_force_rate_N_per_s")));
-  EXPECT_THAT([&] { with("{on_unstable: panic}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("event, decouple or passivity")));
+  EXPECT_THAT([&] { with("{on_unstable: panic}"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("event, decouple or passivity")));
   EXPECT_THAT([&] { with("{windows: 1}"); }, ::testing::ThrowsMessage<Error>(HasSubstr("windows")));
 }
 

@@ -74,10 +74,11 @@ int Run(int argc, char** argv) {
   double wall_N_per_m = 0.0;
   double press_force_N = 2.0;
   std::vector<int> delays;
-  app.add_option("--transparency", wall_N_per_m,
-                 "instead of the sweep: the transparency table at --delays, plain, observer and energy_exchange: tracking "
-                 "(the sine run), perceived stiffness at the master pressing the slave into a wall of this "
-                 "stiffness (N/m), lowest network energy")
+  app.add_option(
+         "--transparency", wall_N_per_m,
+         "instead of the sweep: the transparency table at --delays, plain, observer and energy_exchange: tracking "
+         "(the sine run), perceived stiffness at the master pressing the slave into a wall of this "
+         "stiffness (N/m), lowest network energy")
       ->check(CLI::Range(1.0, 1e6));
   app.add_option("--press-force", press_force_N, "--transparency: the operator's final push, N")
       ->check(CLI::Range(0.01, 100.0));

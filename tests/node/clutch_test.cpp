@@ -554,8 +554,7 @@ TEST(NodeTune, APassivitySwitchIsTakenByTheCycleWithItsEvent) {
   const RunSummary summary = rig.slave->Finish();
   EXPECT_EQ(summary.passivity_mode, "observer");
   ASSERT_EQ(seen.Count(Event::Kind::kDelayRecheck), 1u);
-  EXPECT_EQ(seen.Last(Event::Kind::kDelayRecheck).detail,
-            static_cast<std::uint16_t>(DelayRecheckDetail::kPassivityOn));
+  EXPECT_EQ(seen.Last(Event::Kind::kDelayRecheck).detail, static_cast<std::uint16_t>(DelayRecheckDetail::kPassivityOn));
   EXPECT_EQ(rig.master->Finish().passivity_mode, "off") << "the other side's controller is its own";
 }
 

@@ -95,7 +95,7 @@ const ClosedLoop::WireSample* ClosedLoop::DelayLine::Received(std::uint64_t cycl
   const Slot* newest = nullptr;
   for (const Slot& slot : ring) {
     if (!slot.filled || slot.lost || slot.arrival > cycle) continue;  // empty, lost or still in flight
-    if (has_held && slot.index <= held_index) continue;                       // not newer than what we have
+    if (has_held && slot.index <= held_index) continue;               // not newer than what we have
     if (newest == nullptr || slot.index > newest->index) newest = &slot;
   }
   if (newest != nullptr) {

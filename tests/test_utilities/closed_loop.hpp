@@ -166,7 +166,7 @@ class ClosedLoop {
     };
     std::vector<Slot> ring;
     std::uint64_t pushed = 0;
-    WireSample held;              ///< The newest sample received so far.
+    WireSample held;  ///< The newest sample received so far.
     std::uint64_t held_index = 0;
     bool has_held = false;
     std::mt19937 random;

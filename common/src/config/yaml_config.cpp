@@ -120,7 +120,8 @@ ProcessConfig Parse(const YAML::Node& root_node, const std::string& name) {
   if (auto v = map.Optional("passivity")) ParsePassivity(*v, config.dof, config.link, config.passivity);
   if (config.link.delay_recheck.enabled &&
       config.link.delay_recheck.on_unstable == link::LinkConfig::DelayRecheck::OnUnstable::kPassivity &&
-      config.passivity.mode == control::PassivityMode::kOff && !(config.passivity.max_damping_Ns_per_m.array() > 0.0).any()) {
+      config.passivity.mode == control::PassivityMode::kOff &&
+      !(config.passivity.max_damping_Ns_per_m.array() > 0.0).any()) {
     map.self().Fail(
         "link.delay_recheck.on_unstable passivity switches the passivity controller on at run time: give it its "
         "bound, passivity.max_damping_Ns_per_m (N·s/m per DOF, > 0; docs/stability.md), with passivity.mode off");

@@ -234,8 +234,8 @@ void ApplyDelayRecheck(TeleopNode& node, DelayRecheckState& state, const config:
     }
   }
   if (action.coupling_unstable) {
-    if (state.on_unstable == OnUnstable::kPassivity &&
-        state.configured_passivity == control::PassivityMode::kOff && !state.passivity_switched_on) {
+    if (state.on_unstable == OnUnstable::kPassivity && state.configured_passivity == control::PassivityMode::kOff &&
+        !state.passivity_switched_on) {
       if (node.RequestPassivityMode(control::PassivityMode::kObserver, Event::Kind::kDelayRecheck,
                                     node.fixture_stiffness_N_per_m(),
                                     static_cast<std::uint16_t>(Detail::kPassivityOn))) {

@@ -49,7 +49,8 @@ struct LinkConfig {
     double margin = 0.9;                   ///< The new fixture stiffness is this × the limit at the measured delay.
     double max_force_rate_N_per_s = 20.0;  ///< The ramp's force rate at max_penetration_m.
     double max_penetration_m = 0.01;       ///< The penetration the ramp's force rate is bounded at.
-    OnUnstable on_unstable = OnUnstable::kEvent;  ///< No fixture is stable at the measured delay: event, decouple, passivity.
+    OnUnstable on_unstable =
+        OnUnstable::kEvent;  ///< No fixture is stable at the measured delay: event, decouple, passivity.
   } delay_recheck{};
   /// `link.security` (docs/security.md): psk on UDP; CAN accepts only insecure (no room for a tag per frame).
   transport::LinkSecurityConfig security{};

@@ -51,12 +51,12 @@ struct Event {
 
 /// What a kDelayRecheck event says.
 enum class DelayRecheckDetail : std::uint16_t {
-  kSlower = 0,            ///< The link got slower: the fixture ramps down to the limit at the measured delay.
-  kRecovered = 1,         ///< The link recovered: the fixture ramps back to the configured stiffness.
-  kCouplingUnstable = 2,  ///< No fixture is stable at the measured delay; link.delay_recheck.on_unstable: event.
-  kDecoupled = 3,         ///< ... on_unstable: decouple: the command clutch is pressed.
-  kFailed = 4,            ///< The re-check or the node refused (the log says why); nothing changed.
-  kPassivityOn = 5,       ///< ... on_unstable: passivity: the passivity controller switched on (observer).
+  kSlower = 0,             ///< The link got slower: the fixture ramps down to the limit at the measured delay.
+  kRecovered = 1,          ///< The link recovered: the fixture ramps back to the configured stiffness.
+  kCouplingUnstable = 2,   ///< No fixture is stable at the measured delay; link.delay_recheck.on_unstable: event.
+  kDecoupled = 3,          ///< ... on_unstable: decouple: the command clutch is pressed.
+  kFailed = 4,             ///< The re-check or the node refused (the log says why); nothing changed.
+  kPassivityOn = 5,        ///< ... on_unstable: passivity: the passivity controller switched on (observer).
   kPassivityRestored = 6,  ///< The coupling is stable again at the measured delay: passivity back to its config.
 };
 

@@ -39,7 +39,8 @@ struct Changes {
   GainRamp gains;
   bool has_plane = false;
   PlaneMove plane;
-  bool has_passivity = false;  ///< The passivity controller's mode changes (the delay re-check, on_unstable: passivity).
+  bool has_passivity =
+      false;  ///< The passivity controller's mode changes (the delay re-check, on_unstable: passivity).
   control::PassivityMode passivity_mode = control::PassivityMode::kOff;
 };
 
