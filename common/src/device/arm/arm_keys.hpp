@@ -394,6 +394,7 @@ inline const auto& All() {
                                 kBaseLink,
                                 kToolLink,
                                 kToolOffset,
+                                kWorkspaceOrigin,
                                 kGravity,
                                 kOrientation,
                                 kOrientationStiffness,
