@@ -27,12 +27,7 @@ DeviceBackend CobotBackend() {
       {"virtual_mass_kg",
        "1/K1 of the virtual caster (eq 2) (kg): equal to cart_mass_kg (the default) or refused, one mass in every "
        "direction (unicycle only: the bicycle's is its plate mass)"},
-      {"initial_position_m", "start position [x, y] (m); default [0, 0]"},
-      {"initial_heading_deg", "start heading (deg from +x); default 0"},
-      {"operator", "simulated operator (master without a human)"},
-      {"bicycle", "bicycle cobot plate (kind: bicycle)"},
       {"bicycle.hold_heading_deg", "angular constraint: the wheels hold the plate's θ at this (deg); default none"},
-      {"fieldbus", "the real rig's CAN bus, steering drive and sensor node (rig: fieldbus only)"},
       {"fieldbus.can", "the bus: medium, interface or bus"},
   };
   for (const fieldbus::CanPortKey& key : fieldbus::kCanPortKeys) {

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "cobot_backend_private.hpp"
 #include "cobot_keys.hpp"
@@ -21,7 +22,7 @@ using config::NonNegative;
 using config::Positive;
 
 void ReadOperator(const Field& f, CobotOperatorScript& op) {
-  const Map map(f, {"speed_m_per_s", "direction_deg", "then_at_s", "then_direction_deg", "max_force_N"});
+  const Map map(f, config::KeysUnder(keys::All(), "operator."));
   op.enabled = true;
   op.speed_m_per_s = config::ReadNumber(map, keys::kOperatorSpeed);
   op.direction_deg = config::ReadNumber(map, keys::kOperatorDirection);
@@ -31,8 +32,9 @@ void ReadOperator(const Field& f, CobotOperatorScript& op) {
 }
 
 void ReadBicycle(const Field& f, CobotBackendConfig& c) {
-  const Map map(f, {"half_wheelbase_m", "plate_mass_kg", "plate_inertia_kgm2", "singularity_threshold",
-                    "singularity_guard", "hold_heading_deg", "heading_bandwidth_per_s"});
+  std::vector<std::string> names = config::KeysUnder(keys::All(), "bicycle.");
+  names.emplace_back("hold_heading_deg");  // absent: no heading constraint (not in the table: it has no default)
+  const Map map(f, names);
   c.bicycle.geometry.half_wheelbase_m = config::ReadNumber(map, keys::kHalfWheelbase);
   c.bicycle.plate_mass_kg = config::ReadNumber(map, keys::kPlateMass);
   c.bicycle.plate_inertia_kgm2 = config::ReadNumber(map, keys::kPlateInertia);
@@ -143,6 +145,98 @@ void ReadFieldbus(const Field& f, CobotBackendConfig& c) {
 
 }  // namespace
 
+/// The plant, its sensors and the virtual-wall controller: the top-level keys with a number, a word or true/false.
+/// Returns τ of the steering-velocity loop (K2 comes from it once the plant is known).
+double ReadPlantAndController(const Map& map, CobotBackendConfig& c) {
+  UnicyclePlantConfig& p = c.unicycle.plant;
+  CobotSensorConfig& s = c.unicycle.sensors;
+  VirtualWallConfig& w = c.unicycle.controller;
+  c.kind = config::ReadChoiceAs<CobotBackendConfig::Kind>(map, keys::kKind);
+  p.cart_mass_kg = config::ReadNumber(map, keys::kCartMass);
+  p.rolling_damping_Ns_per_m = config::ReadNumber(map, keys::kRollingDamping);
+  p.steering_inertia_kgm2 = config::ReadNumber(map, keys::kSteeringInertia);
+  p.steering_damping_Nms_per_rad = config::ReadNumber(map, keys::kSteeringDamping);
+  p.max_steering_torque_Nm = config::ReadNumber(map, keys::kMaxSteeringTorque);
+  p.cornering_stiffness_N_per_rad = config::ReadNumber(map, keys::kCorneringStiffness);
+  p.brake_max_force_N = config::ReadNumber(map, keys::kBrakeMaxForce);
+  p.friction_coefficient = config::ReadNumber(map, keys::kFrictionCoefficient);
+  p.normal_load_N = config::ReadNumber(map, keys::kNormalLoad);
+  s.wheel_radius_m = config::ReadNumber(map, keys::kWheelRadius);
+  s.wheel_encoder_counts_per_rev = config::ReadInteger(map, keys::kWheelEncoderCounts);
+  s.steering_encoder_counts_per_rev = config::ReadInteger(map, keys::kSteeringEncoderCounts);
+  s.position_resolution_m = config::ReadNumber(map, keys::kPositionResolution);
+  s.force_resolution_N = config::ReadNumber(map, keys::kForceResolution);
+  // One mass in every direction (as the bicycle): along the wheel the operator feels the cart itself, so the caster
+  // asks for the same mass across it (eq 2 with 1/K1 = m, above the speed floor).
+  w.caster.k1_per_kg = 1.0 / p.cart_mass_kg;
+  w.caster.speed_floor_m_per_s = config::ReadNumber(map, keys::kSpeedFloor);
+  w.tracker.lookahead_m = config::ReadNumber(map, keys::kLookahead);
+  w.tracker.gain_form = config::ReadChoiceAs<ConstraintTrackerConfig::GainForm>(map, keys::kGainForm);
+  w.tracker.p_gain_scale = config::ReadNumber(map, keys::kPGainScale);
+  w.tracker.theta_gain_scale = config::ReadNumber(map, keys::kThetaGainScale);
+  w.tracker.integral_gain_per_m3 = config::ReadNumber(map, keys::kIntegralGain);
+  w.overlay_enabled = config::ReadBool(map, keys::kOverlay);
+  w.overlay_min_radius_m = config::ReadNumber(map, keys::kOverlayMinRadius);
+  w.release_force_N = config::ReadNumber(map, keys::kReleaseForce);
+  w.guard.action = config::ReadChoiceAs<StabilityGuardConfig::Action>(map, keys::kStabilityAction);
+  w.guard.margin = config::ReadNumber(map, keys::kStabilityMargin);
+  c.contact_force_threshold_N = config::ReadNumber(map, keys::kContactForceThreshold);
+  const Eigen::Vector2d xy = config::ReadPair(map, keys::kInitialPosition);
+  c.initial.position_m = {xy.x(), xy.y()};
+  c.initial.heading_rad = config::ReadNumber(map, keys::kInitialHeading) * config::kDeg;
+  return config::ReadNumber(map, keys::kSteeringTimeConstant);
+}
+
+/// virtual_mass_kg: refused for the bicycle (its virtual mass is its plate's), equal to cart_mass_kg for the unicycle.
+void CheckKind(const Map& map, const CobotBackendConfig& c) {
+  const double cart_mass_kg = c.unicycle.plant.cart_mass_kg;
+  if (c.kind == CobotBackendConfig::Kind::kBicycle) {
+    if (auto v = map.Optional("virtual_mass_kg")) {
+      v->Fail(
+          "not for kind: bicycle; its virtual mass is bicycle.plate_mass_kg: along its wheels the operator feels the "
+          "plate's own mass, so the caster must ask for the same mass across them or force and acceleration are not "
+          "collinear (Colgate et al. §3.1: a point mass)");
+    }
+    return;
+  }
+  if (auto v = map.Optional(keys::kBicycleSection.key)) v->Fail("only for kind: bicycle");
+  if (auto v = map.Optional("virtual_mass_kg")) {
+    const double mass_kg = Positive(*v, "kg");
+    if (std::abs(mass_kg - cart_mass_kg) > 1e-9 * cart_mass_kg) {
+      v->Fail("must equal cart_mass_kg (" + std::to_string(cart_mass_kg) +
+              " kg; or leave it out): along the wheel the operator feels the cart's own mass, so a different "
+              "virtual mass across it makes force and acceleration not collinear (Colgate et al. §3.1: a point "
+              "mass; the bicycle refuses the key for the same reason)");
+    }
+  }
+}
+
+/// rig: fieldbus reads the fieldbus section (a unicycle, no simulated operator, a wheel encoder); rig: simulated
+/// refuses it.
+void ReadRig(const Map& map, CobotBackendConfig& c) {
+  const UnicyclePlantConfig& p = c.unicycle.plant;
+  const CobotSensorConfig& s = c.unicycle.sensors;
+  c.rig = config::ReadChoiceAs<CobotBackendConfig::Rig>(map, keys::kRig);
+  if (c.rig != CobotBackendConfig::Rig::kFieldbus) {
+    if (auto v = map.Optional(keys::kFieldbusSection.key)) v->Fail("only for rig: fieldbus");
+    return;
+  }
+  const Field rig = map.Required(keys::kRig.key);
+  if (c.kind != CobotBackendConfig::Kind::kUnicycle) {
+    rig.Fail("the fieldbus rig is a unicycle cobot (one steering drive); kind bicycle is simulated only");
+  }
+  if (auto v = map.Optional(keys::kOperatorSection.key)) {
+    v->Fail("only for rig: simulated (a real rig has a human operator)");
+  }
+  if (s.wheel_encoder_counts_per_rev < 1) {
+    map.Required(keys::kWheelEncoderCounts.key).Fail("the fieldbus rig needs the wheel encoder's counts (>= 1)");
+  }
+  ReadFieldbus(map.Required(keys::kFieldbusSection.key), c);
+  c.fieldbus.sensors.wheel_radius_m = s.wheel_radius_m;
+  c.fieldbus.sensors.wheel_counts_per_rev = s.wheel_encoder_counts_per_rev;
+  c.fieldbus.sensors.has_brake = p.brake_max_force_N > 0.0;
+}
+
 CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
   if (role == Role::kSlave) {
     const std::string why =
@@ -156,120 +250,17 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
   CobotBackendConfig c;
   double tau_s = keys::kSteeringTimeConstant.default_value;
   if (section != nullptr) {
-    const Map map(*section, {"kind",
-                             "cart_mass_kg",
-                             "rolling_damping_Ns_per_m",
-                             "steering_inertia_kgm2",
-                             "steering_damping_Nms_per_rad",
-                             "max_steering_torque_Nm",
-                             "cornering_stiffness_N_per_rad",
-                             "brake_max_force_N",
-                             "friction_coefficient",
-                             "normal_load_N",
-                             "wheel_radius_m",
-                             "wheel_encoder_counts_per_rev",
-                             "steering_encoder_counts_per_rev",
-                             "position_resolution_m",
-                             "force_resolution_N",
-                             "steering_time_constant_s",
-                             "virtual_mass_kg",
-                             "speed_floor_m_per_s",
-                             "lookahead_m",
-                             "gain_form",
-                             "p_gain_scale",
-                             "theta_gain_scale",
-                             "integral_gain_per_m3",
-                             "overlay",
-                             "overlay_min_radius_m",
-                             "release_force_N",
-                             "stability_action",
-                             "stability_margin",
-                             "contact_force_threshold_N",
-                             "initial_position_m",
-                             "initial_heading_deg",
-                             "operator",
-                             "bicycle",
-                             "rig",
-                             "fieldbus"});
-    UnicyclePlantConfig& p = c.unicycle.plant;
-    CobotSensorConfig& s = c.unicycle.sensors;
-    VirtualWallConfig& w = c.unicycle.controller;
-    c.kind = config::ReadChoiceAs<CobotBackendConfig::Kind>(map, keys::kKind);
-    p.cart_mass_kg = config::ReadNumber(map, keys::kCartMass);
-    p.rolling_damping_Ns_per_m = config::ReadNumber(map, keys::kRollingDamping);
-    p.steering_inertia_kgm2 = config::ReadNumber(map, keys::kSteeringInertia);
-    p.steering_damping_Nms_per_rad = config::ReadNumber(map, keys::kSteeringDamping);
-    p.max_steering_torque_Nm = config::ReadNumber(map, keys::kMaxSteeringTorque);
-    p.cornering_stiffness_N_per_rad = config::ReadNumber(map, keys::kCorneringStiffness);
-    p.brake_max_force_N = config::ReadNumber(map, keys::kBrakeMaxForce);
-    p.friction_coefficient = config::ReadNumber(map, keys::kFrictionCoefficient);
-    p.normal_load_N = config::ReadNumber(map, keys::kNormalLoad);
-    s.wheel_radius_m = config::ReadNumber(map, keys::kWheelRadius);
-    s.wheel_encoder_counts_per_rev = config::ReadInteger(map, keys::kWheelEncoderCounts);
-    s.steering_encoder_counts_per_rev = config::ReadInteger(map, keys::kSteeringEncoderCounts);
-    s.position_resolution_m = config::ReadNumber(map, keys::kPositionResolution);
-    s.force_resolution_N = config::ReadNumber(map, keys::kForceResolution);
-    tau_s = config::ReadNumber(map, keys::kSteeringTimeConstant);
-    // One mass in every direction (as the bicycle): along the wheel the operator feels the cart itself, so the caster
-    // asks for the same mass across it (eq 2 with 1/K1 = m, above the speed floor).
-    w.caster.k1_per_kg = 1.0 / p.cart_mass_kg;
-    w.caster.speed_floor_m_per_s = config::ReadNumber(map, keys::kSpeedFloor);
-    w.tracker.lookahead_m = config::ReadNumber(map, keys::kLookahead);
-    w.tracker.gain_form = config::ReadChoiceAs<ConstraintTrackerConfig::GainForm>(map, keys::kGainForm);
-    w.tracker.p_gain_scale = config::ReadNumber(map, keys::kPGainScale);
-    w.tracker.theta_gain_scale = config::ReadNumber(map, keys::kThetaGainScale);
-    w.tracker.integral_gain_per_m3 = config::ReadNumber(map, keys::kIntegralGain);
-    w.overlay_enabled = config::ReadBool(map, keys::kOverlay);
-    w.overlay_min_radius_m = config::ReadNumber(map, keys::kOverlayMinRadius);
-    w.release_force_N = config::ReadNumber(map, keys::kReleaseForce);
-    w.guard.action = config::ReadChoiceAs<StabilityGuardConfig::Action>(map, keys::kStabilityAction);
-    w.guard.margin = config::ReadNumber(map, keys::kStabilityMargin);
-    c.contact_force_threshold_N = config::ReadNumber(map, keys::kContactForceThreshold);
-    if (auto v = map.Optional("initial_position_m")) {
-      const DofVector xy = config::ReadDofVector(*v, 2, Finite);
-      c.initial.position_m = {xy[0], xy[1]};
-    }
-    if (auto v = map.Optional("initial_heading_deg")) c.initial.heading_rad = Finite(*v) * config::kDeg;
-    if (auto v = map.Optional("operator")) ReadOperator(*v, c.op);
-    if (auto v = map.Optional("bicycle")) ReadBicycle(*v, c);
-    if (c.kind == CobotBackendConfig::Kind::kBicycle) {
-      if (auto v = map.Optional("virtual_mass_kg")) {
-        v->Fail(
-            "not for kind: bicycle; its virtual mass is bicycle.plate_mass_kg: along its wheels the operator feels the "
-            "plate's own mass, so the caster must ask for the same mass across them or force and acceleration are not "
-            "collinear (Colgate et al. §3.1: a point mass)");
-      }
-    } else {
-      if (auto v = map.Optional("bicycle")) v->Fail("only for kind: bicycle");
-      if (auto v = map.Optional("virtual_mass_kg")) {
-        const double mass_kg = Positive(*v, "kg");
-        if (std::abs(mass_kg - p.cart_mass_kg) > 1e-9 * p.cart_mass_kg) {
-          v->Fail("must equal cart_mass_kg (" + std::to_string(p.cart_mass_kg) +
-                  " kg; or leave it out): along the wheel the operator feels the cart's own mass, so a different "
-                  "virtual mass across it makes force and acceleration not collinear (Colgate et al. §3.1: a point "
-                  "mass; the bicycle refuses the key for the same reason)");
-        }
-      }
-    }
-    c.rig = config::ReadChoiceAs<CobotBackendConfig::Rig>(map, keys::kRig);
-    if (c.rig == CobotBackendConfig::Rig::kFieldbus) {
-      const Field rig = map.Required("rig");
-      if (c.kind != CobotBackendConfig::Kind::kUnicycle) {
-        rig.Fail("the fieldbus rig is a unicycle cobot (one steering drive); kind bicycle is simulated only");
-      }
-      if (auto v = map.Optional("operator")) v->Fail("only for rig: simulated (a real rig has a human operator)");
-      if (s.wheel_encoder_counts_per_rev < 1) {
-        map.Required("wheel_encoder_counts_per_rev").Fail("the fieldbus rig needs the wheel encoder's counts (>= 1)");
-      }
-      ReadFieldbus(map.Required("fieldbus"), c);
-      c.fieldbus.sensors.wheel_radius_m = s.wheel_radius_m;
-      c.fieldbus.sensors.wheel_counts_per_rev = s.wheel_encoder_counts_per_rev;
-      c.fieldbus.sensors.has_brake = p.brake_max_force_N > 0.0;
-    } else if (auto v = map.Optional("fieldbus")) {
-      v->Fail("only for rig: fieldbus");
-    }
-    if (w.guard.action == StabilityGuardConfig::Action::kBrake && p.brake_max_force_N <= 0.0) {
-      map.Required("stability_action").Fail("brake needs a wheel brake: set brake_max_force_N > 0");
+    std::vector<std::string> names = config::KeysUnder(keys::All(), "");
+    names.emplace_back("virtual_mass_kg");  // no default of its own: equal to cart_mass_kg or refused (CheckKind)
+    const Map map(*section, names);
+    tau_s = ReadPlantAndController(map, c);
+    if (auto v = map.Optional(keys::kOperatorSection.key)) ReadOperator(*v, c.op);
+    if (auto v = map.Optional(keys::kBicycleSection.key)) ReadBicycle(*v, c);
+    CheckKind(map, c);
+    ReadRig(map, c);
+    if (c.unicycle.controller.guard.action == StabilityGuardConfig::Action::kBrake &&
+        c.unicycle.plant.brake_max_force_N <= 0.0) {
+      map.Required(keys::kStabilityAction.key).Fail("brake needs a wheel brake: set brake_max_force_N > 0");
     }
   }
   const int expected = c.kind == CobotBackendConfig::Kind::kUnicycle ? 2 : 3;

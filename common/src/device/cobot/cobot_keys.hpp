@@ -15,6 +15,7 @@ namespace teleop::device::cobot::keys {
 
 using config::KeyRange;
 using config::KeySpec;
+using config::KeyType;
 
 inline const CobotBackendConfig kDefaults{};
 
@@ -230,6 +231,31 @@ inline const KeySpec kHeadingBandwidth{.key = "bicycle.heading_bandwidth_per_s",
                                        .low = 0.1,
                                        .high = 20.0};
 
+inline const KeySpec kInitialPosition{
+    .key = "initial_position_m",
+    .type = KeyType::kPair,
+    .unit = "m",
+    .meaning = "Start position [x, y] (odometry starts here on the fieldbus rig).",
+    .default_pair = {kDefaults.initial.position_m.x(), kDefaults.initial.position_m.y()}};
+inline const KeySpec kInitialHeading{.key = "initial_heading_deg",
+                                     .unit = "°",
+                                     .default_value = kDefaults.initial.heading_rad / config::kDeg,
+                                     .meaning = "Start heading, from +x."};
+inline const KeySpec kOperatorSection{
+    .key = "operator",
+    .type = KeyType::kSection,
+    .meaning =
+        "A simulated operator (a master without a human; rig: simulated): the operator.* keys "
+        "(`device.cobot.operator`)."};
+inline const KeySpec kBicycleSection{
+    .key = "bicycle",
+    .type = KeyType::kSection,
+    .meaning = "The bicycle cobot's plate (kind: bicycle): the bicycle.* keys (`device.cobot.bicycle`)."};
+inline const KeySpec kFieldbusSection{
+    .key = "fieldbus",
+    .type = KeyType::kSection,
+    .meaning = "The real rig's CAN bus, steering drive and sensor node (rig: fieldbus; `device.cobot.fieldbus`)."};
+
 /// Every key of the table, built at its first use (after static initialisation: its elements are dynamically
 /// initialised constants, and a copy made during static initialisation could read one not yet initialised).
 inline const auto& All() {
@@ -272,7 +298,12 @@ inline const auto& All() {
                                 kPlateInertia,
                                 kSingularityThreshold,
                                 kHeadingBandwidth,
-                                kSingularityGuard};
+                                kSingularityGuard,
+                                kInitialPosition,
+                                kInitialHeading,
+                                kOperatorSection,
+                                kBicycleSection,
+                                kFieldbusSection};
   return table;
 }
 
