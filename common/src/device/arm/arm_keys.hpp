@@ -388,6 +388,101 @@ inline const KeySpec kSweepBucket = [] {
   return s;
 }();
 
+// The `mit` section's keys with a value (the can bus section and the joints list are read apart): each default is
+// MitJointBusConfig's.
+inline const MitJointBusConfig kMit{};
+inline const KeySpec kMitSection{.key = "mit",
+                                 .type = KeyType::kSection,
+                                 .meaning = "MIT-mode CAN motors (actuators: mit): the mit.* keys (`device.arm.mit`)."};
+/// `mit.bus`: 0 the simulated MIT arm in this process, 1 the `can` section's bus.
+inline const KeySpec kMitBus{.key = "mit.bus",
+                             .type = KeyType::kChoice,
+                             .required = true,
+                             .meaning =
+                                 "simulated (the simulated arm of `simulation` on simulated DM-J motors, in this "
+                                 "process) or can (the `can` section's bus).",
+                             .choices = {"simulated", "can"}};
+inline const KeySpec kMitFd{.key = "mit.fd",
+                            .type = KeyType::kBool,
+                            .meaning = "CAN FD frames with the bit-rate switch.",
+                            .default_bool = kMit.fd};
+inline const KeySpec kMitNominalBitrate{.key = "mit.nominal_bitrate_bit_per_s",
+                                        .unit = "bit/s",
+                                        .range = KeyRange::kPositive,
+                                        .default_value = kMit.nominal_bitrate_bit_per_s,
+                                        .meaning = "The bus-load budget's arbitration bit rate."};
+inline const KeySpec kMitDataBitrate{.key = "mit.data_bitrate_bit_per_s",
+                                     .unit = "bit/s",
+                                     .range = KeyRange::kPositive,
+                                     .default_value = kMit.data_bitrate_bit_per_s,
+                                     .meaning = "The bus-load budget's FD data bit rate."};
+inline const KeySpec kMitMaxBusLoad{.key = "mit.max_bus_load",
+                                    .range = KeyRange::kInRange,
+                                    .default_value = kMit.max_bus_load,
+                                    .meaning = "The budget: a rig above this fraction of the bus is refused.",
+                                    .low = 0.01,
+                                    .high = 1.0};
+inline const KeySpec kMitRate{.key = "mit.rate_hz",
+                              .unit = "Hz",
+                              .range = KeyRange::kInRange,
+                              .default_value = kMit.rate_hz,
+                              .meaning = "The cycle rate the budget is computed at: set it to the process's rate_hz.",
+                              .low = 1.0,
+                              .high = 100000.0};
+/// `mit.control`: the word's index is MitControl.
+inline const KeySpec kMitControl{
+    .key = "mit.control",
+    .type = KeyType::kChoice,
+    .meaning =
+        "torque (Kp = Kd = 0, the arm's torque as each motor's feed-forward) or pd (the motor's own PD with "
+        "each joint's kp_Nm_per_rad, kd_Nms_per_rad, plus the torque).",
+    .choices = {"torque", "pd"},
+    .default_choice = static_cast<int>(kMit.control)};
+inline const KeySpec kMitMissingLimit{.key = "mit.missing_limit",
+                                      .type = KeyType::kInteger,
+                                      .range = KeyRange::kInRange,
+                                      .default_value = static_cast<double>(kMit.missing_limit),
+                                      .meaning = "Exchanges in a row without a reply that fault the joint.",
+                                      .low = 1,
+                                      .high = 1000};
+inline const KeySpec kMitAnswerTimeout{.key = "mit.answer_timeout_ms",
+                                       .unit = "ms",
+                                       .range = KeyRange::kInRange,
+                                       .default_value = kMit.answer_timeout_ms,
+                                       .meaning = "Set-up: how long a register read, enable or disable waits.",
+                                       .low = 1.0,
+                                       .high = 10000.0};
+inline const KeySpec kMitMotorTimeout{
+    .key = "mit.motor_timeout_ms",
+    .unit = "ms",
+    .range = KeyRange::kInRange,
+    .default_value = kMit.motor_timeout_ms,
+    .meaning =
+        "Each motor's own CAN timeout (register 9), written at configure: a dead host leaves the motor "
+        "disabled; 0 = off.",
+    .low = 0.0,
+    .high = 3000.0};
+inline const KeySpec kMitReplyWait{.key = "mit.reply_wait_us",
+                                   .unit = "µs",
+                                   .range = KeyRange::kInRange,
+                                   .default_value = kMit.reply_wait_us,
+                                   .meaning = "bus: can: how long each exchange waits for its replies.",
+                                   .low = 0.0,
+                                   .high = 10000.0};
+inline const KeySpec kMitTemperatureWarning{
+    .key = "mit.temperature_warning_C",
+    .unit = "°C",
+    .default_value = kMit.temperature_warning_C,
+    .meaning = "MOS or rotor temperature at or above which the arm reports kArmWarningTemperature."};
+inline const KeySpec kMitTemperatureFault{.key = "mit.temperature_fault_C",
+                                          .unit = "°C",
+                                          .default_value = kMit.temperature_fault_C,
+                                          .meaning = "MOS or rotor temperature at or above which the joint faults."};
+inline const KeySpec kMitModelsFile{
+    .key = "mit.models_file",
+    .type = KeyType::kText,
+    .meaning = "The motor models table (beside this config); empty: the shipped deploy/motors/mit-models.yaml."};
+
 /// Every key of the table, built at its first use (after static initialisation).
 inline const auto& All() {
   static const std::array table{kUrdf,
@@ -426,7 +521,22 @@ inline const auto& All() {
                                 kSweepSamples,
                                 kSweepDistance,
                                 kSweepSeed,
-                                kSweepBucket};
+                                kSweepBucket,
+                                kMitSection,
+                                kMitBus,
+                                kMitFd,
+                                kMitNominalBitrate,
+                                kMitDataBitrate,
+                                kMitMaxBusLoad,
+                                kMitRate,
+                                kMitControl,
+                                kMitMissingLimit,
+                                kMitAnswerTimeout,
+                                kMitMotorTimeout,
+                                kMitReplyWait,
+                                kMitTemperatureWarning,
+                                kMitTemperatureFault,
+                                kMitModelsFile};
   return table;
 }
 
