@@ -1,6 +1,6 @@
 #pragma once
 
-// The `device.hybrid` keys (all but fieldbus.*, hybrid_fieldbus_section.cpp), each written once
+// The `device.hybrid` keys (all but fieldbus.can, fieldbus.drives and fieldbus.modbus), each written once
 // (teleop/config/key_table.hpp): the reader (hybrid_backend.cpp), `--list-devices` and the rows of
 // docs/configuration.md come from this table; each default is the member initialiser of the rig's config structs
 // (hybrid_rig.hpp, motor_model.hpp, particle_brake.hpp, rig_sensing.hpp, five_bar.hpp, wall_model.hpp,
@@ -408,6 +408,86 @@ inline const KeySpec kAllocationBrakeMismatch{
         "The simulated rig's allocation believes its brake faster by this fraction and stronger by half of it (0.2: "
         "20 % faster, 10 % stronger); at most 0.9, checked at start."};
 
+// `fieldbus` (rig: fieldbus): its keys with a value and its force_sensor section (the can bus section, the drives
+// list and the modbus section are read apart, hybrid_fieldbus_section.cpp).
+inline const HybridFieldbusConfig kFieldbus{};
+inline const fieldbus::CanForceSensorConfig kCanSensor{};
+inline const KeySpec kFieldbusCyclePeriod{.key = "fieldbus.cycle_period_ms",
+                                          .unit = "ms",
+                                          .range = KeyRange::kInRange,
+                                          .default_value = fieldbus::Cia402DriveConfig{}.cycle_period_s * 1e3,
+                                          .meaning = "Written to the drives' 0x1006; make it 1000 / rate_hz.",
+                                          .low = 0.1,
+                                          .high = 100.0};
+inline const KeySpec kFieldbusSyncCobId{
+    .key = "fieldbus.sync_cob_id",
+    .type = KeyType::kInteger,
+    .range = KeyRange::kInRange,
+    .default_value = static_cast<double>(kFieldbus.sync_cob_id),
+    .meaning =
+        "The one SYNC per cycle the device sends in its bus exchange, after draining the previous SYNC's "
+        "TPDOs: every SYNC follows both drives' RPDOs of the previous cycle, so both apply their torque on it.",
+    .low = 1,
+    .high = 0x7FF};
+inline const KeySpec kFieldbusActivateTimeout{
+    .key = "fieldbus.activate_timeout_ms",
+    .unit = "ms",
+    .range = KeyRange::kInRange,
+    .default_value = kFieldbus.activate_timeout_ms,
+    .meaning =
+        "At Activate: wait for the amplifier's first poll, and SYNCs until both drives and the CAN sensor "
+        "answer.",
+    .low = 1.0,
+    .high = 3600e3};
+inline const KeySpec kFieldbusForceSensorSection{
+    .key = "fieldbus.force_sensor",
+    .type = KeyType::kSection,
+    .required = true,
+    .meaning = "The handle force sensor: the fieldbus.force_sensor.* keys (`device.hybrid.fieldbus.force_sensor`)."};
+/// `fieldbus.force_sensor.bus`: the word's index is ForceSensorBus.
+inline const KeySpec kForceSensorBus{
+    .key = "fieldbus.force_sensor.bus",
+    .type = KeyType::kChoice,
+    .required = true,
+    .meaning =
+        "Where the handle sensor is read: the amplifier's inputs force_x_N, force_y_N (no other key), or a "
+        "CAN node on the drives' bus.",
+    .choices = {"modbus", "can"}};
+inline const KeySpec kCanSensorCobId{
+    .key = "fieldbus.force_sensor.cob_id",
+    .type = KeyType::kInteger,
+    .range = KeyRange::kInRange,
+    .required = true,
+    .meaning = "The sensor's frame: F_x, F_y little-endian, TPDO-style (fieldbus/can_force_sensor.hpp); not 0x080.",
+    .low = 1,
+    .high = 0x7FF,
+    .when = "can"};
+/// `fieldbus.force_sensor.encoding`: the word's index is fieldbus::ForceSensorEncoding.
+inline const KeySpec kCanSensorEncoding{
+    .key = "fieldbus.force_sensor.encoding",
+    .type = KeyType::kChoice,
+    .meaning = "Per axis; the most negative value reads as NaN (overload/error: kFaultNonFiniteSensor).",
+    .choices = {"int16", "int32"},
+    .default_choice = static_cast<int>(kCanSensor.encoding),
+    .when = "can"};
+inline const KeySpec kCanSensorScale{.key = "fieldbus.force_sensor.scale_N_per_count",
+                                     .unit = "N",
+                                     .required = true,
+                                     .meaning = "N per raw count; not 0 (negative flips both axes).",
+                                     .when = "can"};
+inline const KeySpec kCanSensorOffset{.key = "fieldbus.force_sensor.offset_N",
+                                      .type = KeyType::kPair,
+                                      .unit = "N",
+                                      .meaning = "N at raw 0 (bias), [x, y].",
+                                      .default_pair = {kCanSensor.offset_N[0], kCanSensor.offset_N[1]},
+                                      .when = "can"};
+inline const KeySpec kCanSensorStale{.key = "fieldbus.force_sensor.stale_after_ms",
+                                     .unit = "ms",
+                                     .range = KeyRange::kPositive,
+                                     .default_value = kCanSensor.stale_after_ms,
+                                     .meaning = "No frame for this long: the safe state.",
+                                     .when = "can"};
+
 /// Every key of the table, built at its first use (after static initialisation: its elements are dynamically
 /// initialised constants, and a copy made during static initialisation could read one not yet initialised).
 inline const auto& All() {
@@ -480,7 +560,17 @@ inline const auto& All() {
                                 kEnvironmentNormal,
                                 kEnvironmentStiffness,
                                 kEnvironmentDamping,
-                                kFieldbusSection};
+                                kFieldbusSection,
+                                kFieldbusCyclePeriod,
+                                kFieldbusSyncCobId,
+                                kFieldbusActivateTimeout,
+                                kFieldbusForceSensorSection,
+                                kForceSensorBus,
+                                kCanSensorCobId,
+                                kCanSensorEncoding,
+                                kCanSensorScale,
+                                kCanSensorOffset,
+                                kCanSensorStale};
   return table;
 }
 
