@@ -81,8 +81,14 @@ TEST(CobotKeys, TheTablesDefaultsAreTheConfigsAndTheReadersWhenAbsent) {
   const CobotBackendConfig start = Read("{initial_position_m: [0.1, -0.2], initial_heading_deg: 90}");
   EXPECT_EQ(start.initial.position_m, Vec2(0.1, -0.2));
   EXPECT_NEAR(start.initial.heading_rad, std::numbers::pi / 2.0, 1e-12);
-  // 34 with a number, 6 with a word or true/false, initial_position_m and _heading_deg, 3 sections
-  EXPECT_EQ(keys::All().size(), 45U);
+  // 34 with a number, 6 with a word or true/false, initial_position_m and _heading_deg, 3 sections, fieldbus: 2 with
+  // a number and 2 sections, steering 14, sensors 5
+  EXPECT_EQ(keys::All().size(), 68U);
+  const CobotFieldbusConfig bus{};
+  EXPECT_EQ(keys::kSteeringMaxTorque.default_value, bus.steering.drive.max_torque_Nm);
+  EXPECT_EQ(keys::kSteeringHoldStiffness.default_value, bus.steering.hold_stiffness_Nm_per_rad);
+  EXPECT_EQ(keys::kSensorsForceScale.default_value, bus.sensors.force_N_per_unit);
+  EXPECT_EQ(keys::kFirstFramesTimeout.default_value, bus.first_frames_timeout_ms);
   // steering_time_constant_s has no struct member: its default τ = 0.02 s sets K2 = J/τ − b (eq 3c).
   EXPECT_EQ(keys::kSteeringTimeConstant.default_value, 0.02);
   EXPECT_NEAR(read.unicycle.controller.caster.k2_Nms_per_rad,

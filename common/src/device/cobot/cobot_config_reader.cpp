@@ -2,7 +2,9 @@
 // that span keys (dof, role, rig, fieldbus node ids).
 
 #include <cmath>
+#include <initializer_list>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "cobot_backend_private.hpp"
@@ -47,103 +49,88 @@ void ReadBicycle(const Field& f, CobotBackendConfig& c) {
   c.bicycle_caster.heading_bandwidth_per_s = config::ReadNumber(map, keys::kHeadingBandwidth);
 }
 
-std::uint8_t ReadNodeId(const Field& f) { return static_cast<std::uint8_t>(config::IntInRange(f, 1, 127)); }
+/// 1 or -1 (a drive's or an encoder's direction against the model's).
+double ReadSign(const Field& f) {
+  const double sign = Finite(f);
+  if (sign != 1.0 && sign != -1.0) f.Fail("must be 1 or -1, got " + config::Num(sign));
+  return sign;
+}
+
+/// The section's table keys plus `extra` (keys read apart: a direction, a COB-ID with a computed default).
+Map SectionMap(const Field& f, std::string_view prefix, std::initializer_list<const char*> extra) {
+  std::vector<std::string> names = config::KeysUnder(keys::All(), prefix);
+  names.insert(names.end(), extra.begin(), extra.end());
+  return Map(f, names);
+}
 
 void ReadSteering(const Field& f, CobotFieldbusConfig& c) {
-  const Map map(f,
-                {"node_id", "mode", "gear_ratio", "position_rad_per_count", "velocity_rad_per_s_per_unit", "direction",
-                 "rated_torque_Nm", "max_torque_Nm", "offset_deg", "max_angle_jump_rad", "hold_stiffness_Nm_per_rad",
-                 "hold_damping_Nms_per_rad", "heartbeat_period_ms", "heartbeat_timeout_ms", "stale_after_ms"});
+  const Map map = SectionMap(f, "fieldbus.steering.", {"direction"});
+  if (auto v = map.Optional("mode"); v && v->AsString() == "velocity") {
+    v->Fail(
+        "velocity mode (cyclic synchronous velocity, 0x6060 = 9) is not supported by the cobot rig, which steers "
+        "in cyclic synchronous torque (mode 10): the steering-velocity loop of eq 3c runs on the host, "
+        "Γ = K2·(ω_c − ω), so that its time constant τ (steering_time_constant_s) is the one the tracker's eq 10/11 "
+        "bound and its guard use; in mode 9 the drive's own velocity loop would set τ. Use mode: torque");
+  }
+  (void)config::ReadChoice(map, keys::kSteeringMode);  // torque, the only word
   fieldbus::Cia402DriveConfig& d = c.steering.drive;
-  d.node_id = ReadNodeId(map.Required("node_id"));
-  if (auto v = map.Optional("mode")) {
-    const std::string mode = v->AsString();
-    if (mode == "velocity") {
-      v->Fail(
-          "velocity mode (cyclic synchronous velocity, 0x6060 = 9) is not supported by the cobot rig, which steers "
-          "in cyclic synchronous torque (mode 10): the steering-velocity loop of eq 3c runs on the host, "
-          "Γ = K2·(ω_c − ω), so that its time constant τ (steering_time_constant_s) is the one the tracker's eq 10/11 "
-          "bound and its guard use; in mode 9 the drive's own velocity loop would set τ. Use mode: torque");
-    }
-    if (mode != "torque") v->Fail("must be torque, got '" + mode + "'");
-  }
-  if (auto v = map.Optional("gear_ratio")) c.steering.gear_ratio = Positive(*v, "motor rad per steering rad");
-  if (auto v = map.Optional("position_rad_per_count")) d.scaling.position_rad_per_count = Positive(*v, "rad");
-  if (auto v = map.Optional("velocity_rad_per_s_per_unit")) {
-    d.scaling.velocity_rad_per_s_per_unit = Positive(*v, "rad/s");
-  }
-  if (auto v = map.Optional("direction")) {
-    const double sign = Finite(*v);
-    if (sign != 1.0 && sign != -1.0) v->Fail("must be 1 or -1, got " + config::Num(sign));
-    d.scaling.sign = sign;
-  }
-  if (auto v = map.Optional("rated_torque_Nm")) d.scaling.rated_torque_Nm = Positive(*v, "N·m");
-  if (auto v = map.Optional("max_torque_Nm")) d.max_torque_Nm = Positive(*v, "N·m");
-  if (auto v = map.Optional("offset_deg")) c.steering_offset_rad = Finite(*v) * config::kDeg;
-  if (auto v = map.Optional("max_angle_jump_rad")) c.steering.max_angle_jump_rad = Positive(*v, "rad");
-  if (auto v = map.Optional("hold_stiffness_Nm_per_rad"))
-    c.steering.hold_stiffness_Nm_per_rad = Positive(*v, "N·m/rad");
-  if (auto v = map.Optional("hold_damping_Nms_per_rad")) {
-    c.steering.hold_damping_Nms_per_rad = NonNegative(*v, "N·m·s/rad");
-  }
-  if (auto v = map.Optional("heartbeat_period_ms"))
-    d.drive_heartbeat_period_ms = config::InRange(*v, 1.0, 10000.0, "ms");
-  if (auto v = map.Optional("heartbeat_timeout_ms")) d.heartbeat_timeout_ms = config::InRange(*v, 1.0, 60000.0, "ms");
+  d.node_id = static_cast<std::uint8_t>(config::ReadInteger(map, keys::kSteeringNodeId));
+  c.steering.gear_ratio = config::ReadNumber(map, keys::kSteeringGearRatio);
+  d.scaling.position_rad_per_count = config::ReadNumber(map, keys::kSteeringPositionScale);
+  d.scaling.velocity_rad_per_s_per_unit = config::ReadNumber(map, keys::kSteeringVelocityScale);
+  if (auto v = map.Optional("direction")) d.scaling.sign = ReadSign(*v);
+  d.scaling.rated_torque_Nm = config::ReadNumber(map, keys::kSteeringRatedTorque);
+  d.max_torque_Nm = config::ReadNumber(map, keys::kSteeringMaxTorque);
+  c.steering_offset_rad = config::ReadNumber(map, keys::kSteeringOffset) * config::kDeg;
+  c.steering.max_angle_jump_rad = config::ReadNumber(map, keys::kSteeringMaxJump);
+  c.steering.hold_stiffness_Nm_per_rad = config::ReadNumber(map, keys::kSteeringHoldStiffness);
+  c.steering.hold_damping_Nms_per_rad = config::ReadNumber(map, keys::kSteeringHoldDamping);
+  d.drive_heartbeat_period_ms = config::ReadNumber(map, keys::kSteeringHeartbeatPeriod);
+  d.heartbeat_timeout_ms = config::ReadNumber(map, keys::kSteeringHeartbeatTimeout);
   if (d.heartbeat_timeout_ms <= d.drive_heartbeat_period_ms) {
     f.Fail("heartbeat_timeout_ms (" + config::Num(d.heartbeat_timeout_ms) + ") must exceed heartbeat_period_ms (" +
            config::Num(d.drive_heartbeat_period_ms) + ")");
   }
-  if (auto v = map.Optional("stale_after_ms")) d.stale_after_ms = Positive(*v, "ms");
+  d.stale_after_ms = config::ReadNumber(map, keys::kSteeringStale);
 }
 
 void ReadSensors(const Field& f, CobotFieldbusConfig& c) {
-  const Map map(f, {"source", "node_id", "wheel_cob_id", "force_cob_id", "brake_cob_id", "wheel_direction",
-                    "force_N_per_unit", "stale_after_ms", "max_wheel_step_m"});
+  const Map map =
+      SectionMap(f, "fieldbus.sensors.", {"wheel_cob_id", "force_cob_id", "brake_cob_id", "wheel_direction"});
   CobotSensorNodeConfig& s = c.sensors;
-  if (auto v = map.Optional("source")) {
-    const std::string source = v->AsString();
-    if (source == "drive") {
-      v->Fail(
-          "the wheel encoder and the handle force from the steering drive's PDOs are not supported (the CiA 402 "
-          "client maps position, velocity and torque only); use source: node (a separate CAN node)");
-    }
-    if (source != "node") v->Fail("must be node, got '" + source + "'");
+  if (auto v = map.Optional("source"); v && v->AsString() == "drive") {
+    v->Fail(
+        "the wheel encoder and the handle force from the steering drive's PDOs are not supported (the CiA 402 "
+        "client maps position, velocity and torque only); use source: node (a separate CAN node)");
   }
-  s.node_id = ReadNodeId(map.Required("node_id"));
+  (void)config::ReadChoice(map, keys::kSensorsSource);  // node, the only word
+  s.node_id = static_cast<std::uint8_t>(config::ReadInteger(map, keys::kSensorsNodeId));
   const auto cob = [](const Field& e) { return static_cast<std::uint32_t>(config::IntInRange(e, 0x081, 0x7FF)); };
   if (auto v = map.Optional("wheel_cob_id")) s.wheel_cob_id = cob(*v);
   if (auto v = map.Optional("force_cob_id")) s.force_cob_id = cob(*v);
   if (auto v = map.Optional("brake_cob_id")) s.brake_cob_id = cob(*v);
-  if (auto v = map.Optional("wheel_direction")) {
-    const double sign = Finite(*v);
-    if (sign != 1.0 && sign != -1.0) v->Fail("must be 1 or -1, got " + config::Num(sign));
-    s.wheel_sign = sign;
-  }
-  if (auto v = map.Optional("force_N_per_unit")) s.force_N_per_unit = Positive(*v, "N");
-  if (auto v = map.Optional("stale_after_ms")) s.stale_after_ms = Positive(*v, "ms");
-  if (auto v = map.Optional("max_wheel_step_m")) s.max_wheel_step_m = Positive(*v, "m");
+  if (auto v = map.Optional("wheel_direction")) s.wheel_sign = ReadSign(*v);
+  s.force_N_per_unit = config::ReadNumber(map, keys::kSensorsForceScale);
+  s.stale_after_ms = config::ReadNumber(map, keys::kSensorsStale);
+  s.max_wheel_step_m = config::ReadNumber(map, keys::kSensorsMaxWheelStep);
   if (s.WheelCobId() == s.ForceCobId()) f.Fail("the wheel and force TPDOs need different COB-IDs");
 }
 
 void ReadFieldbus(const Field& f, CobotBackendConfig& c) {
-  const Map map(f, {"can", "cycle_period_ms", "steering", "sensors", "first_frames_timeout_ms"});
+  const Map map = SectionMap(f, "fieldbus.", {"can"});
   CobotFieldbusConfig& b = c.fieldbus;
   fieldbus::ReadCanPortSection(map.Required("can"), b.can);
-  if (auto v = map.Optional("cycle_period_ms")) {
-    b.steering.drive.cycle_period_s = config::InRange(*v, 0.125, 100.0, "ms") * 1e-3;
-  }
-  ReadSteering(map.Required("steering"), b);
-  const Field sensors = map.Required("sensors");
+  b.steering.drive.cycle_period_s = config::ReadNumber(map, keys::kFieldbusCyclePeriod) * 1e-3;
+  ReadSteering(map.Required(config::LeafOf(keys::kSteeringSection)), b);
+  const Field sensors = map.Required(config::LeafOf(keys::kSensorsSection));
   ReadSensors(sensors, b);
   if (b.sensors.node_id == b.steering.drive.node_id || b.sensors.node_id == b.steering.drive.host_node_id) {
     sensors.Fail("node_id " + std::to_string(b.sensors.node_id) +
                  " is taken (the steering drive's node id, or the host's heartbeat id " +
                  std::to_string(b.steering.drive.host_node_id) + ")");
   }
-  if (auto v = map.Optional("first_frames_timeout_ms")) b.first_frames_timeout_ms = Positive(*v, "ms");
+  b.first_frames_timeout_ms = config::ReadNumber(map, keys::kFirstFramesTimeout);
 }
-
-}  // namespace
 
 /// The plant, its sensors and the virtual-wall controller: the top-level keys with a number, a word or true/false.
 /// Returns τ of the steering-velocity loop (K2 comes from it once the plant is known).
@@ -236,6 +223,8 @@ void ReadRig(const Map& map, CobotBackendConfig& c) {
   c.fieldbus.sensors.wheel_counts_per_rev = s.wheel_encoder_counts_per_rev;
   c.fieldbus.sensors.has_brake = p.brake_max_force_N > 0.0;
 }
+
+}  // namespace
 
 CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
   if (role == Role::kSlave) {
