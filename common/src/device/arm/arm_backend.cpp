@@ -157,33 +157,26 @@ Cia402JointConfig ReadCia402Joint(const Field& f) {
 }
 
 void ReadCia402(const Field& f, Cia402JointBusConfig& c) {
-  const Map map(
-      f, {"bus", "buses", "nominal_bitrate_bit_per_s", "max_bus_load", "rate_hz", "stale_after_ms",
-          "drive_heartbeat_period_ms", "heartbeat_timeout_ms", "sdo_timeout_ms", "activate_timeout_ms", "joints"});
-  const Field bus = map.Required("bus");
-  const std::string bus_kind = bus.AsString();
-  if (bus_kind == "simulated") {
-    c.simulated = true;
-  } else if (bus_kind == "can") {
-    c.simulated = false;
+  namespace k = arm_keys;
+  std::vector<std::string> names = config::KeysUnder(k::All(), "cia402.");
+  names.insert(names.end(), {"buses", "joints"});  // the bus sections and the joints: lists, read below
+  const Map map(f, names);
+  c.simulated = config::ReadChoice(map, k::kCia402Bus) == 0;
+  if (!c.simulated) {
     for (const Field& item : map.Required("buses").AsList()) {
       c.buses.emplace_back();
       fieldbus::ReadCanPortSection(item, c.buses.back());
     }
-  } else {
-    bus.Fail("must be simulated (the simulated arm on simulated CiA 402 drives in this process) or can (the buses)");
   }
   if (auto v = map.Optional("buses"); v && c.simulated) v->Fail("bus sections, but bus is simulated; remove them");
-  if (auto v = map.Optional("nominal_bitrate_bit_per_s")) c.nominal_bitrate_bit_per_s = config::Positive(*v, "bit/s");
-  if (auto v = map.Optional("max_bus_load")) c.max_bus_load = config::InRange(*v, 0.01, 1.0, "");
-  if (auto v = map.Optional("rate_hz")) c.rate_hz = config::InRange(*v, 1.0, 100000.0, "Hz");
-  if (auto v = map.Optional("stale_after_ms")) c.stale_after_ms = config::InRange(*v, 1.0, 1000.0, "ms");
-  if (auto v = map.Optional("drive_heartbeat_period_ms")) {
-    c.drive_heartbeat_period_ms = config::InRange(*v, 1.0, 10000.0, "ms");
-  }
-  if (auto v = map.Optional("heartbeat_timeout_ms")) c.heartbeat_timeout_ms = config::InRange(*v, 1.0, 60000.0, "ms");
-  if (auto v = map.Optional("sdo_timeout_ms")) c.sdo_timeout_ms = config::InRange(*v, 1.0, 10000.0, "ms");
-  if (auto v = map.Optional("activate_timeout_ms")) c.activate_timeout_ms = config::InRange(*v, 1.0, 10000.0, "ms");
+  c.nominal_bitrate_bit_per_s = config::ReadNumber(map, k::kCia402NominalBitrate);
+  c.max_bus_load = config::ReadNumber(map, k::kCia402MaxBusLoad);
+  c.rate_hz = config::ReadNumber(map, k::kCia402Rate);
+  c.stale_after_ms = config::ReadNumber(map, k::kCia402Stale);
+  c.drive_heartbeat_period_ms = config::ReadNumber(map, k::kCia402HeartbeatPeriod);
+  c.heartbeat_timeout_ms = config::ReadNumber(map, k::kCia402HeartbeatTimeout);
+  c.sdo_timeout_ms = config::ReadNumber(map, k::kCia402SdoTimeout);
+  c.activate_timeout_ms = config::ReadNumber(map, k::kCia402ActivateTimeout);
   const Field joints = map.Required("joints");
   for (const Field& item : joints.AsList()) c.joints.push_back(ReadCia402Joint(item));
   if (c.joints.empty()) joints.Fail("needs one drive per joint");
@@ -428,19 +421,7 @@ DeviceBackend ArmBackend() {
       {"mit.joints[].gear_ratio", "motor turns per joint turn, > 0 (default 1)"},
       {"mit.joints[].kp_Nm_per_rad", "control: pd, joint side (N·m/rad)"},
       {"mit.joints[].kd_Nms_per_rad", "control: pd, joint side (N·m·s/rad)"},
-      {"cia402",
-       "CiA 402 drives in cyclic synchronous torque mode (actuators: cia402; docs/arms.md, \"CiA 402 joints\")"},
-      {"cia402.bus", "simulated (the simulated arm on simulated CiA 402 drives, in this process) | can (cia402.buses)"},
       {"cia402.buses", "one CAN section per bus index: medium, interface, bus, connect_timeout_ms (docs/can.md)"},
-      {"cia402.nominal_bitrate_bit_per_s",
-       "the bus-load budget's (and the emulated buses') bit rate (default 1000000)"},
-      {"cia402.max_bus_load", "the budget: a bus above this fraction is refused (default 0.8)"},
-      {"cia402.rate_hz", "the cycle rate: the SYNC period and the budget's rate; the process's rate_hz (default 1000)"},
-      {"cia402.stale_after_ms", "no TPDO for this long faults the joint (ms, default 10)"},
-      {"cia402.drive_heartbeat_period_ms", "each drive's heartbeat, 0x1017 (ms, default 50)"},
-      {"cia402.heartbeat_timeout_ms", "the host's consumer of each drive's heartbeat (ms, default 150)"},
-      {"cia402.sdo_timeout_ms", "set-up: how long one SDO waits (ms, default 50)"},
-      {"cia402.activate_timeout_ms", "set-up: each state machine step and the first TPDOs (ms, default 500)"},
       {"cia402.joints", "one drive per joint in the chain's order"},
       {"cia402.joints[].bus", "the joint's bus: an index into cia402.buses from 0 (default 0)"},
       {"cia402.joints[].node_id", "the drive's node ID (1..127, unique on its bus)"},

@@ -483,6 +483,79 @@ inline const KeySpec kMitModelsFile{
     .type = KeyType::kText,
     .meaning = "The motor models table (beside this config); empty: the shipped deploy/motors/mit-models.yaml."};
 
+// The `cia402` section's keys with a value (the buses list and the joints list are read apart): each default is
+// Cia402JointBusConfig's.
+inline const Cia402JointBusConfig kCia402{};
+inline const KeySpec kCia402Section{
+    .key = "cia402",
+    .type = KeyType::kSection,
+    .meaning =
+        "CiA 402 drives in cyclic synchronous torque mode (actuators: cia402): the cia402.* keys "
+        "(`device.arm.cia402`)."};
+/// `cia402.bus`: 0 the simulated arm on simulated drives in this process, 1 the `buses`.
+inline const KeySpec kCia402Bus{.key = "cia402.bus",
+                                .type = KeyType::kChoice,
+                                .required = true,
+                                .meaning =
+                                    "simulated (the simulated arm on simulated CiA 402 drives, in this process) "
+                                    "or can (the `buses`).",
+                                .choices = {"simulated", "can"}};
+inline const KeySpec kCia402NominalBitrate{.key = "cia402.nominal_bitrate_bit_per_s",
+                                           .unit = "bit/s",
+                                           .range = KeyRange::kPositive,
+                                           .default_value = kCia402.nominal_bitrate_bit_per_s,
+                                           .meaning = "The bus-load budget's (and the emulated buses') bit rate."};
+inline const KeySpec kCia402MaxBusLoad{.key = "cia402.max_bus_load",
+                                       .range = KeyRange::kInRange,
+                                       .default_value = kCia402.max_bus_load,
+                                       .meaning = "The budget: a bus above this fraction is refused.",
+                                       .low = 0.01,
+                                       .high = 1.0};
+inline const KeySpec kCia402Rate{.key = "cia402.rate_hz",
+                                 .unit = "Hz",
+                                 .range = KeyRange::kInRange,
+                                 .default_value = kCia402.rate_hz,
+                                 .meaning =
+                                     "The cycle rate: the SYNC period and the budget's rate; the process's "
+                                     "rate_hz.",
+                                 .low = 1.0,
+                                 .high = 100000.0};
+inline const KeySpec kCia402Stale{.key = "cia402.stale_after_ms",
+                                  .unit = "ms",
+                                  .range = KeyRange::kInRange,
+                                  .default_value = kCia402.stale_after_ms,
+                                  .meaning = "No TPDO for this long faults the joint.",
+                                  .low = 1.0,
+                                  .high = 1000.0};
+inline const KeySpec kCia402HeartbeatPeriod{.key = "cia402.drive_heartbeat_period_ms",
+                                            .unit = "ms",
+                                            .range = KeyRange::kInRange,
+                                            .default_value = kCia402.drive_heartbeat_period_ms,
+                                            .meaning = "Each drive's heartbeat, 0x1017.",
+                                            .low = 1.0,
+                                            .high = 10000.0};
+inline const KeySpec kCia402HeartbeatTimeout{.key = "cia402.heartbeat_timeout_ms",
+                                             .unit = "ms",
+                                             .range = KeyRange::kInRange,
+                                             .default_value = kCia402.heartbeat_timeout_ms,
+                                             .meaning = "The host's consumer of each drive's heartbeat.",
+                                             .low = 1.0,
+                                             .high = 60000.0};
+inline const KeySpec kCia402SdoTimeout{.key = "cia402.sdo_timeout_ms",
+                                       .unit = "ms",
+                                       .range = KeyRange::kInRange,
+                                       .default_value = kCia402.sdo_timeout_ms,
+                                       .meaning = "Set-up: how long one SDO waits.",
+                                       .low = 1.0,
+                                       .high = 10000.0};
+inline const KeySpec kCia402ActivateTimeout{.key = "cia402.activate_timeout_ms",
+                                            .unit = "ms",
+                                            .range = KeyRange::kInRange,
+                                            .default_value = kCia402.activate_timeout_ms,
+                                            .meaning = "Set-up: each state machine step and the first TPDOs.",
+                                            .low = 1.0,
+                                            .high = 10000.0};
+
 /// Every key of the table, built at its first use (after static initialisation).
 inline const auto& All() {
   static const std::array table{kUrdf,
@@ -536,7 +609,17 @@ inline const auto& All() {
                                 kMitReplyWait,
                                 kMitTemperatureWarning,
                                 kMitTemperatureFault,
-                                kMitModelsFile};
+                                kMitModelsFile,
+                                kCia402Section,
+                                kCia402Bus,
+                                kCia402NominalBitrate,
+                                kCia402MaxBusLoad,
+                                kCia402Rate,
+                                kCia402Stale,
+                                kCia402HeartbeatPeriod,
+                                kCia402HeartbeatTimeout,
+                                kCia402SdoTimeout,
+                                kCia402ActivateTimeout};
   return table;
 }
 
