@@ -69,16 +69,31 @@ TEST(ConfigurationDocs, EveryKeyOfEveryRegisteredBackendIsDocumented) {
   }
 }
 
-// A backend's key table is the source of its docs rows: each row is in docs/configuration.md verbatim, so a default,
-// range or unit changed in the table and not in the docs (or the other way round) fails here.
-TEST(ConfigurationDocs, EveryKeyTableRowIsInTheDocsVerbatim) {
+/// The text under `heading` (a whole line) up to the next heading; "" when docs/configuration.md has no such heading.
+std::string SectionText(const std::string& docs, const std::string& heading) {
+  const auto at = docs.find("\n" + heading + "\n");
+  if (at == std::string::npos) return "";
+  const auto body = at + heading.size() + 1;
+  const auto next = docs.find("\n#", body);
+  return docs.substr(body, next == std::string::npos ? std::string::npos : next + 1 - body);
+}
+
+// A backend's key table is the source of its docs rows: each row is in docs/configuration.md verbatim, under the
+// heading of its section (config::DocsHeadingOf: "### `device.hybrid.geometry`" for geometry.proximal_1_m), so a
+// default, range or unit changed in the table and not in the docs (or the other way round) fails here, and the
+// failure prints the heading and the row to paste under it (a new backend: one "### `device.<name>`" heading per
+// section of its table, then the rows this test prints).
+TEST(ConfigurationDocs, EveryKeyTableRowIsInTheDocsVerbatimUnderItsSection) {
   const std::string docs = ReadDocs();
   int rows = 0;
   for (const std::string& name : device::RegisteredDevices()) {
     for (const config::KeySpec& spec : device::FindDevice(name)->key_table) {
+      const std::string heading = config::DocsHeadingOf("device." + name, spec);
       const std::string row = config::KeyTableRow(spec);
-      EXPECT_NE(docs.find("\n" + row + "\n"), std::string::npos)
-          << "device." << name << "." << spec.key << ": docs/configuration.md lacks the row\n"
+      const std::string section = SectionText(docs, heading);
+      EXPECT_NE(section.find("\n" + row + "\n"), std::string::npos)
+          << "device." << name << "." << spec.key << ": docs/configuration.md lacks, under the heading\n"
+          << heading << "\nthe row (into the table: | key | type, unit | default | range | meaning |)\n"
           << row;
       ++rows;
     }
@@ -87,6 +102,19 @@ TEST(ConfigurationDocs, EveryKeyTableRowIsInTheDocsVerbatim) {
   config::KeySpec changed{"mass_kg", config::KeyType::kNumber, "kg", config::KeyRange::kPositive, false, 0.05, "x"};
   EXPECT_EQ(docs.find(config::KeyTableRow(changed)), std::string::npos) << "the check can fail";
   EXPECT_EQ(config::KeyTableRow(changed), "| `mass_kg` | number, kg | 0.05 | > 0 | x |");
+  // A row under another section's heading is not found: a loopback row is not the hybrid's.
+  const config::KeySpec mass{"mass_kg",
+                             config::KeyType::kNumber,
+                             "kg",
+                             config::KeyRange::kPositive,
+                             true,
+                             0.0,
+                             "Device mass per DOF. Paper §4.1: master 0.040, slave 0.036."};
+  EXPECT_NE(SectionText(docs, "### `device.loopback`").find(config::KeyTableRow(mass)), std::string::npos);
+  EXPECT_EQ(SectionText(docs, "### `device.hybrid`").find(config::KeyTableRow(mass)), std::string::npos);
+  EXPECT_EQ(config::DocsHeadingOf("device.hybrid", config::KeySpec{.key = "geometry.proximal_1_m"}),
+            "### `device.hybrid.geometry`");
+  EXPECT_EQ(config::DocsHeadingOf("device.hybrid", config::KeySpec{.key = "rig"}), "### `device.hybrid`");
 }
 
 // The link.delay_recheck key table (teleop/config/delay_recheck_keys.hpp) is the source of its docs rows.

@@ -69,6 +69,35 @@ const std::map<std::string, Minimal>& MinimalSections() {
   return sections;
 }
 
+/// Every rig config's section of every backend (deploy/configs/**/*.yaml in path order), as YAML.
+struct RigSection {
+  std::string file;
+  YAML::Node section;
+  device::SectionContext context;
+};
+const std::map<std::string, std::vector<RigSection>>& RigSections() {
+  static const std::map<std::string, std::vector<RigSection>> sections = [] {
+    std::vector<std::filesystem::path> files;
+    for (const auto& entry : std::filesystem::recursive_directory_iterator(TELEOP_SOURCE_DIR "/deploy/configs")) {
+      if (entry.path().extension() == ".yaml") files.push_back(entry.path());
+    }
+    std::sort(files.begin(), files.end());
+    std::map<std::string, std::vector<RigSection>> found;
+    for (const std::filesystem::path& file : files) {
+      const YAML::Node config = YAML::LoadFile(file.string());
+      const YAML::Node device = config["device"];
+      if (!config["role"] || !device || !device["backend"]) continue;
+      const std::string backend = device["backend"].as<std::string>();
+      const YAML::Node section = device[backend] ? device[backend] : YAML::Node(YAML::NodeType::Map);
+      const Role role = config["role"].as<std::string>() == "slave" ? Role::kSlave : Role::kMaster;
+      found[backend].push_back(
+          {file.string(), YAML::Clone(section), {role, config["dof"] ? config["dof"].as<int>() : 1}});
+    }
+    return found;
+  }();
+  return sections;
+}
+
 std::string ReadError(const std::string& backend, const std::string& yaml, const device::SectionContext& context) {
   static const std::string file = "keys.yaml";
   const YAML::Node node = YAML::Load(yaml);
@@ -120,7 +149,10 @@ TEST(KeyTable, AValueOutOfItsTablesRangeIsRefusedWithTheKeysName) {
   for (const auto& [name, minimal] : MinimalSections()) {
     for (const config::KeySpec& spec : device::FindDevice(name)->key_table) {
       // A text key takes any word; a choice or boolean one refuses ".nan" as it refuses any word not in its list.
-      if (spec.required || spec.type == config::KeyType::kDofValue || spec.type == config::KeyType::kText) continue;
+      if (spec.required || spec.type == config::KeyType::kDofValue || spec.type == config::KeyType::kText ||
+          spec.type == config::KeyType::kSection) {
+        continue;
+      }
       const std::string leaf = config::LeafOf(spec);
       if (leaf != spec.key) continue;  // a nested key: its parent has keys of its own
       const char* bad = spec.range == config::KeyRange::kFinite ? ".nan" : "-1e9";
@@ -203,6 +235,100 @@ TEST(KeyTable, AChoiceKeyRefusesAWrongWordWithTheWordsItAllows) {
         std::string::npos)
         << e.what();
   }
+}
+
+// The other way round from the unknown-key check: a key the reader accepts is a key of its table. Every key the rig
+// configs write at the top of a backend's section, or inside a section whose keys the table lists, is a table key
+// (or, for a key not tabled yet — a sub-section, a list — a `keys` entry), and every optional table key set to its
+// default in a rig config is read: accepted, or refused by its own name for a reason other than "unknown key".
+TEST(KeyTable, EveryKeyTheRigConfigsWriteIsATableKeyAndEveryTableKeyIsRead) {
+  int checked = 0;
+  for (const auto& [name, sections] : RigSections()) {
+    const device::DeviceBackend* backend = device::FindDevice(name);
+    ASSERT_NE(backend, nullptr) << name;
+    if (backend->key_table.empty()) continue;
+    const auto tabled = [&](const std::string& key) {
+      for (const config::KeySpec& spec : backend->key_table) {
+        if (key == spec.key) return true;
+      }
+      return false;
+    };
+    const auto listed = [&](const std::string& key) {
+      for (const device::ConfigKey& k : backend->keys) {
+        if (key == k.key) return true;
+      }
+      return false;
+    };
+    const auto has_children = [&](const std::string& section) {
+      for (const config::KeySpec& spec : backend->key_table) {
+        if (config::IsKeyUnder(spec, section + ".", "*")) return true;
+      }
+      return false;
+    };
+    for (const RigSection& rig : sections) {
+      if (!rig.section.IsMap()) continue;
+      for (auto it = rig.section.begin(); it != rig.section.end(); ++it) {
+        const std::string key = it->first.as<std::string>();
+        EXPECT_TRUE(tabled(key) || listed(key)) << rig.file << ": device." << name << "." << key;
+        if (!tabled(key) || !has_children(key) || !it->second.IsMap()) continue;
+        for (auto inner = it->second.begin(); inner != it->second.end(); ++inner) {
+          const std::string path = key + "." + inner->first.as<std::string>();
+          EXPECT_TRUE(tabled(path) || listed(path))
+              << rig.file << ": device." << name << "." << path << " is neither in the table nor a `keys` entry";
+          ++checked;
+        }
+      }
+    }
+    for (const config::KeySpec& spec : backend->key_table) {
+      if (spec.required || spec.type == config::KeyType::kSection) continue;
+      const std::string key = spec.key;
+      const auto dot = key.rfind('.');
+      const std::string parent = dot == std::string::npos ? "" : key.substr(0, dot);
+      if (parent.find('[') != std::string::npos) continue;  // a list's item (admittance drives[])
+      bool reached = false;
+      std::string error;
+      for (const RigSection& rig : sections) {
+        YAML::Node section = YAML::Clone(rig.section);
+        if (!section.IsMap()) continue;
+        YAML::Node holder = parent.empty() ? section : section[parent];
+        if (!holder.IsMap()) continue;
+        if (spec.when[0] != '\0' && (!holder["type"] || holder["type"].as<std::string>() != spec.when)) continue;
+        holder[config::LeafOf(spec)] = YAML::Load(config::DefaultText(spec));
+        error = ReadError(name, FlowText(section), rig.context);
+        const bool own = error.find("'device." + name + "." + key + "'") != std::string::npos;
+        reached = error.empty() || (own && error.find("unknown key") == std::string::npos);
+        if (reached) break;
+      }
+      if (!error.empty() || reached) {
+        EXPECT_TRUE(reached) << "device." << name << "." << key << " set to " << config::DefaultText(spec)
+                             << " is not read: " << error;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GE(checked, 100) << "keys checked";
+}
+
+// A typed section read through its table (loopback environment): a key of another type is refused by its name, a
+// wrong type word names the words, and the wall's axis is checked against the process's dof.
+TEST(KeyTable, ATypedSectionTakesOnlyTheKeysOfItsType) {
+  const device::SectionContext one{Role::kSlave, 1};
+  const std::string plant = "{mass_kg: 0.036, damping_Ns_per_m: 0.49, environment: ";
+  EXPECT_EQ(ReadError("loopback", plant + "{type: free}}", one), "");
+  EXPECT_EQ(ReadError("loopback", plant + "{type: wall, position_m: 0.01, stiffness_N_per_m: 500}}", one), "");
+  EXPECT_NE(ReadError("loopback", plant + "{type: free, position_m: 0.01}}", one)
+                .find("'device.loopback.environment.position_m'"),
+            std::string::npos);
+  EXPECT_NE(ReadError("loopback", plant + "{type: wal}}", one).find("must be free or wall, got 'wal'"),
+            std::string::npos);
+  EXPECT_NE(ReadError("loopback", plant + "{type: wall, stiffness_N_per_m: 500}}", one).find("position_m"),
+            std::string::npos);
+  EXPECT_NE(ReadError("loopback", plant + "{type: wall, axis: 1, position_m: 0, stiffness_N_per_m: 5}}", one)
+                .find("must be below dof (1)"),
+            std::string::npos);
+  EXPECT_EQ(ReadError("loopback", plant + "{type: wall, axis: 1, position_m: 0, stiffness_N_per_m: 5}}",
+                      device::SectionContext{Role::kSlave, 2}),
+            "");
 }
 
 // The one CAN bus section reader the admittance, cobot and hybrid backends share.

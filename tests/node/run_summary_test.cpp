@@ -164,6 +164,9 @@ TEST(RunSummary, JsonLayoutOfEveryField) {
 )json");
 }
 
+// The text follows the one field table's order, which is the JSON's: "link faults" before "link emulation", "sync"
+// before "data age", and the "faults" line right after "peer" (the fields of one JSON line), since the text and the
+// JSON came from one table (they were two tables in two orders before).
 TEST(RunSummary, TextOfEveryField) {
   EXPECT_EQ(FormatSummaryText(Populated()), R"text(teleop-slave summary (peer shutdown)
   version           0.1.0+gabc1234, wire protocol 2
@@ -174,16 +177,16 @@ TEST(RunSummary, TextOfEveryField) {
   packets           sent 2490, received 2480, accepted 2470, superseded 10, lost 4, reordered 2, duplicates 5, rejected 6, send errors 1
   security          psk: sessions 2, handshakes started 15, handshake messages 14, unsent (no session) 16; refused: bad_tag 12, bad_plaintext 13 (bad_plaintext: authentic samples of another DOF count or role; check both configs' dof)
   link detail       frames 100
-  link emulation    offered 1000, delivered 990, dropped loss/burst/outage/bandwidth/overflow 18/0/0/0/0, duplicated 0, reordered 0, corrupted 0, delayed 0
   link faults       medium down in 17 cycles
+  link emulation    offered 1000, delivered 990, dropped loss/burst/outage/bandwidth/overflow 18/0/0/0/0, duplicated 0, reordered 0, corrupted 0, delayed 0
   round trip        p50 0.125 ms, p99 0.500 ms, max 1.750 ms (2400 samples)
-  data age          p50 30.5 us, p99 60.2 us, max 90.1 us since receive; p50 40.5 us since the peer sent; in cycles 0/1/2/3+: 2000/400/50/20
   sync              triggered, 2400 cycles triggered by the peer's sample, 19 timeouts (20 while coupled)
+  data age          p50 30.5 us, p99 60.2 us, max 90.1 us since receive; p50 40.5 us since the peer sent; in cycles 0/1/2/3+: 2000/400/50/20
   real-time         SCHED_FIFO, memory locked, cpu_dma_latency held
   peer              fresh in 2460 cycles, watchdog trips 21
+  faults            device fault cycles 23, non-finite inputs 24, saturated cycles 25
   tracking error    rms 1.250 mm, max nan mm
   fixture           max penetration 2.500 mm
-  faults            device fault cycles 23, non-finite inputs 24, saturated cycles 25
   passivity         observer: controller acted in 27 cycles, dissipated 0.015625 J, observed energy min -0.25 J, 28 peer samples without energy
   telemetry         2497 records, 26 dropped
   device warnings   36 changes, set in 37 cycles, seen 0x7, last 0x5

@@ -24,6 +24,8 @@ std::string RangeText(const KeySpec& spec, const std::string& separator = ", ") 
       return "true" + separator + "false";
     case KeyType::kText:
       return "any";
+    case KeyType::kSection:
+      return "";
     default:
       break;
   }
@@ -49,6 +51,8 @@ std::string TypeText(const KeySpec& spec) {
                      : spec.type == KeyType::kText    ? "text"
                      : spec.type == KeyType::kChoice  ? "choice"
                      : spec.type == KeyType::kBool    ? "boolean"
+                     : spec.type == KeyType::kPair    ? "pair"
+                     : spec.type == KeyType::kSection ? "mapping"
                                                       : "number";
   if (spec.unit[0] != '\0') text += std::string(", ") + spec.unit;
   return text;
@@ -66,6 +70,11 @@ double Checked(const Field& f, const KeySpec& spec) {
       break;
   }
   return Finite(f);
+}
+
+/// The meaning with the section type the key belongs to, when it belongs to one: "(type wall) Wall stiffness.".
+std::string MeaningText(const KeySpec& spec) {
+  return spec.when[0] == '\0' ? std::string(spec.meaning) : "(type " + std::string(spec.when) + ") " + spec.meaning;
 }
 
 }  // namespace
@@ -87,6 +96,10 @@ std::string DefaultText(const KeySpec& spec) {
       return spec.default_bool ? "true" : "false";
     case KeyType::kText:
       return "\"" + std::string(spec.default_text) + "\"";
+    case KeyType::kPair:
+      return "[" + Num(spec.default_pair[0]) + ", " + Num(spec.default_pair[1]) + "]";
+    case KeyType::kSection:
+      return "";
     default:
       return Num(spec.default_value);
   }
@@ -104,14 +117,30 @@ std::string ChoiceWords(const KeySpec& spec) {
 }
 
 std::string DescribeKey(const KeySpec& spec) {
+  if (spec.type == KeyType::kSection) {
+    return TypeText(spec) + (spec.required ? ", required" : "") + ": " + MeaningText(spec);
+  }
   return TypeText(spec) + ", " + RangeText(spec, " | ") + ", " +
-         (spec.required ? std::string("required") : "default " + DefaultText(spec)) + ": " + spec.meaning;
+         (spec.required ? std::string("required") : "default " + DefaultText(spec)) + ": " + MeaningText(spec);
 }
 
 std::string KeyTableRow(const KeySpec& spec) {
   return "| `" + LeafOf(spec) + "` | " + TypeText(spec) + " | " +
          (spec.required ? std::string("**required**") : DefaultText(spec)) + " | " + RangeText(spec) + " | " +
-         spec.meaning + " |";
+         MeaningText(spec) + " |";
+}
+
+bool IsKeyUnder(const KeySpec& spec, std::string_view prefix, std::string_view type) {
+  const std::string_view key = spec.key;
+  if (key.substr(0, prefix.size()) != prefix) return false;
+  if (key.find('.', prefix.size()) != std::string_view::npos) return false;
+  return spec.when[0] == '\0' || type == "*" || type == spec.when;
+}
+
+std::string DocsHeadingOf(const std::string& section, const KeySpec& spec) {
+  const std::string key = spec.key;
+  const auto dot = key.rfind('.');
+  return "### `" + section + (dot == std::string::npos ? "" : "." + key.substr(0, dot)) + "`";
 }
 
 int ReadChoice(const Map& map, const KeySpec& spec) {
@@ -154,6 +183,21 @@ int ReadInteger(const Map& map, const KeySpec& spec) {
   if (spec.required) return check(map.Required(leaf));
   if (auto v = map.Optional(leaf)) return check(*v);
   return static_cast<int>(spec.default_value);
+}
+
+Eigen::Vector2d ReadPair(const Map& map, const KeySpec& spec) {
+  const std::string leaf = LeafOf(spec);
+  const auto check = [&spec](const Field& f) { return Checked(f, spec); };
+  std::optional<Field> v = spec.required ? std::optional<Field>(map.Required(leaf)) : map.Optional(leaf);
+  if (!v) return {spec.default_pair[0], spec.default_pair[1]};
+  const DofVector pair = ReadDofVector(*v, 2, check);
+  return {pair(0), pair(1)};
+}
+
+Eigen::Vector2d ReadDirection(const Map& map, const KeySpec& spec) {
+  const Eigen::Vector2d v = ReadPair(map, spec);
+  if (!(v.norm() > 0.0)) map.Required(LeafOf(spec)).Fail("must be a non-zero direction");
+  return v.normalized();
 }
 
 DofVector ReadDofValue(const Map& map, const KeySpec& spec, int dof) {

@@ -91,15 +91,25 @@ std::string Json(double v) { return Num(v); }
 std::string Json(bool v) { return v ? "true" : "false"; }
 std::string Json(const std::string& v) { return JsonString(v); }
 
-/// One key of a JSON object and how its value is written from the record R. `line_end`: the summary's top level
-/// breaks the line after this field.
+/// One key of a JSON object and how its value is written from the record R.
 template <class R>
 struct Field {
   std::string_view key;
   std::string (*json)(const R&);
-  bool line_end = false;
 };
-using SummaryField = Field<RunSummary>;
+
+/// The text lines of a row: none, one, or one per fault.
+using Lines = std::vector<std::string>;
+
+/// One field of the summary: its JSON key and value (`key` empty: text only), `line_end` (the JSON breaks the line
+/// after it), and the text lines under `label` that phrase it (`text` null: JSON only).
+struct SummaryField {
+  std::string_view key;
+  std::string (*json)(const RunSummary&) = nullptr;
+  bool line_end = false;
+  std::string_view label = {};
+  Lines (*text)(const RunSummary&) = nullptr;
+};
 
 template <class R, std::size_t N>
 std::string Object(const std::array<Field<R>, N>& fields, const R& record) {
@@ -213,93 +223,58 @@ constexpr auto kClockFields = std::to_array<Field<S>>({
      }},
 });
 
-constexpr bool kEnd = true;  // the line ends after this field
+// The summary, one row per field in output order: its JSON key and value, whether the JSON line ends after it, and
+// the text line(s) that phrase it (and the fields before it on its JSON line) in the units a reader expects (mm, ms).
+// A row without a key is text only; one without a label JSON only. A new field is one row here.
+constexpr bool kEnd = true;  // the JSON line ends after this field
 constexpr auto kSummaryFields = std::to_array<SummaryField>({
     {"role", [](const S& s) { return Json(std::string(ToString(s.role))); }},
     {"software_version", [](const S& s) { return Json(s.software_version); }},
-    {"protocol_version", [](const S& s) { return Json(static_cast<std::uint64_t>(s.protocol_version)); }, kEnd},
+    {"protocol_version",
+     [](const S& s) { return Json(static_cast<std::uint64_t>(s.protocol_version)); },
+     kEnd,
+     "version",
+     [](const S& s) { return Lines{fmt::format("{}, wire protocol {}", s.software_version, s.protocol_version)}; }},
     {"stop_reason", [](const S& s) { return Json(s.stop_reason); }},
     {"connected", [](const S& s) { return Json(s.connected); }},
-    {"connection", [](const S& s) { return Json(s.connection); }, kEnd},
+    {"connection",
+     [](const S& s) { return Json(s.connection); },
+     kEnd,
+     "connection",
+     [](const S& s) { return Lines{s.connection}; }},
     {"rate_hz", [](const S& s) { return Json(s.rate_hz); }},
     {"duration_s", [](const S& s) { return Json(s.duration_s); }},
     {"cycles", [](const S& s) { return Json(s.cycles); }},
     {"achieved_rate_hz", [](const S& s) { return Json(s.achieved_rate_hz); }},
-    {"overruns", [](const S& s) { return Json(s.overruns); }, kEnd},
-    {"period_us", [](const S& s) { return Json(s.period_us); }},
-    {"jitter_us", [](const S& s) { return Json(s.jitter_us); }},
-    {"compute_us", [](const S& s) { return Json(s.compute_us); }, kEnd},
-    {"packets", [](const S& s) { return Object(kPacketFields, s); }, kEnd},
-    {"security", [](const S& s) { return Object(kSecurityFields, s); }, kEnd},
-    {"link_transport", [](const S& s) { return Json(s.link_transport); }},
-    {"link_detail", [](const S& s) { return Json(s.link_detail); }},
-    {"link_fault_cycles", [](const S& s) { return Json(s.link_fault_cycles); }, kEnd},
-    {"link_emulation",
-     [](const S& s) {
-       return s.link_emulation ? transport::ImpairmentCountersJson(*s.link_emulation) : std::string("null");
-     },
-     kEnd},
-    {"rtt_ms", [](const S& s) { return Json(s.rtt_ms); }, kEnd},
-    {"sync", [](const S& s) { return Json(s.sync); }},
-    {"triggered_cycles", [](const S& s) { return Json(s.triggered_cycles); }},
-    {"trigger_timeouts", [](const S& s) { return Json(s.trigger_timeouts); }},
-    {"trigger_timeouts_coupled", [](const S& s) { return Json(s.trigger_timeouts_coupled); }, kEnd},
-    {"data_age_us", [](const S& s) { return Json(s.data_age_us); }},
-    {"data_age_sender_us", [](const S& s) { return Json(s.data_age_sender_us); }},
-    {"data_age_cycles", [](const S& s) { return DataAgeCyclesJson(s.data_age_cycles); }, kEnd},
-    {"realtime_settings_applied", [](const S& s) { return Json(s.realtime_settings_applied); }},
-    {"cpu_dma_latency_held", [](const S& s) { return Json(s.cpu_dma_latency_held); }, kEnd},
-    {"cycles_with_peer", [](const S& s) { return Json(s.cycles_with_peer); }},
-    {"watchdog_trips", [](const S& s) { return Json(s.watchdog_trips); }},
-    {"device_fault_cycles", [](const S& s) { return Json(s.device_fault_cycles); }},
-    {"nonfinite_inputs", [](const S& s) { return Json(s.nonfinite_inputs); }},
-    {"saturated_cycles", [](const S& s) { return Json(s.saturated_cycles); }},
-    {"dof_mismatches", [](const S& s) { return Json(s.dof_mismatches); }, kEnd},
-    {"tracking_error_rms_m", [](const S& s) { return Json(s.tracking_error_rms_m); }},
-    {"tracking_error_max_m", [](const S& s) { return Json(s.tracking_error_max_m); }},
-    {"fixture_max_penetration_m", [](const S& s) { return Json(s.fixture_max_penetration_m); }, kEnd},
-    {"passivity", [](const S& s) { return Object(kPassivityFields, s); }, kEnd},
-    {"telemetry_records", [](const S& s) { return Json(s.telemetry_records); }},
-    {"telemetry_dropped", [](const S& s) { return Json(s.telemetry_dropped); }, kEnd},
-    {"device_warnings", [](const S& s) { return Object(kDeviceWarningFields, s.device_warnings); }, kEnd},
-    {"engagement", [](const S& s) { return Object(kEngagementFields, s.engagement); }, kEnd},
-    {"faults", [](const S& s) { return FaultsJson(s.faults); }, kEnd},
-    {"fault_records_skipped", [](const S& s) { return Json(s.fault_records_skipped); }, kEnd},
-    {"clock", [](const S& s) { return Object(kClockFields, s); }, kEnd},
-    {"telemetry_csv", [](const S& s) { return Json(s.telemetry_csv); }},
-    {"config_path", [](const S& s) { return Json(s.config_path); }, kEnd},
-    {"startup_analysis", [](const S& s) { return Json(s.startup_analysis); }, kEnd},
-    {"config_yaml", [](const S& s) { return Json(s.config_yaml); }, kEnd},
-});
-
-// The text: one line per label (a label may give no line, or one per fault), in reading order. It phrases a selection
-// of the values above in the units a reader expects (mm, ms).
-using Lines = std::vector<std::string>;
-struct TextLine {
-  std::string_view label;
-  Lines (*content)(const RunSummary&);
-};
-
-constexpr auto kTextLines = std::to_array<TextLine>({
-    {"version",
-     [](const S& s) { return Lines{fmt::format("{}, wire protocol {}", s.software_version, s.protocol_version)}; }},
-    {"connection", [](const S& s) { return Lines{s.connection}; }},
-    {"cycles",
+    {"overruns",
+     [](const S& s) { return Json(s.overruns); },
+     kEnd,
+     "cycles",
      [](const S& s) {
        return Lines{fmt::format("{} in {:.3f} s ({:.1f} Hz achieved, {:.0f} Hz configured), overruns {}", s.cycles,
                                 s.duration_s, s.achieved_rate_hz, s.rate_hz, s.overruns)};
      }},
-    {"period jitter",
+    {"period_us", [](const S& s) { return Json(s.period_us); }},
+    {"jitter_us",
+     [](const S& s) { return Json(s.jitter_us); },
+     false,
+     "period jitter",
      [](const S& s) {
        return Lines{fmt::format("p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us", s.jitter_us.p50, s.jitter_us.p99,
                                 s.jitter_us.max)};
      }},
-    {"compute time",
+    {"compute_us",
+     [](const S& s) { return Json(s.compute_us); },
+     kEnd,
+     "compute time",
      [](const S& s) {
        return Lines{fmt::format("p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us", s.compute_us.p50, s.compute_us.p99,
                                 s.compute_us.max)};
      }},
     {"packets",
+     [](const S& s) { return Object(kPacketFields, s); },
+     kEnd,
+     "packets",
      [](const S& s) {
        const auto& l = s.link;
        return Lines{fmt::format(
@@ -307,23 +282,60 @@ constexpr auto kTextLines = std::to_array<TextLine>({
            "errors {}",
            l.sent, l.received, l.accepted, l.superseded, l.lost, l.reordered, l.duplicates, l.rejected, l.send_errors)};
      }},
-    {"security", [](const S& s) { return Lines{SecurityText(s)}; }},
-    {"link detail", [](const S& s) { return s.link_detail.empty() ? Lines{} : Lines{s.link_detail}; }},
-    {"link emulation",
-     [](const S& s) {
-       return s.link_emulation ? Lines{transport::FormatImpairmentCounters(*s.link_emulation)} : Lines{};
-     }},
-    {"link faults",
+    {"security",
+     [](const S& s) { return Object(kSecurityFields, s); },
+     kEnd,
+     "security",
+     [](const S& s) { return Lines{SecurityText(s)}; }},
+    {"link_transport", [](const S& s) { return Json(s.link_transport); }},
+    {"link_detail",
+     [](const S& s) { return Json(s.link_detail); },
+     false,
+     "link detail",
+     [](const S& s) { return s.link_detail.empty() ? Lines{} : Lines{s.link_detail}; }},
+    {"link_fault_cycles",
+     [](const S& s) { return Json(s.link_fault_cycles); },
+     kEnd,
+     "link faults",
      [](const S& s) {
        return s.link_fault_cycles > 0 ? Lines{fmt::format("medium down in {} cycles", s.link_fault_cycles)} : Lines{};
      }},
-    {"round trip",
+    {"link_emulation",
+     [](const S& s) {
+       return s.link_emulation ? transport::ImpairmentCountersJson(*s.link_emulation) : std::string("null");
+     },
+     kEnd,
+     "link emulation",
+     [](const S& s) {
+       return s.link_emulation ? Lines{transport::FormatImpairmentCounters(*s.link_emulation)} : Lines{};
+     }},
+    {"rtt_ms",
+     [](const S& s) { return Json(s.rtt_ms); },
+     kEnd,
+     "round trip",
      [](const S& s) {
        if (s.rtt_ms.count == 0) return Lines{RoundTripMissing(s)};
        return Lines{fmt::format("p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms ({} samples)", s.rtt_ms.p50, s.rtt_ms.p99,
                                 s.rtt_ms.max, s.rtt_ms.count)};
      }},
-    {"data age",
+    {"sync", [](const S& s) { return Json(s.sync); }},
+    {"triggered_cycles", [](const S& s) { return Json(s.triggered_cycles); }},
+    {"trigger_timeouts", [](const S& s) { return Json(s.trigger_timeouts); }},
+    {"trigger_timeouts_coupled",
+     [](const S& s) { return Json(s.trigger_timeouts_coupled); },
+     kEnd,
+     "sync",
+     [](const S& s) {
+       if (s.triggered_cycles + s.trigger_timeouts == 0) return Lines{s.sync};
+       return Lines{fmt::format("{}, {} cycles triggered by the peer's sample, {} timeouts ({} while coupled)", s.sync,
+                                s.triggered_cycles, s.trigger_timeouts, s.trigger_timeouts_coupled)};
+     }},
+    {"data_age_us", [](const S& s) { return Json(s.data_age_us); }},
+    {"data_age_sender_us", [](const S& s) { return Json(s.data_age_sender_us); }},
+    {"data_age_cycles",
+     [](const S& s) { return DataAgeCyclesJson(s.data_age_cycles); },
+     kEnd,
+     "data age",
      [](const S& s) {
        if (s.data_age_us.count == 0) return Lines{};
        const auto& c = s.data_age_cycles;
@@ -336,34 +348,52 @@ constexpr auto kTextLines = std::to_array<TextLine>({
            fmt::format("p50 {:.1f} us, p99 {:.1f} us, max {:.1f} us since receive; {}; in cycles 0/1/2/3+: {}/{}/{}/{}",
                        s.data_age_us.p50, s.data_age_us.p99, s.data_age_us.max, sent, c[0], c[1], c[2], c[3])};
      }},
-    {"sync",
-     [](const S& s) {
-       if (s.triggered_cycles + s.trigger_timeouts == 0) return Lines{s.sync};
-       return Lines{fmt::format("{}, {} cycles triggered by the peer's sample, {} timeouts ({} while coupled)", s.sync,
-                                s.triggered_cycles, s.trigger_timeouts, s.trigger_timeouts_coupled)};
-     }},
-    {"real-time",
+    {"realtime_settings_applied", [](const S& s) { return Json(s.realtime_settings_applied); }},
+    {"cpu_dma_latency_held",
+     [](const S& s) { return Json(s.cpu_dma_latency_held); },
+     kEnd,
+     "real-time",
      [](const S& s) {
        if (!s.realtime_settings_applied) return Lines{"NOT APPLIED: running without real-time settings (realtime.*)"};
        return Lines{fmt::format("SCHED_FIFO, memory locked{}", s.cpu_dma_latency_held ? ", cpu_dma_latency held" : "")};
      }},
-    {"peer",
+    {"cycles_with_peer", [](const S& s) { return Json(s.cycles_with_peer); }},
+    {"watchdog_trips",
+     [](const S& s) { return Json(s.watchdog_trips); },
+     false,
+     "peer",
      [](const S& s) {
        return Lines{fmt::format("fresh in {} cycles, watchdog trips {}", s.cycles_with_peer, s.watchdog_trips)};
      }},
-    {"tracking error",
-     [](const S& s) {
-       return Lines{
-           fmt::format("rms {:.3f} mm, max {:.3f} mm", s.tracking_error_rms_m * 1e3, s.tracking_error_max_m * 1e3)};
-     }},
-    {"fixture",
-     [](const S& s) { return Lines{fmt::format("max penetration {:.3f} mm", s.fixture_max_penetration_m * 1e3)}; }},
-    {"faults",
+    {"device_fault_cycles", [](const S& s) { return Json(s.device_fault_cycles); }},
+    {"nonfinite_inputs", [](const S& s) { return Json(s.nonfinite_inputs); }},
+    {"saturated_cycles",
+     [](const S& s) { return Json(s.saturated_cycles); },
+     false,
+     "faults",
      [](const S& s) {
        return Lines{fmt::format("device fault cycles {}, non-finite inputs {}, saturated cycles {}",
                                 s.device_fault_cycles, s.nonfinite_inputs, s.saturated_cycles)};
      }},
+    {"dof_mismatches", [](const S& s) { return Json(s.dof_mismatches); }, kEnd},
+    {"tracking_error_rms_m", [](const S& s) { return Json(s.tracking_error_rms_m); }},
+    {"tracking_error_max_m",
+     [](const S& s) { return Json(s.tracking_error_max_m); },
+     false,
+     "tracking error",
+     [](const S& s) {
+       return Lines{
+           fmt::format("rms {:.3f} mm, max {:.3f} mm", s.tracking_error_rms_m * 1e3, s.tracking_error_max_m * 1e3)};
+     }},
+    {"fixture_max_penetration_m",
+     [](const S& s) { return Json(s.fixture_max_penetration_m); },
+     kEnd,
+     "fixture",
+     [](const S& s) { return Lines{fmt::format("max penetration {:.3f} mm", s.fixture_max_penetration_m * 1e3)}; }},
     {"passivity",
+     [](const S& s) { return Object(kPassivityFields, s); },
+     kEnd,
+     "passivity",
      [](const S& s) {
        std::string line =
            fmt::format("{}: controller acted in {} cycles, dissipated {:.6g} J, observed energy min {:.6g} J",
@@ -373,15 +403,25 @@ constexpr auto kTextLines = std::to_array<TextLine>({
        }
        return Lines{line};
      }},
-    {"telemetry",
+    {"telemetry_records", [](const S& s) { return Json(s.telemetry_records); }},
+    {"telemetry_dropped",
+     [](const S& s) { return Json(s.telemetry_dropped); },
+     kEnd,
+     "telemetry",
      [](const S& s) { return Lines{fmt::format("{} records, {} dropped", s.telemetry_records, s.telemetry_dropped)}; }},
-    {"device warnings",
+    {"device_warnings",
+     [](const S& s) { return Object(kDeviceWarningFields, s.device_warnings); },
+     kEnd,
+     "device warnings",
      [](const S& s) {
        const auto& w = s.device_warnings;
        return Lines{
            fmt::format("{} changes, set in {} cycles, seen 0x{:x}, last 0x{:x}", w.changes, w.cycles, w.seen, w.last)};
      }},
     {"engagement",
+     [](const S& s) { return Object(kEngagementFields, s.engagement); },
+     kEnd,
+     "engagement",
      [](const S& s) {
        const auto& e = s.engagement;
        return Lines{fmt::format(
@@ -390,7 +430,7 @@ constexpr auto kTextLines = std::to_array<TextLine>({
            e.times_engaged, e.engaged_cycles, e.couplings_lost, e.final_state, e.aligning_mean_s * 1e3,
            e.aligning_max_s * 1e3, e.max_reference_step_m * 1e3, e.max_aligning_force_rate_N_per_s)};
      }},
-    {"safe state",
+    {"", nullptr, false, "safe state",
      [](const S& s) {
        const auto& e = s.engagement;
        return Lines{
@@ -400,7 +440,10 @@ constexpr auto kTextLines = std::to_array<TextLine>({
                        e.reaction, e.latency_gate_trips, e.new_sessions, e.nonfinite_readings, e.out_of_range_readings,
                        e.encoder_jumps)};
      }},
-    {"fault",
+    {"faults",
+     [](const S& s) { return FaultsJson(s.faults); },
+     kEnd,
+     "fault",
      [](const S& s) {
        Lines lines;
        for (const FaultReport& f : s.faults) {
@@ -412,31 +455,45 @@ constexpr auto kTextLines = std::to_array<TextLine>({
        }
        return lines;
      }},
-    {"fault records",
+    {"fault_records_skipped",
+     [](const S& s) { return Json(s.fault_records_skipped); },
+     kEnd,
+     "fault records",
      [](const S& s) {
        if (s.fault_records_skipped == 0) return Lines{};
        return Lines{fmt::format("{} not written (writer busy or safety.max_fault_records)", s.fault_records_skipped)};
      }},
+    {"clock", [](const S& s) { return Object(kClockFields, s); }, kEnd},
+    {"telemetry_csv", [](const S& s) { return Json(s.telemetry_csv); }},
+    {"config_path", [](const S& s) { return Json(s.config_path); }, kEnd},
+    {"startup_analysis", [](const S& s) { return Json(s.startup_analysis); }, kEnd},
+    {"config_yaml", [](const S& s) { return Json(s.config_yaml); }, kEnd},
 });
 
 }  // namespace
 
 std::string FormatSummaryText(const RunSummary& s) {
   std::string out = fmt::format("teleop-{} summary ({})\n", ToString(s.role), s.stop_reason);
-  for (const TextLine& line : kTextLines) {
-    for (const std::string& content : line.content(s)) out += fmt::format("  {:<18}{}\n", line.label, content);
+  for (const SummaryField& f : kSummaryFields) {
+    if (f.text == nullptr) continue;
+    for (const std::string& content : f.text(s)) out += fmt::format("  {:<18}{}\n", f.label, content);
   }
   return out;
 }
 
 std::string FormatSummaryJson(const RunSummary& s) {
+  std::size_t last = 0;  // the last row with a key: no comma after it
+  for (std::size_t i = 0; i < kSummaryFields.size(); ++i) {
+    if (!kSummaryFields[i].key.empty()) last = i;
+  }
   std::string out = "{\n";
   bool line_start = true;
-  for (std::size_t i = 0; i < kSummaryFields.size(); ++i) {
+  for (std::size_t i = 0; i <= last; ++i) {
     const SummaryField& f = kSummaryFields[i];
+    if (f.key.empty()) continue;
     out += fmt::format(R"({}"{}": {})", line_start ? "  " : ", ", f.key, f.json(s));
     line_start = f.line_end;
-    if (f.line_end) out += i + 1 < kSummaryFields.size() ? ",\n" : "\n";
+    if (f.line_end) out += i < last ? ",\n" : "\n";
   }
   return out + "}\n";
 }

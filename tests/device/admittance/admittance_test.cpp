@@ -22,6 +22,7 @@
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/simulated_cia402_drive.hpp"
 #include "teleop/transport/can_emulated_bus.hpp"
+#include "test_utilities/sync_gate.hpp"
 
 namespace teleop::device {
 namespace {
@@ -35,6 +36,7 @@ struct Rig {
   std::vector<std::unique_ptr<fieldbus::SimulatedCia402Drive>> sims;
   AdmittanceConfig config;
   std::unique_ptr<AdmittanceDevice> device;
+  test::SyncGate* gate = nullptr;  ///< The first drive's host port (the device sends the SYNC on it).
 
   explicit Rig(int dof, double m_v, double b_v, double kp = 100.0, const fieldbus::SimulatedLoopConfig* loops = nullptr,
                const fieldbus::SimulatedJointConfig* joint = nullptr) {
@@ -64,8 +66,14 @@ struct Rig {
     fieldbus::Timebase t;
     t.now_ns = [this] { return now_ns; };
     t.wait_ns = [this](std::uint64_t ns) { Advance(std::max<std::uint64_t>(ns, 1000)); };
-    device = std::make_unique<AdmittanceDevice>(
-        config, [this](const transport::CanReceiveOptions& o) { return bus.MakePort(bus.AddNode(), o); }, t);
+    const auto port = [this](const transport::CanReceiveOptions& o) -> std::unique_ptr<transport::CanPort> {
+      auto inner = bus.MakePort(bus.AddNode(), o);
+      if (gate != nullptr) return inner;
+      auto first = std::make_unique<test::SyncGate>(std::move(inner));
+      gate = first.get();
+      return first;
+    };
+    device = std::make_unique<AdmittanceDevice>(config, port, t);
   }
   void Advance(std::uint64_t ns) {
     const std::uint64_t end = now_ns + ns;
@@ -221,6 +229,38 @@ TEST(Admittance, AFaultedDriveIsReportedAndNaNIsRefused) {
   rig.Advance(3'000'000);
   r = rig.Cycle(DofVector::Constant(1, 0.0));
   EXPECT_NE(r.faults & kFaultDriver, 0u);
+}
+
+// The cycle's SYNC refused while both drives are fine: the fault is the exchange's (kSync, communication), not a
+// drive's, and every drive's own frames still went out.
+TEST(Admittance, ARefusedSyncIsNamedAsTheSyncNotAsADrive) {
+  Rig rig(2, 0.5, 5.0);
+  rig.Build();
+  rig.device->Configure();
+  rig.device->Activate();
+  ASSERT_NE(rig.gate, nullptr);
+  Reading r;
+  for (int k = 0; k < 20; ++k) r = rig.Cycle(DofVector::Constant(2, 0.1));
+  EXPECT_EQ(r.faults, kFaultNone);
+  EXPECT_EQ(rig.device->fault_source(), AdmittanceFaultSource::kNone);
+  rig.gate->refuse_sync = true;
+  rig.device->Exchange();
+  rig.device->Read(r);
+  EXPECT_NE(r.faults & kFaultCommunication, 0u);
+  EXPECT_EQ(r.faults & kFaultDriver, 0u);
+  EXPECT_EQ(rig.device->fault_source(), AdmittanceFaultSource::kSync);
+  EXPECT_EQ(rig.device->fault_axis(), -1);
+  EXPECT_STREQ(ToString(rig.device->fault_source()), "SYNC");
+  EXPECT_EQ(rig.device->drive(0).counters().write_failures, 0u);  // drive 1's own frames all went out
+  // A later drive fault does not rename the first; Activate starts again.
+  rig.device->Write(Command::Force(DofVector::Constant(2, std::nan(""))));
+  EXPECT_EQ(rig.device->fault_source(), AdmittanceFaultSource::kSync);
+  rig.gate->refuse_sync = false;
+  rig.device->Deactivate();
+  rig.device->Activate();
+  EXPECT_EQ(rig.device->fault_source(), AdmittanceFaultSource::kNone);
+  rig.device->Write(Command::Force(DofVector::Constant(2, std::nan(""))));
+  EXPECT_EQ(rig.device->fault_source(), AdmittanceFaultSource::kCommand);
 }
 
 // Velocity mode: the virtual position is anchored to the joint's at the first fresh reading (the joint starts at

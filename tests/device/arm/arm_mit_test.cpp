@@ -319,6 +319,42 @@ TEST(MitArm, ARigThatDoesNotFitItsBusIsRefusedSayingWhatFits) {
   EXPECT_EQ(section.mit.can.interface_name, "can0");
 }
 
+// The mit section's keys with a value are the key table's (arm_keys.hpp): absent, each reads as MitJointBusConfig's
+// default; given, as written; a wrong word or a value out of range is refused by the key's name.
+TEST(MitArm, TheMitKeysDefaultsAreTheConfigsAndGivenValuesAreRead) {
+  const MitJointBusConfig code{};
+  const MitJointBusConfig absent = std::any_cast<ArmSection>(ReadSection(MitYaml("  bus: simulated\n"))).mit;
+  EXPECT_TRUE(absent.simulated);
+  EXPECT_EQ(absent.fd, code.fd);
+  EXPECT_EQ(absent.nominal_bitrate_bit_per_s, code.nominal_bitrate_bit_per_s);
+  EXPECT_EQ(absent.max_bus_load, code.max_bus_load);
+  EXPECT_EQ(absent.control, code.control);
+  EXPECT_EQ(absent.missing_limit, code.missing_limit);
+  EXPECT_EQ(absent.motor_timeout_ms, code.motor_timeout_ms);
+  EXPECT_EQ(absent.temperature_fault_C, code.temperature_fault_C);
+  const MitJointBusConfig given =
+      std::any_cast<ArmSection>(ReadSection(MitYaml("  bus: simulated\n  control: pd\n  missing_limit: 3\n"
+                                                    "  reply_wait_us: 250\n  temperature_warning_C: 60\n")))
+          .mit;
+  EXPECT_EQ(given.control, MitControl::kPd);
+  EXPECT_EQ(given.missing_limit, 3);
+  EXPECT_EQ(given.reply_wait_us, 250.0);
+  EXPECT_EQ(given.temperature_warning_C, 60.0);
+  const auto error = [](const std::string& bus) -> std::string {
+    try {
+      (void)ReadSection(MitYaml(bus));
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_NE(error("  bus: ethercat\n").find("'device.arm.mit.bus': must be simulated or can, got 'ethercat'"),
+            std::string::npos);
+  EXPECT_NE(error("  bus: simulated\n  control: current\n").find("'device.arm.mit.control'"), std::string::npos);
+  EXPECT_NE(error("  bus: simulated\n  missing_limit: 0\n").find("'device.arm.mit.missing_limit'"), std::string::npos);
+  EXPECT_NE(error("  bus: simulated\n  warp: 1\n").find("mit.warp"), std::string::npos);
+}
+
 TEST(MitArm, TheSimulatedYamlRigBuildsAndRuns) {
   DeviceConfig config;
   config.backend = "arm";

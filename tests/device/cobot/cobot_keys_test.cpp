@@ -7,6 +7,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <any>
+#include <numbers>
 #include <string>
 
 #include "teleop/config/yaml_reader.hpp"
@@ -73,7 +74,21 @@ TEST(CobotKeys, TheTablesDefaultsAreTheConfigsAndTheReadersWhenAbsent) {
        bicycle.bicycle_caster.singularity_threshold);
   same(keys::kHeadingBandwidth, code.bicycle_caster.heading_bandwidth_per_s,
        bicycle.bicycle_caster.heading_bandwidth_per_s);
-  EXPECT_EQ(keys::All().size(), 40U);  // 34 with a number, 6 with a word or true/false
+  same(keys::kInitialHeading, code.initial.heading_rad, read.initial.heading_rad);
+  EXPECT_EQ(keys::kInitialPosition.default_pair[0], code.initial.position_m.x());
+  EXPECT_EQ(keys::kInitialPosition.default_pair[1], code.initial.position_m.y());
+  EXPECT_EQ(read.initial.position_m, code.initial.position_m);
+  const CobotBackendConfig start = Read("{initial_position_m: [0.1, -0.2], initial_heading_deg: 90}");
+  EXPECT_EQ(start.initial.position_m, Vec2(0.1, -0.2));
+  EXPECT_NEAR(start.initial.heading_rad, std::numbers::pi / 2.0, 1e-12);
+  // 34 with a number, 6 with a word or true/false, initial_position_m and _heading_deg, 3 sections, fieldbus: 2 with
+  // a number and 2 sections, steering 14, sensors 5
+  EXPECT_EQ(keys::All().size(), 68U);
+  const CobotFieldbusConfig bus{};
+  EXPECT_EQ(keys::kSteeringMaxTorque.default_value, bus.steering.drive.max_torque_Nm);
+  EXPECT_EQ(keys::kSteeringHoldStiffness.default_value, bus.steering.hold_stiffness_Nm_per_rad);
+  EXPECT_EQ(keys::kSensorsForceScale.default_value, bus.sensors.force_N_per_unit);
+  EXPECT_EQ(keys::kFirstFramesTimeout.default_value, bus.first_frames_timeout_ms);
   // steering_time_constant_s has no struct member: its default τ = 0.02 s sets K2 = J/τ − b (eq 3c).
   EXPECT_EQ(keys::kSteeringTimeConstant.default_value, 0.02);
   EXPECT_NEAR(read.unicycle.controller.caster.k2_Nms_per_rad,

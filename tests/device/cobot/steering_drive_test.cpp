@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 
 #include "device/cobot/cobot_steering_drive.hpp"
 #include "fieldbus/cia402_test_rig.hpp"
@@ -50,6 +52,31 @@ TEST(CobotSteeringDrive, SteeringVelocityLoopClosesThroughThePdos) {
   EXPECT_NEAR(s.rate_rad_per_s, 2.0, 0.3);
   EXPECT_NEAR(rig.bus.sim->velocity_rad_per_s(), s.rate_rad_per_s, 0.05);
   EXPECT_GT(s.angle_rad, 0.3);
+}
+
+// Why the steering's SYNC stays in Write (docs/architecture.md, "The cycle on a fieldbus"): the RPDO and its SYNC go
+// out together, so the drive applies the torque within the cycle that computed it, well inside the 1 ms period (the
+// test prints the latency measured on the emulated bus). Sent in the next cycle's bus exchange instead, the SYNC
+// would come a period later, and so would the torque.
+TEST(CobotSteeringDrive, TheTorqueIsAppliedInTheCycleItIsWritten) {
+  SteeringRig rig;
+  SteeringFault fault = SteeringFault::kNone;
+  for (int k = 0; k < 5; ++k) (void)rig.Cycle(0.0, fault);
+  ASSERT_EQ(fault, SteeringFault::kNone);
+  constexpr double kTorque_Nm = 0.1;
+  ASSERT_GT(std::abs(rig.bus.sim->commanded_torque_Nm() - kTorque_Nm), 0.05);
+  SteeringSample s;
+  (void)rig.steering->Read(s);
+  ASSERT_EQ(rig.steering->Write(kTorque_Nm), SteeringFault::kNone);  // gear_ratio 1: the motor's torque
+  const auto period_ns = static_cast<std::uint64_t>(rig.bus.config.cycle_period_s * 1e9);
+  std::uint64_t latency_ns = 0;
+  while (latency_ns < 3 * period_ns && std::abs(rig.bus.sim->commanded_torque_Nm() - kTorque_Nm) > 2e-3) {
+    rig.bus.Advance(fieldbus::test::kSimStep_ns);
+    latency_ns += fieldbus::test::kSimStep_ns;
+  }
+  std::printf("steering torque applied %.1f ms after Write (period %.1f ms)\n", static_cast<double>(latency_ns) * 1e-6,
+              static_cast<double>(period_ns) * 1e-6);
+  EXPECT_LT(latency_ns, period_ns) << "the torque waited for a later SYNC";
 }
 
 TEST(CobotSteeringDrive, HeartbeatTimeoutLocksAndRequestsTheBrake) {

@@ -74,7 +74,7 @@ TEST(HybridFieldbusConfig, BadValuesAreRefusedWithTheirKey) {
   ExpectRefused("- node_id: 2", "- node_id: 1", "device.hybrid.fieldbus.drives", "node_id must differ");
   ExpectRefused("- node_id: 1", "- node_id: 128", "device.hybrid.fieldbus.drives[0].node_id", "");
   ExpectRefused("cob_id: 0x190", "cob_id: 0x080", "device.hybrid.fieldbus.force_sensor.cob_id", "SYNC");
-  ExpectRefused("bus: can\n", "bus: ethercat\n", "device.hybrid.fieldbus.force_sensor.bus", "can or modbus");
+  ExpectRefused("bus: can\n", "bus: ethercat\n", "device.hybrid.fieldbus.force_sensor.bus", "modbus or can");
   ExpectRefused("scale: 0.001, safe_value: 4.0}", "scale: 0.001, safe_value: 0.0}", "device.hybrid.fieldbus",
                 "safe_value");
   ExpectRefused("stale_after_ms: 20\n        - node_id: 2", "stale_after_ms: 1\n        - node_id: 2",

@@ -16,6 +16,7 @@
 #include "teleop/fieldbus/simulated_can_force_sensor.hpp"
 #include "teleop/fieldbus/simulated_cia402_drive.hpp"
 #include "teleop/transport/can_emulated_bus.hpp"
+#include "test_utilities/sync_gate.hpp"
 
 namespace teleop::device::hybrid {
 namespace {
@@ -40,25 +41,7 @@ ModbusPoint Point(const char* name, ModbusTable table, int address, double scale
   return p;
 }
 
-/// Drive 1's host port, passing everything through unless told to refuse the SYNC (0x080): a bus exchange that
-/// fails while both drives are fine.
-class SyncGate final : public transport::CanPort {
- public:
-  explicit SyncGate(transport::CanPort& inner) : inner_(inner) {}
-  transport::CanWriteStatus Write(const proto::can::CanFrame& frame) noexcept override {
-    if (refuse_sync && frame.id == 0x080) return transport::CanWriteStatus::kBufferFull;
-    return inner_.Write(frame);
-  }
-  bool Read(proto::can::CanFrame& frame) noexcept override { return inner_.Read(frame); }
-  std::string Describe() const override { return inner_.Describe(); }
-  bool WaitReadable(std::int64_t deadline_ns) noexcept override { return inner_.WaitReadable(deadline_ns); }
-  std::int64_t now_ns() const noexcept override { return inner_.now_ns(); }
-  std::int64_t receive_time_ns() const noexcept override { return inner_.receive_time_ns(); }
-  bool refuse_sync = false;
-
- private:
-  transport::CanPort& inner_;
-};
+using test::SyncGate;  // drive 1's host port as the device sees it (test_utilities/sync_gate.hpp)
 
 struct Rig {
   std::uint64_t now_ns = 0;

@@ -58,7 +58,9 @@ TEST(HybridKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
   EXPECT_EQ(keys::kAllocationUseBrakes.default_bool, alloc.use_brakes);
   EXPECT_EQ(read_alloc.use_brakes, alloc.use_brakes);
   EXPECT_FALSE(Read("{allocation: {use_brakes: false}}").allocation.use_brakes);
-  EXPECT_EQ(keys::All().size(), 24U);  // 22 with a number, rig with a word, allocation.use_brakes true/false
+  // 24 + initial_position_m, 11 sections (with fieldbus.force_sensor), 11 geometry, 13 effect, 7 operator,
+  // 4 environment, 3 fieldbus, 6 fieldbus.force_sensor
+  EXPECT_EQ(keys::All().size(), 80U);
   // The paper's values the docs state (docs/hybrid.md): motor 4.44 N·m after the reducer, brake 4 N·m, pulleys 5.
   EXPECT_EQ(code.motor.max_torque_Nm, 4.44);
   EXPECT_EQ(code.brake.max_torque_Nm, 4.0);
@@ -90,6 +92,72 @@ TEST(HybridKeys, TheRigKeysDefaultIsTheConfigsAndAWrongWordIsRefused) {
               std::string::npos)
         << e.what();
   }
+}
+
+std::string ReadError(const std::string& yaml) {
+  try {
+    (void)Read(yaml);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// geometry, operator, environment and effect: each default is the struct's, an absent key reads as it, a given one
+// is read (degrees to radians, pairs, directions normalised), and a key of another effect type is refused.
+TEST(HybridKeys, TheSectionsDefaultsAreTheStructsAndGivenValuesAreRead) {
+  const FiveBarConfig g{};
+  const HybridDeviceConfig absent = Read("{geometry: {}, operator: {}, effect: {type: wall}}");
+  EXPECT_EQ(absent.rig.geometry.proximal_1_m, g.proximal_1_m);
+  EXPECT_EQ(absent.rig.geometry.base_separation_m, g.base_separation_m);
+  EXPECT_NEAR(absent.rig.geometry.joint_1_min_rad, g.joint_1_min_rad, 1e-12);
+  EXPECT_NEAR(absent.rig.geometry.joint_2_max_rad, g.joint_2_max_rad, 1e-12);
+  EXPECT_EQ(absent.rig.geometry.workspace_y_max_m, g.workspace_y_max_m);
+  EXPECT_EQ(absent.rig.initial_position_m, HybridRigConfig{}.initial_position_m);
+  const OperatorHandConfig hand{};
+  EXPECT_TRUE(absent.simulated_operator);
+  EXPECT_EQ(absent.hand.direction, hand.direction);
+  EXPECT_EQ(absent.hand.stiffness_N_per_m, hand.stiffness_N_per_m);
+  EXPECT_EQ(absent.hand_mass_kg, HybridDeviceConfig{}.hand_mass_kg);
+  const WallConfig wall{};
+  EXPECT_EQ(absent.effect.kind, HybridEffectConfig::Kind::kWall);
+  EXPECT_EQ(absent.effect.wall.kind, wall.kind);
+  EXPECT_EQ(absent.effect.wall.stiffness_N_per_m, wall.stiffness_N_per_m);
+  EXPECT_EQ(absent.effect.wall.damper_coefficient, wall.damper_coefficient);
+  const FrictionConfig friction{};
+  const HybridEffectConfig rub = Read("{effect: {type: friction}}").effect;
+  EXPECT_EQ(rub.kind, HybridEffectConfig::Kind::kFriction);
+  EXPECT_EQ(rub.friction.display, friction.display);
+  EXPECT_EQ(rub.friction.stiffness_N_per_m, friction.stiffness_N_per_m);  // not the wall's
+  EXPECT_EQ(rub.friction.kinetic_coefficient, friction.kinetic_coefficient);
+  EXPECT_NE(keys::kFrictionStiffness.default_value, keys::kWallStiffness.default_value);
+
+  const HybridDeviceConfig given = Read(
+      "{geometry: {proximal_1_m: 0.25, joint_1_min_deg: -30, workspace_x_m: [-0.1, 0.1]}, initial_position_m: [0.01, "
+      "0.21], operator: {direction: [3, 4], mass_kg: 0.5}, effect: {type: wall, model: popc, normal: [0, 2]}}");
+  EXPECT_EQ(given.rig.geometry.proximal_1_m, 0.25);
+  EXPECT_NEAR(given.rig.geometry.joint_1_min_rad, -30.0 * config::kDeg, 1e-12);
+  EXPECT_EQ(given.rig.geometry.workspace_x_min_m, -0.1);
+  EXPECT_EQ(given.rig.geometry.workspace_x_max_m, 0.1);
+  EXPECT_EQ(given.rig.initial_position_m, Eigen::Vector2d(0.01, 0.21));
+  EXPECT_EQ(given.hand.direction, Eigen::Vector2d(0.6, 0.8));
+  EXPECT_EQ(given.hand_mass_kg, 0.5);
+  EXPECT_EQ(given.effect.wall.kind, WallKind::kSpringPoPc);
+  EXPECT_EQ(given.effect.wall.normal, Eigen::Vector2d(0.0, 1.0));
+  const HybridEnvironmentConfig env = Read("{environment: {point_m: [0, 0.3], stiffness_N_per_m: 500}}").environment;
+  EXPECT_TRUE(env.wall);
+  EXPECT_EQ(env.point_m, Eigen::Vector2d(0.0, 0.3));
+  EXPECT_EQ(env.stiffness_N_per_m, 500.0);
+  EXPECT_EQ(env.normal, HybridEnvironmentConfig{}.normal);
+
+  EXPECT_NE(ReadError("{effect: {type: none, stiffness_N_per_m: 1}}").find("effect.stiffness_N_per_m"),
+            std::string::npos);
+  EXPECT_NE(ReadError("{effect: {type: friction, model: popc}}").find("effect.model"), std::string::npos);
+  EXPECT_NE(ReadError("{effect: {type: wal}}").find("must be none, wall or friction, got 'wal'"), std::string::npos);
+  EXPECT_NE(ReadError("{effect: {type: wall, normal: [0, 0]}}").find("non-zero direction"), std::string::npos);
+  EXPECT_NE(ReadError("{environment: {stiffness_N_per_m: 500}}").find("point_m"), std::string::npos);
+  EXPECT_NE(ReadError("{geometry: {proximal_1_m: 0}}").find("'device.hybrid.geometry.proximal_1_m'"),
+            std::string::npos);
 }
 
 TEST(HybridKeys, AnUnknownNestedKeyIsRefusedByItsName) {

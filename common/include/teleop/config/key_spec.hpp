@@ -16,6 +16,8 @@ enum class KeyType : std::uint8_t {
   kText,      ///< A word or path (ReadText); default `default_text`.
   kChoice,    ///< One of the words in `choices` (ReadChoice returns its index); default `choices[default_choice]`.
   kBool,      ///< true or false (ReadBool); default `default_bool`.
+  kPair,      ///< Two numbers [a, b] (ReadPair, ReadDirection), each checked against the range; default `default_pair`.
+  kSection,   ///< A mapping whose keys are the table's "<key>.*" entries (KeysUnder); it has no value of its own.
 };
 
 /// The range a key's value must lie in (the reader's check and the docs' "range" column).
@@ -38,9 +40,13 @@ struct KeySpec {
   double high = 0.0;           ///< kInRange: the largest value allowed.
   /// kChoice: the allowed words, in the order of the config enum they name (unused entries nullptr).
   std::array<const char*, 4> choices{};
-  int default_choice = 0;         ///< kChoice: the index of the default word in `choices`.
-  bool default_bool = false;      ///< kBool: the default.
-  const char* default_text = "";  ///< kText: the default.
+  int default_choice = 0;                ///< kChoice: the index of the default word in `choices`.
+  bool default_bool = false;             ///< kBool: the default.
+  const char* default_text = "";         ///< kText: the default.
+  std::array<double, 2> default_pair{};  ///< kPair: the default.
+  /// A key of a typed section (one with a `type` choice): the type word it belongs to ("" = every type). The reader
+  /// accepts it only with that type (KeysUnder), and its docs row and `--list-devices` line say so.
+  const char* when = "";
 };
 
 }  // namespace teleop::config

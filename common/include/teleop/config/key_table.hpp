@@ -1,6 +1,9 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "teleop/config/key_spec.hpp"
 #include "teleop/config/yaml_reader.hpp"
@@ -35,6 +38,26 @@ Enum ReadChoiceAs(const Map& map, const KeySpec& spec) {
 bool ReadBool(const Map& map, const KeySpec& spec);
 /// Reads a kText key: required or `default_text`.
 std::string ReadText(const Map& map, const KeySpec& spec);
+/// Reads a kPair key: two numbers (or one, for both), each checked against the range; absent: `default_pair`.
+Eigen::Vector2d ReadPair(const Map& map, const KeySpec& spec);
+/// Reads a kPair key as a direction: not zero, normalised (the default is taken as written).
+Eigen::Vector2d ReadDirection(const Map& map, const KeySpec& spec);
+/// Whether `spec` is a key directly under `prefix` ("" for the section's own keys, "geometry." for a sub-section's)
+/// that a section of type `type` accepts (its `when` is "" or `type`; "*": any type, to read the `type` first).
+bool IsKeyUnder(const KeySpec& spec, std::string_view prefix, std::string_view type = "");
+/// The leaves of `table`'s keys directly under `prefix` with type `type`: what a reader's Map accepts there, so a
+/// key the reader takes is a key of the table.
+template <typename Table>
+std::vector<std::string> KeysUnder(const Table& table, std::string_view prefix, std::string_view type = "") {
+  std::vector<std::string> leaves;
+  for (const KeySpec& spec : table) {
+    if (IsKeyUnder(spec, prefix, type)) leaves.push_back(LeafOf(spec));
+  }
+  return leaves;
+}
+/// The docs/configuration.md heading whose table holds `spec`'s row, for the config section `section`
+/// ("device.hybrid"): "### `device.hybrid.geometry`" for "geometry.proximal_1_m".
+std::string DocsHeadingOf(const std::string& section, const KeySpec& spec);
 /// Reads a kDofValue key: `dof` entries, each checked against the range; absent: the default on every DOF.
 DofVector ReadDofValue(const Map& map, const KeySpec& spec, int dof);
 

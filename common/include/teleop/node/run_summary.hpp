@@ -49,8 +49,9 @@ struct DeviceWarningSummary {
   std::uint32_t seen = 0;     ///< Every bit seen during the run (OR).
 };
 
-/// What a process prints at the end of a run and writes with --summary-json. The JSON keys, in order, are the tables
-/// in run_summary.cpp (one line per field; mostly the field names here).
+/// What a process prints at the end of a run and writes with --summary-json. Both come from one table in
+/// run_summary.cpp (kSummaryFields: per field its JSON key and value, and the text line that phrases it; mostly the
+/// field names here): a new field is a member here, a row there, and the line of a Summarize* that fills it.
 struct RunSummary {
   Role role = Role::kMaster;
   std::string software_version;  ///< teleop::SoftwareVersion() (git describe at build time).

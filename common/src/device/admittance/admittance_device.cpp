@@ -113,6 +113,30 @@ AdmittanceDevice::AdmittanceDevice(const AdmittanceConfig& config, AdmittancePor
 
 AdmittanceDevice::~AdmittanceDevice() = default;
 
+const char* ToString(AdmittanceFaultSource source) noexcept {
+  switch (source) {
+    case AdmittanceFaultSource::kNone:
+      return "none";
+    case AdmittanceFaultSource::kDrive:
+      return "drive";
+    case AdmittanceFaultSource::kTracking:
+      return "tracking";
+    case AdmittanceFaultSource::kCommand:
+      return "command";
+    case AdmittanceFaultSource::kSync:
+      return "SYNC";
+  }
+  return "?";
+}
+
+void AdmittanceDevice::Fault(std::uint32_t& faults, std::uint32_t bits, AdmittanceFaultSource source,
+                             int axis) noexcept {
+  faults |= bits;
+  if (fault_source_ != AdmittanceFaultSource::kNone) return;
+  fault_source_ = source;
+  fault_axis_ = axis;
+}
+
 void AdmittanceDevice::Configure() {
   drives_.clear();
   drive_ports_.clear();
@@ -154,12 +178,22 @@ void AdmittanceDevice::Activate() {
   tracking_fault_ = false;
   force_N_.setZero();
   faults_ = kFaultNone;
+  fault_source_ = AdmittanceFaultSource::kNone;
+  fault_axis_ = -1;
   safe_ = true;
   active_ = true;
 }
 
 void AdmittanceDevice::Deactivate() noexcept {
   SetSafe();
+  if (active_ && fault_source_ != AdmittanceFaultSource::kNone) {
+    if (fault_axis_ >= 0) {
+      spdlog::error("device.admittance: the first fault since Activate: {} (axis {})", ToString(fault_source_),
+                    fault_axis_);
+    } else {
+      spdlog::error("device.admittance: the first fault since Activate: {}", ToString(fault_source_));
+    }
+  }
   if (active_) {
     for (int i = 0; i < config_.dof; ++i) {
       const AdmittanceTracking& a = tracking_[static_cast<std::size_t>(i)];
@@ -186,7 +220,10 @@ void AdmittanceDevice::Exchange() noexcept {
   // TPDOs in (sampled at the previous SYNC), every drive's, before the SYNC...
   for (std::size_t k = 0; k < drives_.size(); ++k) taken_[k].status = drives_[k]->Read(taken_[k].reading);
   // ...then one SYNC for every drive: it applies the RPDOs the previous cycle's Update() queued.
-  if (sync_ && sync_->Send() != transport::CanWriteStatus::kOk) faults_ |= kFaultCommunication;
+  // A refused SYNC is the exchange's own fault (kSync), not a drive's.
+  if (sync_ && sync_->Send() != transport::CanWriteStatus::kOk) {
+    Fault(faults_, kFaultCommunication, AdmittanceFaultSource::kSync);
+  }
 }
 
 void AdmittanceDevice::TrackAxis(std::size_t k, double measured_m, std::uint32_t& faults) noexcept {
@@ -211,7 +248,7 @@ void AdmittanceDevice::TrackAxis(std::size_t k, double measured_m, std::uint32_t
   if (++beyond_run_[k] >= config_.tracking_error_cycles) {
     if (beyond_run_[k] == config_.tracking_error_cycles) ++a.faults;
     tracking_fault_ = true;
-    faults |= kFaultDriver;
+    Fault(faults, kFaultDriver, AdmittanceFaultSource::kTracking, static_cast<int>(k));
   }
 }
 
@@ -250,21 +287,21 @@ void AdmittanceDevice::Read(Reading& out) noexcept {
       case Cia402Status::kNotEnabled:
       case Cia402Status::kNotActive:
       case Cia402Status::kWrongMode:
-        faults |= kFaultDriver;
+        Fault(faults, kFaultDriver, AdmittanceFaultSource::kDrive, i);
         break;
       default:
-        faults |= kFaultCommunication;
+        Fault(faults, kFaultCommunication, AdmittanceFaultSource::kDrive, i);
         break;
     }
   }
-  if (drives_.empty()) faults |= kFaultDriver;
+  if (drives_.empty()) Fault(faults, kFaultDriver, AdmittanceFaultSource::kDrive);
   out.faults = faults;
 }
 
 void AdmittanceDevice::Write(const Command& command) noexcept {
   const int n = config_.dof;
   if (command.force_N.size() != n || !command.force_N.allFinite()) {
-    faults_ |= kFaultDriver;
+    Fault(faults_, kFaultDriver, AdmittanceFaultSource::kCommand);
     force_N_.setZero();
     return;
   }
@@ -283,9 +320,9 @@ void AdmittanceDevice::Update(double period_s) noexcept {
       rendered_N_[i] = safe_ ? 0.0 : force_N_[i];
       const Cia402Status s = drives_[k]->WriteTorque_Nm(rendered_N_[i] * t);
       if (s == Cia402Status::kWriteFailed || s == Cia402Status::kBusOff || s == Cia402Status::kHeartbeatLost) {
-        faults_ |= kFaultCommunication;
+        Fault(faults_, kFaultCommunication, AdmittanceFaultSource::kDrive, i);
       } else if (s == Cia402Status::kFault) {
-        faults_ |= kFaultDriver;
+        Fault(faults_, kFaultDriver, AdmittanceFaultSource::kDrive, i);
       }
       continue;
     }
@@ -304,9 +341,9 @@ void AdmittanceDevice::Update(double period_s) noexcept {
                                ? drives_[k]->WritePosition_rad(m.position_m() / t)
                                : drives_[k]->WriteVelocity_rad_per_s(m.velocity_m_per_s() / t);
     if (s == Cia402Status::kWriteFailed || s == Cia402Status::kBusOff || s == Cia402Status::kHeartbeatLost) {
-      faults_ |= kFaultCommunication;
+      Fault(faults_, kFaultCommunication, AdmittanceFaultSource::kDrive, i);
     } else if (s == Cia402Status::kFault) {
-      faults_ |= kFaultDriver;
+      Fault(faults_, kFaultDriver, AdmittanceFaultSource::kDrive, i);
     }
   }
 }

@@ -106,6 +106,12 @@ struct AdmittanceTracking {
 using AdmittancePortFactory =
     std::function<std::unique_ptr<fieldbus::CanPort>(const transport::CanReceiveOptions& options)>;
 
+/// What set a fault bit first since Activate (Reading::faults carries the bits; Deactivate logs it with the axis):
+/// kDrive a drive's status or a refused RPDO, kTracking the tracking check, kCommand a non-finite or wrongly sized
+/// command, kSync the cycle's SYNC could not be sent (the bus exchange itself, not a drive).
+enum class AdmittanceFaultSource : std::uint8_t { kNone, kDrive, kTracking, kCommand, kSync };
+const char* ToString(AdmittanceFaultSource source) noexcept;
+
 class AdmittanceDevice final : public Device, public BusExchange {
  public:
   /// Validates (throws teleop::Error naming the key); no I/O. `ports` defaults to OpenCanPort(config.can, …).
@@ -132,6 +138,9 @@ class AdmittanceDevice final : public Device, public BusExchange {
   const AdmittanceTracking& tracking(int axis) const { return tracking_.at(static_cast<std::size_t>(axis)); }
   double measured_position_m(int axis) const { return tracking(axis).measured_position_m; }
   double max_tracking_error_m() const noexcept { return max_tracking_error_m_; }
+  /// The first fault's source since Activate, and its axis (kDrive, kTracking; -1 otherwise).
+  AdmittanceFaultSource fault_source() const noexcept { return fault_source_; }
+  int fault_axis() const noexcept { return fault_axis_; }
 
  private:
   /// One drive's part of the last Exchange(): its status and reading (kOk becomes kNoNewData once Read).
@@ -142,6 +151,8 @@ class AdmittanceDevice final : public Device, public BusExchange {
   /// Position and velocity modes: the tracking check of axis `k` on a fresh measurement (anchors the virtual
   /// position to the joint's at the first one); sets kFaultDriver in `faults` once the bound holds long enough.
   void TrackAxis(std::size_t k, double measured_m, std::uint32_t& faults) noexcept;
+  /// Sets `bits` in `faults` and names the source when it is the first since Activate.
+  void Fault(std::uint32_t& faults, std::uint32_t bits, AdmittanceFaultSource source, int axis = -1) noexcept;
 
   AdmittanceConfig config_;
   AdmittancePortFactory ports_;
@@ -163,6 +174,8 @@ class AdmittanceDevice final : public Device, public BusExchange {
   DofVector force_N_;
   DofVector rendered_N_;
   std::uint32_t faults_ = kFaultNone;
+  AdmittanceFaultSource fault_source_ = AdmittanceFaultSource::kNone;
+  int fault_axis_ = -1;
   bool active_ = false;
   bool safe_ = true;
 };

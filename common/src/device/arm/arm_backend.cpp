@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "arm_keys.hpp"
 #include "arm_section.hpp"
@@ -100,46 +102,31 @@ MitJointConfig ReadMitJoint(const Field& f, const std::map<std::string, fieldbus
 }
 
 void ReadMit(const Field& f, MitJointBusConfig& mit) {
-  const Map map(f, {"bus", "can", "fd", "nominal_bitrate_bit_per_s", "data_bitrate_bit_per_s", "max_bus_load",
-                    "rate_hz", "control", "missing_limit", "answer_timeout_ms", "motor_timeout_ms", "reply_wait_us",
-                    "temperature_warning_C", "temperature_fault_C", "models_file", "joints"});
-  const Field bus = map.Required("bus");
-  const std::string bus_kind = bus.AsString();
-  if (bus_kind == "simulated") {
-    mit.simulated = true;
-  } else if (bus_kind == "can") {
-    mit.simulated = false;
-    fieldbus::ReadCanPortSection(map.Required("can"), mit.can);
-  } else {
-    bus.Fail("must be simulated (the simulated MIT arm in this process) or can (the `can` section's bus)");
-  }
+  namespace k = arm_keys;
+  std::vector<std::string> names = config::KeysUnder(k::All(), "mit.");
+  names.insert(names.end(), {"can", "joints"});  // the bus section and the joints list: read below
+  const Map map(f, names);
+  mit.simulated = config::ReadChoice(map, k::kMitBus) == 0;
+  if (!mit.simulated) fieldbus::ReadCanPortSection(map.Required("can"), mit.can);
   if (auto v = map.Optional("can"); v && mit.simulated) v->Fail("a bus section, but bus is simulated; remove it");
-  if (auto v = map.Optional("fd")) mit.fd = v->AsBool();
-  if (auto v = map.Optional("nominal_bitrate_bit_per_s")) mit.nominal_bitrate_bit_per_s = config::Positive(*v, "bit/s");
-  if (auto v = map.Optional("data_bitrate_bit_per_s")) mit.data_bitrate_bit_per_s = config::Positive(*v, "bit/s");
-  if (auto v = map.Optional("max_bus_load")) mit.max_bus_load = config::InRange(*v, 0.01, 1.0, "");
-  if (auto v = map.Optional("rate_hz")) mit.rate_hz = config::InRange(*v, 1.0, 100000.0, "Hz");
-  if (auto v = map.Optional("control")) {
-    const std::string c = v->AsString();
-    if (c == "torque") {
-      mit.control = MitControl::kTorque;
-    } else if (c == "pd") {
-      mit.control = MitControl::kPd;
-    } else {
-      v->Fail("must be torque (Kp = Kd = 0, the arm's torque as the feed-forward) or pd (the motor's own PD)");
-    }
-  }
-  if (auto v = map.Optional("missing_limit")) mit.missing_limit = config::IntInRange(*v, 1, 1000);
-  if (auto v = map.Optional("answer_timeout_ms")) mit.answer_timeout_ms = config::InRange(*v, 1.0, 10000.0, "ms");
-  if (auto v = map.Optional("motor_timeout_ms")) mit.motor_timeout_ms = config::InRange(*v, 0.0, 3000.0, "ms");
-  if (auto v = map.Optional("reply_wait_us")) mit.reply_wait_us = config::InRange(*v, 0.0, 10000.0, "µs");
-  if (auto v = map.Optional("temperature_warning_C")) mit.temperature_warning_C = config::Finite(*v);
-  if (auto v = map.Optional("temperature_fault_C")) mit.temperature_fault_C = config::Finite(*v);
-  std::string models_file = fieldbus::DefaultMitMotorModelsPath();
-  if (auto v = map.Optional("models_file")) models_file = config::BesideConfigFile(f.file(), v->AsString());
-  const auto models = fieldbus::ReadMitMotorModels(models_file);
+  mit.fd = config::ReadBool(map, k::kMitFd);
+  mit.nominal_bitrate_bit_per_s = config::ReadNumber(map, k::kMitNominalBitrate);
+  mit.data_bitrate_bit_per_s = config::ReadNumber(map, k::kMitDataBitrate);
+  mit.max_bus_load = config::ReadNumber(map, k::kMitMaxBusLoad);
+  mit.rate_hz = config::ReadNumber(map, k::kMitRate);
+  mit.control = config::ReadChoiceAs<MitControl>(map, k::kMitControl);
+  mit.missing_limit = config::ReadInteger(map, k::kMitMissingLimit);
+  mit.answer_timeout_ms = config::ReadNumber(map, k::kMitAnswerTimeout);
+  mit.motor_timeout_ms = config::ReadNumber(map, k::kMitMotorTimeout);
+  mit.reply_wait_us = config::ReadNumber(map, k::kMitReplyWait);
+  mit.temperature_warning_C = config::ReadNumber(map, k::kMitTemperatureWarning);
+  mit.temperature_fault_C = config::ReadNumber(map, k::kMitTemperatureFault);
+  const std::string models = config::ReadText(map, arm_keys::kMitModelsFile);
+  const std::string models_file =
+      models.empty() ? fieldbus::DefaultMitMotorModelsPath() : config::BesideConfigFile(f.file(), models);
+  const auto table = fieldbus::ReadMitMotorModels(models_file);
   const Field joints = map.Required("joints");
-  for (const Field& item : joints.AsList()) mit.joints.push_back(ReadMitJoint(item, models, models_file));
+  for (const Field& item : joints.AsList()) mit.joints.push_back(ReadMitJoint(item, table, models_file));
   if (mit.joints.empty()) joints.Fail("needs one motor per joint");
   try {
     CheckMitBusLoad(mit, "device.arm.mit");
@@ -170,33 +157,26 @@ Cia402JointConfig ReadCia402Joint(const Field& f) {
 }
 
 void ReadCia402(const Field& f, Cia402JointBusConfig& c) {
-  const Map map(
-      f, {"bus", "buses", "nominal_bitrate_bit_per_s", "max_bus_load", "rate_hz", "stale_after_ms",
-          "drive_heartbeat_period_ms", "heartbeat_timeout_ms", "sdo_timeout_ms", "activate_timeout_ms", "joints"});
-  const Field bus = map.Required("bus");
-  const std::string bus_kind = bus.AsString();
-  if (bus_kind == "simulated") {
-    c.simulated = true;
-  } else if (bus_kind == "can") {
-    c.simulated = false;
+  namespace k = arm_keys;
+  std::vector<std::string> names = config::KeysUnder(k::All(), "cia402.");
+  names.insert(names.end(), {"buses", "joints"});  // the bus sections and the joints: lists, read below
+  const Map map(f, names);
+  c.simulated = config::ReadChoice(map, k::kCia402Bus) == 0;
+  if (!c.simulated) {
     for (const Field& item : map.Required("buses").AsList()) {
       c.buses.emplace_back();
       fieldbus::ReadCanPortSection(item, c.buses.back());
     }
-  } else {
-    bus.Fail("must be simulated (the simulated arm on simulated CiA 402 drives in this process) or can (the buses)");
   }
   if (auto v = map.Optional("buses"); v && c.simulated) v->Fail("bus sections, but bus is simulated; remove them");
-  if (auto v = map.Optional("nominal_bitrate_bit_per_s")) c.nominal_bitrate_bit_per_s = config::Positive(*v, "bit/s");
-  if (auto v = map.Optional("max_bus_load")) c.max_bus_load = config::InRange(*v, 0.01, 1.0, "");
-  if (auto v = map.Optional("rate_hz")) c.rate_hz = config::InRange(*v, 1.0, 100000.0, "Hz");
-  if (auto v = map.Optional("stale_after_ms")) c.stale_after_ms = config::InRange(*v, 1.0, 1000.0, "ms");
-  if (auto v = map.Optional("drive_heartbeat_period_ms")) {
-    c.drive_heartbeat_period_ms = config::InRange(*v, 1.0, 10000.0, "ms");
-  }
-  if (auto v = map.Optional("heartbeat_timeout_ms")) c.heartbeat_timeout_ms = config::InRange(*v, 1.0, 60000.0, "ms");
-  if (auto v = map.Optional("sdo_timeout_ms")) c.sdo_timeout_ms = config::InRange(*v, 1.0, 10000.0, "ms");
-  if (auto v = map.Optional("activate_timeout_ms")) c.activate_timeout_ms = config::InRange(*v, 1.0, 10000.0, "ms");
+  c.nominal_bitrate_bit_per_s = config::ReadNumber(map, k::kCia402NominalBitrate);
+  c.max_bus_load = config::ReadNumber(map, k::kCia402MaxBusLoad);
+  c.rate_hz = config::ReadNumber(map, k::kCia402Rate);
+  c.stale_after_ms = config::ReadNumber(map, k::kCia402Stale);
+  c.drive_heartbeat_period_ms = config::ReadNumber(map, k::kCia402HeartbeatPeriod);
+  c.heartbeat_timeout_ms = config::ReadNumber(map, k::kCia402HeartbeatTimeout);
+  c.sdo_timeout_ms = config::ReadNumber(map, k::kCia402SdoTimeout);
+  c.activate_timeout_ms = config::ReadNumber(map, k::kCia402ActivateTimeout);
   const Field joints = map.Required("joints");
   for (const Field& item : joints.AsList()) c.joints.push_back(ReadCia402Joint(item));
   if (c.joints.empty()) joints.Fail("needs one drive per joint");
@@ -431,22 +411,7 @@ DeviceBackend ArmBackend() {
       {"joint_limits[].max_effort_Nm", "torque limit (N·m), > 0: every torque is clamped to it"},
       {"simulation", "the simulated arm (actuators: simulated)"},
       {"simulation.initial_q_rad", "start configuration, one angle per joint (rad); default the middle of each range"},
-      {"mit", "MIT-mode CAN motors (actuators: mit; docs/arms.md, \"MIT motors\")"},
-      {"mit.bus", "simulated (the simulated arm on simulated MIT motors, in this process) | can (the mit.can bus)"},
       {"mit.can", "the bus: medium (socketcan | emulated), interface, bus, connect_timeout_ms (docs/can.md)"},
-      {"mit.fd", "CAN FD frames with the bit-rate switch (default true)"},
-      {"mit.nominal_bitrate_bit_per_s", "the bus-load budget's arbitration bit rate (default 1000000)"},
-      {"mit.data_bitrate_bit_per_s", "the bus-load budget's FD data bit rate (default 5000000)"},
-      {"mit.max_bus_load", "the budget: a rig above this fraction of the bus is refused (default 0.8)"},
-      {"mit.rate_hz", "the cycle rate the budget is computed at: the process's rate_hz (Hz, default 1000)"},
-      {"mit.control", "torque (default: Kp = Kd = 0, the arm's torque as the feed-forward) | pd (the motor's PD)"},
-      {"mit.missing_limit", "exchanges in a row without a reply that fault the joint (default 10)"},
-      {"mit.answer_timeout_ms", "set-up: how long a register read, enable or disable waits (default 20)"},
-      {"mit.motor_timeout_ms", "each motor's own CAN timeout, register 9: a dead host leaves it disabled (default 50)"},
-      {"mit.reply_wait_us", "a CAN bus: how long each exchange waits for its replies (default 400)"},
-      {"mit.temperature_warning_C", "MOS or rotor temperature for the arm warning kArmWarningTemperature (default 70)"},
-      {"mit.temperature_fault_C", "MOS or rotor temperature that faults the joint (default 100)"},
-      {"mit.models_file", "the motor models table (default the shipped deploy/motors/mit-models.yaml)"},
       {"mit.joints", "one motor per joint in the chain's order"},
       {"mit.joints[].model", "the models table's name (DM-J4310, DM-J4340, DM-J8009, ...)"},
       {"mit.joints[].esc_id", "the motor's CAN id (1..0x7FE)"},
@@ -456,19 +421,7 @@ DeviceBackend ArmBackend() {
       {"mit.joints[].gear_ratio", "motor turns per joint turn, > 0 (default 1)"},
       {"mit.joints[].kp_Nm_per_rad", "control: pd, joint side (N·m/rad)"},
       {"mit.joints[].kd_Nms_per_rad", "control: pd, joint side (N·m·s/rad)"},
-      {"cia402",
-       "CiA 402 drives in cyclic synchronous torque mode (actuators: cia402; docs/arms.md, \"CiA 402 joints\")"},
-      {"cia402.bus", "simulated (the simulated arm on simulated CiA 402 drives, in this process) | can (cia402.buses)"},
       {"cia402.buses", "one CAN section per bus index: medium, interface, bus, connect_timeout_ms (docs/can.md)"},
-      {"cia402.nominal_bitrate_bit_per_s",
-       "the bus-load budget's (and the emulated buses') bit rate (default 1000000)"},
-      {"cia402.max_bus_load", "the budget: a bus above this fraction is refused (default 0.8)"},
-      {"cia402.rate_hz", "the cycle rate: the SYNC period and the budget's rate; the process's rate_hz (default 1000)"},
-      {"cia402.stale_after_ms", "no TPDO for this long faults the joint (ms, default 10)"},
-      {"cia402.drive_heartbeat_period_ms", "each drive's heartbeat, 0x1017 (ms, default 50)"},
-      {"cia402.heartbeat_timeout_ms", "the host's consumer of each drive's heartbeat (ms, default 150)"},
-      {"cia402.sdo_timeout_ms", "set-up: how long one SDO waits (ms, default 50)"},
-      {"cia402.activate_timeout_ms", "set-up: each state machine step and the first TPDOs (ms, default 500)"},
       {"cia402.joints", "one drive per joint in the chain's order"},
       {"cia402.joints[].bus", "the joint's bus: an index into cia402.buses from 0 (default 0)"},
       {"cia402.joints[].node_id", "the drive's node ID (1..127, unique on its bus)"},

@@ -388,12 +388,181 @@ inline const KeySpec kSweepBucket = [] {
   return s;
 }();
 
+// The `mit` section's keys with a value (the can bus section and the joints list are read apart): each default is
+// MitJointBusConfig's.
+inline const MitJointBusConfig kMit{};
+inline const KeySpec kMitSection{.key = "mit",
+                                 .type = KeyType::kSection,
+                                 .meaning = "MIT-mode CAN motors (actuators: mit): the mit.* keys (`device.arm.mit`)."};
+/// `mit.bus`: 0 the simulated MIT arm in this process, 1 the `can` section's bus.
+inline const KeySpec kMitBus{.key = "mit.bus",
+                             .type = KeyType::kChoice,
+                             .required = true,
+                             .meaning =
+                                 "simulated (the simulated arm of `simulation` on simulated DM-J motors, in this "
+                                 "process) or can (the `can` section's bus).",
+                             .choices = {"simulated", "can"}};
+inline const KeySpec kMitFd{.key = "mit.fd",
+                            .type = KeyType::kBool,
+                            .meaning = "CAN FD frames with the bit-rate switch.",
+                            .default_bool = kMit.fd};
+inline const KeySpec kMitNominalBitrate{.key = "mit.nominal_bitrate_bit_per_s",
+                                        .unit = "bit/s",
+                                        .range = KeyRange::kPositive,
+                                        .default_value = kMit.nominal_bitrate_bit_per_s,
+                                        .meaning = "The bus-load budget's arbitration bit rate."};
+inline const KeySpec kMitDataBitrate{.key = "mit.data_bitrate_bit_per_s",
+                                     .unit = "bit/s",
+                                     .range = KeyRange::kPositive,
+                                     .default_value = kMit.data_bitrate_bit_per_s,
+                                     .meaning = "The bus-load budget's FD data bit rate."};
+inline const KeySpec kMitMaxBusLoad{.key = "mit.max_bus_load",
+                                    .range = KeyRange::kInRange,
+                                    .default_value = kMit.max_bus_load,
+                                    .meaning = "The budget: a rig above this fraction of the bus is refused.",
+                                    .low = 0.01,
+                                    .high = 1.0};
+inline const KeySpec kMitRate{.key = "mit.rate_hz",
+                              .unit = "Hz",
+                              .range = KeyRange::kInRange,
+                              .default_value = kMit.rate_hz,
+                              .meaning = "The cycle rate the budget is computed at: set it to the process's rate_hz.",
+                              .low = 1.0,
+                              .high = 100000.0};
+/// `mit.control`: the word's index is MitControl.
+inline const KeySpec kMitControl{
+    .key = "mit.control",
+    .type = KeyType::kChoice,
+    .meaning =
+        "torque (Kp = Kd = 0, the arm's torque as each motor's feed-forward) or pd (the motor's own PD with "
+        "each joint's kp_Nm_per_rad, kd_Nms_per_rad, plus the torque).",
+    .choices = {"torque", "pd"},
+    .default_choice = static_cast<int>(kMit.control)};
+inline const KeySpec kMitMissingLimit{.key = "mit.missing_limit",
+                                      .type = KeyType::kInteger,
+                                      .range = KeyRange::kInRange,
+                                      .default_value = static_cast<double>(kMit.missing_limit),
+                                      .meaning = "Exchanges in a row without a reply that fault the joint.",
+                                      .low = 1,
+                                      .high = 1000};
+inline const KeySpec kMitAnswerTimeout{.key = "mit.answer_timeout_ms",
+                                       .unit = "ms",
+                                       .range = KeyRange::kInRange,
+                                       .default_value = kMit.answer_timeout_ms,
+                                       .meaning = "Set-up: how long a register read, enable or disable waits.",
+                                       .low = 1.0,
+                                       .high = 10000.0};
+inline const KeySpec kMitMotorTimeout{
+    .key = "mit.motor_timeout_ms",
+    .unit = "ms",
+    .range = KeyRange::kInRange,
+    .default_value = kMit.motor_timeout_ms,
+    .meaning =
+        "Each motor's own CAN timeout (register 9), written at configure: a dead host leaves the motor "
+        "disabled; 0 = off.",
+    .low = 0.0,
+    .high = 3000.0};
+inline const KeySpec kMitReplyWait{.key = "mit.reply_wait_us",
+                                   .unit = "µs",
+                                   .range = KeyRange::kInRange,
+                                   .default_value = kMit.reply_wait_us,
+                                   .meaning = "bus: can: how long each exchange waits for its replies.",
+                                   .low = 0.0,
+                                   .high = 10000.0};
+inline const KeySpec kMitTemperatureWarning{
+    .key = "mit.temperature_warning_C",
+    .unit = "°C",
+    .default_value = kMit.temperature_warning_C,
+    .meaning = "MOS or rotor temperature at or above which the arm reports kArmWarningTemperature."};
+inline const KeySpec kMitTemperatureFault{.key = "mit.temperature_fault_C",
+                                          .unit = "°C",
+                                          .default_value = kMit.temperature_fault_C,
+                                          .meaning = "MOS or rotor temperature at or above which the joint faults."};
+inline const KeySpec kMitModelsFile{
+    .key = "mit.models_file",
+    .type = KeyType::kText,
+    .meaning = "The motor models table (beside this config); empty: the shipped deploy/motors/mit-models.yaml."};
+
+// The `cia402` section's keys with a value (the buses list and the joints list are read apart): each default is
+// Cia402JointBusConfig's.
+inline const Cia402JointBusConfig kCia402{};
+inline const KeySpec kCia402Section{
+    .key = "cia402",
+    .type = KeyType::kSection,
+    .meaning =
+        "CiA 402 drives in cyclic synchronous torque mode (actuators: cia402): the cia402.* keys "
+        "(`device.arm.cia402`)."};
+/// `cia402.bus`: 0 the simulated arm on simulated drives in this process, 1 the `buses`.
+inline const KeySpec kCia402Bus{.key = "cia402.bus",
+                                .type = KeyType::kChoice,
+                                .required = true,
+                                .meaning =
+                                    "simulated (the simulated arm on simulated CiA 402 drives, in this process) "
+                                    "or can (the `buses`).",
+                                .choices = {"simulated", "can"}};
+inline const KeySpec kCia402NominalBitrate{.key = "cia402.nominal_bitrate_bit_per_s",
+                                           .unit = "bit/s",
+                                           .range = KeyRange::kPositive,
+                                           .default_value = kCia402.nominal_bitrate_bit_per_s,
+                                           .meaning = "The bus-load budget's (and the emulated buses') bit rate."};
+inline const KeySpec kCia402MaxBusLoad{.key = "cia402.max_bus_load",
+                                       .range = KeyRange::kInRange,
+                                       .default_value = kCia402.max_bus_load,
+                                       .meaning = "The budget: a bus above this fraction is refused.",
+                                       .low = 0.01,
+                                       .high = 1.0};
+inline const KeySpec kCia402Rate{.key = "cia402.rate_hz",
+                                 .unit = "Hz",
+                                 .range = KeyRange::kInRange,
+                                 .default_value = kCia402.rate_hz,
+                                 .meaning =
+                                     "The cycle rate: the SYNC period and the budget's rate; the process's "
+                                     "rate_hz.",
+                                 .low = 1.0,
+                                 .high = 100000.0};
+inline const KeySpec kCia402Stale{.key = "cia402.stale_after_ms",
+                                  .unit = "ms",
+                                  .range = KeyRange::kInRange,
+                                  .default_value = kCia402.stale_after_ms,
+                                  .meaning = "No TPDO for this long faults the joint.",
+                                  .low = 1.0,
+                                  .high = 1000.0};
+inline const KeySpec kCia402HeartbeatPeriod{.key = "cia402.drive_heartbeat_period_ms",
+                                            .unit = "ms",
+                                            .range = KeyRange::kInRange,
+                                            .default_value = kCia402.drive_heartbeat_period_ms,
+                                            .meaning = "Each drive's heartbeat, 0x1017.",
+                                            .low = 1.0,
+                                            .high = 10000.0};
+inline const KeySpec kCia402HeartbeatTimeout{.key = "cia402.heartbeat_timeout_ms",
+                                             .unit = "ms",
+                                             .range = KeyRange::kInRange,
+                                             .default_value = kCia402.heartbeat_timeout_ms,
+                                             .meaning = "The host's consumer of each drive's heartbeat.",
+                                             .low = 1.0,
+                                             .high = 60000.0};
+inline const KeySpec kCia402SdoTimeout{.key = "cia402.sdo_timeout_ms",
+                                       .unit = "ms",
+                                       .range = KeyRange::kInRange,
+                                       .default_value = kCia402.sdo_timeout_ms,
+                                       .meaning = "Set-up: how long one SDO waits.",
+                                       .low = 1.0,
+                                       .high = 10000.0};
+inline const KeySpec kCia402ActivateTimeout{.key = "cia402.activate_timeout_ms",
+                                            .unit = "ms",
+                                            .range = KeyRange::kInRange,
+                                            .default_value = kCia402.activate_timeout_ms,
+                                            .meaning = "Set-up: each state machine step and the first TPDOs.",
+                                            .low = 1.0,
+                                            .high = 10000.0};
+
 /// Every key of the table, built at its first use (after static initialisation).
 inline const auto& All() {
   static const std::array table{kUrdf,
                                 kBaseLink,
                                 kToolLink,
                                 kToolOffset,
+                                kWorkspaceOrigin,
                                 kGravity,
                                 kOrientation,
                                 kOrientationStiffness,
@@ -425,7 +594,32 @@ inline const auto& All() {
                                 kSweepSamples,
                                 kSweepDistance,
                                 kSweepSeed,
-                                kSweepBucket};
+                                kSweepBucket,
+                                kMitSection,
+                                kMitBus,
+                                kMitFd,
+                                kMitNominalBitrate,
+                                kMitDataBitrate,
+                                kMitMaxBusLoad,
+                                kMitRate,
+                                kMitControl,
+                                kMitMissingLimit,
+                                kMitAnswerTimeout,
+                                kMitMotorTimeout,
+                                kMitReplyWait,
+                                kMitTemperatureWarning,
+                                kMitTemperatureFault,
+                                kMitModelsFile,
+                                kCia402Section,
+                                kCia402Bus,
+                                kCia402NominalBitrate,
+                                kCia402MaxBusLoad,
+                                kCia402Rate,
+                                kCia402Stale,
+                                kCia402HeartbeatPeriod,
+                                kCia402HeartbeatTimeout,
+                                kCia402SdoTimeout,
+                                kCia402ActivateTimeout};
   return table;
 }
 

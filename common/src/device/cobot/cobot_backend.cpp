@@ -27,12 +27,7 @@ DeviceBackend CobotBackend() {
       {"virtual_mass_kg",
        "1/K1 of the virtual caster (eq 2) (kg): equal to cart_mass_kg (the default) or refused, one mass in every "
        "direction (unicycle only: the bicycle's is its plate mass)"},
-      {"initial_position_m", "start position [x, y] (m); default [0, 0]"},
-      {"initial_heading_deg", "start heading (deg from +x); default 0"},
-      {"operator", "simulated operator (master without a human)"},
-      {"bicycle", "bicycle cobot plate (kind: bicycle)"},
       {"bicycle.hold_heading_deg", "angular constraint: the wheels hold the plate's θ at this (deg); default none"},
-      {"fieldbus", "the real rig's CAN bus, steering drive and sensor node (rig: fieldbus only)"},
       {"fieldbus.can", "the bus: medium, interface or bus"},
   };
   for (const fieldbus::CanPortKey& key : fieldbus::kCanPortKeys) {
@@ -41,40 +36,7 @@ DeviceBackend CobotBackend() {
   b.keys.insert(
       b.keys.end(),
       {
-          {"fieldbus.cycle_period_ms", "SYNC period written to the drive (ms), 0.125..100, = 1000/rate_hz; default 1"},
-          {"fieldbus.first_frames_timeout_ms",
-           "activation: wait for the drive's and sensor node's first PDOs (ms); "
-           "default 500"},
-          {"fieldbus.steering", "the steering motor's CiA 402 drive (cyclic synchronous torque)"},
-          {"fieldbus.steering.node_id", "CANopen node id, 1..127; required"},
-          {"fieldbus.steering.mode", "torque (cyclic synchronous torque; velocity is refused: the client has no CSV)"},
-          {"fieldbus.steering.gear_ratio", "motor rad per steering rad, > 0; default 1"},
-          {"fieldbus.steering.position_rad_per_count",
-           "motor rad per position-actual unit (0x6064), > 0; default 1/4096"},
-          {"fieldbus.steering.velocity_rad_per_s_per_unit",
-           "motor rad/s per velocity-actual unit (0x606C), > 0; "
-           "default 1/4096"},
           {"fieldbus.steering.direction", "1 or -1: the drive's positive direction against the steering angle's"},
-          {"fieldbus.steering.rated_torque_Nm",
-           "the drive's rated torque 0x6076 (N·m, motor side), checked; default 1"},
-          {"fieldbus.steering.max_torque_Nm", "torque limit written to 0x6072 (N·m, motor side), > 0; default 0.5"},
-          {"fieldbus.steering.offset_deg", "cart heading when the steering angle reads 0 (deg); default 0"},
-          {"fieldbus.steering.max_angle_jump_rad",
-           "steering angle step per cycle that is an encoder jump (rad); "
-           "default 0.2"},
-          {"fieldbus.steering.hold_stiffness_Nm_per_rad",
-           "hold after an encoder jump (N·m/rad, motor side); default 2"},
-          {"fieldbus.steering.hold_damping_Nms_per_rad", "hold damping (N·m·s/rad, motor side), >= 0; default 0.05"},
-          {"fieldbus.steering.heartbeat_period_ms", "the drive's heartbeat period 0x1017 (ms); default 50"},
-          {"fieldbus.steering.heartbeat_timeout_ms",
-           "heartbeat consumer timeout (ms), > heartbeat_period_ms; "
-           "default 150"},
-          {"fieldbus.steering.stale_after_ms", "no TPDO for this long: the drive is lost (ms); default 10"},
-          {"fieldbus.sensors", "the wheel encoder, handle force sensor and wheel brake on a separate CAN node"},
-          {"fieldbus.sensors.source",
-           "node (a separate CAN node; drive is refused: the drive's PDOs carry the steering "
-           "axis only)"},
-          {"fieldbus.sensors.node_id", "the sensor node's id, 1..127, not the drive's; required"},
           {"fieldbus.sensors.wheel_cob_id", "wheel TPDO COB-ID (INTEGER32 counts, CiA 406 0x6004); default 0x180+node"},
           {"fieldbus.sensors.force_cob_id",
            "force TPDO COB-ID (2 x INTEGER16, CiA 401 0x6401/1-2, 0x8000 = invalid); default 0x280+node"},
@@ -82,11 +44,6 @@ DeviceBackend CobotBackend() {
            "brake RPDO COB-ID (1 byte, bit 0, CiA 401 0x6200/1), used when "
            "brake_max_force_N > 0; default 0x200+node"},
           {"fieldbus.sensors.wheel_direction", "1 or -1: the wheel encoder's count direction; default 1"},
-          {"fieldbus.sensors.force_N_per_unit", "handle force scaling (N per analog unit), > 0; default 0.01"},
-          {"fieldbus.sensors.stale_after_ms", "no sensor TPDO for this long: the node is lost (ms); default 10"},
-          {"fieldbus.sensors.max_wheel_step_m",
-           "wheel travel step between two TPDOs that is an encoder jump (m); "
-           "default 0.01"},
       });
 
   AdoptKeyTable(b, keys::All());  // the keys with a number, a word or true/false, written once (cobot_keys.hpp)

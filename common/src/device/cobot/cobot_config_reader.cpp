@@ -2,7 +2,10 @@
 // that span keys (dof, role, rig, fieldbus node ids).
 
 #include <cmath>
+#include <initializer_list>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "cobot_backend_private.hpp"
 #include "cobot_keys.hpp"
@@ -21,7 +24,7 @@ using config::NonNegative;
 using config::Positive;
 
 void ReadOperator(const Field& f, CobotOperatorScript& op) {
-  const Map map(f, {"speed_m_per_s", "direction_deg", "then_at_s", "then_direction_deg", "max_force_N"});
+  const Map map(f, config::KeysUnder(keys::All(), "operator."));
   op.enabled = true;
   op.speed_m_per_s = config::ReadNumber(map, keys::kOperatorSpeed);
   op.direction_deg = config::ReadNumber(map, keys::kOperatorDirection);
@@ -31,8 +34,9 @@ void ReadOperator(const Field& f, CobotOperatorScript& op) {
 }
 
 void ReadBicycle(const Field& f, CobotBackendConfig& c) {
-  const Map map(f, {"half_wheelbase_m", "plate_mass_kg", "plate_inertia_kgm2", "singularity_threshold",
-                    "singularity_guard", "hold_heading_deg", "heading_bandwidth_per_s"});
+  std::vector<std::string> names = config::KeysUnder(keys::All(), "bicycle.");
+  names.emplace_back("hold_heading_deg");  // absent: no heading constraint (not in the table: it has no default)
+  const Map map(f, names);
   c.bicycle.geometry.half_wheelbase_m = config::ReadNumber(map, keys::kHalfWheelbase);
   c.bicycle.plate_mass_kg = config::ReadNumber(map, keys::kPlateMass);
   c.bicycle.plate_inertia_kgm2 = config::ReadNumber(map, keys::kPlateInertia);
@@ -45,100 +49,179 @@ void ReadBicycle(const Field& f, CobotBackendConfig& c) {
   c.bicycle_caster.heading_bandwidth_per_s = config::ReadNumber(map, keys::kHeadingBandwidth);
 }
 
-std::uint8_t ReadNodeId(const Field& f) { return static_cast<std::uint8_t>(config::IntInRange(f, 1, 127)); }
+/// 1 or -1 (a drive's or an encoder's direction against the model's).
+double ReadSign(const Field& f) {
+  const double sign = Finite(f);
+  if (sign != 1.0 && sign != -1.0) f.Fail("must be 1 or -1, got " + config::Num(sign));
+  return sign;
+}
+
+/// The section's table keys plus `extra` (keys read apart: a direction, a COB-ID with a computed default).
+Map SectionMap(const Field& f, std::string_view prefix, std::initializer_list<const char*> extra) {
+  std::vector<std::string> names = config::KeysUnder(keys::All(), prefix);
+  names.insert(names.end(), extra.begin(), extra.end());
+  return Map(f, names);
+}
 
 void ReadSteering(const Field& f, CobotFieldbusConfig& c) {
-  const Map map(f,
-                {"node_id", "mode", "gear_ratio", "position_rad_per_count", "velocity_rad_per_s_per_unit", "direction",
-                 "rated_torque_Nm", "max_torque_Nm", "offset_deg", "max_angle_jump_rad", "hold_stiffness_Nm_per_rad",
-                 "hold_damping_Nms_per_rad", "heartbeat_period_ms", "heartbeat_timeout_ms", "stale_after_ms"});
+  const Map map = SectionMap(f, "fieldbus.steering.", {"direction"});
+  if (auto v = map.Optional("mode"); v && v->AsString() == "velocity") {
+    v->Fail(
+        "velocity mode (cyclic synchronous velocity, 0x6060 = 9) is not supported by the cobot rig, which steers "
+        "in cyclic synchronous torque (mode 10): the steering-velocity loop of eq 3c runs on the host, "
+        "Γ = K2·(ω_c − ω), so that its time constant τ (steering_time_constant_s) is the one the tracker's eq 10/11 "
+        "bound and its guard use; in mode 9 the drive's own velocity loop would set τ. Use mode: torque");
+  }
+  (void)config::ReadChoice(map, keys::kSteeringMode);  // torque, the only word
   fieldbus::Cia402DriveConfig& d = c.steering.drive;
-  d.node_id = ReadNodeId(map.Required("node_id"));
-  if (auto v = map.Optional("mode")) {
-    const std::string mode = v->AsString();
-    if (mode == "velocity") {
-      v->Fail(
-          "velocity mode (cyclic synchronous velocity, 0x6060 = 9) is not supported by the cobot rig, which steers "
-          "in cyclic synchronous torque (mode 10): the steering-velocity loop of eq 3c runs on the host, "
-          "Γ = K2·(ω_c − ω), so that its time constant τ (steering_time_constant_s) is the one the tracker's eq 10/11 "
-          "bound and its guard use; in mode 9 the drive's own velocity loop would set τ. Use mode: torque");
-    }
-    if (mode != "torque") v->Fail("must be torque, got '" + mode + "'");
-  }
-  if (auto v = map.Optional("gear_ratio")) c.steering.gear_ratio = Positive(*v, "motor rad per steering rad");
-  if (auto v = map.Optional("position_rad_per_count")) d.scaling.position_rad_per_count = Positive(*v, "rad");
-  if (auto v = map.Optional("velocity_rad_per_s_per_unit")) {
-    d.scaling.velocity_rad_per_s_per_unit = Positive(*v, "rad/s");
-  }
-  if (auto v = map.Optional("direction")) {
-    const double sign = Finite(*v);
-    if (sign != 1.0 && sign != -1.0) v->Fail("must be 1 or -1, got " + config::Num(sign));
-    d.scaling.sign = sign;
-  }
-  if (auto v = map.Optional("rated_torque_Nm")) d.scaling.rated_torque_Nm = Positive(*v, "N·m");
-  if (auto v = map.Optional("max_torque_Nm")) d.max_torque_Nm = Positive(*v, "N·m");
-  if (auto v = map.Optional("offset_deg")) c.steering_offset_rad = Finite(*v) * config::kDeg;
-  if (auto v = map.Optional("max_angle_jump_rad")) c.steering.max_angle_jump_rad = Positive(*v, "rad");
-  if (auto v = map.Optional("hold_stiffness_Nm_per_rad"))
-    c.steering.hold_stiffness_Nm_per_rad = Positive(*v, "N·m/rad");
-  if (auto v = map.Optional("hold_damping_Nms_per_rad")) {
-    c.steering.hold_damping_Nms_per_rad = NonNegative(*v, "N·m·s/rad");
-  }
-  if (auto v = map.Optional("heartbeat_period_ms"))
-    d.drive_heartbeat_period_ms = config::InRange(*v, 1.0, 10000.0, "ms");
-  if (auto v = map.Optional("heartbeat_timeout_ms")) d.heartbeat_timeout_ms = config::InRange(*v, 1.0, 60000.0, "ms");
+  d.node_id = static_cast<std::uint8_t>(config::ReadInteger(map, keys::kSteeringNodeId));
+  c.steering.gear_ratio = config::ReadNumber(map, keys::kSteeringGearRatio);
+  d.scaling.position_rad_per_count = config::ReadNumber(map, keys::kSteeringPositionScale);
+  d.scaling.velocity_rad_per_s_per_unit = config::ReadNumber(map, keys::kSteeringVelocityScale);
+  if (auto v = map.Optional("direction")) d.scaling.sign = ReadSign(*v);
+  d.scaling.rated_torque_Nm = config::ReadNumber(map, keys::kSteeringRatedTorque);
+  d.max_torque_Nm = config::ReadNumber(map, keys::kSteeringMaxTorque);
+  c.steering_offset_rad = config::ReadNumber(map, keys::kSteeringOffset) * config::kDeg;
+  c.steering.max_angle_jump_rad = config::ReadNumber(map, keys::kSteeringMaxJump);
+  c.steering.hold_stiffness_Nm_per_rad = config::ReadNumber(map, keys::kSteeringHoldStiffness);
+  c.steering.hold_damping_Nms_per_rad = config::ReadNumber(map, keys::kSteeringHoldDamping);
+  d.drive_heartbeat_period_ms = config::ReadNumber(map, keys::kSteeringHeartbeatPeriod);
+  d.heartbeat_timeout_ms = config::ReadNumber(map, keys::kSteeringHeartbeatTimeout);
   if (d.heartbeat_timeout_ms <= d.drive_heartbeat_period_ms) {
     f.Fail("heartbeat_timeout_ms (" + config::Num(d.heartbeat_timeout_ms) + ") must exceed heartbeat_period_ms (" +
            config::Num(d.drive_heartbeat_period_ms) + ")");
   }
-  if (auto v = map.Optional("stale_after_ms")) d.stale_after_ms = Positive(*v, "ms");
+  d.stale_after_ms = config::ReadNumber(map, keys::kSteeringStale);
 }
 
 void ReadSensors(const Field& f, CobotFieldbusConfig& c) {
-  const Map map(f, {"source", "node_id", "wheel_cob_id", "force_cob_id", "brake_cob_id", "wheel_direction",
-                    "force_N_per_unit", "stale_after_ms", "max_wheel_step_m"});
+  const Map map =
+      SectionMap(f, "fieldbus.sensors.", {"wheel_cob_id", "force_cob_id", "brake_cob_id", "wheel_direction"});
   CobotSensorNodeConfig& s = c.sensors;
-  if (auto v = map.Optional("source")) {
-    const std::string source = v->AsString();
-    if (source == "drive") {
-      v->Fail(
-          "the wheel encoder and the handle force from the steering drive's PDOs are not supported (the CiA 402 "
-          "client maps position, velocity and torque only); use source: node (a separate CAN node)");
-    }
-    if (source != "node") v->Fail("must be node, got '" + source + "'");
+  if (auto v = map.Optional("source"); v && v->AsString() == "drive") {
+    v->Fail(
+        "the wheel encoder and the handle force from the steering drive's PDOs are not supported (the CiA 402 "
+        "client maps position, velocity and torque only); use source: node (a separate CAN node)");
   }
-  s.node_id = ReadNodeId(map.Required("node_id"));
+  (void)config::ReadChoice(map, keys::kSensorsSource);  // node, the only word
+  s.node_id = static_cast<std::uint8_t>(config::ReadInteger(map, keys::kSensorsNodeId));
   const auto cob = [](const Field& e) { return static_cast<std::uint32_t>(config::IntInRange(e, 0x081, 0x7FF)); };
   if (auto v = map.Optional("wheel_cob_id")) s.wheel_cob_id = cob(*v);
   if (auto v = map.Optional("force_cob_id")) s.force_cob_id = cob(*v);
   if (auto v = map.Optional("brake_cob_id")) s.brake_cob_id = cob(*v);
-  if (auto v = map.Optional("wheel_direction")) {
-    const double sign = Finite(*v);
-    if (sign != 1.0 && sign != -1.0) v->Fail("must be 1 or -1, got " + config::Num(sign));
-    s.wheel_sign = sign;
-  }
-  if (auto v = map.Optional("force_N_per_unit")) s.force_N_per_unit = Positive(*v, "N");
-  if (auto v = map.Optional("stale_after_ms")) s.stale_after_ms = Positive(*v, "ms");
-  if (auto v = map.Optional("max_wheel_step_m")) s.max_wheel_step_m = Positive(*v, "m");
+  if (auto v = map.Optional("wheel_direction")) s.wheel_sign = ReadSign(*v);
+  s.force_N_per_unit = config::ReadNumber(map, keys::kSensorsForceScale);
+  s.stale_after_ms = config::ReadNumber(map, keys::kSensorsStale);
+  s.max_wheel_step_m = config::ReadNumber(map, keys::kSensorsMaxWheelStep);
   if (s.WheelCobId() == s.ForceCobId()) f.Fail("the wheel and force TPDOs need different COB-IDs");
 }
 
 void ReadFieldbus(const Field& f, CobotBackendConfig& c) {
-  const Map map(f, {"can", "cycle_period_ms", "steering", "sensors", "first_frames_timeout_ms"});
+  const Map map = SectionMap(f, "fieldbus.", {"can"});
   CobotFieldbusConfig& b = c.fieldbus;
   fieldbus::ReadCanPortSection(map.Required("can"), b.can);
-  if (auto v = map.Optional("cycle_period_ms")) {
-    b.steering.drive.cycle_period_s = config::InRange(*v, 0.125, 100.0, "ms") * 1e-3;
-  }
-  ReadSteering(map.Required("steering"), b);
-  const Field sensors = map.Required("sensors");
+  b.steering.drive.cycle_period_s = config::ReadNumber(map, keys::kFieldbusCyclePeriod) * 1e-3;
+  ReadSteering(map.Required(config::LeafOf(keys::kSteeringSection)), b);
+  const Field sensors = map.Required(config::LeafOf(keys::kSensorsSection));
   ReadSensors(sensors, b);
   if (b.sensors.node_id == b.steering.drive.node_id || b.sensors.node_id == b.steering.drive.host_node_id) {
     sensors.Fail("node_id " + std::to_string(b.sensors.node_id) +
                  " is taken (the steering drive's node id, or the host's heartbeat id " +
                  std::to_string(b.steering.drive.host_node_id) + ")");
   }
-  if (auto v = map.Optional("first_frames_timeout_ms")) b.first_frames_timeout_ms = Positive(*v, "ms");
+  b.first_frames_timeout_ms = config::ReadNumber(map, keys::kFirstFramesTimeout);
+}
+
+/// The plant, its sensors and the virtual-wall controller: the top-level keys with a number, a word or true/false.
+/// Returns τ of the steering-velocity loop (K2 comes from it once the plant is known).
+double ReadPlantAndController(const Map& map, CobotBackendConfig& c) {
+  UnicyclePlantConfig& p = c.unicycle.plant;
+  CobotSensorConfig& s = c.unicycle.sensors;
+  VirtualWallConfig& w = c.unicycle.controller;
+  c.kind = config::ReadChoiceAs<CobotBackendConfig::Kind>(map, keys::kKind);
+  p.cart_mass_kg = config::ReadNumber(map, keys::kCartMass);
+  p.rolling_damping_Ns_per_m = config::ReadNumber(map, keys::kRollingDamping);
+  p.steering_inertia_kgm2 = config::ReadNumber(map, keys::kSteeringInertia);
+  p.steering_damping_Nms_per_rad = config::ReadNumber(map, keys::kSteeringDamping);
+  p.max_steering_torque_Nm = config::ReadNumber(map, keys::kMaxSteeringTorque);
+  p.cornering_stiffness_N_per_rad = config::ReadNumber(map, keys::kCorneringStiffness);
+  p.brake_max_force_N = config::ReadNumber(map, keys::kBrakeMaxForce);
+  p.friction_coefficient = config::ReadNumber(map, keys::kFrictionCoefficient);
+  p.normal_load_N = config::ReadNumber(map, keys::kNormalLoad);
+  s.wheel_radius_m = config::ReadNumber(map, keys::kWheelRadius);
+  s.wheel_encoder_counts_per_rev = config::ReadInteger(map, keys::kWheelEncoderCounts);
+  s.steering_encoder_counts_per_rev = config::ReadInteger(map, keys::kSteeringEncoderCounts);
+  s.position_resolution_m = config::ReadNumber(map, keys::kPositionResolution);
+  s.force_resolution_N = config::ReadNumber(map, keys::kForceResolution);
+  // One mass in every direction (as the bicycle): along the wheel the operator feels the cart itself, so the caster
+  // asks for the same mass across it (eq 2 with 1/K1 = m, above the speed floor).
+  w.caster.k1_per_kg = 1.0 / p.cart_mass_kg;
+  w.caster.speed_floor_m_per_s = config::ReadNumber(map, keys::kSpeedFloor);
+  w.tracker.lookahead_m = config::ReadNumber(map, keys::kLookahead);
+  w.tracker.gain_form = config::ReadChoiceAs<ConstraintTrackerConfig::GainForm>(map, keys::kGainForm);
+  w.tracker.p_gain_scale = config::ReadNumber(map, keys::kPGainScale);
+  w.tracker.theta_gain_scale = config::ReadNumber(map, keys::kThetaGainScale);
+  w.tracker.integral_gain_per_m3 = config::ReadNumber(map, keys::kIntegralGain);
+  w.overlay_enabled = config::ReadBool(map, keys::kOverlay);
+  w.overlay_min_radius_m = config::ReadNumber(map, keys::kOverlayMinRadius);
+  w.release_force_N = config::ReadNumber(map, keys::kReleaseForce);
+  w.guard.action = config::ReadChoiceAs<StabilityGuardConfig::Action>(map, keys::kStabilityAction);
+  w.guard.margin = config::ReadNumber(map, keys::kStabilityMargin);
+  c.contact_force_threshold_N = config::ReadNumber(map, keys::kContactForceThreshold);
+  const Eigen::Vector2d xy = config::ReadPair(map, keys::kInitialPosition);
+  c.initial.position_m = {xy.x(), xy.y()};
+  c.initial.heading_rad = config::ReadNumber(map, keys::kInitialHeading) * config::kDeg;
+  return config::ReadNumber(map, keys::kSteeringTimeConstant);
+}
+
+/// virtual_mass_kg: refused for the bicycle (its virtual mass is its plate's), equal to cart_mass_kg for the unicycle.
+void CheckKind(const Map& map, const CobotBackendConfig& c) {
+  const double cart_mass_kg = c.unicycle.plant.cart_mass_kg;
+  if (c.kind == CobotBackendConfig::Kind::kBicycle) {
+    if (auto v = map.Optional("virtual_mass_kg")) {
+      v->Fail(
+          "not for kind: bicycle; its virtual mass is bicycle.plate_mass_kg: along its wheels the operator feels the "
+          "plate's own mass, so the caster must ask for the same mass across them or force and acceleration are not "
+          "collinear (Colgate et al. §3.1: a point mass)");
+    }
+    return;
+  }
+  if (auto v = map.Optional(keys::kBicycleSection.key)) v->Fail("only for kind: bicycle");
+  if (auto v = map.Optional("virtual_mass_kg")) {
+    const double mass_kg = Positive(*v, "kg");
+    if (std::abs(mass_kg - cart_mass_kg) > 1e-9 * cart_mass_kg) {
+      v->Fail("must equal cart_mass_kg (" + std::to_string(cart_mass_kg) +
+              " kg; or leave it out): along the wheel the operator feels the cart's own mass, so a different "
+              "virtual mass across it makes force and acceleration not collinear (Colgate et al. §3.1: a point "
+              "mass; the bicycle refuses the key for the same reason)");
+    }
+  }
+}
+
+/// rig: fieldbus reads the fieldbus section (a unicycle, no simulated operator, a wheel encoder); rig: simulated
+/// refuses it.
+void ReadRig(const Map& map, CobotBackendConfig& c) {
+  const UnicyclePlantConfig& p = c.unicycle.plant;
+  const CobotSensorConfig& s = c.unicycle.sensors;
+  c.rig = config::ReadChoiceAs<CobotBackendConfig::Rig>(map, keys::kRig);
+  if (c.rig != CobotBackendConfig::Rig::kFieldbus) {
+    if (auto v = map.Optional(keys::kFieldbusSection.key)) v->Fail("only for rig: fieldbus");
+    return;
+  }
+  const Field rig = map.Required(keys::kRig.key);
+  if (c.kind != CobotBackendConfig::Kind::kUnicycle) {
+    rig.Fail("the fieldbus rig is a unicycle cobot (one steering drive); kind bicycle is simulated only");
+  }
+  if (auto v = map.Optional(keys::kOperatorSection.key)) {
+    v->Fail("only for rig: simulated (a real rig has a human operator)");
+  }
+  if (s.wheel_encoder_counts_per_rev < 1) {
+    map.Required(keys::kWheelEncoderCounts.key).Fail("the fieldbus rig needs the wheel encoder's counts (>= 1)");
+  }
+  ReadFieldbus(map.Required(keys::kFieldbusSection.key), c);
+  c.fieldbus.sensors.wheel_radius_m = s.wheel_radius_m;
+  c.fieldbus.sensors.wheel_counts_per_rev = s.wheel_encoder_counts_per_rev;
+  c.fieldbus.sensors.has_brake = p.brake_max_force_N > 0.0;
 }
 
 }  // namespace
@@ -156,120 +239,17 @@ CobotBackendConfig ReadCobot(const Field* section, int dof, Role role) {
   CobotBackendConfig c;
   double tau_s = keys::kSteeringTimeConstant.default_value;
   if (section != nullptr) {
-    const Map map(*section, {"kind",
-                             "cart_mass_kg",
-                             "rolling_damping_Ns_per_m",
-                             "steering_inertia_kgm2",
-                             "steering_damping_Nms_per_rad",
-                             "max_steering_torque_Nm",
-                             "cornering_stiffness_N_per_rad",
-                             "brake_max_force_N",
-                             "friction_coefficient",
-                             "normal_load_N",
-                             "wheel_radius_m",
-                             "wheel_encoder_counts_per_rev",
-                             "steering_encoder_counts_per_rev",
-                             "position_resolution_m",
-                             "force_resolution_N",
-                             "steering_time_constant_s",
-                             "virtual_mass_kg",
-                             "speed_floor_m_per_s",
-                             "lookahead_m",
-                             "gain_form",
-                             "p_gain_scale",
-                             "theta_gain_scale",
-                             "integral_gain_per_m3",
-                             "overlay",
-                             "overlay_min_radius_m",
-                             "release_force_N",
-                             "stability_action",
-                             "stability_margin",
-                             "contact_force_threshold_N",
-                             "initial_position_m",
-                             "initial_heading_deg",
-                             "operator",
-                             "bicycle",
-                             "rig",
-                             "fieldbus"});
-    UnicyclePlantConfig& p = c.unicycle.plant;
-    CobotSensorConfig& s = c.unicycle.sensors;
-    VirtualWallConfig& w = c.unicycle.controller;
-    c.kind = config::ReadChoiceAs<CobotBackendConfig::Kind>(map, keys::kKind);
-    p.cart_mass_kg = config::ReadNumber(map, keys::kCartMass);
-    p.rolling_damping_Ns_per_m = config::ReadNumber(map, keys::kRollingDamping);
-    p.steering_inertia_kgm2 = config::ReadNumber(map, keys::kSteeringInertia);
-    p.steering_damping_Nms_per_rad = config::ReadNumber(map, keys::kSteeringDamping);
-    p.max_steering_torque_Nm = config::ReadNumber(map, keys::kMaxSteeringTorque);
-    p.cornering_stiffness_N_per_rad = config::ReadNumber(map, keys::kCorneringStiffness);
-    p.brake_max_force_N = config::ReadNumber(map, keys::kBrakeMaxForce);
-    p.friction_coefficient = config::ReadNumber(map, keys::kFrictionCoefficient);
-    p.normal_load_N = config::ReadNumber(map, keys::kNormalLoad);
-    s.wheel_radius_m = config::ReadNumber(map, keys::kWheelRadius);
-    s.wheel_encoder_counts_per_rev = config::ReadInteger(map, keys::kWheelEncoderCounts);
-    s.steering_encoder_counts_per_rev = config::ReadInteger(map, keys::kSteeringEncoderCounts);
-    s.position_resolution_m = config::ReadNumber(map, keys::kPositionResolution);
-    s.force_resolution_N = config::ReadNumber(map, keys::kForceResolution);
-    tau_s = config::ReadNumber(map, keys::kSteeringTimeConstant);
-    // One mass in every direction (as the bicycle): along the wheel the operator feels the cart itself, so the caster
-    // asks for the same mass across it (eq 2 with 1/K1 = m, above the speed floor).
-    w.caster.k1_per_kg = 1.0 / p.cart_mass_kg;
-    w.caster.speed_floor_m_per_s = config::ReadNumber(map, keys::kSpeedFloor);
-    w.tracker.lookahead_m = config::ReadNumber(map, keys::kLookahead);
-    w.tracker.gain_form = config::ReadChoiceAs<ConstraintTrackerConfig::GainForm>(map, keys::kGainForm);
-    w.tracker.p_gain_scale = config::ReadNumber(map, keys::kPGainScale);
-    w.tracker.theta_gain_scale = config::ReadNumber(map, keys::kThetaGainScale);
-    w.tracker.integral_gain_per_m3 = config::ReadNumber(map, keys::kIntegralGain);
-    w.overlay_enabled = config::ReadBool(map, keys::kOverlay);
-    w.overlay_min_radius_m = config::ReadNumber(map, keys::kOverlayMinRadius);
-    w.release_force_N = config::ReadNumber(map, keys::kReleaseForce);
-    w.guard.action = config::ReadChoiceAs<StabilityGuardConfig::Action>(map, keys::kStabilityAction);
-    w.guard.margin = config::ReadNumber(map, keys::kStabilityMargin);
-    c.contact_force_threshold_N = config::ReadNumber(map, keys::kContactForceThreshold);
-    if (auto v = map.Optional("initial_position_m")) {
-      const DofVector xy = config::ReadDofVector(*v, 2, Finite);
-      c.initial.position_m = {xy[0], xy[1]};
-    }
-    if (auto v = map.Optional("initial_heading_deg")) c.initial.heading_rad = Finite(*v) * config::kDeg;
-    if (auto v = map.Optional("operator")) ReadOperator(*v, c.op);
-    if (auto v = map.Optional("bicycle")) ReadBicycle(*v, c);
-    if (c.kind == CobotBackendConfig::Kind::kBicycle) {
-      if (auto v = map.Optional("virtual_mass_kg")) {
-        v->Fail(
-            "not for kind: bicycle; its virtual mass is bicycle.plate_mass_kg: along its wheels the operator feels the "
-            "plate's own mass, so the caster must ask for the same mass across them or force and acceleration are not "
-            "collinear (Colgate et al. §3.1: a point mass)");
-      }
-    } else {
-      if (auto v = map.Optional("bicycle")) v->Fail("only for kind: bicycle");
-      if (auto v = map.Optional("virtual_mass_kg")) {
-        const double mass_kg = Positive(*v, "kg");
-        if (std::abs(mass_kg - p.cart_mass_kg) > 1e-9 * p.cart_mass_kg) {
-          v->Fail("must equal cart_mass_kg (" + std::to_string(p.cart_mass_kg) +
-                  " kg; or leave it out): along the wheel the operator feels the cart's own mass, so a different "
-                  "virtual mass across it makes force and acceleration not collinear (Colgate et al. §3.1: a point "
-                  "mass; the bicycle refuses the key for the same reason)");
-        }
-      }
-    }
-    c.rig = config::ReadChoiceAs<CobotBackendConfig::Rig>(map, keys::kRig);
-    if (c.rig == CobotBackendConfig::Rig::kFieldbus) {
-      const Field rig = map.Required("rig");
-      if (c.kind != CobotBackendConfig::Kind::kUnicycle) {
-        rig.Fail("the fieldbus rig is a unicycle cobot (one steering drive); kind bicycle is simulated only");
-      }
-      if (auto v = map.Optional("operator")) v->Fail("only for rig: simulated (a real rig has a human operator)");
-      if (s.wheel_encoder_counts_per_rev < 1) {
-        map.Required("wheel_encoder_counts_per_rev").Fail("the fieldbus rig needs the wheel encoder's counts (>= 1)");
-      }
-      ReadFieldbus(map.Required("fieldbus"), c);
-      c.fieldbus.sensors.wheel_radius_m = s.wheel_radius_m;
-      c.fieldbus.sensors.wheel_counts_per_rev = s.wheel_encoder_counts_per_rev;
-      c.fieldbus.sensors.has_brake = p.brake_max_force_N > 0.0;
-    } else if (auto v = map.Optional("fieldbus")) {
-      v->Fail("only for rig: fieldbus");
-    }
-    if (w.guard.action == StabilityGuardConfig::Action::kBrake && p.brake_max_force_N <= 0.0) {
-      map.Required("stability_action").Fail("brake needs a wheel brake: set brake_max_force_N > 0");
+    std::vector<std::string> names = config::KeysUnder(keys::All(), "");
+    names.emplace_back("virtual_mass_kg");  // no default of its own: equal to cart_mass_kg or refused (CheckKind)
+    const Map map(*section, names);
+    tau_s = ReadPlantAndController(map, c);
+    if (auto v = map.Optional(keys::kOperatorSection.key)) ReadOperator(*v, c.op);
+    if (auto v = map.Optional(keys::kBicycleSection.key)) ReadBicycle(*v, c);
+    CheckKind(map, c);
+    ReadRig(map, c);
+    if (c.unicycle.controller.guard.action == StabilityGuardConfig::Action::kBrake &&
+        c.unicycle.plant.brake_max_force_N <= 0.0) {
+      map.Required(keys::kStabilityAction.key).Fail("brake needs a wheel brake: set brake_max_force_N > 0");
     }
   }
   const int expected = c.kind == CobotBackendConfig::Kind::kUnicycle ? 2 : 3;

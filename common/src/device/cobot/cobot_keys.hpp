@@ -15,6 +15,7 @@ namespace teleop::device::cobot::keys {
 
 using config::KeyRange;
 using config::KeySpec;
+using config::KeyType;
 
 inline const CobotBackendConfig kDefaults{};
 
@@ -230,6 +231,164 @@ inline const KeySpec kHeadingBandwidth{.key = "bicycle.heading_bandwidth_per_s",
                                        .low = 0.1,
                                        .high = 20.0};
 
+inline const KeySpec kInitialPosition{
+    .key = "initial_position_m",
+    .type = KeyType::kPair,
+    .unit = "m",
+    .meaning = "Start position [x, y] (odometry starts here on the fieldbus rig).",
+    .default_pair = {kDefaults.initial.position_m.x(), kDefaults.initial.position_m.y()}};
+inline const KeySpec kInitialHeading{.key = "initial_heading_deg",
+                                     .unit = "°",
+                                     .default_value = kDefaults.initial.heading_rad / config::kDeg,
+                                     .meaning = "Start heading, from +x."};
+inline const KeySpec kOperatorSection{
+    .key = "operator",
+    .type = KeyType::kSection,
+    .meaning =
+        "A simulated operator (a master without a human; rig: simulated): the operator.* keys "
+        "(`device.cobot.operator`)."};
+inline const KeySpec kBicycleSection{
+    .key = "bicycle",
+    .type = KeyType::kSection,
+    .meaning = "The bicycle cobot's plate (kind: bicycle): the bicycle.* keys (`device.cobot.bicycle`)."};
+inline const KeySpec kFieldbusSection{
+    .key = "fieldbus",
+    .type = KeyType::kSection,
+    .meaning = "The real rig's CAN bus, steering drive and sensor node (rig: fieldbus; `device.cobot.fieldbus`)."};
+
+// `fieldbus` (rig: fieldbus): its keys with a value, its steering and sensors sections. Not here: the can section
+// (the shared CAN reader), the two directions (1 or -1) and the sensor node's COB-IDs (default: from its node id).
+inline const CobotFieldbusConfig& kBus = kDefaults.fieldbus;
+inline const fieldbus::Cia402DriveConfig& kSteeringDrive = kDefaults.fieldbus.steering.drive;
+inline const KeySpec kFieldbusCyclePeriod{
+    .key = "fieldbus.cycle_period_ms",
+    .unit = "ms",
+    .range = KeyRange::kInRange,
+    .default_value = kSteeringDrive.cycle_period_s * 1e3,
+    .meaning = "SYNC period written to the drive (0x1006); make it 1000 / rate_hz.",
+    .low = 0.125,
+    .high = 100.0};
+inline const KeySpec kFirstFramesTimeout{.key = "fieldbus.first_frames_timeout_ms",
+                                         .unit = "ms",
+                                         .range = KeyRange::kPositive,
+                                         .default_value = kBus.first_frames_timeout_ms,
+                                         .meaning = "Activate: wait for the drive's and the sensor node's first PDOs."};
+inline const KeySpec kSteeringSection{
+    .key = "fieldbus.steering",
+    .type = KeyType::kSection,
+    .required = true,
+    .meaning = "The steering motor's CiA 402 drive: the fieldbus.steering.* keys (`device.cobot.fieldbus.steering`)."};
+inline const KeySpec kSensorsSection{
+    .key = "fieldbus.sensors",
+    .type = KeyType::kSection,
+    .required = true,
+    .meaning =
+        "The wheel encoder, handle force sensor and wheel brake on a separate CAN node: the fieldbus.sensors.* "
+        "keys (`device.cobot.fieldbus.sensors`)."};
+inline const KeySpec kSteeringNodeId{.key = "fieldbus.steering.node_id",
+                                     .type = KeyType::kInteger,
+                                     .range = KeyRange::kInRange,
+                                     .required = true,
+                                     .meaning = "The drive's CANopen node id.",
+                                     .low = 1,
+                                     .high = 127};
+inline const KeySpec kSteeringMode{
+    .key = "fieldbus.steering.mode",
+    .type = KeyType::kChoice,
+    .meaning = "Cyclic synchronous torque: the steering-velocity loop of eq 3c runs on the host (velocity is refused).",
+    .choices = {"torque"}};
+inline const KeySpec kSteeringGearRatio{.key = "fieldbus.steering.gear_ratio",
+                                        .range = KeyRange::kPositive,
+                                        .default_value = kBus.steering.gear_ratio,
+                                        .meaning = "Motor rad per steering rad."};
+inline const KeySpec kSteeringPositionScale{.key = "fieldbus.steering.position_rad_per_count",
+                                            .unit = "rad",
+                                            .range = KeyRange::kPositive,
+                                            .default_value = kSteeringDrive.scaling.position_rad_per_count,
+                                            .meaning = "Motor rad per position-actual unit (0x6064)."};
+inline const KeySpec kSteeringVelocityScale{.key = "fieldbus.steering.velocity_rad_per_s_per_unit",
+                                            .unit = "rad/s",
+                                            .range = KeyRange::kPositive,
+                                            .default_value = kSteeringDrive.scaling.velocity_rad_per_s_per_unit,
+                                            .meaning = "Motor rad/s per velocity-actual unit (0x606C)."};
+inline const KeySpec kSteeringRatedTorque{
+    .key = "fieldbus.steering.rated_torque_Nm",
+    .unit = "N·m",
+    .range = KeyRange::kPositive,
+    .default_value = kSteeringDrive.scaling.rated_torque_Nm,
+    .meaning = "The drive's rated torque 0x6076 (motor side), checked at set-up."};
+inline const KeySpec kSteeringMaxTorque{.key = "fieldbus.steering.max_torque_Nm",
+                                        .unit = "N·m",
+                                        .range = KeyRange::kPositive,
+                                        .default_value = kSteeringDrive.max_torque_Nm,
+                                        .meaning = "Torque limit written to 0x6072 (motor side)."};
+inline const KeySpec kSteeringOffset{.key = "fieldbus.steering.offset_deg",
+                                     .unit = "°",
+                                     .default_value = kBus.steering_offset_rad / config::kDeg,
+                                     .meaning = "The cart's heading when the steering angle reads 0."};
+inline const KeySpec kSteeringMaxJump{.key = "fieldbus.steering.max_angle_jump_rad",
+                                      .unit = "rad",
+                                      .range = KeyRange::kPositive,
+                                      .default_value = kBus.steering.max_angle_jump_rad,
+                                      .meaning = "Steering angle step per cycle that is an encoder jump."};
+inline const KeySpec kSteeringHoldStiffness{.key = "fieldbus.steering.hold_stiffness_Nm_per_rad",
+                                            .unit = "N·m/rad",
+                                            .range = KeyRange::kPositive,
+                                            .default_value = kBus.steering.hold_stiffness_Nm_per_rad,
+                                            .meaning = "Hold after an encoder jump (motor side)."};
+inline const KeySpec kSteeringHoldDamping{.key = "fieldbus.steering.hold_damping_Nms_per_rad",
+                                          .unit = "N·m·s/rad",
+                                          .range = KeyRange::kNonNegative,
+                                          .default_value = kBus.steering.hold_damping_Nms_per_rad,
+                                          .meaning = "Hold damping (motor side)."};
+inline const KeySpec kSteeringHeartbeatPeriod{.key = "fieldbus.steering.heartbeat_period_ms",
+                                              .unit = "ms",
+                                              .range = KeyRange::kInRange,
+                                              .default_value = kSteeringDrive.drive_heartbeat_period_ms,
+                                              .meaning = "The drive's heartbeat period (0x1017).",
+                                              .low = 1.0,
+                                              .high = 10000.0};
+inline const KeySpec kSteeringHeartbeatTimeout{
+    .key = "fieldbus.steering.heartbeat_timeout_ms",
+    .unit = "ms",
+    .range = KeyRange::kInRange,
+    .default_value = kSteeringDrive.heartbeat_timeout_ms,
+    .meaning = "The host's consumer of the drive's heartbeat; above heartbeat_period_ms.",
+    .low = 1.0,
+    .high = 60000.0};
+inline const KeySpec kSteeringStale{.key = "fieldbus.steering.stale_after_ms",
+                                    .unit = "ms",
+                                    .range = KeyRange::kPositive,
+                                    .default_value = kSteeringDrive.stale_after_ms,
+                                    .meaning = "No TPDO for this long: the drive is lost."};
+inline const KeySpec kSensorsSource{
+    .key = "fieldbus.sensors.source",
+    .type = KeyType::kChoice,
+    .meaning = "A separate CAN node (drive is refused: the drive's PDOs carry the steering axis only).",
+    .choices = {"node"}};
+inline const KeySpec kSensorsNodeId{.key = "fieldbus.sensors.node_id",
+                                    .type = KeyType::kInteger,
+                                    .range = KeyRange::kInRange,
+                                    .required = true,
+                                    .meaning = "The sensor node's id, not the drive's nor the host's.",
+                                    .low = 1,
+                                    .high = 127};
+inline const KeySpec kSensorsForceScale{.key = "fieldbus.sensors.force_N_per_unit",
+                                        .unit = "N",
+                                        .range = KeyRange::kPositive,
+                                        .default_value = kBus.sensors.force_N_per_unit,
+                                        .meaning = "Handle force per analog unit."};
+inline const KeySpec kSensorsStale{.key = "fieldbus.sensors.stale_after_ms",
+                                   .unit = "ms",
+                                   .range = KeyRange::kPositive,
+                                   .default_value = kBus.sensors.stale_after_ms,
+                                   .meaning = "No sensor TPDO for this long: the node is lost."};
+inline const KeySpec kSensorsMaxWheelStep{.key = "fieldbus.sensors.max_wheel_step_m",
+                                          .unit = "m",
+                                          .range = KeyRange::kPositive,
+                                          .default_value = kBus.sensors.max_wheel_step_m,
+                                          .meaning = "Wheel travel step between two TPDOs that is an encoder jump."};
+
 /// Every key of the table, built at its first use (after static initialisation: its elements are dynamically
 /// initialised constants, and a copy made during static initialisation could read one not yet initialised).
 inline const auto& All() {
@@ -272,7 +431,35 @@ inline const auto& All() {
                                 kPlateInertia,
                                 kSingularityThreshold,
                                 kHeadingBandwidth,
-                                kSingularityGuard};
+                                kSingularityGuard,
+                                kInitialPosition,
+                                kInitialHeading,
+                                kOperatorSection,
+                                kBicycleSection,
+                                kFieldbusSection,
+                                kFieldbusCyclePeriod,
+                                kFirstFramesTimeout,
+                                kSteeringSection,
+                                kSensorsSection,
+                                kSteeringNodeId,
+                                kSteeringMode,
+                                kSteeringGearRatio,
+                                kSteeringPositionScale,
+                                kSteeringVelocityScale,
+                                kSteeringRatedTorque,
+                                kSteeringMaxTorque,
+                                kSteeringOffset,
+                                kSteeringMaxJump,
+                                kSteeringHoldStiffness,
+                                kSteeringHoldDamping,
+                                kSteeringHeartbeatPeriod,
+                                kSteeringHeartbeatTimeout,
+                                kSteeringStale,
+                                kSensorsSource,
+                                kSensorsNodeId,
+                                kSensorsForceScale,
+                                kSensorsStale,
+                                kSensorsMaxWheelStep};
   return table;
 }
 

@@ -2,7 +2,10 @@
 #include "device/hybrid/hybrid_backend.hpp"
 
 #include <Eigen/LU>
+#include <cstdint>
 #include <memory>
+#include <string>
+#include <string_view>
 
 #include "device/hybrid/hybrid_fieldbus_section.hpp"
 #include "device/hybrid/hybrid_keys.hpp"
@@ -13,167 +16,149 @@ namespace teleop::device::hybrid {
 namespace {
 
 using config::Field;
-using config::Finite;
+using config::KeysUnder;
 using config::Map;
-using config::NonNegative;
-using config::Positive;
+using config::ReadDirection;
+using config::ReadNumber;
+using config::ReadPair;
 
-Eigen::Vector2d Vec2(const Field& f) {
-  const DofVector v = config::ReadDofVector(f, 2, Finite);
-  return {v(0), v(1)};
-}
-
-Eigen::Vector2d Unit2(const Field& f) {
-  const Eigen::Vector2d v = Vec2(f);
-  if (!(v.norm() > 0.0)) f.Fail("must be a non-zero direction");
-  return v.normalized();
+/// The keys of `device.hybrid.<section>` (`prefix` "geometry."), as its table lists them.
+Map SectionMap(const Field& f, std::string_view prefix, std::string_view type = "") {
+  return Map(f, KeysUnder(keys::All(), prefix, type));
 }
 
 void ReadGeometry(const Field& f, FiveBarConfig& g) {
-  const Map m(f, {"proximal_1_m", "proximal_2_m", "distal_1_m", "distal_2_m", "base_separation_m", "joint_1_min_deg",
-                  "joint_1_max_deg", "joint_2_min_deg", "joint_2_max_deg", "workspace_x_m", "workspace_y_m"});
-  if (auto v = m.Optional("proximal_1_m")) g.proximal_1_m = Positive(*v, "m");
-  if (auto v = m.Optional("proximal_2_m")) g.proximal_2_m = Positive(*v, "m");
-  if (auto v = m.Optional("distal_1_m")) g.distal_1_m = Positive(*v, "m");
-  if (auto v = m.Optional("distal_2_m")) g.distal_2_m = Positive(*v, "m");
-  if (auto v = m.Optional("base_separation_m")) g.base_separation_m = NonNegative(*v, "m");
-  if (auto v = m.Optional("joint_1_min_deg")) g.joint_1_min_rad = Finite(*v) * config::kDeg;
-  if (auto v = m.Optional("joint_1_max_deg")) g.joint_1_max_rad = Finite(*v) * config::kDeg;
-  if (auto v = m.Optional("joint_2_min_deg")) g.joint_2_min_rad = Finite(*v) * config::kDeg;
-  if (auto v = m.Optional("joint_2_max_deg")) g.joint_2_max_rad = Finite(*v) * config::kDeg;
-  if (auto v = m.Optional("workspace_x_m")) {
-    const Eigen::Vector2d r = Vec2(*v);
-    g.workspace_x_min_m = r.x();
-    g.workspace_x_max_m = r.y();
-  }
-  if (auto v = m.Optional("workspace_y_m")) {
-    const Eigen::Vector2d r = Vec2(*v);
-    g.workspace_y_min_m = r.x();
-    g.workspace_y_max_m = r.y();
-  }
-}
-
-void ReadWall(const Map& m, WallConfig& w) {
-  if (auto v = m.Optional("model")) {
-    if (!ParseWallKind(v->AsString().c_str(), w.kind)) v->Fail("must be spring, popc, hybrid or linear-damper");
-  }
-  if (auto v = m.Optional("point_m")) w.point_m = Vec2(*v);
-  if (auto v = m.Optional("normal")) w.normal = Unit2(*v);
-  if (auto v = m.Optional("stiffness_N_per_m")) w.stiffness_N_per_m = NonNegative(*v, "N/m");
-  if (auto v = m.Optional("damper_coefficient")) w.damper_coefficient = NonNegative(*v, "N·s³/m³");
-  if (auto v = m.Optional("max_force_N")) w.max_force_N = Positive(*v, "N");
+  const Map m = SectionMap(f, "geometry.");
+  g.proximal_1_m = ReadNumber(m, keys::kProximal1);
+  g.proximal_2_m = ReadNumber(m, keys::kProximal2);
+  g.distal_1_m = ReadNumber(m, keys::kDistal1);
+  g.distal_2_m = ReadNumber(m, keys::kDistal2);
+  g.base_separation_m = ReadNumber(m, keys::kBaseSeparation);
+  g.joint_1_min_rad = ReadNumber(m, keys::kJoint1Min) * config::kDeg;
+  g.joint_1_max_rad = ReadNumber(m, keys::kJoint1Max) * config::kDeg;
+  g.joint_2_min_rad = ReadNumber(m, keys::kJoint2Min) * config::kDeg;
+  g.joint_2_max_rad = ReadNumber(m, keys::kJoint2Max) * config::kDeg;
+  const Eigen::Vector2d x = ReadPair(m, keys::kWorkspaceX);
+  const Eigen::Vector2d y = ReadPair(m, keys::kWorkspaceY);
+  g.workspace_x_min_m = x.x();
+  g.workspace_x_max_m = x.y();
+  g.workspace_y_min_m = y.x();
+  g.workspace_y_max_m = y.y();
 }
 
 void ReadEffect(const Field& f, HybridEffectConfig& e) {
-  const Field type_field =
-      config::TypeOf(f, {"type", "model", "display", "point_m", "normal", "stiffness_N_per_m", "damper_coefficient",
-                         "max_force_N", "static_coefficient", "kinetic_coefficient"});
-  const std::string type = type_field.AsString();
-  if (type == "none") {
-    const Map m(f, {"type"});
-    e.kind = HybridEffectConfig::Kind::kNone;
-  } else if (type == "wall") {
-    const Map m(f, {"type", "model", "point_m", "normal", "stiffness_N_per_m", "damper_coefficient", "max_force_N"});
-    e.kind = HybridEffectConfig::Kind::kWall;
-    ReadWall(m, e.wall);
-  } else if (type == "friction") {
-    const Map m(
-        f, {"type", "display", "point_m", "normal", "stiffness_N_per_m", "static_coefficient", "kinetic_coefficient"});
-    e.kind = HybridEffectConfig::Kind::kFriction;
+  // The type first, among the keys of every type; then the keys of this type only.
+  e.kind = config::ReadChoiceAs<HybridEffectConfig::Kind>(SectionMap(f, "effect.", "*"), keys::kEffectType);
+  const Map m = SectionMap(f, "effect.", keys::kEffectType.choices[static_cast<std::size_t>(e.kind)]);
+  if (e.kind == HybridEffectConfig::Kind::kWall) {
+    WallConfig& w = e.wall;
+    w.kind = config::ReadChoiceAs<WallKind>(m, keys::kWallModel);
+    w.point_m = ReadPair(m, keys::kWallPoint);
+    w.normal = ReadDirection(m, keys::kWallNormal);
+    w.stiffness_N_per_m = ReadNumber(m, keys::kWallStiffness);
+    w.damper_coefficient = ReadNumber(m, keys::kWallDamper);
+    w.max_force_N = ReadNumber(m, keys::kWallMaxForce);
+  } else if (e.kind == HybridEffectConfig::Kind::kFriction) {
     FrictionConfig& fr = e.friction;
-    if (auto v = m.Optional("display")) {
-      if (!ParseFrictionDisplay(v->AsString().c_str(), fr.display)) v->Fail("must be motor or brake");
-    }
-    if (auto v = m.Optional("point_m")) fr.point_m = Vec2(*v);
-    if (auto v = m.Optional("normal")) fr.normal = Unit2(*v);
-    if (auto v = m.Optional("stiffness_N_per_m")) fr.stiffness_N_per_m = NonNegative(*v, "N/m");
-    if (auto v = m.Optional("static_coefficient")) fr.static_coefficient = NonNegative(*v, "");
-    if (auto v = m.Optional("kinetic_coefficient")) fr.kinetic_coefficient = NonNegative(*v, "");
+    fr.display = config::ReadChoiceAs<FrictionDisplay>(m, keys::kFrictionDisplay);
+    fr.point_m = ReadPair(m, keys::kFrictionPoint);
+    fr.normal = ReadDirection(m, keys::kFrictionNormal);
+    fr.stiffness_N_per_m = ReadNumber(m, keys::kFrictionStiffness);
+    fr.static_coefficient = ReadNumber(m, keys::kFrictionStatic);
+    fr.kinetic_coefficient = ReadNumber(m, keys::kFrictionKinetic);
     if (fr.kinetic_coefficient > fr.static_coefficient)
       f.Fail("kinetic_coefficient must not exceed static_coefficient");
-  } else {
-    type_field.Fail("must be none, wall or friction; got '" + type + "'");
+  }
+}
+
+void ReadOperator(const Field& f, HybridDeviceConfig& c) {
+  const Map m = SectionMap(f, "operator.");
+  c.simulated_operator = true;
+  c.hand.direction = ReadDirection(m, keys::kHandDirection);
+  c.hand.speed_m_per_s = ReadNumber(m, keys::kHandSpeed);
+  c.hand.travel_m = ReadNumber(m, keys::kHandTravel);
+  c.hand.stiffness_N_per_m = ReadNumber(m, keys::kHandStiffness);
+  c.hand.damping_Ns_per_m = ReadNumber(m, keys::kHandDamping);
+  c.hand.max_force_N = ReadNumber(m, keys::kHandMaxForce);
+  c.hand_mass_kg = ReadNumber(m, keys::kHandMass);
+}
+
+void ReadEnvironment(const Field& f, HybridEnvironmentConfig& env) {
+  const Map m = SectionMap(f, "environment.");
+  env.wall = true;
+  env.point_m = ReadPair(m, keys::kEnvironmentPoint);
+  env.normal = ReadDirection(m, keys::kEnvironmentNormal);
+  env.stiffness_N_per_m = ReadNumber(m, keys::kEnvironmentStiffness);
+  env.damping_Ns_per_m = ReadNumber(m, keys::kEnvironmentDamping);
+}
+
+/// The rig's simulated parts that have a section: motor, brake, encoders, force sensor (each optional).
+void ReadRigSections(const Map& m, HybridRigConfig& rig) {
+  if (auto v = m.Optional(keys::kMotorSection.key)) {
+    const Map mm = SectionMap(*v, "motor.");
+    rig.motor.max_torque_Nm = ReadNumber(mm, keys::kMotorMaxTorque);
+    rig.motor.time_constant_s = ReadNumber(mm, keys::kMotorTimeConstant);
+    rig.motor.pulley_ratio = ReadNumber(mm, keys::kMotorPulleyRatio);
+  }
+  if (auto v = m.Optional(keys::kBrakeSection.key)) {
+    const Map mm = SectionMap(*v, "brake.");
+    rig.brake.residual_fraction = ReadNumber(mm, keys::kBrakeResidual);
+    rig.brake.static_ratio = ReadNumber(mm, keys::kBrakeStaticRatio);
+    rig.brake.max_torque_Nm = ReadNumber(mm, keys::kBrakeMaxTorque);
+    rig.brake.time_constant_s = ReadNumber(mm, keys::kBrakeTimeConstant);
+    rig.brake.drag_Nm = ReadNumber(mm, keys::kBrakeDrag);
+    rig.brake.hysteresis_Nm = ReadNumber(mm, keys::kBrakeHysteresis);
+    rig.brake.pulley_ratio = ReadNumber(mm, keys::kBrakePulleyRatio);
+  }
+  if (auto v = m.Optional(keys::kEncodersSection.key)) {
+    const Map mm = SectionMap(*v, "encoders.");
+    rig.encoders.counts_per_joint_rev = ReadNumber(mm, keys::kEncoderCounts);
+    rig.encoders.velocity_filter_hz = ReadNumber(mm, keys::kEncoderVelocityFilter);
+  }
+  if (auto v = m.Optional(keys::kForceSensorSection.key)) {
+    const Map mm = SectionMap(*v, "force_sensor.");
+    rig.force_sensor_dynamics.noise_std_N = ReadNumber(mm, keys::kForceSensorNoise);
+    rig.force_sensor_dynamics.bandwidth_hz = ReadNumber(mm, keys::kForceSensorBandwidth);
+    rig.force_sensor_dynamics.seed = static_cast<std::uint64_t>(config::ReadInteger(mm, keys::kForceSensorSeed));
+  }
+}
+
+/// rig: fieldbus takes a fieldbus section and refuses the simulation's own inputs; rig: simulated the other way.
+void CheckRigKind(const Map& m, bool fieldbus_rig) {
+  if (fieldbus_rig) {
+    for (const config::KeySpec* spec : {&keys::kOperatorSection, &keys::kEnvironmentSection, &keys::kEffectSection,
+                                        &keys::kSubsteps, &keys::kEncodersSection, &keys::kForceSensorSection}) {
+      if (auto v = m.Optional(spec->key)) v->Fail("is for the simulated rig; remove it with rig: fieldbus");
+    }
+    (void)m.Required(keys::kFieldbusSection.key);
+  } else if (auto v = m.Optional(keys::kFieldbusSection.key)) {
+    v->Fail("is read only with rig: fieldbus (set device.hybrid.rig: fieldbus, or remove it)");
   }
 }
 
 HybridDeviceConfig ReadHybrid(const Field* section) {
   HybridDeviceConfig c;
   if (section == nullptr) return c;
-  const Map m(*section, {"initial_position_m", "geometry", "motor", "brake", "joint_inertia_kgm2", "handle_mass_kg",
-                         "joint_damping_Nms_per_rad", "joint_coulomb_Nm", "substeps", "allocation", "effect",
-                         "operator", "environment", "rig", "fieldbus", "encoders", "force_sensor"});
+  const Map m = SectionMap(*section, "");
   c.fieldbus_rig = config::ReadChoice(m, keys::kRigKind) == 1;
-  if (c.fieldbus_rig) {
-    // The simulation's own inputs make no sense on the real rig: refuse them rather than ignore them.
-    for (const char* key : {"operator", "environment", "effect", "substeps", "encoders", "force_sensor"}) {
-      if (auto v = m.Optional(key)) v->Fail("is for the simulated rig; remove it with rig: fieldbus");
-    }
-    (void)m.Required("fieldbus");
-  } else if (auto v = m.Optional("fieldbus")) {
-    v->Fail("is read only with rig: fieldbus (set device.hybrid.rig: fieldbus, or remove it)");
-  }
-  if (auto v = m.Optional("initial_position_m")) c.rig.initial_position_m = Vec2(*v);
-  if (auto v = m.Optional("geometry")) ReadGeometry(*v, c.rig.geometry);
-  if (auto v = m.Optional("motor")) {
-    const Map mm(*v, {"max_torque_Nm", "time_constant_s", "pulley_ratio"});
-    c.rig.motor.max_torque_Nm = config::ReadNumber(mm, keys::kMotorMaxTorque);
-    c.rig.motor.time_constant_s = config::ReadNumber(mm, keys::kMotorTimeConstant);
-    c.rig.motor.pulley_ratio = config::ReadNumber(mm, keys::kMotorPulleyRatio);
-  }
-  if (auto v = m.Optional("brake")) {
-    const Map mm(*v, {"max_torque_Nm", "time_constant_s", "drag_Nm", "hysteresis_Nm", "pulley_ratio",
-                      "residual_fraction", "static_ratio"});
-    c.rig.brake.residual_fraction = config::ReadNumber(mm, keys::kBrakeResidual);
-    c.rig.brake.static_ratio = config::ReadNumber(mm, keys::kBrakeStaticRatio);
-    c.rig.brake.max_torque_Nm = config::ReadNumber(mm, keys::kBrakeMaxTorque);
-    c.rig.brake.time_constant_s = config::ReadNumber(mm, keys::kBrakeTimeConstant);
-    c.rig.brake.drag_Nm = config::ReadNumber(mm, keys::kBrakeDrag);
-    c.rig.brake.hysteresis_Nm = config::ReadNumber(mm, keys::kBrakeHysteresis);
-    c.rig.brake.pulley_ratio = config::ReadNumber(mm, keys::kBrakePulleyRatio);
-  }
-  c.rig.joint_inertia_kgm2 = config::ReadNumber(m, keys::kJointInertia);
-  c.rig.handle_mass_kg = config::ReadNumber(m, keys::kHandleMass);
-  c.rig.joint_damping_Nms_per_rad = config::ReadNumber(m, keys::kJointDamping);
+  CheckRigKind(m, c.fieldbus_rig);
+  c.rig.initial_position_m = ReadPair(m, keys::kInitialPosition);
+  if (auto v = m.Optional(keys::kGeometrySection.key)) ReadGeometry(*v, c.rig.geometry);
+  ReadRigSections(m, c.rig);
+  c.rig.joint_inertia_kgm2 = ReadNumber(m, keys::kJointInertia);
+  c.rig.handle_mass_kg = ReadNumber(m, keys::kHandleMass);
+  c.rig.joint_damping_Nms_per_rad = ReadNumber(m, keys::kJointDamping);
   c.rig.substeps = config::ReadInteger(m, keys::kSubsteps);
-  c.rig.joint_coulomb_Nm = config::ReadNumber(m, keys::kJointCoulomb);
-  if (auto v = m.Optional("encoders")) {
-    const Map mm(*v, {"counts_per_joint_rev", "velocity_filter_hz"});
-    c.rig.encoders.counts_per_joint_rev = config::ReadNumber(mm, keys::kEncoderCounts);
-    c.rig.encoders.velocity_filter_hz = config::ReadNumber(mm, keys::kEncoderVelocityFilter);
-  }
-  if (auto v = m.Optional("force_sensor")) {
-    const Map mm(*v, {"noise_std_N", "bandwidth_hz", "seed"});
-    c.rig.force_sensor_dynamics.noise_std_N = config::ReadNumber(mm, keys::kForceSensorNoise);
-    c.rig.force_sensor_dynamics.bandwidth_hz = config::ReadNumber(mm, keys::kForceSensorBandwidth);
-    c.rig.force_sensor_dynamics.seed = static_cast<std::uint64_t>(config::ReadInteger(mm, keys::kForceSensorSeed));
-  }
-  if (auto v = m.Optional("allocation")) {
-    const Map mm(*v, {"use_brakes", "rest_velocity_rad_per_s", "brake_model_mismatch"});
-    c.allocation.brake_model_mismatch = config::ReadNumber(mm, keys::kAllocationBrakeMismatch);
+  c.rig.joint_coulomb_Nm = ReadNumber(m, keys::kJointCoulomb);
+  if (auto v = m.Optional(keys::kAllocationSection.key)) {
+    const Map mm = SectionMap(*v, "allocation.");
+    c.allocation.brake_model_mismatch = ReadNumber(mm, keys::kAllocationBrakeMismatch);
     c.allocation.use_brakes = config::ReadBool(mm, keys::kAllocationUseBrakes);
-    c.allocation.rest_velocity_rad_per_s = config::ReadNumber(mm, keys::kAllocationRestVelocity);
+    c.allocation.rest_velocity_rad_per_s = ReadNumber(mm, keys::kAllocationRestVelocity);
   }
-  if (auto v = m.Optional("effect")) ReadEffect(*v, c.effect);
-  if (auto v = m.Optional("operator")) {
-    const Map mm(*v, {"direction", "speed_m_per_s", "travel_m", "stiffness_N_per_m", "damping_Ns_per_m", "max_force_N",
-                      "mass_kg"});
-    c.simulated_operator = true;
-    if (auto x = mm.Optional("direction")) c.hand.direction = Unit2(*x);
-    if (auto x = mm.Optional("speed_m_per_s")) c.hand.speed_m_per_s = NonNegative(*x, "m/s");
-    if (auto x = mm.Optional("travel_m")) c.hand.travel_m = NonNegative(*x, "m");
-    if (auto x = mm.Optional("stiffness_N_per_m")) c.hand.stiffness_N_per_m = NonNegative(*x, "N/m");
-    if (auto x = mm.Optional("damping_Ns_per_m")) c.hand.damping_Ns_per_m = NonNegative(*x, "N·s/m");
-    if (auto x = mm.Optional("max_force_N")) c.hand.max_force_N = NonNegative(*x, "N");
-    if (auto x = mm.Optional("mass_kg")) c.hand_mass_kg = NonNegative(*x, "kg");
-  }
-  if (auto v = m.Optional("environment")) {
-    const Map mm(*v, {"point_m", "normal", "stiffness_N_per_m", "damping_Ns_per_m"});
-    c.environment.wall = true;
-    c.environment.point_m = Vec2(mm.Required("point_m"));
-    if (auto x = mm.Optional("normal")) c.environment.normal = Unit2(*x);
-    c.environment.stiffness_N_per_m = Positive(mm.Required("stiffness_N_per_m"), "N/m");
-    if (auto x = mm.Optional("damping_Ns_per_m")) c.environment.damping_Ns_per_m = NonNegative(*x, "N·s/m");
-  }
+  if (auto v = m.Optional(keys::kEffectSection.key)) ReadEffect(*v, c.effect);
+  if (auto v = m.Optional(keys::kOperatorSection.key)) ReadOperator(*v, c);
+  if (auto v = m.Optional(keys::kEnvironmentSection.key)) ReadEnvironment(*v, c.environment);
   try {
     c.Validate();
   } catch (const Error& e) {
@@ -186,7 +171,7 @@ HybridDeviceConfig ReadHybrid(const Field* section) {
     d.allocation.motor = c.rig.motor;
     d.allocation.brake = c.rig.brake;
     d.origin_m = c.rig.initial_position_m;
-    ReadHybridFieldbusSection(m.Required("fieldbus"), c.fieldbus);
+    ReadHybridFieldbusSection(m.Required(keys::kFieldbusSection.key), c.fieldbus);
   }
   return c;
 }
@@ -204,27 +189,7 @@ DeviceBackend HybridBackend() {
   b.nominal.has_brake = true;
   b.nominal.measures_velocity = true;
   b.nominal.measures_force = true;
-  b.keys = {
-      {"initial_position_m", "handle start [x, y] (m, base frame); readings are relative to it; default [0, 0.2]"},
-      {"geometry",
-       "five-bar: proximal_1_m, proximal_2_m, distal_1_m, distal_2_m (0.2), base_separation_m (0), "
-       "joint_1_min_deg/max (-40/110), joint_2_min_deg/max (70/220), workspace_x_m [-0.19, 0.19], "
-       "workspace_y_m [0.09, 0.32]"},
-      {"motor", "the motor per joint: the motor.* keys"},
-      {"brake", "the particle brake per joint: the brake.* keys"},
-      {"encoders", "the simulated rig's encoders: the encoders.* keys"},
-      {"force_sensor", "the simulated handle sensor: the force_sensor.* keys"},
-      {"allocation", "the motor/brake torque allocation: the allocation.* keys"},
-      {"effect",
-       "local haptic effect: type none | wall (model spring|popc|hybrid|linear-damper, point_m, normal, "
-       "stiffness_N_per_m, damper_coefficient, max_force_N) | friction (display motor|brake, point_m, "
-       "normal, stiffness_N_per_m, static_coefficient, kinetic_coefficient)"},
-      {"operator",
-       "simulated hand (master): direction, speed_m_per_s, travel_m, stiffness_N_per_m, damping_Ns_per_m, "
-       "max_force_N, mass_kg"},
-      {"environment", "simulated wall on the handle (slave): point_m, normal, stiffness_N_per_m, damping_Ns_per_m"},
-  };
-  AdoptKeyTable(b, keys::All());  // the keys with a number or a word, written once (hybrid_keys.hpp)
+  AdoptKeyTable(b, keys::All());  // every key but fieldbus.*, written once (hybrid_keys.hpp)
   for (ConfigKey& key : HybridFieldbusKeys()) b.keys.push_back(std::move(key));
   b.section_required = false;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {

@@ -3,7 +3,10 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
+#include "device/hybrid/hybrid_keys.hpp"
+#include "teleop/config/key_table.hpp"
 #include "teleop/error.hpp"
 #include "teleop/fieldbus/can_port_yaml.hpp"
 #include "teleop/fieldbus/modbus_yaml.hpp"
@@ -15,12 +18,6 @@ using config::Field;
 using config::Finite;
 using config::Map;
 using config::Positive;
-
-double AtLeast(const Field& f, double low, const char* unit) {
-  const double v = Finite(f);
-  if (v < low) f.Fail("must be >= " + config::Num(low) + " " + unit + ", got " + config::Num(v));
-  return v;
-}
 
 void ReadDrive(const Field& f, fieldbus::Cia402DriveConfig& d, double& joint_offset_rad, double cycle_period_s) {
   const Map m(f,
@@ -64,53 +61,35 @@ void ReadDrive(const Field& f, fieldbus::Cia402DriveConfig& d, double& joint_off
 }
 
 void ReadForceSensor(const Field& f, HybridFieldbusConfig& c) {
-  const Map probe(f, {"bus", "cob_id", "encoding", "scale_N_per_count", "offset_N", "stale_after_ms"});
-  const Field bus = probe.Required("bus");
-  const std::string kind = bus.AsString();
-  if (kind == "modbus") {
-    const Map m(f, {"bus"});
-    c.force_sensor = ForceSensorBus::kModbus;
-    return;
-  }
-  if (kind != "can") bus.Fail("must be can or modbus; got '" + kind + "'");
-  c.force_sensor = ForceSensorBus::kCan;
+  // The bus first, among the keys of both; then the keys of that bus only (modbus: none but bus).
+  c.force_sensor = config::ReadChoiceAs<ForceSensorBus>(
+      Map(f, config::KeysUnder(keys::All(), "fieldbus.force_sensor.", "*")), keys::kForceSensorBus);
+  const Map m(f, config::KeysUnder(keys::All(), "fieldbus.force_sensor.",
+                                   keys::kForceSensorBus.choices[static_cast<std::size_t>(c.force_sensor)]));
+  if (c.force_sensor != ForceSensorBus::kCan) return;
   fieldbus::CanForceSensorConfig& s = c.can_force_sensor;
   s.axes = 2;
-  s.cob_id = static_cast<std::uint32_t>(config::IntInRange(probe.Required("cob_id"), 1, 0x7FF));
-  if (s.cob_id == fieldbus::canopen::cob::kSync) probe.Required("cob_id").Fail("0x080 is the SYNC");
-  if (auto v = probe.Optional("encoding")) {
-    const std::string e = v->AsString();
-    if (e == "int16") {
-      s.encoding = fieldbus::ForceSensorEncoding::kInt16;
-    } else if (e == "int32") {
-      s.encoding = fieldbus::ForceSensorEncoding::kInt32;
-    } else {
-      v->Fail("must be int16 or int32; got '" + e + "'");
-    }
-  }
-  const Field scale = probe.Required("scale_N_per_count");
-  s.scale_N_per_count = Finite(scale);
-  if (s.scale_N_per_count == 0.0) scale.Fail("must not be 0 (N per raw count)");
-  if (auto v = probe.Optional("offset_N")) {
-    const DofVector o = config::ReadDofVector(*v, 2, Finite);
-    s.offset_N[0] = o(0);
-    s.offset_N[1] = o(1);
-  }
-  if (auto v = probe.Optional("stale_after_ms")) s.stale_after_ms = Positive(*v, "ms");
+  s.cob_id = static_cast<std::uint32_t>(config::ReadInteger(m, keys::kCanSensorCobId));
+  if (s.cob_id == fieldbus::canopen::cob::kSync) m.Required("cob_id").Fail("0x080 is the SYNC");
+  s.encoding = config::ReadChoiceAs<fieldbus::ForceSensorEncoding>(m, keys::kCanSensorEncoding);
+  s.scale_N_per_count = config::ReadNumber(m, keys::kCanSensorScale);
+  if (s.scale_N_per_count == 0.0) m.Required("scale_N_per_count").Fail("must not be 0 (N per raw count)");
+  const Eigen::Vector2d offset = config::ReadPair(m, keys::kCanSensorOffset);
+  s.offset_N[0] = offset.x();
+  s.offset_N[1] = offset.y();
+  s.stale_after_ms = config::ReadNumber(m, keys::kCanSensorStale);
 }
 
 }  // namespace
 
 void ReadHybridFieldbusSection(const Field& section, HybridFieldbusRigConfig& out) {
-  const Map m(section,
-              {"can", "cycle_period_ms", "sync_cob_id", "drives", "modbus", "force_sensor", "activate_timeout_ms"});
+  std::vector<std::string> names = config::KeysUnder(keys::All(), "fieldbus.");
+  names.insert(names.end(), {"can", "drives", "modbus"});  // read below: the shared CAN and Modbus readers, a list
+  const Map m(section, names);
   HybridFieldbusConfig& c = out.device;
   fieldbus::ReadCanPortSection(m.Required("can"), out.can, fieldbus::CanMediumKey::kRequired);
-  double cycle_period_s = 1e-3;
-  if (auto v = m.Optional("cycle_period_ms")) cycle_period_s = config::InRange(*v, 0.1, 100.0, "ms") * 1e-3;
-  if (auto v = m.Optional("sync_cob_id")) {
-    c.sync_cob_id = static_cast<std::uint32_t>(config::IntInRange(*v, 1, 0x7FF));
-  }
+  const double cycle_period_s = config::ReadNumber(m, keys::kFieldbusCyclePeriod) * 1e-3;
+  c.sync_cob_id = static_cast<std::uint32_t>(config::ReadInteger(m, keys::kFieldbusSyncCobId));
   const Field drives = m.Required("drives");
   if (!drives.IsSequence()) drives.Fail("must be a list of the two drives (joint 1, joint 2)");
   const std::vector<Field> list = drives.AsList();
@@ -120,8 +99,8 @@ void ReadHybridFieldbusSection(const Field& section, HybridFieldbusRigConfig& ou
   if (c.drives[0].node_id == c.drives[1].node_id) list[1].Fail("node_id must differ from the first drive's");
   const Field modbus = m.Required("modbus");
   c.amplifier = fieldbus::ReadModbusConfig(modbus.node(), modbus.path(), modbus.file());
-  ReadForceSensor(m.Required("force_sensor"), c);
-  if (auto v = m.Optional("activate_timeout_ms")) c.activate_timeout_ms = AtLeast(*v, 1.0, "ms");
+  ReadForceSensor(m.Required(config::LeafOf(keys::kFieldbusForceSensorSection)), c);
+  c.activate_timeout_ms = config::ReadNumber(m, keys::kFieldbusActivateTimeout);
   try {
     c.Validate();
   } catch (const Error& e) {
@@ -134,8 +113,6 @@ std::vector<ConfigKey> HybridFieldbusKeys() {
       {"fieldbus.can",
        "the drives' CAN bus: medium socketcan (interface) | emulated (bus HOST:PORT of teleop-canbus), "
        "connect_timeout_ms"},
-      {"fieldbus.cycle_period_ms", "the drives' SYNC period written to 0x1006 (ms), 0.1..100; default 1 (1/rate_hz)"},
-      {"fieldbus.sync_cob_id", "COB-ID of the one SYNC per cycle the device sends, 1..0x7FF; default 0x080"},
       {"fieldbus.drives",
        "two CiA 402 drives (joint 1, joint 2): node_id, max_torque_Nm (drive shaft), joint_offset_deg, "
        "rated_torque_Nm, position_rad_per_count, velocity_rad_per_s_per_unit, sign, heartbeat_period_ms, "
@@ -145,11 +122,6 @@ std::vector<ConfigKey> HybridFieldbusKeys() {
        "the brake amplifier (a Modbus section, docs/modbus.md): outputs brake_1_Nm, brake_2_Nm (safe_value = "
        "brake.max_torque_Nm); inputs force_x_N, force_y_N when force_sensor.bus is modbus, and an optional "
        "input clutch (a pedal on a discrete input: pressed while non-zero)"},
-      {"fieldbus.force_sensor",
-       "handle force sensor: bus modbus | can (cob_id, encoding int16|int32, scale_N_per_count, offset_N, "
-       "stale_after_ms)"},
-      {"fieldbus.activate_timeout_ms",
-       "Activate: wait for the amplifier and the first SYNC answers (ms); default 1000"},
   };
 }
 

@@ -4,6 +4,8 @@
 
 #include <memory>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "loopback_keys.hpp"
 #include "teleop/config/key_table.hpp"
@@ -81,26 +83,25 @@ void ReadOperator(const Field& f, int dof, SimulatedOperatorConfig& human) {
 }
 
 void ReadEnvironment(const Field& f, int dof, SimulatedEnvironmentConfig& env) {
-  using Kind = SimulatedEnvironmentConfig::Kind;
-  const Field type_field = config::TypeOf(f, {"type", "axis", "position_m", "stiffness_N_per_m", "damping_Ns_per_m"});
-  const std::string type = type_field.AsString();
-  if (type == "free") {
-    const Map map(f, {"type"});
-    env.kind = Kind::kFreeSpace;
-    return;
-  }
-  if (type != "wall") type_field.Fail("must be 'free' or 'wall', got '" + type + "'");
-  const Map map(f, {"type", "axis", "position_m", "stiffness_N_per_m", "damping_Ns_per_m"});
-  env.kind = Kind::kWall;
-  if (auto v = map.Optional("axis")) env.axis = IntInRange(*v, 0, dof - 1);
-  env.position_m = Finite(map.Required("position_m"));
-  env.stiffness_N_per_m = Positive(map.Required("stiffness_N_per_m"), "N/m");
-  if (auto v = map.Optional("damping_Ns_per_m")) env.damping_Ns_per_m = NonNegative(*v, "N·s/m");
+  namespace k = loopback_keys;
+  // The type first, among the keys of every type; then the keys of this type only (free: none but type).
+  env.kind = config::ReadChoiceAs<SimulatedEnvironmentConfig::Kind>(
+      Map(f, config::KeysUnder(k::All(), "environment.", "*")), k::kEnvironmentType);
+  const Map map(
+      f, config::KeysUnder(k::All(), "environment.", k::kEnvironmentType.choices[static_cast<std::size_t>(env.kind)]));
+  if (env.kind != SimulatedEnvironmentConfig::Kind::kWall) return;
+  env.axis = config::ReadInteger(map, k::kWallAxis);
+  if (env.axis >= dof)
+    map.Required(config::LeafOf(k::kWallAxis)).Fail("must be below dof (" + std::to_string(dof) + ")");
+  env.position_m = config::ReadNumber(map, k::kWallPosition);
+  env.stiffness_N_per_m = config::ReadNumber(map, k::kWallStiffness);
+  env.damping_Ns_per_m = config::ReadNumber(map, k::kWallDamping);
 }
 
 LoopbackPlantConfig ReadLoopback(const Field& f, int dof) {
-  const Map map(
-      f, {"mass_kg", "damping_Ns_per_m", "encoder_resolution_m", "initial_position_m", "operator", "environment"});
+  std::vector<std::string> keys = config::KeysUnder(loopback_keys::All(), "");
+  keys.emplace_back("operator");  // its keys: ReadOperator (the script's are not in the table yet)
+  const Map map(f, keys);
   LoopbackPlantConfig plant;
   plant.dof = dof;
   plant.mass_kg = config::ReadNumber(map, loopback_keys::kMass);
@@ -110,7 +111,7 @@ LoopbackPlantConfig ReadLoopback(const Field& f, int dof) {
     plant.initial_position_m = config::ReadDofValue(map, loopback_keys::kInitialPosition, dof);
   }
   if (auto v = map.Optional("operator")) ReadOperator(*v, dof, plant.human);
-  if (auto v = map.Optional("environment")) ReadEnvironment(*v, dof, plant.environment);
+  if (auto v = map.Optional(loopback_keys::kEnvironmentSection.key)) ReadEnvironment(*v, dof, plant.environment);
   return plant;
 }
 
@@ -137,14 +138,8 @@ DeviceBackend LoopbackBackend() {
       {"operator.script[].amplitude_N", "sine amplitude (N)"},
       {"operator.script[].frequency_hz", "sine frequency (Hz), > 0"},
       {"operator.script[].offset_N", "sine offset (N); default 0"},
-      {"environment", "simulated environment (slave): free or wall"},
-      {"environment.type", "free or wall"},
-      {"environment.axis", "the wall's DOF, 0..dof-1; default 0"},
-      {"environment.position_m", "wall surface (m); the wall occupies x > position_m"},
-      {"environment.stiffness_N_per_m", "wall stiffness (N/m), > 0"},
-      {"environment.damping_Ns_per_m", "wall damping (N·s/m), >= 0; default 0"},
   };
-  AdoptKeyTable(b, loopback_keys::All());  // the keys with a number, written once (loopback_keys.hpp)
+  AdoptKeyTable(b, loopback_keys::All());  // every key but operator.script, written once (loopback_keys.hpp)
   b.section_required = true;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
     return ReadLoopback(*section, context.dof);  // section_required: the config reader checked it is there

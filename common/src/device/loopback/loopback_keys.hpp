@@ -63,11 +63,61 @@ inline const KeySpec kOperatorStiffness{"operator.stiffness_N_per_m",
                                         kOperator.stiffness_N_per_m,
                                         "k_h."};
 
+inline const SimulatedEnvironmentConfig kEnvironment{};  // the environment's defaults
+inline const KeySpec kEnvironmentSection{
+    .key = "environment",
+    .type = KeyType::kSection,
+    .meaning =
+        "The simulated environment (slave): the environment.* keys (`device.loopback.environment`); absent: free "
+        "space."};
+/// `environment.type`: the word's index is SimulatedEnvironmentConfig::Kind.
+inline const KeySpec kEnvironmentType{.key = "environment.type",
+                                      .type = KeyType::kChoice,
+                                      .required = true,
+                                      .meaning = "Free space (no other key), or a spring–damper wall that only pushes.",
+                                      .choices = {"free", "wall"}};
+inline const KeySpec kWallAxis{.key = "environment.axis",
+                               .type = KeyType::kInteger,
+                               .range = KeyRange::kInRange,
+                               .default_value = static_cast<double>(kEnvironment.axis),
+                               .meaning = "The wall's DOF, below dof.",
+                               .low = 0,
+                               .high = kMaxDof - 1,
+                               .when = "wall"};
+inline const KeySpec kWallPosition{.key = "environment.position_m",
+                                   .unit = "m",
+                                   .required = true,
+                                   .meaning = "The wall occupies x_axis > position_m.",
+                                   .when = "wall"};
+inline const KeySpec kWallStiffness{.key = "environment.stiffness_N_per_m",
+                                    .unit = "N/m",
+                                    .range = KeyRange::kPositive,
+                                    .required = true,
+                                    .meaning = "Wall stiffness.",
+                                    .when = "wall"};
+inline const KeySpec kWallDamping{.key = "environment.damping_Ns_per_m",
+                                  .unit = "N·s/m",
+                                  .range = KeyRange::kNonNegative,
+                                  .default_value = kEnvironment.damping_Ns_per_m,
+                                  .meaning = "Wall damping (only while in contact).",
+                                  .when = "wall"};
+
 /// Every key of the table, built at its first use (after static initialisation: its elements are dynamically
 /// initialised constants, and a copy made during static initialisation could read one not yet initialised).
 inline const auto& All() {
-  static const std::array table{kMass,         kDamping,         kEncoderResolution, kInitialPosition,
-                                kOperatorMass, kOperatorDamping, kOperatorStiffness};
+  static const std::array table{kMass,
+                                kDamping,
+                                kEncoderResolution,
+                                kInitialPosition,
+                                kOperatorMass,
+                                kOperatorDamping,
+                                kOperatorStiffness,
+                                kEnvironmentSection,
+                                kEnvironmentType,
+                                kWallAxis,
+                                kWallPosition,
+                                kWallStiffness,
+                                kWallDamping};
   return table;
 }
 
