@@ -7,6 +7,8 @@
 #   ./deploy/demo.sh --can      the same over the emulated CAN bus (for hosts without SocketCAN)
 #   ./deploy/demo.sh --device hybrid   the hybrid motor-brake master (simulated) with the loopback slave (docs/hybrid.md)
 #   ./deploy/demo.sh --device cobot   a cobot master (Colgate et al., docs/cobot.md) with the loopback slave, 2 DOF
+#   ./deploy/demo.sh --device arm     the stylus master (simulated, 3 joints) with the 7-joint slave arm stopping at a
+#                                     plane fixture (docs/arms.md), 3 DOF; writes build/demo-arm/demo-arm.png
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
 
@@ -149,6 +151,108 @@ GNUPLOT
   gnuplot "${out}/demo-cobot.gp"
   echo "[demo] telemetry: ${out}/master.csv ${out}/slave.csv"
   echo "[demo] plot:      ${out}/demo-cobot.png"
+  exit $(( master_rc != 0 || slave_rc != 0 ))
+fi
+# ---- arm rig (docs/arms.md): deploy/configs/arm's stylus master and 7-joint slave, 3 DOF, UDP, ~10 s ----
+if [[ "${1:-}" == "--device" && "${2:-}" == "arm" ]]; then
+  teleop::ensure_packages "${TELEOP_PACKAGES[@]}"
+  teleop::build --target teleop-master teleop-slave teleop_keygen teleop_arm
+  out="${TELEOP_BUILD}/demo-arm"
+  mkdir -p "${out}"
+  key=$(demo_key "${out}")
+  # The rig's configs with their URDFs named absolutely (they name ../../robots/ beside deploy/configs/arm) and the
+  # real-time settings relaxed; the telemetry goes to the command line's --telemetry-csv.
+  for role in master slave; do
+    sed -e "s|^\(\s*urdf:\s*\)\.\./\.\./robots/|\1${TELEOP_ROOT}/deploy/robots/|" \
+        -e 's/^\(\s*fifo_priority:\)\s*[0-9]*/\1 0/' -e 's/^\(\s*lock_memory:\)\s*[a-z]*/\1 false/' \
+        "${TELEOP_ROOT}/deploy/configs/arm/${role}-stylus.yaml" > "${out}/${role}.yaml"
+  done
+  echo "[demo] stylus master + 7-joint slave arm (UDP, 1 kHz, 3 DOF, ~10 s: the slave's start-up check sweeps the arm)"
+  "${TELEOP_BUILD}/bin/teleop-slave" --config "${out}/slave.yaml" --duration 6 --key-file "${key}" \
+    --summary-json "${out}/slave-summary.json" --telemetry-csv "${out}/slave.csv" > "${out}/slave.log" 2>&1 &
+  arm_slave_pid=$!
+  trap 'kill "${arm_slave_pid}" 2>/dev/null || true' EXIT
+  # The slave's start-up check sweeps the arm's configurations near the plane (about 2 s, docs/arms.md,
+  # "Stability"); the master starts once it is done, so that the pair engages before the operator pushes (0.5 s).
+  for _ in $(seq 300); do
+    grep -q "stability check" "${out}/slave.log" 2>/dev/null && break
+    kill -0 "${arm_slave_pid}" 2>/dev/null || break
+    sleep 0.1
+  done
+  master_rc=0
+  "${TELEOP_BUILD}/bin/teleop-master" --config "${out}/master.yaml" --duration 4 --key-file "${key}" \
+    --summary-json "${out}/master-summary.json" --telemetry-csv "${out}/master.csv" > "${out}/master.log" 2>&1 ||
+    master_rc=$?
+  slave_rc=0
+  wait "${arm_slave_pid}" || slave_rc=$?
+  echo "==== stylus master ===="; cat "${out}/master.log"
+  echo "==== 7-joint slave ===="; cat "${out}/slave.log"
+  # Columns by name (the telemetry CSV's header, runtime/telemetry.cpp). The slave's joints where it rests on the
+  # plane: its last engaged row; the fixture's predicted limit there from teleop-arm limit (the start-up check's
+  # analysis at that one configuration, along the plane's normal -z).
+  rest_q=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next }
+                    $col["engagement"] == 3 { q = $col["joint_position_rad_0"];
+                      for (j = 1; ("joint_position_rad_" j) in col; ++j) q = q "," $col["joint_position_rad_" j] }
+                    END { print q }' "${out}/slave.csv")
+  [[ -n "${rest_q}" ]] || { echo "[demo] the slave never engaged" >&2; exit 1; }
+  "${TELEOP_BUILD}/bin/teleop-arm" limit --config "${out}/slave.yaml" --q "${rest_q}" --direction 0,0,-1 \
+    > "${out}/limit.txt"
+  limit=$(sed -n 's/^predicted limit of the slave fixture: \([0-9.]*\) N\/m.*/\1/p' "${out}/limit.txt")
+  mass=$(sed -n 's/.*apparent mass \([0-9.]*\) kg.*/\1/p' "${out}/limit.txt")
+  sweep=$(sed -n "s/.*over the arm's configurations: predicted limit \([0-9]*\) N\/m.*/\1/p" "${out}/slave.log")
+  fixture=$(sed -n 's/^\s*stiffness_N_per_m:\s*\([0-9.]*\).*/\1/p' "${out}/slave.yaml" | head -n 1)
+  penetration=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next }
+                         { d = -0.03 - $col["position_m_2"]; if (d > m) m = d } END { printf "%.2f", 1e3 * m }' \
+                "${out}/slave.csv")
+  tracking=$(/usr/bin/python3 -c 'import json, sys
+print("%.2f" % (1e3 * json.load(open(sys.argv[1]))["tracking_error_rms_m"]))' "${out}/slave-summary.json")
+  summary="the slave's tool went ${penetration} mm through the plane; tracking error rms ${tracking} mm (slave summary)"
+  echo "[demo] ${summary}"
+  echo "[demo] fixture ${fixture} N/m; predicted limit at the slave's resting configuration ${limit%.*} N/m" \
+       "(apparent mass $(printf "%.2f" "${mass}") kg along -z; teleop-arm limit --q ${rest_q}); over the configurations near the plane" \
+       "(start-up sweep) ${sweep:-?} N/m"
+  engaged_at() {
+    awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next }
+             $col["engagement"] == 3 { print $col["time_s"]; exit }' "$1"
+  }
+  shift_s=$(awk -v m="$(engaged_at "${out}/master.csv")" -v s="$(engaged_at "${out}/slave.csv")" \
+    'BEGIN { print (m == "" || s == "") ? 0 : s - m }')
+  # The script is kept beside the PNG (deploy/figures.sh checks its ranges and key: tests/deploy/figure_check.py).
+  {
+    echo "master='${out}/master.csv'; slave='${out}/slave.csv'; png='${out}/demo-arm.png'"
+    echo "slave_shift=${shift_s}"
+    printf 'limit_title="%s\\n%s"\n' \
+      "fixture ${fixture} N/m at z = -30 mm; predicted stability limit at the slave's resting configuration: ${limit%.*} N/m" \
+      "(apparent mass $(printf "%.2f" "${mass}") kg along -z: teleop-arm limit); near the plane, the start-up sweep's worst: ${sweep:-?} N/m"
+    cat <<'GNUPLOT'
+set terminal pngcairo size 1100,750 noenhanced font ",10"
+set output png
+set datafile separator ','
+set multiplot layout 2,1 title "stylus master (3 joints) with the 7-joint slave arm, 1 kHz UDP: the slave stops at the plane fixture"
+set grid
+# Keys to the right of the plots, never over the traces; both panels share the same margins so the time axes align.
+set key outside right top vertical reverse Left
+set lmargin 10
+set rmargin 34
+# The master's run (4 s) on its clock; the slave's rows from before the master started are left out.
+set xrange [0:4]
+set title limit_title
+set ylabel 'tool z (mm, from the working point)'
+plot master using (column('time_s') <= 4 ? column('time_s') : 1/0):(1e3*column('position_m_2')) with lines lw 4 lc rgb '#9ad0f5' title 'master (stylus) z', \
+     slave using (column('time_s') >= slave_shift && column('time_s') - slave_shift <= 4 ? column('time_s') - slave_shift : 1/0):(1e3*column('position_m_2')) \
+       with lines lw 1.5 lc rgb '#0072b2' title 'slave (7 joints) z', \
+     -30 with lines dt 2 lw 2 lc rgb 'red' title 'fixture plane'
+unset title
+set ylabel "slave joint position (rad)"
+set xlabel 't (s, master clock)'
+plot for [j=0:6] slave using (column('time_s') >= slave_shift && column('time_s') - slave_shift <= 4 ? column('time_s') - slave_shift : 1/0):(column(sprintf('joint_position_rad_%d', j))) \
+       with lines lw 1.5 title sprintf('joint %d', j + 1)
+unset multiplot
+GNUPLOT
+  } > "${out}/demo-arm.gp"
+  gnuplot "${out}/demo-arm.gp"
+  echo "[demo] telemetry: ${out}/master.csv ${out}/slave.csv (the slave's joint columns: joint_position_rad_*, joint_torque_Nm_*)"
+  echo "[demo] plot:      ${out}/demo-arm.png"
   exit $(( master_rc != 0 || slave_rc != 0 ))
 fi
 teleop::ensure_packages "${TELEOP_PACKAGES[@]}"

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates every figure of the gallery docs/figures.md into docs/figures/ (or --out DIR): the demo's PNGs
-# (deploy/demo.sh: deploy/teleop-plot of both processes, the hybrid and cobot device demos), `teleop-analyze sweep`
+# (deploy/demo.sh: deploy/teleop-plot of both processes, the hybrid, cobot and arm device demos), `teleop-analyze sweep`
 # and every `teleop-scenario` scenario with its defaults. About 60 s on 2 cores.
 #   ./deploy/figures.sh                 into docs/figures/
 #   ./deploy/figures.sh --out /tmp/fig  elsewhere (tests/deploy/figures_test.py)
@@ -18,7 +18,7 @@ mkdir -p "${out}"
 out="$(cd "${out}" && pwd)"
 
 teleop::ensure_packages "${TELEOP_PACKAGES[@]}"
-teleop::build --target teleop-master teleop-slave teleop_keygen teleop-analyze teleop-scenario
+teleop::build --target teleop-master teleop-slave teleop_keygen teleop-analyze teleop-scenario teleop_arm
 bin="${TELEOP_BUILD}/bin"
 work="${TELEOP_BUILD}/figures"
 rm -rf "${work}"
@@ -42,6 +42,10 @@ echo "demo-hybrid.png ${TELEOP_BUILD}/demo/demo-hybrid.gp" >> "${scripts}"
   { tail -40 "${work}/demo-cobot.log"; exit 1; }
 cp "${TELEOP_BUILD}/demo-cobot/demo-cobot.png" "${out}/demo-cobot.png"
 echo "demo-cobot.png ${TELEOP_BUILD}/demo-cobot/demo-cobot.gp" >> "${scripts}"
+# The arm rig (docs/arms.md): the stylus master and the 7-joint slave stopping at the plane, the predicted limit on it.
+"${TELEOP_ROOT}/deploy/demo.sh" --device arm > "${work}/demo-arm.log" 2>&1 || { tail -40 "${work}/demo-arm.log"; exit 1; }
+cp "${TELEOP_BUILD}/demo-arm/demo-arm.png" "${out}/demo-arm.png"
+echo "demo-arm.png ${TELEOP_BUILD}/demo-arm/demo-arm.gp" >> "${scripts}"
 
 # The stability analysis (docs/stability.md): the master fixture's limit against the rate and against K_p.
 # The rate sweep is the paper's Fig. (no filter: a 200 Hz filter is above the Nyquist frequency at 250 Hz).

@@ -6,6 +6,8 @@
 #   bin/teleop-plot, bin/teleop-canlog        run CSV -> PNGs; emulated-bus capture -> candump log
 #   lib/systemd/system/teleop-*.service       the units (they name /usr/bin/teleop-* and /etc/teleop/*.yaml)
 #   share/teleop/configs/**.yaml              every rig config
+#   share/teleop/robots/*.urdf                the shipped robots (docs/arms.md); the arm configs name them as
+#                                             ../../robots/<file>.urdf, which resolves here from configs/<rig>/
 #   share/teleop/can-up.sh, rt-check.sh       host scripts
 #   share/teleop/motors/mit-models.yaml       the MIT-mode motor models (teleop-motor, arm joints)
 #   share/teleop/wireshark/teleop.lua         the dissector
@@ -20,6 +22,8 @@ install(FILES ${TELEOP_DEPLOY_SOURCE}/systemd/teleop-master.service ${TELEOP_DEP
         DESTINATION lib/systemd/system)
 install(DIRECTORY ${TELEOP_DEPLOY_SOURCE}/configs/ DESTINATION ${CMAKE_INSTALL_DATADIR}/teleop/configs
         FILES_MATCHING PATTERN "*.yaml" PATTERN "*.csv")
+install(DIRECTORY ${TELEOP_DEPLOY_SOURCE}/robots/ DESTINATION ${CMAKE_INSTALL_DATADIR}/teleop/robots
+        FILES_MATCHING PATTERN "*.urdf")
 install(PROGRAMS ${TELEOP_DEPLOY_SOURCE}/can-up.sh ${TELEOP_DEPLOY_SOURCE}/rt-check.sh
         DESTINATION ${CMAKE_INSTALL_DATADIR}/teleop)
 install(PROGRAMS ${TELEOP_DEPLOY_SOURCE}/teleop-plot ${TELEOP_DEPLOY_SOURCE}/teleop-canlog ${TELEOP_DEPLOY_SOURCE}/teleop-session

@@ -20,7 +20,9 @@ for f in ./usr/bin/teleop-master ./usr/bin/teleop-slave ./usr/bin/teleop-analyze
          ./usr/lib/systemd/system/teleop-master.service ./usr/lib/systemd/system/teleop-slave.service \
          ./usr/lib/systemd/system/teleop-can-up@.service ./usr/share/teleop/can-up.sh ./usr/share/teleop/rt-check.sh \
          ./usr/share/teleop/configs/loopback/slave-can.yaml ./usr/share/teleop/wireshark/teleop.lua \
-         ./usr/lib/cmake/teleop/teleopConfig.cmake ./usr/include/teleop/device/device_registry.hpp; do
+         ./usr/lib/cmake/teleop/teleopConfig.cmake ./usr/include/teleop/device/device_registry.hpp \
+         ./usr/share/teleop/robots/arm_7dof.urdf ./usr/share/teleop/robots/stylus_3dof.urdf \
+         ./usr/share/teleop/configs/arm/slave-stylus.yaml; do
   grep -qx -- "${f}" "${work}/contents.txt" || fail "dpkg-deb -c: ${f} is not in the package"
 done
 ok "dpkg-deb -c: executables in /usr/bin, configs in /etc/teleop, units in /usr/lib/systemd/system, tools, CMake package"

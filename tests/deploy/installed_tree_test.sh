@@ -19,7 +19,8 @@ for f in bin/teleop-master bin/teleop-slave bin/teleop-analyze bin/teleop-canbus
          include/teleop/proto/codec.hpp etc/teleop/master.yaml etc/teleop/slave.yaml \
          lib/systemd/system/teleop-master.service lib/systemd/system/teleop-slave.service \
          share/teleop/can-up.sh share/teleop/rt-check.sh share/teleop/wireshark/teleop.lua \
-         share/teleop/configs/loopback/master-udp.yaml share/doc/teleop/deployment.md; do
+         share/teleop/configs/loopback/master-udp.yaml share/doc/teleop/deployment.md \
+         share/teleop/robots/arm_7dof.urdf share/teleop/robots/stylus_3dof.urdf bin/teleop-arm; do
   [[ -e "${prefix}/${f}" ]] || fail "not installed: ${f}"
 done
 ok "installed: executables, library + CMake package, headers, /etc/teleop configs, units, scripts, dissector, docs"
@@ -29,6 +30,16 @@ ok "etc/teleop/master.yaml is the loopback rig over UDP"
 "${prefix}/bin/teleop-analyze" check --config "${prefix}/etc/teleop/slave.yaml" | grep -q "is stable" ||
   fail "the installed teleop-analyze does not pass the installed slave config"
 ok "the installed teleop-analyze checks the installed slave config: stable"
+# The arm rigs name their URDF relative to the config (../../robots/<file>.urdf): in the installed tree that is
+# share/teleop/robots, so the installed configs run from the installed tree without edits.
+for rig in arm/master-stylus arm/slave-stylus arm/master-twin arm/slave-twin; do
+  out=$("${prefix}/bin/teleop-arm" check --config "${prefix}/share/teleop/configs/${rig}.yaml" 2>&1) ||
+    { echo "${out}"; fail "the installed teleop-arm check on the installed ${rig}.yaml"; }
+done
+for robot in "${src}"/deploy/robots/*.urdf; do
+  cmp -s "${robot}" "${prefix}/share/teleop/robots/$(basename "${robot}")" || fail "$(basename "${robot}") not installed"
+done
+ok "the shipped URDFs in share/teleop/robots; the installed arm configs find them (teleop-arm check passes)"
 
 # The consumer sees only the prefix: no path into the source or build tree.
 cmake -S "${src}/deploy/examples/custom_backend" -B "${work}/example" -G Ninja -DCMAKE_BUILD_TYPE=Release \

@@ -7,7 +7,13 @@
    5 ms period, a round trip of 2.5 ms measured every other cycle, a fixture penetration peaking at 3 mm, the peer lost
    in cycles 600..699. --list must report exactly those.
 3. A file that is not telemetry is refused with the missing column names.
+4. An arm's file (the real header plus 7 joints' joint_position_rad_i and joint_torque_Nm_i, known values): --list
+   names the 7 joints and `--views joints` draws <stem>-joints.png (only); the real run's file (not an arm) has none.
+5. deploy/teleop-session on a master without joints and an arm slave: one session file with every column of either,
+   the master's joint cells empty and the slave's the values written; teleop-plot draws the session's joints. Files
+   whose other columns differ are still refused.
 """
+import json
 import argparse
 import os
 import re
@@ -59,6 +65,27 @@ def synthetic(header, path):
         rows.append(",".join(repr(v[k]) if isinstance(v[k], float) else str(v[k]) for k in cols))
     with open(path, "w") as f:
         f.write(header + "\n" + "\n".join(rows) + "\n")
+
+
+def with_joints(header, src, dst, joints, position, torque):
+    """`src` (a telemetry CSV whose header is `header`) with `joints` joint columns appended: position(c, i) and
+    torque(c, i) for cycle c, joint i."""
+    names = [f"joint_position_rad_{i}" for i in range(joints)] + [f"joint_torque_Nm_{i}" for i in range(joints)]
+    lines = open(src).read().splitlines()
+    out = [header + "," + ",".join(names)]
+    for line in lines[1:]:
+        c = int(line.split(",")[0])
+        values = [position(c, i) for i in range(joints)] + [torque(c, i) for i in range(joints)]
+        out.append(line + "," + ",".join(repr(v) for v in values))
+    with open(dst, "w") as f:
+        f.write("\n".join(out) + "\n")
+
+
+def summary(path, role, csv_path, start_ns, offset_ns):
+    with open(path, "w") as f:
+        json.dump({"role": role, "telemetry_csv": csv_path, "software_version": "test",
+                   "clock": {"start_monotonic_ns": start_ns, "peer_offset_ns": offset_ns,
+                             "peer_offset_uncertainty_ns": 20000}}, f)
 
 
 def main():
@@ -118,6 +145,55 @@ def main():
             f.write("time_s,x\n0,1\n")
         rc, out, err = plot(args.plot, [bad])
         check(rc == 1 and "missing columns: cycle" in err and "flags" in err, f"a foreign CSV is refused: {err.strip()}")
+
+        # 4. An arm's file: the joints view, and none for a file without joints.
+        check(not os.path.exists(os.path.join(tmp, "real-joints.png")), "no joints view for a device without joints")
+        arm = os.path.join(tmp, "arm.csv")
+        position = lambda c, i: 0.1 * i + 1e-4 * c  # noqa: E731
+        with_joints(header, syn, arm, 7, position, lambda c, i: -2.0 * i)
+        rc, out, err = plot(args.plot, [arm, "--out", tmp, "--views", "joints"])  # the others are drawn above
+        print(out, err)
+        check(rc == 0, "teleop-plot plots an arm's file")
+        check("joint_position_rad_0..6, joint_torque_Nm_0..6 (7 joints)" in out, "the 7 joints are named")
+        check(not os.path.exists(os.path.join(tmp, "arm-positions.png")), "--views joints draws only the joints")
+        with open(os.path.join(tmp, "arm-joints.png"), "rb") as f:
+            data = f.read()
+        check(data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10000, f"arm-joints.png is a PNG ({len(data)} bytes)")
+
+        # 5. A session of a master without joints and an arm slave.
+        tool = os.path.join(os.path.dirname(os.path.abspath(args.plot)), "teleop-session")
+        summary(os.path.join(tmp, "m.json"), "master", syn, 1_000_000_000, 500_000)
+        summary(os.path.join(tmp, "s.json"), "slave", arm, 1_200_000_000, -500_000)
+        session = os.path.join(tmp, "session.csv")
+        rc, out, err = run([tool, os.path.join(tmp, "m.json"), os.path.join(tmp, "s.json"), "-o", session],
+                           timeout_s=60)
+        print(out, err)
+        check(rc == 0, "teleop-session merges a master without joints and an arm slave")
+        lines = open(session).read().splitlines()
+        cols = lines[2].split(",")
+        check(cols[1:len(header.split(",")) + 1] == header.split(",") and
+              cols[-14:] == [f"joint_position_rad_{i}" for i in range(7)] + [f"joint_torque_Nm_{i}" for i in range(7)],
+              "the session's columns: the shared ones, then the slave's 7 joints")
+        master_rows = [r.split(",") for r in lines[3:] if r.startswith("master,")]
+        slave_rows = [r.split(",") for r in lines[3:] if r.startswith("slave,")]
+        check(len(master_rows) == 990 and len(slave_rows) == 990, "every row of both files")
+        check(all(r[-14:] == [""] * 14 for r in master_rows), "the master's joint cells are empty")
+        cycle = cols.index("cycle")
+        check(all(float(r[cols.index("joint_position_rad_3")]) == position(int(r[cycle]), 3) and
+                  float(r[cols.index("joint_torque_Nm_5")]) == -10.0 for r in slave_rows),
+              "the slave's joint cells are the values written")
+        rc, out, err = plot(args.plot, [session, "--out", tmp, "--views", "joints"])
+        print(out, err)
+        check(rc == 0 and os.path.exists(os.path.join(tmp, "session-joints.png")),
+              "teleop-plot draws the session's joints")
+        other = os.path.join(tmp, "other.csv")  # another dof: refused, naming the columns
+        with open(other, "w") as f:
+            f.write(header.replace("position_m_0", "position_m_0,position_m_1", 1) + "\n")
+        summary(os.path.join(tmp, "s2.json"), "slave", other, 1_200_000_000, -500_000)
+        rc, out, err = run([tool, os.path.join(tmp, "m.json"), os.path.join(tmp, "s2.json"), "-o", session],
+                           timeout_s=60)
+        check(rc == 1 and "different columns" in err and "position_m_1" in err,
+              f"files whose other columns differ are refused: {err.strip()}")
 
 
 if __name__ == "__main__":

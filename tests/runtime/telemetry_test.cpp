@@ -88,6 +88,42 @@ TEST(TelemetryCsv, GoldenRow) {
       << "NaN RTT written as nan";
 }
 
+TEST(TelemetryCsv, JointColumnsComeLastAndOnlyForADeviceMadeOfJoints) {
+  // A Cartesian device (joints 0): the columns it always had, none of a joint.
+  EXPECT_EQ(TelemetryCsvHeader(2, 0), TelemetryCsvHeader(2));
+  EXPECT_EQ(TelemetryCsvHeader(2).find("joint_"), std::string::npos);
+  const std::string header = TelemetryCsvHeader(1, 2);
+  EXPECT_EQ(header,
+            TelemetryCsvHeader(1) + ",joint_position_rad_0,joint_position_rad_1,joint_torque_Nm_0,joint_torque_Nm_1");
+  TelemetryRecord r = MakeRecord(7, 1);
+  r.rtt_s = 0.0015;
+  r.joints = 2;
+  r.joint_position_rad[0] = 0.5;
+  r.joint_position_rad[1] = -1.25;
+  r.joint_torque_Nm[0] = 12.5;
+  r.joint_torque_Nm[1] = -0.75;
+  r.joint_position_rad[2] = 99.0;  // beyond the device's joints: not written
+  EXPECT_EQ(TelemetryCsvRow(r, 1, 2), TelemetryCsvRow(r, 1) + ",0.5,-1.25,12.5,-0.75");
+  EXPECT_EQ(TelemetryCsvRow(r, 1, 0), TelemetryCsvRow(r, 1));
+}
+
+TEST_F(TelemetryWriterTest, TakesTheJointsFromTheFirstRecordWithTheDof) {
+  const fs::path path = dir_ / "joints.csv";
+  {
+    TelemetryWriter writer(path.string(), 16);
+    TelemetryRecord r = MakeRecord(0, 1);
+    r.joints = 3;
+    r.joint_torque_Nm[2] = 4.0;
+    ASSERT_TRUE(writer.Push(r));
+  }
+  const auto lines = ReadLines(path);
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_EQ(lines[0], TelemetryCsvHeader(1, 3));
+  const std::string tail = ",1500,0,0,0,0,0,4";  // fixture_stiffness_N_per_m, then 3 positions and 3 torques
+  ASSERT_GT(lines[1].size(), tail.size());
+  EXPECT_EQ(lines[1].substr(lines[1].size() - tail.size()), tail) << lines[1];
+}
+
 TEST_F(TelemetryWriterTest, WritesHeaderAndOneRowPerPushedRecordInOrder) {
   const fs::path path = dir_ / "run.csv";
   TelemetryWriter writer(path.string(), 64, 2);
@@ -176,6 +212,7 @@ TEST_F(TelemetryWriterTest, UnwritablePathIsASetUpErrorNamingThePath) {
   }
   EXPECT_THROW(TelemetryWriter((dir_ / "x.csv").string(), 0, 1), Error);
   EXPECT_THROW(TelemetryWriter((dir_ / "y.csv").string(), 16, kMaxDof + 1), Error);
+  EXPECT_THROW(TelemetryWriter((dir_ / "z.csv").string(), 16, 1, kMaxDof + 1), Error);
 }
 
 }  // namespace

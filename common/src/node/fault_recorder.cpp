@@ -24,9 +24,11 @@ std::string FileWord(Outage kind) {
 
 }  // namespace
 
-FaultRecorder::FaultRecorder(std::size_t cycles, int dof, std::string dir, std::string prefix, int max_files)
+FaultRecorder::FaultRecorder(std::size_t cycles, int dof, std::string dir, std::string prefix, int max_files,
+                             int joints)
     : capacity_(std::max<std::size_t>(cycles, 1)),
       dof_(dof),
+      joints_(joints),
       dir_(std::move(dir)),
       prefix_(std::move(prefix)),
       max_files_(max_files),
@@ -76,8 +78,10 @@ void FaultRecorder::WritePending() {
     spdlog::error("fault record: cannot write '{}': {}", path, std::system_category().message(err));
     path = "(not written: " + std::system_category().message(err) + ")";
   } else {
-    std::string text = runtime::TelemetryCsvHeader(dof_) + "\n";
-    for (std::size_t k = 0; k < snapshot_count_; ++k) text += runtime::TelemetryCsvRow(snapshot_[k], dof_) + "\n";
+    std::string text = runtime::TelemetryCsvHeader(dof_, joints_) + "\n";
+    for (std::size_t k = 0; k < snapshot_count_; ++k) {
+      text += runtime::TelemetryCsvRow(snapshot_[k], dof_, joints_) + "\n";
+    }
     const bool ok = std::fwrite(text.data(), 1, text.size(), file) == text.size();
     const bool closed = std::fclose(file) == 0;
     if (ok && closed) {

@@ -33,6 +33,7 @@ class Recorder {
  public:
   struct Config {
     int dof = 1;
+    int joints = 0;  ///< device::Capabilities::joints: the joint readings recorded (0: none).
     double peer_position_scale = 1.0;
     std::uint64_t rate = 1000;  ///< Cycles per second, for rate-limiting events.
   };

@@ -21,9 +21,9 @@ std::string FaultRecordDir(const config::ProcessConfig& config) {
 
 class FaultRingSink final : public CycleSink {
  public:
-  explicit FaultRingSink(const config::ProcessConfig& config)
+  FaultRingSink(const config::ProcessConfig& config, int joints)
       : faults_(static_cast<std::size_t>(config.safety.fault_record_cycles), config.dof, FaultRecordDir(config),
-                ToString(config.role), config.safety.max_fault_records) {}
+                ToString(config.role), config.safety.max_fault_records, joints) {}
   void OnCycle(const CycleRecord& record) noexcept override { faults_.Record(*record.telemetry); }
   void OnFault(const FaultRecorder::Info& info) noexcept override { faults_.Trigger(info); }
   void Finish(RunSummary& summary) override {
@@ -38,8 +38,9 @@ class FaultRingSink final : public CycleSink {
 
 class TelemetryCsvSink final : public CycleSink {
  public:
-  explicit TelemetryCsvSink(const config::ProcessConfig& config)
-      : writer_(config.telemetry.csv_path, static_cast<std::size_t>(config.telemetry.ring_capacity), config.dof),
+  TelemetryCsvSink(const config::ProcessConfig& config, int joints)
+      : writer_(config.telemetry.csv_path, static_cast<std::size_t>(config.telemetry.ring_capacity), config.dof,
+                joints),
         decimation_(static_cast<std::uint64_t>(config.telemetry.decimation)) {}
   void OnCycle(const CycleRecord& record) noexcept override {
     if (record.telemetry->cycle % decimation_ == 0 && writer_.Push(*record.telemetry)) ++records_;
@@ -58,13 +59,13 @@ class TelemetryCsvSink final : public CycleSink {
 
 }  // namespace
 
-std::unique_ptr<CycleSink> MakeFaultRingSink(const config::ProcessConfig& config) {
-  return std::make_unique<FaultRingSink>(config);
+std::unique_ptr<CycleSink> MakeFaultRingSink(const config::ProcessConfig& config, int joints) {
+  return std::make_unique<FaultRingSink>(config, joints);
 }
 
-std::unique_ptr<CycleSink> MakeTelemetryCsvSink(const config::ProcessConfig& config) {
+std::unique_ptr<CycleSink> MakeTelemetryCsvSink(const config::ProcessConfig& config, int joints) {
   if (config.telemetry.csv_path.empty()) return nullptr;
-  return std::make_unique<TelemetryCsvSink>(config);
+  return std::make_unique<TelemetryCsvSink>(config, joints);
 }
 
 }  // namespace teleop::node

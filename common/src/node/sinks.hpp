@@ -11,10 +11,12 @@
 
 namespace teleop::node {
 
-/// The last safety.fault_record_cycles cycles before every fault, written to a file (FaultRecorder).
-std::unique_ptr<CycleSink> MakeFaultRingSink(const config::ProcessConfig& config);
-/// telemetry.csv_path every telemetry.decimation cycles; null when no path is configured.
-std::unique_ptr<CycleSink> MakeTelemetryCsvSink(const config::ProcessConfig& config);
+/// The last safety.fault_record_cycles cycles before every fault, written to a file (FaultRecorder). `joints`: the
+/// device's (device::Capabilities::joints), the joint columns of the records (0: none).
+std::unique_ptr<CycleSink> MakeFaultRingSink(const config::ProcessConfig& config, int joints = 0);
+/// telemetry.csv_path every telemetry.decimation cycles, with `joints` joint columns; null when no path is
+/// configured.
+std::unique_ptr<CycleSink> MakeTelemetryCsvSink(const config::ProcessConfig& config, int joints = 0);
 /// The DDS bridge (docs/dds.md) at dds.state_rate_hz, its events and the summary; null when dds.enabled is off.
 std::unique_ptr<CycleSink> MakeDdsSink(const config::ProcessConfig& config);
 

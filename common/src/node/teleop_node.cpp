@@ -46,9 +46,10 @@ Coupling::Config CouplingConfigOf(const config::ProcessConfig& config, const dev
   return c;
 }
 
-device::Reading ZeroReading(int dof) {
+device::Reading ZeroReading(int dof, int joints) {
   device::Reading r;
   r.position_m = r.velocity_m_per_s = r.force_N = r.rendered_force_N = ZeroDof(dof);
+  r.joint_position_rad = r.joint_torque_Nm = DofVector::Zero(joints);
   return r;
 }
 
@@ -62,7 +63,11 @@ void TeleopNode::Impl::Configure() {
   config::RequireRenderable(config, caps, device->name());
   RequireReaction(config, caps, device->name());
   reading_check = std::make_unique<ReadingCheck>(config.safety, caps, dof);
-  reading = ZeroReading(dof);
+  if (caps.joints < 0 || caps.joints > kMaxDof) {
+    throw Error("device '" + device->name() + "' reports " + std::to_string(caps.joints) + " joints, outside 0.." +
+                std::to_string(kMaxDof));
+  }
+  reading = ZeroReading(dof, caps.joints);
   PeerTracker::Config pc;
   pc.dof = dof;
   pc.timeout_s = config.link.timeout_ms * 1e-3;
@@ -80,11 +85,12 @@ void TeleopNode::Impl::Configure() {
   transmitter = std::make_unique<Transmitter>(config.role, dof, *link, clock);
   Recorder::Config rc;
   rc.dof = dof;
+  rc.joints = caps.joints;
   rc.peer_position_scale = config.law.peer_position_scale;
   rc.rate = static_cast<std::uint64_t>(config.loop.rate_hz);
   recorder = std::make_unique<Recorder>(rc, sinks, events);
-  sinks.Add(MakeFaultRingSink(config));
-  sinks.Add(MakeTelemetryCsvSink(config));
+  sinks.Add(MakeFaultRingSink(config, caps.joints));
+  sinks.Add(MakeTelemetryCsvSink(config, caps.joints));
   sinks.Add(MakeDdsSink(config));
   for (auto& sink : added_sinks) sinks.Add(std::move(sink));
   events.SetObserver(&sinks);

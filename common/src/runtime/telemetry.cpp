@@ -49,11 +49,13 @@ constexpr const char* kVectorNames[] = {"position_m",      "velocity_m_per_s",  
 constexpr int kVectorCount = static_cast<int>(std::size(kVectorNames));
 
 int ClampDof(int dof) noexcept { return std::clamp(dof, 1, kMaxDof); }
+int ClampJoints(int joints) noexcept { return std::clamp(joints, 0, kMaxDof); }
 
 }  // namespace
 
-std::string TelemetryCsvHeader(int dof) {
+std::string TelemetryCsvHeader(int dof, int joints) {
   dof = ClampDof(dof);
+  joints = ClampJoints(joints);
   fmt::memory_buffer out;
   fmt::format_to(std::back_inserter(out), "cycle,time_s,dof");
   for (int v = 0; v < kVectorCount; ++v) {
@@ -64,11 +66,15 @@ std::string TelemetryCsvHeader(int dof) {
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",passivity_observed_J_{}", i);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",passivity_damping_Ns_per_m_{}", i);
   fmt::format_to(std::back_inserter(out), ",device_warnings,clutch,fixture_stiffness_N_per_m");
+  // Last, so that the columns before them are the same for every device.
+  for (int i = 0; i < joints; ++i) fmt::format_to(std::back_inserter(out), ",joint_position_rad_{}", i);
+  for (int i = 0; i < joints; ++i) fmt::format_to(std::back_inserter(out), ",joint_torque_Nm_{}", i);
   return fmt::to_string(out);
 }
 
-std::string TelemetryCsvRow(const TelemetryRecord& r, int dof) {
+std::string TelemetryCsvRow(const TelemetryRecord& r, int dof, int joints) {
   dof = ClampDof(dof);
+  joints = ClampJoints(joints);
   fmt::memory_buffer out;
   fmt::format_to(std::back_inserter(out), "{},{},{}", r.cycle, r.time_s, r.dof);
   for (int v = 0; v < kVectorCount; ++v) {
@@ -80,15 +86,20 @@ std::string TelemetryCsvRow(const TelemetryRecord& r, int dof) {
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.passivity_observed_J[i]);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.passivity_damping_Ns_per_m[i]);
   fmt::format_to(std::back_inserter(out), ",{},{},{}", r.device_warnings, r.clutch, r.fixture_stiffness_N_per_m);
+  for (int i = 0; i < joints; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.joint_position_rad[i]);
+  for (int i = 0; i < joints; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.joint_torque_Nm[i]);
   return fmt::to_string(out);
 }
 
-TelemetryWriter::TelemetryWriter(const std::string& csv_path, std::size_t ring_capacity, int dof)
-    : path_(csv_path), dof_(dof), ring_(std::max<std::size_t>(ring_capacity, 1)) {
+TelemetryWriter::TelemetryWriter(const std::string& csv_path, std::size_t ring_capacity, int dof, int joints)
+    : path_(csv_path), dof_(dof), joints_(joints), ring_(std::max<std::size_t>(ring_capacity, 1)) {
   if (ring_capacity == 0) throw Error("telemetry: ring_capacity must be at least 1 record");
   if (dof < 0 || dof > kMaxDof) {
     throw Error("telemetry: dof " + std::to_string(dof) + " is outside 1.." + std::to_string(kMaxDof) +
                 " (0 = from the first record)");
+  }
+  if (joints < 0 || joints > kMaxDof) {
+    throw Error("telemetry: joints " + std::to_string(joints) + " is outside 0.." + std::to_string(kMaxDof));
   }
   file_ = std::fopen(csv_path.c_str(), "w");
   if (file_ == nullptr) {
@@ -97,7 +108,7 @@ TelemetryWriter::TelemetryWriter(const std::string& csv_path, std::size_t ring_c
                 "; check that the directory exists and is writable, or change telemetry.csv");
   }
   if (dof_ > 0) {
-    WriteLine(TelemetryCsvHeader(dof_));
+    WriteLine(TelemetryCsvHeader(dof_, joints_));
     header_written_ = true;
   }
   try {
@@ -133,10 +144,11 @@ void TelemetryWriter::Drain() {
     while (ring_.TryPop(record)) {
       if (!header_written_) {
         dof_ = ClampDof(record.dof);
-        WriteLine(TelemetryCsvHeader(dof_));
+        joints_ = ClampJoints(record.joints);
+        WriteLine(TelemetryCsvHeader(dof_, joints_));
         header_written_ = true;
       }
-      WriteLine(TelemetryCsvRow(record, dof_));
+      WriteLine(TelemetryCsvRow(record, dof_, joints_));
       written_.fetch_add(1, std::memory_order_relaxed);
       ++drained;
     }

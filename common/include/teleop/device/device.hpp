@@ -31,6 +31,9 @@ struct Capabilities {
   DofVector max_brake_force_N;  ///< Per axis, the brake's largest resisting force (N), when has_brake.
   bool measures_velocity = false;  ///< Reading::velocity_m_per_s is a sensor value (else the law estimates it).
   bool measures_force = false;     ///< Reading::force_N is a handle (master) or tool (slave) force sensor.
+  /// A device made of joints (an arm, docs/arms.md): how many joints it reports in Reading::joint_position_rad and
+  /// joint_torque_Nm (0..kMaxDof; telemetry's joint columns). 0: a Cartesian device, no joint readings.
+  int joints = 0;
 
   /// True when the device can push its handle/tool (inject energy): kActiveForce or kActiveAndDissipative.
   bool can_push() const noexcept {
@@ -115,6 +118,10 @@ struct Reading {
   /// fieldbus rig reads the Modbus input named `clutch` of its amplifier's register map (a discrete input,
   /// function 0x02). Not built yet: a CiA 402 drive's digital inputs object 0x60FD as a source.
   bool clutch_pressed = false;
+  /// A device made of joints (Capabilities::joints > 0): each joint's position (rad; m for a prismatic joint) and
+  /// the torque its actuator reports (N·m; N), Capabilities::joints entries. Empty (size 0) on other devices.
+  DofVector joint_position_rad;
+  DofVector joint_torque_Nm;
 };
 
 /// The one interface every backend implements: loopback plant, hybrid motor–brake device, cobot, real drivers.

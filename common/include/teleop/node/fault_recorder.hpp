@@ -44,8 +44,9 @@ class FaultRecorder {
   };
   static constexpr std::size_t kMaxReports = 256;  ///< Faults listed in the summary; later ones only counted.
 
-  /// `cycles` ≥ 1 kept; files `<dir>/teleop-<prefix>-fault-<n>-cycle<c>-<kind>.csv`; `dof` columns per vector.
-  FaultRecorder(std::size_t cycles, int dof, std::string dir, std::string prefix, int max_files);
+  /// `cycles` ≥ 1 kept; files `<dir>/teleop-<prefix>-fault-<n>-cycle<c>-<kind>.csv`; `dof` columns per vector,
+  /// `joints` joint columns (the telemetry CSV's: runtime::TelemetryCsvHeader).
+  FaultRecorder(std::size_t cycles, int dof, std::string dir, std::string prefix, int max_files, int joints = 0);
   ~FaultRecorder();
   FaultRecorder(const FaultRecorder&) = delete;
   FaultRecorder& operator=(const FaultRecorder&) = delete;
@@ -68,6 +69,7 @@ class FaultRecorder {
 
   std::size_t capacity_;
   int dof_;
+  int joints_;
   std::string dir_;
   std::string prefix_;
   int max_files_;

@@ -46,15 +46,23 @@ struct TelemetryRecord {
   int clutch = 0;  ///< Clutch sources held this cycle (node::ClutchSource bits: 1 device, 2 peer, 4 command; 0: none).
   /// The fixture stiffness the law used this cycle (N/m; a ramped change shows its ramp; 0 without a fixture).
   double fixture_stiffness_N_per_m = 0.0;
+  /// A device made of joints (device::Capabilities::joints; 0 on a Cartesian device): `joints` valid entries of each
+  /// joint's position (rad; m for a prismatic joint) and the torque its actuator reports (N·m; N). The CSV's last
+  /// columns, written only when the writer was given joints.
+  int joints = 0;
+  double joint_position_rad[kMaxDof] = {};
+  double joint_torque_Nm[kMaxDof] = {};
 };
 static_assert(std::is_trivially_copyable_v<TelemetryRecord>);
 
 /// The CSV column names for `dof` entries per vector, in the order WriteCsvRow writes them, comma-separated, no
-/// newline. Units are in the names (`position_m_0`, `command_N_1`, ...).
-std::string TelemetryCsvHeader(int dof);
-/// One CSV row (no newline) for `record`, `dof` entries per vector. Doubles are written in the shortest form
-/// that reads back exactly; NaN as `nan`.
-std::string TelemetryCsvRow(const TelemetryRecord& record, int dof);
+/// newline. Units are in the names (`position_m_0`, `command_N_1`, ...). With `joints` > 0 (a device made of
+/// joints) the last columns are joint_position_rad_0..joints-1 then joint_torque_Nm_0..joints-1; with 0 there are
+/// none, so a Cartesian device's file is what it always was.
+std::string TelemetryCsvHeader(int dof, int joints = 0);
+/// One CSV row (no newline) for `record`, `dof` entries per vector and `joints` joint entries. Doubles are written
+/// in the shortest form that reads back exactly; NaN as `nan`.
+std::string TelemetryCsvRow(const TelemetryRecord& record, int dof, int joints = 0);
 
 /// Carries telemetry out of the real-time loop: Push() copies a record into a lock-free ring (never blocks,
 /// never allocates), a writer thread drains the ring into a CSV file every few milliseconds.
@@ -65,9 +73,9 @@ std::string TelemetryCsvRow(const TelemetryRecord& record, int dof);
 class TelemetryWriter {
  public:
   /// Opens (truncates) `csv_path` and starts the writer thread; throws teleop::Error when the file cannot be opened
-  /// or ring_capacity is 0. `dof` (1..kMaxDof) fixes the columns per vector; 0 takes it from the first record
-  /// (kMaxDof when no record arrives).
-  TelemetryWriter(const std::string& csv_path, std::size_t ring_capacity, int dof = 0);
+  /// or ring_capacity is 0. `dof` (1..kMaxDof) fixes the columns per vector; 0 takes it (and the joints) from the
+  /// first record (kMaxDof when no record arrives). `joints` (0..kMaxDof): the joint columns (0: none).
+  TelemetryWriter(const std::string& csv_path, std::size_t ring_capacity, int dof = 0, int joints = 0);
   ~TelemetryWriter();
   TelemetryWriter(const TelemetryWriter&) = delete;
   TelemetryWriter& operator=(const TelemetryWriter&) = delete;
@@ -102,6 +110,7 @@ class TelemetryWriter {
   std::string path_;
   std::FILE* file_ = nullptr;
   int dof_;
+  int joints_;
   bool header_written_ = false;
   SpscRing<TelemetryRecord> ring_;
   std::atomic<bool> stop_{false};

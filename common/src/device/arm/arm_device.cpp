@@ -28,6 +28,8 @@ ArmDevice::ArmDevice(std::unique_ptr<ArmModel> model, std::unique_ptr<JointBus> 
   capabilities_.max_force_N = DofVector::Constant(3, std::numeric_limits<double>::infinity());
   capabilities_.measures_velocity = true;
   capabilities_.measures_force = false;
+  static_assert(kMaxJoints <= kMaxDof, "Reading's joint vectors hold kMaxDof entries");
+  capabilities_.joints = n_;
 }
 
 void ArmDevice::Activate() {
@@ -44,10 +46,14 @@ void ArmDevice::Deactivate() noexcept {
 void ArmDevice::Read(Reading& out) noexcept {
   std::uint32_t arm = kArmFaultNone;
   std::uint32_t arm_warnings = kArmWarningNone;
+  out.joint_position_rad.resize(n_);  // fixed storage: no allocation
+  out.joint_torque_Nm.resize(n_);
   for (int i = 0; i < n_; ++i) {
     bus_->joint(i).Read(sample_);
     q_[i] = sample_.position;
     v_[i] = sample_.velocity;
+    out.joint_position_rad[i] = sample_.position;
+    out.joint_torque_Nm[i] = sample_.torque_Nm;
     if (!std::isfinite(sample_.position) || !std::isfinite(sample_.velocity)) arm |= kArmFaultNonFinite;
     if (sample_.temperature_warning) arm_warnings |= kArmWarningTemperature;
     if (sample_.fault) {
