@@ -38,6 +38,8 @@ TEST(ConfigurationLimitDecide, LowersRaisesWithHysteresisAndRestores) {
   EXPECT_DOUBLE_EQ(lowered->fixture_N_per_m, 1600.0);
   EXPECT_DOUBLE_EQ(lowered->ramp_s, 0.2);
   EXPECT_NE(lowered->message.find("q = (0) rad"), std::string::npos) << lowered->message;
+  // Within the limit search's 1 % above (1 − 0.2) × 2000: left as it is.
+  EXPECT_FALSE(ConfigurationLimit::Decide(o, kConfigured, 1610.0, At(2000.0)));
   // Within the hysteresis band: 0.8 × 2100 / 1.1 = 1527 < 1600 · 1.1: stays.
   EXPECT_FALSE(ConfigurationLimit::Decide(o, kConfigured, 1600.0, At(2100.0)));
   // 0.8 × 2300 / 1.1 = 1673 < 1760: stays; 0.8 × 2500 / 1.1 = 1818 ≥ 1760: raised to it.

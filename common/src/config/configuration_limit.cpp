@@ -26,6 +26,11 @@ std::string Ms(double seconds) {
   return text;
 }
 
+/// The limit search's relative tolerance here (the start-up sweep's ranking): a fixture within it above
+/// (1 − margin) × the limit is left as it is, so a configuration drifting by less than the search can tell asks for
+/// nothing (a process run lowered 1403 -> 1402 -> 1402 N/m without it).
+constexpr double kLimitTolerance = 0.01;
+
 }  // namespace
 
 std::optional<ConfigurationLimit::Action> ConfigurationLimit::Decide(const Options& options, double configured_N_per_m,
@@ -35,7 +40,7 @@ std::optional<ConfigurationLimit::Action> ConfigurationLimit::Decide(const Optio
   const double allowed = (1.0 - options.margin) * evaluation.limit_N_per_m;
   Action action;
   action.limit_N_per_m = evaluation.limit_N_per_m;
-  if (current_N_per_m > allowed) {
+  if (current_N_per_m > allowed * (1.0 + kLimitTolerance)) {
     action.kind = Action::Kind::kLowered;
     action.fixture_N_per_m = allowed;
   } else if (current_N_per_m < configured_N_per_m) {
@@ -61,7 +66,8 @@ std::optional<ConfigurationLimit::Action> ConfigurationLimit::Decide(const Optio
                    evaluation.at.where + " (apparent mass " + std::to_string(evaluation.at.mass_kg) + " kg, damping " +
                    std::to_string(evaluation.at.damping_Ns_per_m) + " N·s/m along plane " +
                    std::to_string(evaluation.plane) + "'s normal); fixture " + what + ": " + Whole(current_N_per_m) +
-                   " -> " + Whole(action.fixture_N_per_m) + " over " + Ms(action.ramp_s);
+                   " -> " + Whole(action.fixture_N_per_m) + " over " + Ms(action.ramp_s) + " (the evaluation took " +
+                   Ms(evaluation.elapsed_ms * 1e-3) + ")";
   return action;
 }
 
@@ -106,11 +112,12 @@ ConfigurationLimit::~ConfigurationLimit() {
 }
 
 ConfigurationLimit::Evaluation ConfigurationLimit::Evaluate(const device::DeviceConfiguration& configuration) {
+  const auto start = std::chrono::steady_clock::now();
   Evaluation result;
   const control::ForbiddenRegionFixture::Config& fixture = config_.law.fixture;
   analysis::LimitOptions options;
-  options.relative_tolerance = 1e-2;  // the sweep's ranking tolerance
-  options.threads = 1;                // a background thread: never both cores
+  options.relative_tolerance = kLimitTolerance;
+  options.threads = 1;  // a background thread: never both cores
   for (int p = 0; p < fixture.plane_count; ++p) {
     const device::AnalysisConfiguration at = model_(configuration, fixture.planes[static_cast<std::size_t>(p)].normal);
     if (!std::isfinite(at.mass_kg) || !(at.mass_kg > 0.0)) continue;  // cannot move along n: this plane sets none
@@ -126,6 +133,7 @@ ConfigurationLimit::Evaluation ConfigurationLimit::Evaluate(const device::Device
       result.at = at;
     }
   }
+  result.elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 

@@ -36,6 +36,7 @@ class ConfigurationLimit {
     double limit_N_per_m = 0.0;        ///< The smallest over the planes (0: the coupling itself is unstable there).
     int plane = 0;                     ///< The plane it belongs to.
     device::AnalysisConfiguration at;  ///< The device along that plane's normal.
+    double elapsed_ms = 0.0;           ///< Wall time of the evaluation.
   };
   /// What the limit decided.
   struct Action {
@@ -48,9 +49,10 @@ class ConfigurationLimit {
   };
 
   /// The decision (no I/O): with the fixture now at `current_N_per_m` and `configured_N_per_m` the stiffness it
-  /// may not exceed, lowered to (1 − margin) × limit when it is above it; raised (while below the configured one) to
-  /// min(configured, (1 − margin) × limit / (1 + hysteresis)) when that is at least (1 + hysteresis) × current, or
-  /// when it reaches the configured one (kRestored). Nothing when neither holds or the evaluation is not valid.
+  /// may not exceed, lowered to (1 − margin) × limit when it is above it by more than the limit search's 1 %; raised
+  /// (while below the configured one) to min(configured, (1 − margin) × limit / (1 + hysteresis)) when that is at least
+  /// (1 + hysteresis) × current, or when it reaches the configured one (kRestored). Nothing when neither holds or the
+  /// evaluation is not valid.
   static std::optional<Action> Decide(const Options& options, double configured_N_per_m, double current_N_per_m,
                                       const Evaluation& evaluation);
 
