@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <utility>
 
 #include "teleop/analysis/stability_limit.hpp"
@@ -99,8 +100,17 @@ ConfigurationLimit::ConfigurationLimit(ProcessConfig config, Options options, de
     fixture.planes[static_cast<std::size_t>(p)].normal.cwiseAbs().maxCoeff(&axis);
     plane_models_.push_back(StabilityModel(config_, axis));
   }
-  current_N_per_m_ = fixture.stiffness_N_per_m;
+  bound_N_per_m_ = std::numeric_limits<double>::infinity();
+  const double configured = fixture.stiffness_N_per_m;
+  configured_ = [configured] { return configured; };
 }
+
+void ConfigurationLimit::SetConfiguredSource(std::function<double()> configured_N_per_m) {
+  if (thread_.joinable()) throw Error("configuration limit: SetConfiguredSource() after Start()");
+  if (configured_N_per_m) configured_ = std::move(configured_N_per_m);
+}
+
+double ConfigurationLimit::fixture_N_per_m() const { return std::min(configured_(), bound_N_per_m_.load()); }
 
 ConfigurationLimit::~ConfigurationLimit() {
   {
@@ -144,10 +154,12 @@ bool ConfigurationLimit::Step() {
     const Evaluation evaluation = Evaluate(configuration);
     ++evaluations_;
     if (evaluation.valid) publish_limit_(evaluation.limit_N_per_m);
+    const double configured = configured_();
     const std::optional<Action> action =
-        Decide(options_, config_.law.fixture.stiffness_N_per_m, current_N_per_m_.load(), evaluation);
+        Decide(options_, configured, std::min(configured, bound_N_per_m_.load()), evaluation);
     if (action) {
-      current_N_per_m_ = action->fixture_N_per_m;
+      bound_N_per_m_ =
+          action->kind == Action::Kind::kRestored ? std::numeric_limits<double>::infinity() : action->fixture_N_per_m;
       ++actions_;
       apply_(*action);
     }
@@ -157,7 +169,7 @@ bool ConfigurationLimit::Step() {
     failing_ = true;
     Action failed;
     failed.kind = Action::Kind::kFailed;
-    failed.fixture_N_per_m = current_N_per_m_.load();
+    failed.fixture_N_per_m = fixture_N_per_m();
     failed.message = std::string("configuration limit failed: ") + e.what();
     apply_(failed);
   }

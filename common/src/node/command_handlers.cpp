@@ -127,6 +127,11 @@ TeleopNode::FixtureChange TeleopNode::RequestFixtureStiffnessWithinConfigured(Fi
   return change;
 }
 
+double TeleopNode::accepted_fixture_stiffness_N_per_m() const {
+  const std::lock_guard<std::mutex> lock(impl_->command_mutex);
+  return impl_->check_base.law.fixture.stiffness_N_per_m;
+}
+
 void TeleopNode::SetFixtureLimit(double limit_N_per_m) noexcept {
   impl_->fixture_limit_N_per_m.store(limit_N_per_m, std::memory_order_relaxed);
 }

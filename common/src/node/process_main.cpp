@@ -334,6 +334,7 @@ std::unique_ptr<config::ConfigurationLimit> MakeConfigurationLimit(const config:
       },
       [&node](double limit_N_per_m) { node.SetFixtureLimit(limit_N_per_m); },
       [&node](const config::ConfigurationLimit::Action& action) { ApplyConfigurationLimit(node, action); });
+  limit->SetConfiguredSource([&node] { return node.accepted_fixture_stiffness_N_per_m(); });
   spdlog::info(
       "configuration limit on: the fixture's limit at the arm's configuration {} times a second; the fixture stays "
       "below (1 - {}) x it (device.{}.runtime_limit)",

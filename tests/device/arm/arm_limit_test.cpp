@@ -350,6 +350,8 @@ TEST(ArmRuntimeLimit, TheLimitFallsTowardTheLightConfigurationAndTheFixtureRamps
   ASSERT_LT(light.limit_N_per_m, start.limit_N_per_m / (1.0 + 2.0 * options.hysteresis));
   const double configured = (1.0 - options.margin) * start.limit_N_per_m / (1.0 + options.hysteresis);
   const auto limit_worker = make(configured);
+  double accepted = configured;  // what a `teleop-ctl stiffness` command changes (TeleopNode's accepted stiffness)
+  limit_worker->SetConfiguredSource([&accepted] { return accepted; });
 
   const std::vector<double> path = {0.0, 0.5, 1.0, 1.0, 0.5, 0.0};
   std::vector<double> fixture;
@@ -377,6 +379,12 @@ TEST(ArmRuntimeLimit, TheLimitFallsTowardTheLightConfigurationAndTheFixtureRamps
     EXPECT_LE(a.fixture_N_per_m, configured) << "never above the configured stiffness";
     previous = a.fixture_N_per_m;
   }
+  // An operator's stiffer fixture, accepted while the arm is at the start configuration: lowered under the limit
+  // there, not left at the stiffness the config had.
+  accepted = 1.2 * configured;
+  ASSERT_TRUE(limit_worker->Step());
+  EXPECT_EQ(actions.back().kind, config::ConfigurationLimit::Action::Kind::kLowered);
+  EXPECT_DOUBLE_EQ(limit_worker->fixture_N_per_m(), (1.0 - options.margin) * limits.back());
 }
 
 // Not a test (disabled; it asserts nothing): the probe behind docs/arms.md's "Not built yet". Prints the arm's

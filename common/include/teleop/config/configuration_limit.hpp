@@ -74,9 +74,12 @@ class ConfigurationLimit {
   bool Step();
   /// Starts the thread (background priority, never the loop's CPU). Once.
   void Start();
+  /// Where the stiffness the fixture may not exceed comes from (the process: the node's accepted stiffness, which a
+  /// `teleop-ctl stiffness` command changes); absent: the config's law.fixture.stiffness_N_per_m. Before Start().
+  void SetConfiguredSource(std::function<double()> configured_N_per_m);
 
-  /// The fixture stiffness the limit last asked for (the configured one at first).
-  double fixture_N_per_m() const noexcept { return current_N_per_m_.load(); }
+  /// The fixture stiffness as this limit leaves it: min(the configured one, its bound; +inf until it acts).
+  double fixture_N_per_m() const;
   int evaluations() const noexcept { return evaluations_.load(); }
   int actions() const noexcept { return actions_.load(); }
 
@@ -91,7 +94,8 @@ class ConfigurationLimit {
   std::function<void(const Action&)> apply_;
   std::vector<analysis::HumanModel> humans_;
   std::vector<analysis::SampledTeleoperator> plane_models_;  ///< Per plane: the process's model, gains of its axis.
-  std::atomic<double> current_N_per_m_{0.0};
+  std::function<double()> configured_;
+  std::atomic<double> bound_N_per_m_{0.0};  ///< +inf: none (set by the constructor).
   std::atomic<int> evaluations_{0};
   std::atomic<int> actions_{0};
   bool failing_ = false;  ///< The last Step failed (a run of failures is reported once).

@@ -123,6 +123,9 @@ class TeleopNode {
   FixtureChange RequestFixtureEnabled(bool on, double ramp_s);
   /// The fixture stiffness the law uses now (N/m).
   double fixture_stiffness_N_per_m() const noexcept;
+  /// The stiffness configured or last accepted from RequestFixtureStiffness (N/m): what the watchers' bounds may not
+  /// raise the fixture above. Takes the command lock: not for the cycle.
+  double accepted_fixture_stiffness_N_per_m() const;
 
   /// A run-time change of one law gain (`axis` -1: every axis), checked like a stiffness change: the stability check
   /// with the changed gain (the peer keeps the gains the start-up check assumed for it) and the render check
