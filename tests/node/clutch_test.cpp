@@ -481,6 +481,39 @@ TEST(NodeTune, AnAcceptedStiffnessChangeRampsOverTheConfiguredTime) {
   EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 1000.0);
 }
 
+// The run-time watchers' bounds (the delay re-check, the configuration limit): the fixture is the least of the
+// accepted stiffness and every bound, so one watcher lifting its bound leaves the other's in force, and an operator's
+// stiffer command waits under them.
+TEST(NodeTune, TheWatchersBoundsHoldTheFixtureAtTheLeastOfThem) {
+  using Bound = TeleopNode::FixtureBound;
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
+  rig.StepUntil(500);
+  ASSERT_TRUE(rig.slave->RequestFixtureStiffnessWithinConfigured(Bound::kDelayRecheck, 1500.0, 0.01).accepted);
+  rig.StepUntil(600);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 1500.0);
+  ASSERT_TRUE(rig.slave->RequestFixtureStiffnessWithinConfigured(Bound::kConfigurationLimit, 1000.0, 0.01).accepted);
+  rig.StepUntil(700);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 1000.0);
+  ASSERT_TRUE(rig.slave->RequestFixtureStiffnessWithinConfigured(Bound::kDelayRecheck, kNone, 0.01).accepted);
+  rig.StepUntil(800);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 1000.0) << "the configuration limit's bound holds";
+  const TeleopNode::FixtureChange stiffer = rig.slave->RequestFixtureStiffness(1800.0, 0.01);
+  ASSERT_TRUE(stiffer.accepted) << stiffer.message;
+  EXPECT_NE(stiffer.message.find("held at 1000 N/m"), std::string::npos) << stiffer.message;
+  rig.StepUntil(900);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 1000.0) << "an operator's command waits under the bound";
+  ASSERT_TRUE(rig.slave->RequestFixtureStiffnessWithinConfigured(Bound::kConfigurationLimit, 3000.0, 0.01).accepted);
+  rig.StepUntil(1000);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 1800.0) << "never above the accepted stiffness";
+  ASSERT_TRUE(rig.slave->RequestFixtureStiffnessWithinConfigured(Bound::kConfigurationLimit, kNone, 0.01).accepted);
+  rig.StepUntil(1100);
+  EXPECT_DOUBLE_EQ(rig.slave->fixture_stiffness_N_per_m(), 1800.0);
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN(), -1.0}) {
+    EXPECT_FALSE(rig.slave->RequestFixtureStiffnessWithinConfigured(Bound::kDelayRecheck, bad, 0.01).accepted);
+  }
+}
+
 TEST(NodeTune, AnUnstableStiffnessIsRefusedWithThePredictedLimit) {
   Rig rig("", "", "max_force_rate_N_per_s: 100", kSlaveFixture);
   rig.StepUntil(500);

@@ -61,6 +61,7 @@ TelemetryRecord MakeRecord(std::uint64_t cycle, int dof) {
   r.data_age_s = 3e-5;
   r.device_warnings = 1;  // device::kWarningStabilityGuard
   r.fixture_stiffness_N_per_m = 1500.0;
+  r.fixture_limit_N_per_m = 14057.5;
   return r;
 }
 
@@ -70,7 +71,7 @@ TEST(TelemetryCsv, HeaderCarriesUnitsInColumnNames) {
             "fixture_force_N_0,"
             "peer_position_m_0,peer_velocity_m_per_s_0,peer_force_N_0,fixture_penetration_m,law_status,flags,rtt_s,"
             "compute_s,engagement,data_age_s,passivity_observed_J_0,passivity_damping_Ns_per_m_0,device_warnings,"
-            "clutch,fixture_stiffness_N_per_m");
+            "clutch,fixture_stiffness_N_per_m,fixture_limit_N_per_m");
   const std::string two = TelemetryCsvHeader(2);
   EXPECT_NE(two.find("position_m_0,position_m_1,velocity_m_per_s_0"), std::string::npos) << two;
 }
@@ -81,10 +82,10 @@ TEST(TelemetryCsv, GoldenRow) {
   EXPECT_EQ(TelemetryCsvRow(r, 2),
             "7,0.007,2,0.25,0.5,-0.5,-0.5,3,3,-1.5,-1.5,-1.25,-1.25,0,0,0.125,0.125,2,2,-4,-4,0.001,1,9,0.0015,2.5e-05,"
             "3,3e-05,"
-            "0.125,0.25,4,4,1,0,1500");
+            "0.125,0.25,4,4,1,0,1500,14057.5");
   r.rtt_s = std::numeric_limits<double>::quiet_NaN();
   const std::string row = TelemetryCsvRow(r, 1);
-  EXPECT_EQ(row, "7,0.007,2,0.25,-0.5,3,-1.5,-1.25,0,0.125,2,-4,0.001,1,9,nan,2.5e-05,3,3e-05,0.125,4,1,0,1500")
+  EXPECT_EQ(row, "7,0.007,2,0.25,-0.5,3,-1.5,-1.25,0,0.125,2,-4,0.001,1,9,nan,2.5e-05,3,3e-05,0.125,4,1,0,1500,14057.5")
       << "NaN RTT written as nan";
 }
 
@@ -145,14 +146,15 @@ TEST_F(TelemetryWriterTest, WritesHeaderAndOneRowPerPushedRecordInOrder) {
   std::stringstream row(lines[3]);
   std::vector<double> values;
   for (std::string cell; std::getline(row, cell, ',');) values.push_back(std::stod(cell));
-  // ..., device_warnings, clutch, fixture_stiffness_N_per_m.
-  ASSERT_EQ(values.size(), 3u + 9u * 2u + 7u + 2u * 2u + 3u);
-  EXPECT_DOUBLE_EQ(values.back(), 1500.0);  // fixture_stiffness_N_per_m
-  EXPECT_EQ(values[0], 2.0);                // cycle
-  EXPECT_DOUBLE_EQ(values[1], 0.002);       // time_s
-  EXPECT_DOUBLE_EQ(values[4], 0.5);         // position_m_1
-  EXPECT_DOUBLE_EQ(values[9], -1.5);        // command_N_0
-  EXPECT_DOUBLE_EQ(values[11], -1.25);      // rendered_force_N_0
+  // ..., device_warnings, clutch, fixture_stiffness_N_per_m, fixture_limit_N_per_m.
+  ASSERT_EQ(values.size(), 3u + 9u * 2u + 7u + 2u * 2u + 4u);
+  EXPECT_DOUBLE_EQ(values[values.size() - 2], 1500.0);  // fixture_stiffness_N_per_m
+  EXPECT_DOUBLE_EQ(values.back(), 14057.5);             // fixture_limit_N_per_m
+  EXPECT_EQ(values[0], 2.0);                            // cycle
+  EXPECT_DOUBLE_EQ(values[1], 0.002);                   // time_s
+  EXPECT_DOUBLE_EQ(values[4], 0.5);                     // position_m_1
+  EXPECT_DOUBLE_EQ(values[9], -1.5);                    // command_N_0
+  EXPECT_DOUBLE_EQ(values[11], -1.25);                  // rendered_force_N_0
 }
 
 TEST_F(TelemetryWriterTest, TakesDofFromTheFirstRecordWhenNotGiven) {

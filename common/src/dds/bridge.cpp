@@ -109,6 +109,8 @@ const char* EventKindName(node::Event::Kind kind) noexcept {
       return "plane_refused";
     case Kind::kDelayRecheck:
       return "delay_recheck";
+    case Kind::kConfigurationLimit:
+      return "configuration_limit";
   }
   return "unknown";
 }

@@ -1,6 +1,8 @@
 // The command channel's handlers (TeleopNode::Request*): checked on the CALLER's thread, handed to the cycle
 // through the command queue (command_queue.hpp), which the cycle drains once per cycle into one Changes value.
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <mutex>
@@ -51,6 +53,13 @@ void Check(const config::ProcessConfig& candidate, const std::string& what, Tele
 
 const char* const kQueueFull = "; not applied: the cycle has not taken the pending commands (queue full)";
 
+/// The stiffness the fixture may have under the watchers' bounds (TeleopNode::Impl::fixture_bounds).
+double Bounded(const std::array<double, 2>& bounds, double stiffness_N_per_m) {
+  double k = stiffness_N_per_m;
+  for (const double bound : bounds) k = std::min(k, bound);
+  return k;
+}
+
 }  // namespace
 
 TeleopNode::FixtureChange TeleopNode::RequestFixtureStiffness(double stiffness_N_per_m, double ramp_s) {
@@ -72,8 +81,12 @@ TeleopNode::FixtureChange TeleopNode::RequestFixtureStiffness(double stiffness_N
   p.value = change.accepted ? stiffness_N_per_m : change.limit_N_per_m;
   if (change.accepted) {
     p.change = PendingCommand::Change::kStiffness;
-    p.stiffness_N_per_m = stiffness_N_per_m;
+    p.stiffness_N_per_m = Bounded(s.fixture_bounds, stiffness_N_per_m);
     p.ramp_s = std::isfinite(ramp_s) && ramp_s > 0.0 ? ramp_s : 0.0;
+    if (p.stiffness_N_per_m < stiffness_N_per_m) {
+      change.message += "; held at " + Num(p.stiffness_N_per_m) +
+                        " N/m while the run-time limit (delay re-check or configuration limit) bounds it";
+    }
   }
   if (!s.commands.Post(p) && change.accepted) {
     change.accepted = false;
@@ -83,6 +96,44 @@ TeleopNode::FixtureChange TeleopNode::RequestFixtureStiffness(double stiffness_N
     if (stiffness_N_per_m > 0.0) s.fixture_on_N_per_m = stiffness_N_per_m;
   }
   return change;
+}
+
+TeleopNode::FixtureChange TeleopNode::RequestFixtureStiffnessWithinConfigured(FixtureBound source, double bound_N_per_m,
+                                                                              double ramp_s) {
+  Impl& s = *impl_;
+  const std::lock_guard<std::mutex> lock(s.command_mutex);
+  FixtureChange change;
+  change.requested_N_per_m = bound_N_per_m;
+  if (std::isnan(bound_N_per_m) || bound_N_per_m < 0.0) {
+    change.message = "a fixture bound must be >= 0 N/m (or +inf: none)";
+    return change;
+  }
+  s.fixture_bounds[static_cast<std::size_t>(source)] = bound_N_per_m;
+  const double accepted = s.check_base.law.fixture.stiffness_N_per_m;
+  PendingCommand p;
+  p.kind = Event::Kind::kCommandAccepted;
+  p.change = PendingCommand::Change::kStiffness;
+  p.stiffness_N_per_m = Bounded(s.fixture_bounds, accepted);
+  p.value = p.stiffness_N_per_m;
+  p.ramp_s = std::isfinite(ramp_s) && ramp_s > 0.0 ? ramp_s : 0.0;
+  if (!s.commands.Post(p)) {
+    change.message = std::string("fixture bound ") + Num(bound_N_per_m) + " N/m" + kQueueFull;
+    return change;
+  }
+  change.accepted = true;
+  change.message = "fixture " + Num(p.stiffness_N_per_m) + " N/m: the least of the accepted " + Num(accepted) +
+                   " N/m and the run-time bounds (delay re-check " + Num(s.fixture_bounds[0]) +
+                   ", configuration limit " + Num(s.fixture_bounds[1]) + ")";
+  return change;
+}
+
+double TeleopNode::accepted_fixture_stiffness_N_per_m() const {
+  const std::lock_guard<std::mutex> lock(impl_->command_mutex);
+  return impl_->check_base.law.fixture.stiffness_N_per_m;
+}
+
+void TeleopNode::SetFixtureLimit(double limit_N_per_m) noexcept {
+  impl_->fixture_limit_N_per_m.store(limit_N_per_m, std::memory_order_relaxed);
 }
 
 TeleopNode::FixtureChange TeleopNode::RequestFixtureEnabled(bool on, double ramp_s) {

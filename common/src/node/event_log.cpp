@@ -158,6 +158,26 @@ void LogCommandEvent(const Event& e) {
           break;
       }
       break;
+    case Event::Kind::kConfigurationLimit:
+      switch (static_cast<ConfigurationLimitDetail>(e.detail)) {
+        case ConfigurationLimitDetail::kLowered:
+          spdlog::warn(
+              "cycle {}: configuration limit: the limit at the arm's configuration fell, fixture ramps to "
+              "{:.0f} N/m",
+              e.cycle, e.value);
+          break;
+        case ConfigurationLimitDetail::kRaised:
+          spdlog::info("cycle {}: configuration limit: the limit rose, fixture ramps up to {:.0f} N/m", e.cycle,
+                       e.value);
+          break;
+        case ConfigurationLimitDetail::kRestored:
+          spdlog::info("cycle {}: configuration limit: fixture ramps back to {:.0f} N/m", e.cycle, e.value);
+          break;
+        case ConfigurationLimitDetail::kFailed:
+          spdlog::warn("cycle {}: configuration limit: nothing changed (see its message)", e.cycle);
+          break;
+      }
+      break;
     default:
       break;
   }
@@ -219,6 +239,7 @@ void EventLog::Drain() {
       case Event::Kind::kPlaneAccepted:
       case Event::Kind::kPlaneRefused:
       case Event::Kind::kDelayRecheck:
+      case Event::Kind::kConfigurationLimit:
         LogCommandEvent(e);
         break;
     }

@@ -12,11 +12,13 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <sstream>
 #include <string_view>
 
 #include "teleop/cli_help.hpp"
+#include "teleop/config/configuration_limit.hpp"
 #include "teleop/config/delay_recheck.hpp"
 #include "teleop/config/stability_check.hpp"
 #include "teleop/config/yaml_config.hpp"
@@ -269,7 +271,10 @@ void ApplyDelayRecheck(TeleopNode& node, DelayRecheckState& state, const config:
     }
     return;
   }
-  const TeleopNode::FixtureChange change = node.RequestFixtureStiffness(action.fixture_N_per_m, action.ramp_s);
+  // A bound, not a stiffness: the configuration limit's bound stays in force (the fixture is the least of both).
+  const TeleopNode::FixtureChange change = node.RequestFixtureStiffnessWithinConfigured(
+      TeleopNode::FixtureBound::kDelayRecheck,
+      action.recovered ? std::numeric_limits<double>::infinity() : action.fixture_N_per_m, action.ramp_s);
   if (!change.accepted) {
     spdlog::error("{}; the node refused it: {}", action.message, change.message);
     record(Detail::kFailed, node.fixture_stiffness_N_per_m());
@@ -311,6 +316,69 @@ std::unique_ptr<config::DelayRecheck> MakeDelayRecheck(const config::ProcessConf
       [&node, state](const config::DelayRecheck::Action& action) mutable { ApplyDelayRecheck(node, state, action); });
 }
 
+/// What the configuration limit decided, done to the node (on its thread, never the cycle's): a bound on the
+/// fixture stiffness (lifted when back to the configured one), a configuration_limit event and a log line.
+void ApplyConfigurationLimit(TeleopNode& node, const config::ConfigurationLimit::Action& action) {
+  using Kind = config::ConfigurationLimit::Action::Kind;
+  using Detail = ConfigurationLimitDetail;
+  const auto record = [&node](Detail detail, double stiffness_N_per_m) {
+    node.RecordCommandEvent(Event::Kind::kConfigurationLimit, stiffness_N_per_m, static_cast<std::uint16_t>(detail));
+  };
+  if (action.kind == Kind::kFailed) {
+    spdlog::error("{}", action.message);
+    record(Detail::kFailed, node.fixture_stiffness_N_per_m());
+    return;
+  }
+  const bool restored = action.kind == Kind::kRestored;
+  const TeleopNode::FixtureChange change = node.RequestFixtureStiffnessWithinConfigured(
+      TeleopNode::FixtureBound::kConfigurationLimit,
+      restored ? std::numeric_limits<double>::infinity() : action.fixture_N_per_m, action.ramp_s);
+  if (!change.accepted) {
+    spdlog::error("{}; the node refused it: {}", action.message, change.message);
+    record(Detail::kFailed, node.fixture_stiffness_N_per_m());
+    return;
+  }
+  if (action.kind == Kind::kLowered) {
+    spdlog::warn("{} ({})", action.message, change.message);
+  } else {
+    spdlog::info("{} ({})", action.message, change.message);
+  }
+  record(action.kind == Kind::kLowered  ? Detail::kLowered
+         : action.kind == Kind::kRaised ? Detail::kRaised
+                                        : Detail::kRestored,
+         action.fixture_N_per_m);
+}
+
+/// The run-time limit at the device's configuration (device.<backend>.runtime_limit; docs/arms.md, "Stability");
+/// nullptr when off or the device has none. Its thread reads the configuration the device's cycle publishes and
+/// acts through ApplyConfigurationLimit and TeleopNode::SetFixtureLimit.
+std::unique_ptr<config::ConfigurationLimit> MakeConfigurationLimit(const config::ProcessConfig& config,
+                                                                   device::Device& device, TeleopNode& node) {
+  const device::DeviceBackend* backend = device::FindDevice(config.device.backend);
+  if (backend == nullptr || !backend->configuration_limit) return nullptr;
+  const device::ConfigurationLimitOptions options = backend->configuration_limit(config.device);
+  if (!options.enabled) return nullptr;
+  device::ConfigurationMailbox* mailbox = device.configuration_mailbox();
+  if (mailbox == nullptr || !backend->configuration_model) {
+    throw Error("device." + config.device.backend +
+                ".runtime_limit.enabled: this device publishes no configuration; turn it off");
+  }
+  auto limit = std::make_unique<config::ConfigurationLimit>(
+      config, options, backend->configuration_model(config.device),
+      [mailbox](device::DeviceConfiguration& out) {
+        mailbox->Read(out);
+        return out.count > 0;
+      },
+      [&node](double limit_N_per_m) { node.SetFixtureLimit(limit_N_per_m); },
+      [&node](const config::ConfigurationLimit::Action& action) { ApplyConfigurationLimit(node, action); });
+  limit->SetConfiguredSource([&node] { return node.accepted_fixture_stiffness_N_per_m(); });
+  spdlog::info(
+      "configuration limit on: the fixture's limit at the arm's configuration {} times a second; the fixture stays "
+      "below (1 - {}) x it (device.{}.runtime_limit)",
+      options.rate_hz, options.margin, config.device.backend);
+  return limit;
+}
+
 /// The summary to stdout and --summary-json; returns the exit status (teleop/node/exit_codes.hpp).
 int Report(const RunSummary& summary, const std::string& summary_json) {
   std::cout << FormatSummaryText(summary) << std::flush;
@@ -342,6 +410,7 @@ int Run(const Options& o, Role role, const std::string& program) {
   if (!StabilityAllowsStart(config, o.allow_unstable, verdict)) return kExitConfigError;
 
   auto device = device::MakeDevice(config.device);
+  device::Device& device_ref = *device;  // the node owns it from here; the limit's thread reads its mailbox
   auto link = link::MakeLink(config.link, link::ToSender(role));
   TeleopNode node(config, std::move(device), std::move(link), TeleopNode::Unconfigured{});
   // Before Activate: background threads must not inherit the loop's SCHED_FIFO (the check runs there).
@@ -352,6 +421,8 @@ int Run(const Options& o, Role role, const std::string& program) {
     commands = std::make_unique<CommandServer>(node, CommandServer::Config{o.command_socket, 0600, o.command_ramp_s});
   }
   std::unique_ptr<config::DelayRecheck> recheck = MakeDelayRecheck(config, node);  // before Activate, as above
+  std::unique_ptr<config::ConfigurationLimit> configuration_limit = MakeConfigurationLimit(config, device_ref, node);
+  if (configuration_limit) configuration_limit->Start();  // before Activate, as above
   node.Activate();  // real-time settings on this thread, checked, before the device is activated
 
   g_running_node.store(&node);
@@ -364,6 +435,7 @@ int Run(const Options& o, Role role, const std::string& program) {
   node.SetSessionRecord(std::filesystem::absolute(o.config_path).string(), ReadText(o.config_path), verdict);
   const RunSummary summary = node.Run();
   recheck.reset();  // its thread acts on the node: stopped before the node is gone
+  configuration_limit.reset();
   g_running_node.store(nullptr);
   return Report(summary, o.summary_json);
 }

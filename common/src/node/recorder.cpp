@@ -137,6 +137,7 @@ const runtime::TelemetryRecord& Recorder::Row(const Sensed& sensed, const PeerVi
   r.device_warnings = reading.warnings;
   r.clutch = applied.clutch_sources;
   r.fixture_stiffness_N_per_m = applied.fixture_stiffness_N_per_m;
+  r.fixture_limit_N_per_m = facts.fixture_limit_N_per_m;
   r.joints = config_.joints;
   CopyToRecord(reading.joint_position_rad, r.joint_position_rad);
   CopyToRecord(reading.joint_torque_Nm, r.joint_torque_Nm);

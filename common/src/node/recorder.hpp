@@ -4,6 +4,7 @@
 // sink (telemetry CSV, fault ring, DDS). Private to the node.
 
 #include <cstdint>
+#include <limits>
 
 #include "coupling.hpp"
 #include "peer_tracker.hpp"
@@ -20,6 +21,8 @@ struct CycleFacts {
   double t_s = 0.0;
   std::uint8_t flags = 0;         ///< Sent this cycle (Transmitter).
   std::int64_t data_age_ns = -1;  ///< Age of the peer sample the law used; -1: none.
+  double fixture_limit_N_per_m =
+      std::numeric_limits<double>::quiet_NaN();  ///< TeleopNode::SetFixtureLimit's newest value (NaN: none).
   std::int64_t cycle_start_mono_ns = 0;
   bool stopping = false;
   bool coupled_trigger_timeout = false;  ///< A triggered cycle that timed out while the peer was usable.

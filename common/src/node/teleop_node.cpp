@@ -192,6 +192,7 @@ CycleFacts TeleopNode::Impl::Facts(std::uint64_t cycle, double t_s, std::uint8_t
   f.t_s = t_s;
   f.flags = flags;
   f.data_age_ns = data_age_ns;
+  f.fixture_limit_N_per_m = fixture_limit_N_per_m.load(std::memory_order_relaxed);
   f.cycle_start_mono_ns = cycle_start_mono_ns;
   f.stopping = loop.stopping();
   f.coupled_trigger_timeout = usable && loop.triggered_mode() && !loop.cycle_triggered();

@@ -3,8 +3,10 @@
 // TeleopNode's state: the stages, the sinks, the command queue. Private to the node: teleop_node.cpp (the
 // lifecycle, the cycle, the summary) and command_handlers.cpp (the Request* handlers) share it.
 
+#include <array>
 #include <atomic>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -83,6 +85,9 @@ struct TeleopNode::Impl {
   std::atomic<std::int64_t> peer_sender_age_ns{-1};
   static_assert(std::atomic<std::int64_t>::is_always_lock_free, "read by other threads, wait-free");
   std::atomic<bool> command_clutch{false};  ///< TeleopNode::SetClutch (any thread) → the cycle.
+  /// TeleopNode::SetFixtureLimit (any thread) → the cycle's telemetry; NaN: none.
+  std::atomic<double> fixture_limit_N_per_m{std::numeric_limits<double>::quiet_NaN()};
+  static_assert(std::atomic<double>::is_always_lock_free, "stored by another thread, read by the cycle, wait-free");
 
   /// Run-time commands (TeleopNode::Request*, command_handlers.cpp) to the cycle. Producers are serialised by
   /// command_mutex, which also guards what follows it.
@@ -90,6 +95,10 @@ struct TeleopNode::Impl {
   std::mutex command_mutex;
   config::ProcessConfig check_base;  ///< What the next check starts from: accepted changes applied.
   double fixture_on_N_per_m = 0.0;   ///< What `fixture on` restores.
+  /// The node's own watchers' bounds on the fixture stiffness (RequestFixtureStiffnessWithinConfigured), by
+  /// FixtureBound; +inf: none. The fixture ramps to min(the accepted stiffness, every bound).
+  std::array<double, 2> fixture_bounds{std::numeric_limits<double>::infinity(),
+                                       std::numeric_limits<double>::infinity()};
   GainSignals signals;
   DofVector ramp_position_m;  ///< The law's position for the ramp floor (preallocated).
   std::string session_config_path, session_config_yaml, session_startup_analysis;  ///< SetSessionRecord

@@ -65,7 +65,7 @@ std::string TelemetryCsvHeader(int dof, int joints) {
                  ",fixture_penetration_m,law_status,flags,rtt_s,compute_s,engagement,data_age_s");
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",passivity_observed_J_{}", i);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",passivity_damping_Ns_per_m_{}", i);
-  fmt::format_to(std::back_inserter(out), ",device_warnings,clutch,fixture_stiffness_N_per_m");
+  fmt::format_to(std::back_inserter(out), ",device_warnings,clutch,fixture_stiffness_N_per_m,fixture_limit_N_per_m");
   // Last, so that the columns before them are the same for every device.
   for (int i = 0; i < joints; ++i) fmt::format_to(std::back_inserter(out), ",joint_position_rad_{}", i);
   for (int i = 0; i < joints; ++i) fmt::format_to(std::back_inserter(out), ",joint_torque_Nm_{}", i);
@@ -85,7 +85,8 @@ std::string TelemetryCsvRow(const TelemetryRecord& r, int dof, int joints) {
                  r.rtt_s, r.compute_s, r.engagement, r.data_age_s);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.passivity_observed_J[i]);
   for (int i = 0; i < dof; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.passivity_damping_Ns_per_m[i]);
-  fmt::format_to(std::back_inserter(out), ",{},{},{}", r.device_warnings, r.clutch, r.fixture_stiffness_N_per_m);
+  fmt::format_to(std::back_inserter(out), ",{},{},{},{}", r.device_warnings, r.clutch, r.fixture_stiffness_N_per_m,
+                 r.fixture_limit_N_per_m);
   for (int i = 0; i < joints; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.joint_position_rad[i]);
   for (int i = 0; i < joints; ++i) fmt::format_to(std::back_inserter(out), ",{}", r.joint_torque_Nm[i]);
   return fmt::to_string(out);

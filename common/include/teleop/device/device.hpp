@@ -5,6 +5,7 @@
 #include <limits>
 #include <string>
 
+#include "teleop/device/device_configuration.hpp"
 #include "teleop/types.hpp"
 
 namespace teleop::device {
@@ -162,6 +163,11 @@ class Device {
   virtual void Update(double period_s) noexcept = 0;
   /// Zero force (or engage brakes): the safe state. Must be callable at any time, also after a fault.
   virtual void SetSafe() noexcept = 0;
+
+  /// Where a device whose stability model depends on its configuration (an arm) publishes it: its Read() writes
+  /// the configuration it read there every cycle (wait-free, no allocation), the run-time limit's thread reads it
+  /// (config::ConfigurationLimit; DeviceBackend::configuration_model). nullptr (the default): none.
+  virtual ConfigurationMailbox* configuration_mailbox() noexcept { return nullptr; }
 };
 
 }  // namespace teleop::device

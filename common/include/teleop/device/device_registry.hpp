@@ -59,6 +59,13 @@ struct AnalysisSweep {
   std::vector<AnalysisConfiguration> configurations;
 };
 
+/// The device along a unit direction `normal` (in the frame of the positions it reports) at a configuration its
+/// Device::configuration_mailbox published: mass_kg +inf when it cannot move along it there. Off the real-time thread
+/// only; one caller at a time (it may hold the model it evaluates with). Throws teleop::Error on a configuration of
+/// the wrong size.
+using ConfigurationModel =
+    std::function<AnalysisConfiguration(const DeviceConfiguration& configuration, const DofVector& normal)>;
+
 /// One backend, registered once, in the backend's own files (common/src/device/<name>/, or an out-of-tree
 /// project's): see RegisterDevice and TELEOP_REGISTER_DEVICE.
 struct DeviceBackend {
@@ -84,6 +91,11 @@ struct DeviceBackend {
   /// the configurations where the plane can be reached. Absent, or no configurations: the check uses `model` only.
   /// Throws teleop::Error.
   std::function<AnalysisSweep(const DeviceConfig& config, const DofVector& normal, double offset_m)> sweep;
+  /// The model at a published configuration, for the run-time limit (config::ConfigurationLimit; docs/arms.md,
+  /// "Stability"), built once per process. Absent: the device has no run-time limit.
+  std::function<ConfigurationModel(const DeviceConfig& config)> configuration_model;
+  /// The run-time limit's options for `config` (`device.<name>.runtime_limit`); absent: off.
+  std::function<ConfigurationLimitOptions(const DeviceConfig& config)> configuration_limit;
 };
 
 /// Registers a backend (set-up only, thread-safe; callable from static initialisers and from an out-of-tree

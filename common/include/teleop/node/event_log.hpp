@@ -42,6 +42,9 @@ struct Event {
     /// The run-time delay re-check acted (docs/stability.md, "Run-time re-check"); value: the fixture stiffness it
     /// ramps to (N/m); detail: DelayRecheckDetail.
     kDelayRecheck,
+    /// The run-time limit at the device's configuration acted (docs/arms.md, "Stability"); value: the fixture
+    /// stiffness it ramps to (N/m); detail: ConfigurationLimitDetail.
+    kConfigurationLimit,
   };
   Kind kind = Kind::kPeerConnected;
   std::uint64_t cycle = 0;
@@ -58,6 +61,14 @@ enum class DelayRecheckDetail : std::uint16_t {
   kFailed = 4,             ///< The re-check or the node refused (the log says why); nothing changed.
   kPassivityOn = 5,        ///< ... on_unstable: passivity: the passivity controller switched on (observer).
   kPassivityRestored = 6,  ///< The coupling is stable again at the measured delay: passivity back to its config.
+};
+
+/// What a kConfigurationLimit event says.
+enum class ConfigurationLimitDetail : std::uint16_t {
+  kLowered = 0,   ///< The limit at the configuration fell: the fixture ramps down below it.
+  kRaised = 1,    ///< It rose again: the fixture ramps up, still below the configured stiffness.
+  kRestored = 2,  ///< It rose enough: the fixture ramps back to the configured stiffness.
+  kFailed = 3,    ///< The evaluation or the node refused (the log says why); nothing changed.
 };
 
 /// Which law gain a gain event names: `detail` = gain index · 16 + axis (axis 15: every axis).

@@ -102,12 +102,31 @@ class TeleopNode {
   /// the force change within engagement.max_force_rate_N_per_s at the position of the cycle that takes it when that
   /// is longer (a ramp of 0 is never a force step; docs/clutch.md); the cycle logs the outcome as an event
   /// (command_accepted with the stiffness, command_refused with the limit). Serialised between callers.
+  /// The stiffness ramps to min(stiffness_N_per_m, every RequestFixtureStiffnessWithinConfigured bound).
   FixtureChange RequestFixtureStiffness(double stiffness_N_per_m, double ramp_s);
+  /// The node's own watchers that bound the fixture stiffness at run time.
+  enum class FixtureBound : std::uint8_t {
+    kDelayRecheck = 0,        ///< config::DelayRecheck: the limit at the measured delay.
+    kConfigurationLimit = 1,  ///< config::ConfigurationLimit: the limit at the device's configuration.
+  };
+  /// A run-time bound on the fixture stiffness from one of the node's watchers (never the operator): `source`'s
+  /// bound becomes `bound_N_per_m` (+inf lifts it) and the fixture ramps over `ramp_s` (or the force-rate bound's
+  /// longer ramp, as for RequestFixtureStiffness) to min(the accepted stiffness, every source's bound): never above
+  /// the stiffness configured or accepted by the operator's commands, and each watcher's restoring its bound leaves
+  /// the other's in force. Not checked again (a lower stiffness than an accepted one); a NaN or negative bound is
+  /// refused. Logged as command_accepted with the stiffness it ramps to (the caller logs its own event).
+  FixtureChange RequestFixtureStiffnessWithinConfigured(FixtureBound source, double bound_N_per_m, double ramp_s);
+  /// The fixture's predicted limit at the device's current configuration (N/m; NaN: none), for the telemetry
+  /// column fixture_limit_N_per_m. Any thread; wait-free (an atomic the cycle reads).
+  void SetFixtureLimit(double limit_N_per_m) noexcept;
   /// Fixture off: ramps the stiffness to 0 (checked like any change: a pair unstable without its fixture is
   /// refused). On: ramps back to the last accepted non-zero stiffness (the configured one at first), checked.
   FixtureChange RequestFixtureEnabled(bool on, double ramp_s);
   /// The fixture stiffness the law uses now (N/m).
   double fixture_stiffness_N_per_m() const noexcept;
+  /// The stiffness configured or last accepted from RequestFixtureStiffness (N/m): what the watchers' bounds may not
+  /// raise the fixture above. Takes the command lock: not for the cycle.
+  double accepted_fixture_stiffness_N_per_m() const;
 
   /// A run-time change of one law gain (`axis` -1: every axis), checked like a stiffness change: the stability check
   /// with the changed gain (the peer keeps the gains the start-up check assumed for it) and the render check

@@ -46,6 +46,9 @@ struct TelemetryRecord {
   int clutch = 0;  ///< Clutch sources held this cycle (node::ClutchSource bits: 1 device, 2 peer, 4 command; 0: none).
   /// The fixture stiffness the law used this cycle (N/m; a ramped change shows its ramp; 0 without a fixture).
   double fixture_stiffness_N_per_m = 0.0;
+  /// The fixture's predicted stability limit at the device's current configuration (N/m; the run-time limit of an
+  /// arm, config::ConfigurationLimit, its newest evaluation); NaN when none is computed.
+  double fixture_limit_N_per_m = std::numeric_limits<double>::quiet_NaN();
   /// A device made of joints (device::Capabilities::joints; 0 on a Cartesian device): `joints` valid entries of each
   /// joint's position (rad; m for a prismatic joint) and the torque its actuator reports (N·m; N). The CSV's last
   /// columns, written only when the writer was given joints.

@@ -213,6 +213,17 @@ void ReadFixtureSweep(const Field& f, FixtureSweepConfig& sweep) {
   sweep.bucket = config::ReadNumber(map, k::kSweepBucket);
 }
 
+void ReadRuntimeLimit(const Field& f, ConfigurationLimitOptions& o) {
+  namespace k = arm_keys;
+  const Map map(f, {"enabled", "rate_hz", "margin", "hysteresis", "max_force_rate_N_per_s", "max_penetration_m"});
+  o.enabled = config::ReadBool(map, k::kRuntimeEnabled);
+  o.rate_hz = config::ReadNumber(map, k::kRuntimeRate);
+  o.margin = config::ReadNumber(map, k::kRuntimeMargin);
+  o.hysteresis = config::ReadNumber(map, k::kRuntimeHysteresis);
+  o.max_force_rate_N_per_s = config::ReadNumber(map, k::kRuntimeForceRate);
+  o.max_penetration_m = config::ReadNumber(map, k::kRuntimePenetration);
+}
+
 ArmSection ReadArm(const Field& f, int dof) {
   namespace k = arm_keys;
   const Map map(f, {"urdf",
@@ -238,7 +249,8 @@ ArmSection ReadArm(const Field& f, int dof) {
                     "mit",
                     "cia402",
                     "simulation",
-                    "fixture_sweep"});
+                    "fixture_sweep",
+                    "runtime_limit"});
   if (dof != 3) {
     f.Fail("the arm backend is a task-space device of dof 3 (the tool point's x, y, z); the config's dof is " +
            std::to_string(dof));
@@ -281,6 +293,7 @@ ArmSection ReadArm(const Field& f, int dof) {
     v->Fail("a CiA 402 drives section, but actuators is not cia402; remove it or set actuators: cia402");
   }
   if (auto v = map.Optional("fixture_sweep")) ReadFixtureSweep(*v, s.fixture_sweep);
+  if (auto v = map.Optional("runtime_limit")) ReadRuntimeLimit(*v, s.runtime_limit);
   return s;
 }
 
@@ -473,6 +486,30 @@ DeviceBackend ArmBackend() {
   b.sweep = [](const DeviceConfig& config, const DofVector& normal, double offset_m) {
     return SweepArm(config.Section<ArmSection>(), normal, offset_m);
   };
+  b.configuration_model = [](const DeviceConfig& config) -> ConfigurationModel {
+    // One model per process, evaluated by the run-time limit's thread alone (docs/arms.md, "Stability").
+    const ArmSection& section = config.Section<ArmSection>();
+    auto model = std::make_shared<ArmModel>(BuildArmChain(section.chain), section.gravity_B());
+    const double damping = section.simulation.viscous_Nms_per_rad;
+    return [model, damping](const DeviceConfiguration& c, const DofVector& normal) {
+      const int n = model->joint_count();
+      if (c.count != n || normal.size() != 3) {
+        throw Error("arm: a configuration of " + std::to_string(c.count) + " values and a direction of " +
+                    std::to_string(normal.size()) + " for a chain of " + std::to_string(n) + " joints in 3 D");
+      }
+      JointVector q(n);
+      for (int i = 0; i < n; ++i) q[i] = c.values[static_cast<std::size_t>(i)];
+      if (!model->Update(q, JointVector(n))) throw Error("arm: the model cannot be evaluated at q = (" + List(q) + ")");
+      const Eigen::Vector3d n_B = Eigen::Vector3d(normal[0], normal[1], normal[2]).normalized();
+      const NormalModel along = ModelAlong(*model, n_B, damping);
+      const Eigen::Vector3d& p = model->p_BT();
+      return AnalysisConfiguration{along.mass_kg, along.damping_Ns_per_m,
+                                   fmt::format("q = ({}) rad, tool at ({:.4f}, {:.4f}, {:.4f}) m in the base frame",
+                                               List(q), p.x(), p.y(), p.z()),
+                                   1};
+    };
+  };
+  b.configuration_limit = [](const DeviceConfig& config) { return config.Section<ArmSection>().runtime_limit; };
   return b;
 }
 

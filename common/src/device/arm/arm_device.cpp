@@ -11,6 +11,8 @@
 
 namespace teleop::device::arm {
 
+static_assert(kMaxJoints <= kMaxConfigurationValues, "q must fit the published configuration");
+
 ArmDevice::ArmDevice(std::unique_ptr<ArmModel> model, std::unique_ptr<JointBus> bus, ArmDeviceConfig config)
     : model_(std::move(model)),
       bus_(std::move(bus)),
@@ -72,6 +74,9 @@ void ArmDevice::Read(Reading& out) noexcept {
   if ((arm & kArmFaultNonFinite) == 0) {
     model_valid_ = model_->Update(q_, v_);
     if (!model_valid_) arm |= kArmFaultModel;
+    published_.count = n_;
+    for (int i = 0; i < n_; ++i) published_.values[static_cast<std::size_t>(i)] = q_[i];
+    configuration_.Write(published_);
   }
   if (model_valid_ && model_->TranslationalManipulability() < config_.min_manipulability) arm |= kArmFaultSingular;
   if (model_valid_ && !hold_captured_) {

@@ -66,6 +66,8 @@ class ArmDevice final : public Device, public BusExchange {
   void Write(const Command& command) noexcept override;
   void Update(double period_s) noexcept override;
   void SetSafe() noexcept override;
+  /// Read() publishes q there each cycle (when every joint reading is finite).
+  ConfigurationMailbox* configuration_mailbox() noexcept override { return &configuration_; }
 
   // Inspection (tests, telemetry).
   std::uint32_t arm_faults() const noexcept { return arm_faults_; }
@@ -100,6 +102,8 @@ class ArmDevice final : public Device, public BusExchange {
   std::uint32_t warnings_ = kWarningNone;
   std::uint32_t arm_warnings_ = kArmWarningNone;
   Eigen::Vector3d rendered_N_ = Eigen::Vector3d::Zero();
+  DeviceConfiguration published_;  ///< Filled in Read(), copied into configuration_.
+  ConfigurationMailbox configuration_;
 };
 
 }  // namespace teleop::device::arm

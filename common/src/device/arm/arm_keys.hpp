@@ -557,6 +557,75 @@ inline const KeySpec kCia402ActivateTimeout{.key = "cia402.activate_timeout_ms",
                                             .high = 10000.0};
 
 /// Every key of the table, built at its first use (after static initialisation).
+inline const KeySpec kRuntimeEnabled = [] {
+  KeySpec s{"runtime_limit.enabled",
+            KeyType::kBool,
+            "",
+            KeyRange::kFinite,
+            false,
+            0.0,
+            "The run-time limit: a thread of its own recomputes the fixture's stability limit at the arm's current "
+            "configuration and lowers the fixture stiffness below it (docs/arms.md, \"Stability\")."};
+  return s;
+}();
+inline const KeySpec kRuntimeRate = [] {
+  KeySpec s{"runtime_limit.rate_hz",
+            KeyType::kNumber,
+            "Hz",
+            KeyRange::kInRange,
+            false,
+            ConfigurationLimitOptions{}.rate_hz,
+            "How often the limit at the current configuration is recomputed (one limit search each, about 20 ms)."};
+  s.low = 0.1;
+  s.high = 50.0;
+  return s;
+}();
+inline const KeySpec kRuntimeMargin = [] {
+  KeySpec s{"runtime_limit.margin",
+            KeyType::kNumber,
+            "",
+            KeyRange::kInRange,
+            false,
+            ConfigurationLimitOptions{}.margin,
+            "The fixture is lowered to (1 - margin) x the limit at the configuration when it is stiffer than that."};
+  s.low = 0.0;
+  s.high = 0.9;
+  return s;
+}();
+inline const KeySpec kRuntimeHysteresis = [] {
+  KeySpec s{"runtime_limit.hysteresis",
+            KeyType::kNumber,
+            "",
+            KeyRange::kInRange,
+            false,
+            ConfigurationLimitOptions{}.hysteresis,
+            "A lowered fixture is raised again to (1 - margin) x limit / (1 + hysteresis), at most the configured "
+            "stiffness, once that is this fraction above its stiffness."};
+  s.low = 0.0;
+  s.high = 1.0;
+  return s;
+}();
+inline const KeySpec kRuntimeForceRate = [] {
+  KeySpec s{"runtime_limit.max_force_rate_N_per_s",
+            KeyType::kNumber,
+            "N/s",
+            KeyRange::kPositive,
+            false,
+            ConfigurationLimitOptions{}.max_force_rate_N_per_s,
+            "The stiffness ramps so that the fixture force at max_penetration_m changes at most this fast."};
+  return s;
+}();
+inline const KeySpec kRuntimePenetration = [] {
+  KeySpec s{"runtime_limit.max_penetration_m",
+            KeyType::kNumber,
+            "m",
+            KeyRange::kPositive,
+            false,
+            ConfigurationLimitOptions{}.max_penetration_m,
+            "The penetration the ramp's force rate is bounded at."};
+  return s;
+}();
+
 inline const auto& All() {
   static const std::array table{kUrdf,
                                 kBaseLink,
@@ -619,7 +688,13 @@ inline const auto& All() {
                                 kCia402HeartbeatPeriod,
                                 kCia402HeartbeatTimeout,
                                 kCia402SdoTimeout,
-                                kCia402ActivateTimeout};
+                                kCia402ActivateTimeout,
+                                kRuntimeEnabled,
+                                kRuntimeRate,
+                                kRuntimeMargin,
+                                kRuntimeHysteresis,
+                                kRuntimeForceRate,
+                                kRuntimePenetration};
   return table;
 }
 

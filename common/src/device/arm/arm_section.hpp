@@ -12,6 +12,7 @@
 #include "cia402_joint_bus.hpp"
 #include "mit_joint_bus.hpp"
 #include "simulated_arm.hpp"
+#include "teleop/device/device_configuration.hpp"
 
 namespace teleop::device::arm {
 
@@ -26,8 +27,9 @@ struct ArmSection {
   MitJointBusConfig mit;          ///< actuators: mit.
   bool cia402_actuators = false;  ///< actuators: cia402.
   Cia402JointBusConfig cia402;    ///< actuators: cia402.
-  std::vector<double> initial_q_rad;  ///< The simulated arm's start; empty: the middle of each joint's range.
-  FixtureSweepConfig fixture_sweep;   ///< The start-up check's configurations near a fixture plane.
+  std::vector<double> initial_q_rad;        ///< The simulated arm's start; empty: the middle of each joint's range.
+  FixtureSweepConfig fixture_sweep;         ///< The start-up check's configurations near a fixture plane.
+  ConfigurationLimitOptions runtime_limit;  ///< The run-time limit at the current configuration (off by default).
 
   Eigen::Vector3d gravity_B() const { return {0.0, 0.0, -gravity_m_per_s2}; }
 };
