@@ -120,7 +120,8 @@ TEST_F(TelemetryWriterTest, TakesTheJointsFromTheFirstRecordWithTheDof) {
   const auto lines = ReadLines(path);
   ASSERT_EQ(lines.size(), 2u);
   EXPECT_EQ(lines[0], TelemetryCsvHeader(1, 3));
-  const std::string tail = ",1500,0,0,0,0,0,4";  // fixture_stiffness_N_per_m, then 3 positions and 3 torques
+  // fixture_stiffness_N_per_m, fixture_limit_N_per_m, then 3 positions and 3 torques
+  const std::string tail = ",1500,14057.5,0,0,0,0,0,4";
   ASSERT_GT(lines[1].size(), tail.size());
   EXPECT_EQ(lines[1].substr(lines[1].size() - tail.size()), tail) << lines[1];
 }
