@@ -20,7 +20,6 @@ namespace {
 using config::Field;
 using config::Finite;
 using config::Map;
-using config::NonNegative;
 using config::Positive;
 
 void ReadOperator(const Field& f, CobotOperatorScript& op) {
