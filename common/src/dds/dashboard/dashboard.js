@@ -16,9 +16,9 @@
 // of one kind from one side within FOLD_S fold into one line with a count. An optional series (the fixture's
 // predicted limit, a joint) is drawn and listed only while it has a value in the window, and a panel of optional
 // series only (the joints) is shown only then: a Cartesian pair has no joint plots, a process that computes no limit
-// no limit line. The plots are built from PANELS (add a panel there, nothing else); colours are Okabe and Ito's (distinguishable with the common colour-vision
-// deficiencies), a sensor trace dashed beside its command. Text from DDS is only ever set
-// with textContent; class names come from the fixed tables below, never from a message.
+// no limit line. The plots are built from PANELS (add a panel there, nothing else); colours are Okabe and Ito's
+// (distinguishable with the common colour-vision deficiencies), a sensor trace dashed beside its command. Text from
+// DDS is only ever set with textContent; class names come from the fixed tables below, never from a message.
 'use strict';
 (function () {
   let WINDOW_S = 30;          // seconds shown per plot: the server's history (hello.history_s), at least 30
