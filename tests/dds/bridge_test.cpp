@@ -76,12 +76,12 @@ BridgeSample Sample(std::uint64_t cycle, double time_s, std::uint64_t accepted, 
 TEST(Bridge, StateEventsAndSummaryArriveWithTheirFigures) {
   std::string event_seen;
   std::mutex traces_mutex;
-  std::map<std::uint64_t, std::optional<bool>> clutched_by_cycle;  // the dashboard's trace of each State
+  std::map<std::uint64_t, StateTrace> traces;  // the dashboard's trace of each State, by cycle
   Supervisor::Observer observer;
   observer.on_event = [&](const ProcessView&, const std::string& kind, std::uint64_t, double) { event_seen = kind; };
   observer.on_state = [&](const ProcessView&, const StateTrace& t) {
     const std::lock_guard<std::mutex> lock(traces_mutex);
-    clutched_by_cycle[t.cycle] = t.clutched;
+    traces[t.cycle] = t;
   };
   Supervisor supervisor({TestDomain(), 1.0}, observer);
   Bridge bridge(TestConfig("bridge_test_a"), Role::kSlave, 1000.0);
@@ -103,6 +103,14 @@ TEST(Bridge, StateEventsAndSummaryArriveWithTheirFigures) {
   b.engagement = Engagement::kFault;
   b.watchdog_trips = 2;
   b.record.clutch = 2 | 4;  // the peer's flag and the command channel
+  // An arm whose run-time limit lowered its fixture (docs/arms.md, "At run time"): 7 joints of kMaxDof.
+  b.record.fixture_stiffness_N_per_m = 1400.0;
+  b.record.fixture_limit_N_per_m = 14000.0;
+  b.record.joints = 7;
+  for (int j = 0; j < kMaxDof; ++j) {
+    b.record.joint_position_rad[j] = j < 7 ? 0.1 * (j + 1) : 99.0;  // entries past `joints` are not sent
+    b.record.joint_torque_Nm[j] = j < 7 ? -2.0 * (j + 1) : 99.0;
+  }
   ASSERT_TRUE(bridge.PushState(b));
   ASSERT_TRUE(WaitFor(supervisor, "bridge_test_a", "slave", [](const ProcessView& v) { return v.cycle == 1050; }));
   const ProcessView v = supervisor.Snapshot(runtime::MonotonicNowNs()).front();
@@ -120,12 +128,33 @@ TEST(Bridge, StateEventsAndSummaryArriveWithTheirFigures) {
   EXPECT_DOUBLE_EQ(v.tracking_error_m, 0.0002);
   EXPECT_EQ(v.clutch, 6U) << "the State's clutch sources";
   EXPECT_THAT(FormatTable({v}), ::testing::HasSubstr("peer+command"));
+  EXPECT_DOUBLE_EQ(v.fixture_stiffness_N_per_m, 1400.0);
+  EXPECT_DOUBLE_EQ(v.fixture_limit_N_per_m, 14000.0);
+  ASSERT_EQ(v.joints, 7U);
+  for (std::size_t j = 0; j < 7; ++j) {
+    EXPECT_DOUBLE_EQ(v.joint_position_rad[j], 0.1 * static_cast<double>(j + 1)) << "joint " << j;
+    EXPECT_DOUBLE_EQ(v.joint_torque_Nm[j], -2.0 * static_cast<double>(j + 1)) << "joint " << j;
+  }
+  EXPECT_THAT(FormatTable({v}), ::testing::HasSubstr(" 1400     14000 "));
+  EXPECT_THAT(JsonStateLine(v, 1.0), ::testing::HasSubstr(R"("joint_torque_Nm":[-2,-4,-6,-8,-10,-12,-14])"));
   {
     const std::lock_guard<std::mutex> lock(traces_mutex);
-    ASSERT_EQ(clutched_by_cycle.count(1000), 1U);
-    ASSERT_EQ(clutched_by_cycle.count(1050), 1U);
-    EXPECT_EQ(clutched_by_cycle[1000], std::optional<bool>(false)) << "released: the dashboard shows released";
-    EXPECT_EQ(clutched_by_cycle[1050], std::optional<bool>(true)) << "clutched: the dashboard shows clutched";
+    ASSERT_EQ(traces.count(1000), 1U);
+    ASSERT_EQ(traces.count(1050), 1U);
+    const StateTrace& before = traces[1000];
+    const StateTrace& after = traces[1050];
+    EXPECT_EQ(before.clutched, std::optional<bool>(false)) << "released: the dashboard shows released";
+    EXPECT_EQ(after.clutched, std::optional<bool>(true)) << "clutched: the dashboard shows clutched";
+    // A Cartesian record (the warm-up's): no fixture, no limit (NaN, not 0), no joints.
+    EXPECT_DOUBLE_EQ(before.fixture_stiffness_N_per_m, 0.0);
+    EXPECT_TRUE(std::isnan(before.fixture_limit_N_per_m)) << before.fixture_limit_N_per_m;
+    EXPECT_EQ(before.joints, 0U);
+    EXPECT_DOUBLE_EQ(after.fixture_stiffness_N_per_m, 1400.0);
+    EXPECT_DOUBLE_EQ(after.fixture_limit_N_per_m, 14000.0);
+    ASSERT_EQ(after.joints, 7U);
+    EXPECT_DOUBLE_EQ(after.joint_position_rad[6], 0.7);
+    EXPECT_DOUBLE_EQ(after.joint_torque_Nm[6], -14.0);
+    EXPECT_DOUBLE_EQ(after.joint_position_rad[7], 0.0) << "only the joints sent";
   }
 
   bridge.OnEvent({node::Event::Kind::kPeerLost, 1049, 0.0});

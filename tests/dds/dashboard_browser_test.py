@@ -5,9 +5,12 @@ real processes (loopback plant, UDP on 127.0.0.1, the master's operator pushing 
 chromium-driver) opens it. Checks:
 
   - the page, its script and dygraphs are served; the page lists the pair's two processes, live and coupled;
-  - the traces advance: every plot (position, force, fixture penetration, data age, round trip) is drawn by dygraphs
-    and its x range moves on with the supervisor's clock, new State samples keep arriving, and the master's position
-    trace moves (the sine);
+  - the traces advance: every plot (position, force, fixture penetration, fixture stiffness, data age, round trip)
+    is drawn by dygraphs and its x range moves on with the supervisor's clock, new State samples keep arriving, and
+    the master's position trace moves (the sine);
+  - only true states: the fixture plot draws the stiffness in use (the slave's 2000 N/m, the master's 0) and no
+    limit line for a process that computes none (the loopback plant), and a Cartesian pair has no joint plots; an
+    arm's states (fed to the page) show the joint plots, the joint choice, and the limit only from its first value;
   - the clutch: `teleop-ctl clutch on` on the master's command socket shows both sides clutched (the master by its
     command, the slave by the peer's flag) and the pair no longer coupled; `clutch off` shows both released and
     coupled again (the State's `clutch` field, docs/dds.md);
@@ -22,7 +25,7 @@ chromium-driver) opens it. Checks:
   - the series of every plot keep distinct colours for colour-blind readers (protan, deutan, tritan simulation,
     Machado et al. 2009, CIE76 distance at least COLOUR_DELTA_E), sensor traces dashed;
   - the browser logged no script error.
-Screenshots (coupled, clutched, reloaded, after the cut) are written to the work directory (paths printed).
+Screenshots (coupled, clutched, reloaded, after the cut, an arm's states) are written to the work directory (paths printed).
 
 Skips (77, with the reason) only when the browser cannot be started: python3-selenium, chromium or chromium-driver
 missing or failing. Cyclone DDS is confined to loopback unicast on a domain derived from the test's pid.
@@ -126,8 +129,10 @@ for (const [name, g] of Object.entries(d.graphs)) {
     columns[label] = values;
     dashed[label] = Boolean(g.getOption('strokePattern', label));
   });
+  const visibility = g.visibility();
+  const visible = Object.fromEntries(series.map((label, i) => [label, Boolean(visibility[i])]));
   graphs[name] = {x: g.xAxisRange(), rows: g.numRows(), columns: columns, gaps: gaps, lastFiniteX: lastFiniteX,
-                  lastX: lastX, colors: g.getColors(), labels: series, dashed: dashed,
+                  lastX: lastX, colors: g.getColors(), labels: series, dashed: dashed, visible: visible,
                   canvas: g.graphDiv.querySelectorAll('canvas').length};
 }
 const badge = (role) => { const b = document.getElementById('badge-' + role);
@@ -137,10 +142,14 @@ const rows = [...document.querySelectorAll('#processes tbody tr')].map(
   (tr) => [...tr.querySelectorAll('td')].map((td) => td.textContent));
 return {pair: d.pair, states: d.statesReceived, processes: d.processesReceived, graphs: graphs, events: d.eventList(),
         master: badge('master'), slave: badge('slave'), table: rows, tNow: d.tNow,
-        connection: document.getElementById('connection').textContent};
+        connection: document.getElementById('connection').textContent,
+        shown: Object.fromEntries(['joint-position', 'joint-torque', 'stiffness'].map((p) => [p, d.panelShown(p)])),
+        jointChoice: document.getElementById('joint-label').hidden ? null
+          : [...document.querySelectorAll('#joint option')].map((o) => o.textContent)};
 """
 
-PLOTS = ("position", "force", "penetration", "tracking", "age", "rtt")
+PLOTS = ("position", "force", "penetration", "stiffness", "tracking", "age", "rtt")
+SLAVE_FIXTURE_N_PER_M = 2000.0  # deploy/configs/slave.yaml fixture.stiffness_N_per_m; the master has none
 FOLD_S = 10.0  # dashboard.js: events of one kind from one side within this long are one line
 COLOUR_DELTA_E = 12.0  # CIE76 distance two series' colours keep under each simulated colour-vision deficiency
 # Machado, Oliveira & Fernandes (2009), severity 1.0, on linear RGB.
@@ -175,6 +184,19 @@ def require(cond, what):
 
 def delta_e(a, b):
     return sum((p - q) ** 2 for p, q in zip(a, b)) ** 0.5
+
+
+def check_colours(name, g):
+    """The series a plot draws (dygraphs gives the colours of the visible ones) stay apart for colour-blind readers."""
+    labels = [label for label in g["labels"] if g["visible"][label]]
+    require(len(labels) == len(g["colors"]), f"{name}: a colour per visible series ({labels}, {g['colors']})")
+    colours = dict(zip(labels, g["colors"]))
+    for kind, matrix in CVD.items():
+        for i, a in enumerate(labels):
+            for b in labels[i + 1:]:
+                d = delta_e(lab(colours[a], matrix), lab(colours[b], matrix))
+                require(d >= COLOUR_DELTA_E, f"{name}: '{a}' {colours[a]} and '{b}' {colours[b]} stay apart "
+                        f"for {kind} readers (CIE76 {d:.1f} >= {COLOUR_DELTA_E})")
 
 
 def main():
@@ -283,6 +305,18 @@ def browse(driver, procs, base, pair, work, ctl):
           f"{len(xs)} points)")
     rtts = second["graphs"]["rtt"]["columns"]["master"]
     check(rtts and all(0 < v < 50 for v in rtts), f"round trips plotted ({min(rtts):.3f}..{max(rtts):.3f} ms)")
+    stiffness = second["graphs"]["stiffness"]
+    cols = stiffness["columns"]
+    check(cols["slave stiffness"] and set(cols["slave stiffness"]) == {SLAVE_FIXTURE_N_PER_M}
+          and cols["master stiffness"] and set(cols["master stiffness"]) == {0.0},
+          f"the fixture plot draws the stiffness in use: slave {sorted(set(cols['slave stiffness']))} N/m, master "
+          f"{sorted(set(cols['master stiffness']))} N/m ({len(cols['slave stiffness'])} points)")
+    check(not cols["master limit"] and not cols["slave limit"]
+          and not stiffness["visible"]["master limit"] and not stiffness["visible"]["slave limit"],
+          "no limit line and no limit in the legend: the loopback plant computes no run-time limit")
+    check(not second["shown"]["joint-position"] and not second["shown"]["joint-torque"]
+          and "joint-position" not in second["graphs"] and second["jointChoice"] is None,
+          "a Cartesian pair shows no joint plots and no joint choice")
 
     def command(line):
         out = subprocess.run([ctl, "--socket", os.path.join(work, "master.sock")] + line.split(),
@@ -348,14 +382,7 @@ def browse(driver, procs, base, pair, work, ctl):
 
     # Colours: every plot's series distinguishable for colour-blind readers; sensor traces dashed.
     for name in PLOTS:
-        g = hist["graphs"][name]
-        colours = dict(zip(g["labels"], g["colors"]))
-        for kind, matrix in CVD.items():
-            for i, a in enumerate(g["labels"]):
-                for b in g["labels"][i + 1:]:
-                    d = delta_e(lab(colours[a], matrix), lab(colours[b], matrix))
-                    require(d >= COLOUR_DELTA_E, f"{name}: '{a}' {colours[a]} and '{b}' {colours[b]} stay apart "
-                            f"for {kind} readers (CIE76 {d:.1f} >= {COLOUR_DELTA_E})")
+        check_colours(name, hist["graphs"][name])
     check(all(hist["graphs"]["force"]["dashed"][f"{r} sensor"] for r in ("master", "slave"))
           and not any(hist["graphs"]["force"]["dashed"][f"{r} command"] for r in ("master", "slave")),
           "every plot's series keep distinct colours under protan, deutan and tritan simulation; sensor traces dashed")
@@ -414,11 +441,55 @@ for (let i = 0; i < 40; i++)
     driver.save_screenshot(shot)
     print(f"  screenshot (after the cut): {shot}")
 
+    # An arm's states, fed to the page as teleop-supervise sends them (the message is dds_dashboard_test's): 7
+    # joints, the fixture lowered to 1400 N/m under its run-time limit, which the first 5 states do not have yet.
+    # The master stops first, so that they come after every real State on the page's time axis.
+    procs["master"].send_signal(signal.SIGINT)
+    procs["master"].wait(timeout=10)
+    wait_until(lambda: state()["master"]["status"] == "finished" or None, 5, "the master shown finished",
+               interval_s=0.1)
+    time.sleep(0.3)  # the supervisor's clock past the master's last State
+    driver.execute_script("""
+const d = window.teleopDashboard;
+const t0 = d.tNow + 0.05;
+for (let i = 0; i < 20; i++)
+  d.dispatch({type: 'state', t_s: t0 + 0.05 * i, pair: d.pair, role: 'slave', cycle: 1000 + 50 * i, time_s: i,
+              engagement: 'coupled', device_faults: 0, dof: 3, position_m: [0, 0, 0], peer_position_m: [0, 0, 0],
+              force_sensor_N: [0, 0, 0], command_N: [0, 0, 0], fixture_penetration_m: 0, tracking_error_m: 0,
+              rtt_ms: 1, fixture_stiffness_N_per_m: 1400, fixture_limit_N_per_m: i < 5 ? null : 14000, joints: 7,
+              joint_position_rad: [0.01 * i, 0.6, 0, -1.4, 0, 0.9, 0], joint_torque_Nm: [2.5, -38, 0, 5, 0, 1, 0]});
+""")
+
+    def arm_shown():
+        s = state()
+        ok = s["shown"]["joint-position"] and s["shown"]["joint-torque"] and "joint-torque" in s["graphs"]
+        return s if ok and len(s["graphs"]["stiffness"]["columns"]["slave limit"]) >= 15 else None
+    arm = wait_until(arm_shown, 5, "the joint plots shown for the arm's states", interval_s=0.1)
+    q = arm["graphs"]["joint-position"]
+    tau = arm["graphs"]["joint-torque"]
+    check(arm["jointChoice"] == [str(j) for j in range(1, 8)] and q["visible"]["slave q"]
+          and not q["visible"]["master q"] and not tau["visible"]["master torque"]
+          and q["columns"]["slave q"][-20:] == [0.01 * i for i in range(20)]
+          and set(tau["columns"]["slave torque"]) == {2.5},
+          f"the joint plots: joints 1..7 to choose, joint 1's position {q['columns']['slave q'][-3:]} rad and torque "
+          f"{sorted(set(tau['columns']['slave torque']))} N·m for the slave only (the loopback master has no joints)")
+    limit = arm["graphs"]["stiffness"]
+    check(limit["visible"]["slave limit"] and limit["columns"]["slave limit"] == [14000.0] * 15
+          and not limit["visible"]["master limit"] and limit["columns"]["slave stiffness"][-20:] == [1400.0] * 20,
+          "the slave's limit is drawn from its first value on (15 of 20 states), the master's (none) is not")
+    for name in ("stiffness", "joint-position", "joint-torque"):
+        check_colours(name, arm["graphs"][name])
+    check(arm["graphs"]["stiffness"]["dashed"]["slave limit"]
+          and not arm["graphs"]["stiffness"]["dashed"]["slave stiffness"],
+          "the stiffness, limit and joint plots keep distinct colours for colour-blind readers; the limit dashed")
+    driver.execute_script("document.querySelector('figure[data-panel=\"stiffness\"]').scrollIntoView();")
+    shot = os.path.join(work, "dashboard_arm.png")
+    driver.save_screenshot(shot)
+    print(f"  screenshot (an arm's states): {shot}")
+
     errors = [e for e in driver.get_log("browser") if e.get("level") == "SEVERE"]
     check(not errors, f"the browser logged no error ({errors[:3]})")
 
-    procs["master"].send_signal(signal.SIGINT)
-    procs["master"].wait(timeout=10)
     procs["supervise"].send_signal(signal.SIGINT)
     check(procs["supervise"].wait(timeout=10) == 0, "teleop-supervise (with the dashboard) exits 0 on SIGINT")
     return 0

@@ -139,6 +139,47 @@ TEST(DashboardMessages, StateCarriesDofEntriesAndNullForUnknown) {
   EXPECT_EQ(m.count("clutch"), 0U) << "no clutch field in a State without one";
 }
 
+// The fixture stiffness in use and its run-time limit, and an arm's joints (docs/dds.md, "The dashboard"): a
+// Cartesian device's State has no joints and a process that computes no limit sends null, which the page draws as
+// no line (never 0: a limit of 0 N/m is a value, "no stiffness is stable there").
+TEST(DashboardMessages, StateCarriesTheFixtureStiffnessItsLimitAndTheJoints) {
+  auto t = MakeTrace("rig1", "slave");
+  t.fixture_stiffness_N_per_m = 2000.0;
+  {
+    const std::string text = teleop::dds::EncodeState(t, 0);
+    const pt::ptree m = ParseJson(text);
+    EXPECT_DOUBLE_EQ(m.get<double>("fixture_stiffness_N_per_m"), 2000.0);
+    EXPECT_NE(text.find(R"("fixture_limit_N_per_m":null)"), std::string::npos) << "no limit computed: " << text;
+    EXPECT_EQ(m.get<int>("joints"), 0);
+    EXPECT_TRUE(Array(m, "joint_position_rad").empty()) << text;
+    EXPECT_TRUE(Array(m, "joint_torque_Nm").empty()) << text;
+  }
+  t.fixture_stiffness_N_per_m = 1402.5;  // lowered to 0.1 x the limit (docs/arms.md, "At run time")
+  t.fixture_limit_N_per_m = 14025.0;
+  t.joints = 7;
+  for (std::size_t j = 0; j < t.joint_position_rad.size(); ++j) {
+    t.joint_position_rad[j] =
+        j < 7 ? 0.25 * static_cast<double>(j + 1) : 99.0;  // entries past `joints` must not appear
+    t.joint_torque_Nm[j] = j < 7 ? -1.5 * static_cast<double>(j + 1) : 99.0;
+  }
+  t.joint_torque_Nm[3] = std::numeric_limits<double>::quiet_NaN();
+  const std::string text = teleop::dds::EncodeState(t, 0);
+  const pt::ptree m = ParseJson(text);
+  EXPECT_DOUBLE_EQ(m.get<double>("fixture_stiffness_N_per_m"), 1402.5);
+  EXPECT_DOUBLE_EQ(m.get<double>("fixture_limit_N_per_m"), 14025.0);
+  EXPECT_EQ(m.get<int>("joints"), 7);
+  EXPECT_EQ(Array(m, "joint_position_rad"),
+            (std::vector<std::string>{"0.25", "0.5", "0.75", "1", "1.25", "1.5", "1.75"}));
+  EXPECT_EQ(Array(m, "joint_torque_Nm"),
+            (std::vector<std::string>{"-1.5", "-3", "-4.5", "null", "-7.5", "-9", "-10.5"}));
+  t.fixture_limit_N_per_m = 0.0;
+  EXPECT_DOUBLE_EQ(ParseJson(teleop::dds::EncodeState(t, 0)).get<double>("fixture_limit_N_per_m"), 0.0)
+      << "a limit of 0 is a value, not 'no limit'";
+  t.joints = static_cast<std::uint8_t>(teleop::kMaxDof);
+  EXPECT_EQ(Array(ParseJson(teleop::dds::EncodeState(t, 0)), "joint_position_rad").size(),
+            static_cast<std::size_t>(teleop::kMaxDof));
+}
+
 TEST(DashboardMessages, ClutchAppearsOnlyWhenTheSampleHasOne) {
   auto t = MakeTrace("rig1", "slave");
   t.clutched = true;

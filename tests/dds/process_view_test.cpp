@@ -72,6 +72,9 @@ TEST(ProcessView, TableShowsTheFiguresInTheirUnits) {
   EXPECT_THAT(table, HasSubstr(" 1.200 "));  // mm
   EXPECT_THAT(table, HasSubstr("peer_connected"));
   EXPECT_THAT(table, HasSubstr("CLUTCH"));
+  EXPECT_THAT(table, HasSubstr(" K_N/M LIMIT_N/M "));
+  v.fixture_stiffness_N_per_m = 2000.0;
+  EXPECT_THAT(FormatTable({v}), HasSubstr(" 2000         - ")) << "no limit computed: '-', not 0";
   v.clutch = 1 | 4;  // the device's pedal and the command channel
   EXPECT_THAT(FormatTable({v}), HasSubstr(" device+command "));
 }
@@ -98,7 +101,9 @@ TEST(ProcessView, JsonLinesWriteNullForUnknownNumbersAndEscapeText) {
   EXPECT_THAT(line, HasSubstr("\"rate_hz\":1000,\"achieved_rate_hz\":999.5,"));
   EXPECT_THAT(line, HasSubstr("\"packets_lost\":3,"));
   EXPECT_THAT(line, HasSubstr("\"engagement\":\"coupled\",\"clutch\":0,"));
-  EXPECT_THAT(line, HasSubstr("\"last_event\":\"\"}"));
+  EXPECT_THAT(line, HasSubstr("\"last_event\":\"\","));
+  // A Cartesian process that computes no limit: null, and no joints.
+  EXPECT_THAT(line, HasSubstr("\"fixture_limit_N_per_m\":null,\"joint_position_rad\":[],\"joint_torque_Nm\":[]}"));
   EXPECT_EQ(line.find('\n'), std::string::npos);
   EXPECT_EQ(JsonString("a\"b\\c\nd\x01"), "\"a\\\"b\\\\c\\nd\\u0001\"");
   v.have_summary = true;

@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -44,6 +45,20 @@ void CopyArray(const double (&in)[kMaxDof], double (&out)[kStateAxes]) noexcept 
 }
 static_assert(std::extent_v<decltype(teleop_msgs_msg_dds__State_::position_m)> == kStateAxes,
               "kStateAxes is the IDL's State array size");
+
+/// The State's joint sequences are bounded by the one DOF limit: as many joints as a telemetry record carries.
+static_assert(teleop_msgs_msg_dds__STATE_MAX_JOINTS == kMaxDof, "the IDL's STATE_MAX_JOINTS is teleop::kMaxDof");
+
+/// A State joint sequence over `values` (the bridge thread's own copy; DDS only reads it while writing, so nothing
+/// is allocated and nothing is released).
+dds_sequence_double JointSequence(std::uint32_t joints, double* values) noexcept {
+  dds_sequence_double seq{};
+  seq._maximum = joints;
+  seq._length = joints;
+  seq._buffer = joints > 0 ? values : nullptr;
+  seq._release = false;
+  return seq;
+}
 
 /// DDS wants `char*` in the generated structs; it only reads them while writing.
 char* Text(const std::string& s) noexcept { return const_cast<char*>(s.c_str()); }  // NOLINT
@@ -198,6 +213,15 @@ void Bridge::Impl::WriteState(const BridgeSample& s) {
   msg.fixture_penetration_m = r.fixture_penetration_m;
   msg.tracking_error_m = s.tracking_error_m;
   msg.clutch = static_cast<uint8_t>(r.clutch & 0xFF);
+  msg.fixture_stiffness_N_per_m = r.fixture_stiffness_N_per_m;
+  msg.fixture_limit_N_per_m = r.fixture_limit_N_per_m;  // NaN: no limit computed
+  const auto joints = static_cast<std::uint32_t>(std::clamp(r.joints, 0, kMaxDof));
+  std::array<double, kMaxDof> joint_position_rad{};
+  std::array<double, kMaxDof> joint_torque_Nm{};
+  std::copy_n(std::begin(r.joint_position_rad), joints, joint_position_rad.begin());
+  std::copy_n(std::begin(r.joint_torque_Nm), joints, joint_torque_Nm.begin());
+  msg.joint_position_rad = JointSequence(joints, joint_position_rad.data());
+  msg.joint_torque_Nm = JointSequence(joints, joint_torque_Nm.data());
   if (state_writer.Write(&msg)) {
     states_published.fetch_add(1, std::memory_order_relaxed);
   } else {

@@ -15,9 +15,11 @@ namespace {
 /// A number for JSON: null for NaN and infinities (JSON has neither).
 std::string Num(double v) { return std::isfinite(v) ? fmt::format("{}", v) : "null"; }
 
-std::string Axes(const StateTrace::Axes& values, std::uint8_t dof) {
+/// A JSON array of the first `count` of `values` (the axes of the DOF, or the joints).
+template <std::size_t N>
+std::string List(const std::array<double, N>& values, std::uint8_t count) {
   std::string out = "[";
-  for (std::size_t i = 0; i < dof && i < values.size(); ++i) {
+  for (std::size_t i = 0; i < count && i < values.size(); ++i) {
     if (i > 0) out += ',';
     out += Num(values[i]);
   }
@@ -84,10 +86,14 @@ std::string EncodeState(const StateTrace& t, double t_s) {
   std::string out = fmt::format(
       R"({{"type":"state","t_s":{},"pair":{},"role":{},"cycle":{},"time_s":{},"engagement":{},"device_faults":{},)"
       R"("dof":{},"position_m":{},"peer_position_m":{},"force_sensor_N":{},"command_N":{},)"
-      R"("fixture_penetration_m":{},"tracking_error_m":{},"rtt_ms":{})",
+      R"("fixture_penetration_m":{},"tracking_error_m":{},"rtt_ms":{},)"
+      R"("fixture_stiffness_N_per_m":{},"fixture_limit_N_per_m":{},"joints":{},"joint_position_rad":{},)"
+      R"("joint_torque_Nm":{})",
       Num(t_s), JsonString(t.pair), JsonString(t.role), t.cycle, Num(t.time_s), JsonString(ToString(t.engagement)),
-      t.device_faults, t.dof, Axes(t.position_m, t.dof), Axes(t.peer_position_m, t.dof), Axes(t.force_sensor_N, t.dof),
-      Axes(t.command_N, t.dof), Num(t.fixture_penetration_m), Num(t.tracking_error_m), Num(t.rtt_ms));
+      t.device_faults, t.dof, List(t.position_m, t.dof), List(t.peer_position_m, t.dof), List(t.force_sensor_N, t.dof),
+      List(t.command_N, t.dof), Num(t.fixture_penetration_m), Num(t.tracking_error_m), Num(t.rtt_ms),
+      Num(t.fixture_stiffness_N_per_m), Num(t.fixture_limit_N_per_m), t.joints, List(t.joint_position_rad, t.joints),
+      List(t.joint_torque_Nm, t.joints));
   if (t.clutched) out += *t.clutched ? R"(,"clutch":"clutched")" : R"(,"clutch":"released")";
   out += '}';
   return out;

@@ -44,6 +44,21 @@ void TakeAll(dds_entity_t reader, Each&& each) {
 
 std::string Str(const char* s) { return s != nullptr ? std::string(s) : std::string(); }
 
+/// The joints of a State: as many as both sequences hold (Cyclone refuses a sequence over its bound, kMaxDof; a
+/// sample whose two sequences differ in length keeps the shorter), copied into `position` and `torque`.
+std::uint8_t CopyJoints(const teleop_msgs_msg_dds__State_& s, std::array<double, kMaxDof>& position,
+                        std::array<double, kMaxDof>& torque) noexcept {
+  const dds_sequence_double& q = s.joint_position_rad;
+  const dds_sequence_double& tau = s.joint_torque_Nm;
+  if (q._buffer == nullptr || tau._buffer == nullptr) return 0;
+  const std::size_t n = std::min<std::size_t>({q._length, tau._length, position.size()});
+  std::copy_n(q._buffer, n, position.begin());
+  std::copy_n(tau._buffer, n, torque.begin());
+  std::fill(position.begin() + static_cast<std::ptrdiff_t>(n), position.end(), 0.0);
+  std::fill(torque.begin() + static_cast<std::ptrdiff_t>(n), torque.end(), 0.0);
+  return static_cast<std::uint8_t>(n);
+}
+
 /// The dashboard's traces of one State sample (the view already holds its pair, role and engagement).
 StateTrace TraceOf(const teleop_msgs_msg_dds__State_& s, const ProcessView& v) {
   StateTrace t;
@@ -64,6 +79,11 @@ StateTrace TraceOf(const teleop_msgs_msg_dds__State_& s, const ProcessView& v) {
   t.tracking_error_m = s.tracking_error_m;
   t.rtt_ms = s.rtt_ms;
   t.clutched = s.clutch != 0;
+  t.fixture_stiffness_N_per_m = v.fixture_stiffness_N_per_m;
+  t.fixture_limit_N_per_m = v.fixture_limit_N_per_m;
+  t.joints = v.joints;
+  t.joint_position_rad = v.joint_position_rad;
+  t.joint_torque_Nm = v.joint_torque_Nm;
   return t;
 }
 
@@ -204,6 +224,9 @@ void Supervisor::Impl::TakeStates(ProcessView& v, dds_entity_t reader) {
     v.tracking_error_m = s.tracking_error_m;
     v.fixture_penetration_m = s.fixture_penetration_m;
     v.clutch = s.clutch;
+    v.fixture_stiffness_N_per_m = s.fixture_stiffness_N_per_m;
+    v.fixture_limit_N_per_m = s.fixture_limit_N_per_m;
+    v.joints = CopyJoints(s, v.joint_position_rad, v.joint_torque_Nm);
     if (observer.on_state) observer.on_state(v, TraceOf(s, v));
   });
   dds_subscription_matched_status_t matched{};

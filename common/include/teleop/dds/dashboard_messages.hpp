@@ -30,7 +30,9 @@ std::string EncodeCommand(std::string_view pair, std::string_view role, std::str
 std::string EncodeProcesses(const std::vector<ProcessView>& views, double t_s, std::size_t offset = 0,
                             std::size_t rows = 50, std::string_view pair = {});
 /// {"type":"state","t_s":...,"pair":...,"role":...,"position_m":[...],...}: one State sample's traces; "clutch"
-/// ("clutched"/"released") only when the sample carries one.
+/// ("clutched"/"released") only when the sample carries one; "fixture_limit_N_per_m" null when the process computes
+/// no limit; "joints" and that many entries in "joint_position_rad" and "joint_torque_Nm" (0 and [] on a Cartesian
+/// device).
 std::string EncodeState(const StateTrace& trace, double t_s);
 /// {"type":"event","t_s":...,"pair":...,"role":...,"kind":...,"cycle":...,"value":...}.
 std::string EncodeEvent(std::string_view pair, std::string_view role, std::string_view kind_name, std::uint64_t cycle,

@@ -1,11 +1,14 @@
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "teleop/dds/bridge_sample.hpp"
 #include "teleop/json_text.hpp"
+#include "teleop/types.hpp"
 
 namespace teleop::dds {
 
@@ -45,7 +48,12 @@ struct ProcessView {
   std::uint64_t packets_rejected = 0;
   double tracking_error_m = 0.0;
   double fixture_penetration_m = 0.0;
-  std::uint8_t clutch = 0;  ///< Clutch sources held (1 device, 2 peer, 4 command channel; 0: released).
+  std::uint8_t clutch = 0;                 ///< Clutch sources held (1 device, 2 peer, 4 command channel; 0: released).
+  double fixture_stiffness_N_per_m = 0.0;  ///< The fixture stiffness in use (0: none).
+  double fixture_limit_N_per_m = std::numeric_limits<double>::quiet_NaN();  ///< NaN: no limit computed.
+  std::uint8_t joints = 0;  ///< Joints of a device made of joints (0: a Cartesian device); entries below.
+  std::array<double, kMaxDof> joint_position_rad{};  ///< rad (m for a prismatic joint).
+  std::array<double, kMaxDof> joint_torque_Nm{};     ///< N·m (N for a prismatic joint).
 
   // Events.
   std::uint64_t events_received = 0;

@@ -2,7 +2,9 @@
 //   hello      {version, t_s, history_s}
 //   processes  {t_s, total, offset, processes: [{pair, role, status, engagement, age_s, ...}], chosen: [...]}
 //              every refresh: the rows of the table from `offset` ("table <offset>") and those of this page's pair
-//   state      {t_s, pair, role, engagement, dof, position_m[], command_N[], force_sensor_N[], ..., clutch?}
+//   state      {t_s, pair, role, engagement, dof, position_m[], command_N[], force_sensor_N[], ..., clutch?,
+//              fixture_stiffness_N_per_m, fixture_limit_N_per_m (null: no limit computed), joints,
+//              joint_position_rad[joints], joint_torque_Nm[joints]}
 //   event      {t_s, pair, role, kind, cycle, value}
 // state and event only for the pair this page subscribed to ("subscribe <pair>"); on subscribing, the server first sends
 // the pair's history (its last seconds of states and events), so a page opened mid-run shows it at once. The page
@@ -11,15 +13,18 @@
 // What is shown is what is so: a process that is not live (stale, gone, finished) has engagement "unknown", never
 // its last value; a held clutch is its own state "clutched"; a trace has a gap (NaN: dygraphs breaks the line) where
 // no sample came for GAP_PERIODS sample periods, and the round trip is a gap while the peer does not answer; events
-// of one kind from one side within FOLD_S fold into one line with a count. The plots are built from PANELS (add a
-// panel there, nothing else); colours are Okabe and Ito's (distinguishable with the common colour-vision
-// deficiencies), a sensor trace dashed beside its command. Text from DDS is only ever set
-// with textContent; class names come from the fixed tables below, never from a message.
+// of one kind from one side within FOLD_S fold into one line with a count. An optional series (the fixture's
+// predicted limit, a joint) is drawn and listed only while it has a value in the window, and a panel of optional
+// series only (the joints) is shown only then: a Cartesian pair has no joint plots, a process that computes no limit
+// no limit line. The plots are built from PANELS (add a panel there, nothing else); colours are Okabe and Ito's
+// (distinguishable with the common colour-vision deficiencies), a sensor trace dashed beside its command. Text from
+// DDS is only ever set with textContent; class names come from the fixed tables below, never from a message.
 'use strict';
 (function () {
   let WINDOW_S = 30;          // seconds shown per plot: the server's history (hello.history_s), at least 30
   const MAX_ROWS = 20000;     // rows per plot at most (20 Hz x 2 processes x 30 s = 1200)
   const MAX_EVENTS = 50;
+  const MAX_JOINTS = 12;      // the State's joint sequences' bound (teleop::kMaxDof)
   const FOLD_S = 10;          // events of one kind from one side within this long: one line with a count
   const GAP_PERIODS = 4;      // no sample for this many sample periods (at least GAP_MIN_S): a gap in the trace
   const GAP_MIN_S = 0.3;
@@ -37,7 +42,8 @@
   const KNOWN_KIND = /^[a-z_]{1,40}$/;
 
   // One panel per plot: its id, title, y unit, the message it is fed from, and its series (label, role, colour,
-  // dashed or not, value of a state or process entry; NaN for "no value": a gap).
+  // dashed or not, optional or not, value of a state or process entry at the chosen axis a and joint j; NaN for
+  // "no value": a gap).
   const PANELS = [
     {id: 'position', title: 'Position (mm)', y: 'mm', from: 'state', series: [
       {label: 'master x', role: 'master', color: COLOR.master, value: (s, a) => mm(s.position_m[a])},
@@ -52,6 +58,14 @@
     {id: 'penetration', title: 'Fixture penetration (mm)', y: 'mm', from: 'state', includeZero: true, series: [
       {label: 'master', role: 'master', color: COLOR.master, value: (s) => mm(s.fixture_penetration_m)},
       {label: 'slave', role: 'slave', color: COLOR.slave, value: (s) => mm(s.fixture_penetration_m)}]},
+    {id: 'stiffness', title: 'Fixture stiffness and predicted limit (N/m)', y: 'N/m', from: 'state', includeZero: true,
+      series: [
+        {label: 'master stiffness', role: 'master', color: COLOR.master, value: (s) => s.fixture_stiffness_N_per_m},
+        {label: 'slave stiffness', role: 'slave', color: COLOR.slave, value: (s) => s.fixture_stiffness_N_per_m},
+        {label: 'master limit', role: 'master', color: COLOR.masterSensor, dashed: true, optional: true,
+          value: (s) => s.fixture_limit_N_per_m},
+        {label: 'slave limit', role: 'slave', color: COLOR.slaveSensor, dashed: true, optional: true,
+          value: (s) => s.fixture_limit_N_per_m}]},
     {id: 'tracking', title: 'Tracking error (mm)', y: 'mm', from: 'state', includeZero: true, series: [
       {label: 'master', role: 'master', color: COLOR.master, value: (s) => mm(s.tracking_error_m)},
       {label: 'slave', role: 'slave', color: COLOR.slave, value: (s) => mm(s.tracking_error_m)}]},
@@ -61,8 +75,26 @@
     {id: 'rtt', title: 'Round trip (ms)', y: 'ms', from: 'state', series: [
       {label: 'master', role: 'master', color: COLOR.master, value: (s) => peerAnswers(s) ? s.rtt_ms : NaN},
       {label: 'slave', role: 'slave', color: COLOR.slave, value: (s) => peerAnswers(s) ? s.rtt_ms : NaN}]},
+    {id: 'joint-position', title: 'Joint position (rad)', y: 'rad', from: 'state', series: [
+      {label: 'master q', role: 'master', color: COLOR.master, optional: true,
+        value: (s, a, j) => joint(s, s.joint_position_rad, j)},
+      {label: 'slave q', role: 'slave', color: COLOR.slave, optional: true,
+        value: (s, a, j) => joint(s, s.joint_position_rad, j)}]},
+    {id: 'joint-torque', title: 'Joint torque (N\u00b7m)', y: 'N\u00b7m', from: 'state', includeZero: true, series: [
+      {label: 'master torque', role: 'master', color: COLOR.master, optional: true,
+        value: (s, a, j) => joint(s, s.joint_torque_Nm, j)},
+      {label: 'slave torque', role: 'slave', color: COLOR.slave, optional: true,
+        value: (s, a, j) => joint(s, s.joint_torque_Nm, j)}]},
   ];
   const PLOTS = Object.fromEntries(PANELS.map((p) => [p.id, p]));
+  // A panel whose series are all optional is shown only while one of them has a value.
+  function panelOptional(plot) { return plot.series.every((x) => x.optional); }
+
+  // Joint j of a state (NaN when the process has no such joint: a Cartesian device, or fewer joints).
+  function joint(s, values, j) {
+    return (Array.isArray(values) && Number.isInteger(s.joints) && j < s.joints && j < values.length) ? values[j]
+                                                                                                     : NaN;
+  }
 
   // The round trip is measured only while the peer answers; otherwise the State holds its last value.
   function peerAnswers(s) { return s.engagement === 'coupled' || s.engagement === 'aligning'; }
@@ -73,6 +105,7 @@
       const figure = document.createElement('figure');
       figure.className = 'plot';
       figure.dataset.panel = panel.id;
+      figure.hidden = panelOptional(panel);
       const caption = document.createElement('figcaption');
       caption.textContent = panel.title;
       const graph = document.createElement('div');
@@ -102,6 +135,8 @@
     noProcesses: document.getElementById('no-processes'),
     pair: document.getElementById('pair'),
     axis: document.getElementById('axis'),
+    joint: document.getElementById('joint'),
+    jointLabel: document.getElementById('joint-label'),
     events: document.getElementById('events'),
     noDygraphs: document.getElementById('no-dygraphs'),
     tableRange: document.getElementById('table-range'),
@@ -114,7 +149,7 @@
 
   // What the page shows, also read by the browser test (tests/dds/dashboard_browser_test.py).
   const dash = {
-    pair: '', axis: 0, dof: 1, tNow: 0, tableOffset: 0, tableTotal: 0, tableRows: 0,
+    pair: '', axis: 0, dof: 1, joint: 0, joints: 0, tNow: 0, tableOffset: 0, tableTotal: 0, tableRows: 0,
     rows: {}, graphs: {}, dirty: {},
     statesReceived: 0, processesReceived: 0, eventsReceived: 0,
     latest: {master: null, slave: null},   // newest state of the chosen pair
@@ -124,6 +159,9 @@
     eventLines: 0, gaps: 0,
   };
   window.teleopDashboard = dash;
+  // Whether a panel is shown (a panel of optional series is hidden while none has a value), for the browser test.
+  dash.panelShown = (name) => !figureOf(name).hidden;
+  function figureOf(name) { return document.querySelector('figure[data-panel="' + name + '"]'); }
   // The events as folded, for the browser test: one entry per line shown.
   dash.eventList = () => [...dash.folded.values()].filter((f) => f.li.parentNode === ui.events)
     .map((f) => ({role: f.role, kind: f.kind, count: f.count, first: f.first, last: f.last, value: f.value}));
@@ -139,7 +177,9 @@
       dash.lastT[name] = {};
       dash.period[name] = {};
       if (dash.graphs[name]) { dash.graphs[name].destroy(); delete dash.graphs[name]; }
+      figureOf(name).hidden = panelOptional(PLOTS[name]);
     }
+    setJoints(0);
     dash.latest = {master: null, slave: null};
     dash.view = {master: null, slave: null};
     dash.folded = new Map();
@@ -182,10 +222,14 @@
     dash.statesReceived++;
     dash.latest[s.role] = s;
     if (s.dof !== dash.dof) setDof(s.dof);
+    const joints = Math.max(...ROLES.map((r) => (dash.latest[r] && Number.isInteger(dash.latest[r].joints))
+      ? Math.min(dash.latest[r].joints, MAX_JOINTS) : 0));
+    if (joints !== dash.joints) setJoints(joints);
     const a = Math.min(dash.axis, Math.max(0, s.dof - 1));
     for (const [name, plot] of Object.entries(PLOTS)) {
       if (plot.from !== 'state') continue;
-      const values = plot.series.filter((x) => x.role === s.role).map((x) => finiteOrGap(x.value(s, a)));
+      const values = plot.series.filter((x) => x.role === s.role)
+        .map((x) => finiteOrGap(x.value(s, a, dash.joint)));
       addRow(name, s.t_s, s.role, values);
     }
     renderBadges();
@@ -200,6 +244,7 @@
   }
 
   function finiteOrGap(v) { return (typeof v === 'number' && isFinite(v)) ? v : NaN; }
+  function hasValue(v) { return typeof v === 'number' && isFinite(v); }
 
   function setDof(dof) {
     dash.dof = dof;
@@ -212,6 +257,22 @@
       ui.axis.appendChild(o);
     }
     ui.axis.value = String(Math.max(0, keep));
+  }
+
+  // The joint chosen for the joint plots; the choice is shown only when a side of the pair has joints (an arm).
+  function setJoints(joints) {
+    dash.joints = joints;
+    ui.jointLabel.hidden = joints === 0;
+    const keep = Math.min(dash.joint, Math.max(0, joints - 1));
+    ui.joint.replaceChildren();
+    for (let i = 0; i < joints; i++) {
+      const o = document.createElement('option');
+      o.value = String(i);
+      o.textContent = String(i + 1);  // joints are named from 1, as in the URDFs and the arm's messages
+      ui.joint.appendChild(o);
+    }
+    dash.joint = keep;
+    if (joints > 0) ui.joint.value = String(keep);
   }
 
   // Commands (teleop-supervise --allow-commands): the token comes in the address's fragment (#token=..., never sent
@@ -421,6 +482,14 @@
       dash.dirty[name] = false;
       const t1 = rows[rows.length - 1][0];
       const xRange = [Math.max(rows[0][0], t1 - WINDOW_S), t1];
+      // An optional series is drawn and listed only while it has a value in the window.
+      const visibility = plot.series.map((x, i) => !x.optional || rows.some((r) => hasValue(r[i + 1])));
+      const shown = !panelOptional(plot) || visibility.some((v) => v);
+      figureOf(name).hidden = !shown;
+      if (!shown) {
+        if (dash.graphs[name]) { dash.graphs[name].destroy(); delete dash.graphs[name]; }
+        continue;
+      }
       if (!dash.graphs[name]) {
         dash.graphs[name] = new window.Dygraph(document.getElementById('graph-' + name), rows, {
           labels: ['t (s)'].concat(plot.series.map((s) => s.label)),
@@ -438,10 +507,11 @@
           xLabelHeight: 16,
           yLabelWidth: 16,
           includeZero: Boolean(plot.includeZero),
+          visibility: visibility,
           axes: {y: {axisLabelWidth: 64, axisLabelFormatter: tick}},
         });
       } else {
-        dash.graphs[name].updateOptions({file: rows, dateWindow: xRange});
+        dash.graphs[name].updateOptions({file: rows, dateWindow: xRange, visibility: visibility});
       }
     }
   }
@@ -481,6 +551,13 @@
   ui.axis.addEventListener('change', () => {
     dash.axis = Number(ui.axis.value) || 0;
     for (const name of ['position', 'force']) {
+      dash.rows[name] = [];
+      if (dash.graphs[name]) { dash.graphs[name].destroy(); delete dash.graphs[name]; }
+    }
+  });
+  ui.joint.addEventListener('change', () => {
+    dash.joint = Number(ui.joint.value) || 0;
+    for (const name of ['joint-position', 'joint-torque']) {
       dash.rows[name] = [];
       if (dash.graphs[name]) { dash.graphs[name].destroy(); delete dash.graphs[name]; }
     }
