@@ -66,7 +66,9 @@ OperatorSegment ReadSegment(const Field& f, int dof) {
 }
 
 void ReadOperator(const Field& f, int dof, SimulatedOperatorConfig& human) {
-  const Map map(f, {"mass_kg", "damping_Ns_per_m", "stiffness_N_per_m", "script"});
+  std::vector<std::string> keys = config::KeysUnder(loopback_keys::All(), "operator.");
+  keys.emplace_back("script");  // a list of typed segments (ReadSegment), a hand `keys` entry, not a table row
+  const Map map(f, keys);
   human.enabled = true;
   human.mass_kg = config::ReadNumber(map, loopback_keys::kOperatorMass);
   human.damping_Ns_per_m = config::ReadNumber(map, loopback_keys::kOperatorDamping);
@@ -99,9 +101,7 @@ void ReadEnvironment(const Field& f, int dof, SimulatedEnvironmentConfig& env) {
 }
 
 LoopbackPlantConfig ReadLoopback(const Field& f, int dof) {
-  std::vector<std::string> keys = config::KeysUnder(loopback_keys::All(), "");
-  keys.emplace_back("operator");  // its keys: ReadOperator (the script's are not in the table yet)
-  const Map map(f, keys);
+  const Map map(f, config::KeysUnder(loopback_keys::All(), ""));
   LoopbackPlantConfig plant;
   plant.dof = dof;
   plant.mass_kg = config::ReadNumber(map, loopback_keys::kMass);
@@ -110,7 +110,7 @@ LoopbackPlantConfig ReadLoopback(const Field& f, int dof) {
   if (map.Optional("initial_position_m")) {  // absent: empty, the plant starts at 0
     plant.initial_position_m = config::ReadDofValue(map, loopback_keys::kInitialPosition, dof);
   }
-  if (auto v = map.Optional("operator")) ReadOperator(*v, dof, plant.human);
+  if (auto v = map.Optional(loopback_keys::kOperatorSection.key)) ReadOperator(*v, dof, plant.human);
   if (auto v = map.Optional(loopback_keys::kEnvironmentSection.key)) ReadEnvironment(*v, dof, plant.environment);
   return plant;
 }
@@ -127,7 +127,6 @@ DeviceBackend LoopbackBackend() {
   b.nominal.measures_velocity = false;
   b.nominal.measures_force = true;
   b.keys = {
-      {"operator", "simulated operator (master): mass-spring-damper with a scripted target force"},
       {"operator.script", "list of at most 16 segments of F_h*(t)"},
       {"operator.script[].type", "hold, step, ramp or sine"},
       {"operator.script[].axis", "the DOF the segment drives, 0..dof-1; default 0"},

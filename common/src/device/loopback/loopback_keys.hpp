@@ -41,6 +41,12 @@ inline const KeySpec kInitialPosition{
     "initial_position_m", KeyType::kDofValue, "m", KeyRange::kFinite, false, 0.0,  // empty = 0
     "Start position."};
 inline constexpr SimulatedOperatorConfig kOperator{};  // the operator's defaults
+inline const KeySpec kOperatorSection{
+    .key = "operator",
+    .type = KeyType::kSection,
+    .meaning =
+        "The simulated hand (usually the master): the operator.* keys (`device.loopback.operator`); absent: no "
+        "operator."};
 inline const KeySpec kOperatorMass{"operator.mass_kg",
                                    KeyType::kNumber,
                                    "kg",
@@ -105,19 +111,10 @@ inline const KeySpec kWallDamping{.key = "environment.damping_Ns_per_m",
 /// Every key of the table, built at its first use (after static initialisation: its elements are dynamically
 /// initialised constants, and a copy made during static initialisation could read one not yet initialised).
 inline const auto& All() {
-  static const std::array table{kMass,
-                                kDamping,
-                                kEncoderResolution,
-                                kInitialPosition,
-                                kOperatorMass,
-                                kOperatorDamping,
-                                kOperatorStiffness,
-                                kEnvironmentSection,
-                                kEnvironmentType,
-                                kWallAxis,
-                                kWallPosition,
-                                kWallStiffness,
-                                kWallDamping};
+  static const std::array table{
+      kMass,         kDamping,         kEncoderResolution, kInitialPosition,    kOperatorSection,
+      kOperatorMass, kOperatorDamping, kOperatorStiffness, kEnvironmentSection, kEnvironmentType,
+      kWallAxis,     kWallPosition,    kWallStiffness,     kWallDamping};
   return table;
 }
 
