@@ -43,7 +43,7 @@ TEST(AdmittanceKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
        "max_tracking_error_m");
   same(keys::kTrackingErrorCycles.default_value, code.tracking_error_cycles, read.tracking_error_cycles,
        "tracking_error_cycles");
-  // The documented values (docs/configuration.md, rows checked by config_docs_test).
+  // The documented values (docs/configuration.md, rows generated from the table; config_docs_test).
   EXPECT_EQ(code.max_force_N, 50.0);
   EXPECT_EQ(code.bandwidth_ratio, 10.0);
   EXPECT_EQ(code.cycle_period_s, 0.001);
