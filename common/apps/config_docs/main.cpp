@@ -2,11 +2,13 @@
 // (teleop/config/config_docs.hpp), leaving the prose around them as written; `--check` only says whether FILE is
 // current. The build target `config-docs` runs it on the source tree's docs/configuration.md.
 #include <CLI/CLI.hpp>
+#include <cstddef>
 #include <exception>
 #include <fstream>
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "teleop/cli_help.hpp"
 #include "teleop/config/config_docs.hpp"
