@@ -126,5 +126,20 @@ TEST(AdmittanceKeys, TheModeKeysDefaultIsTheStructsAndAWrongWordIsRefused) {
   }
 }
 
+TEST(AdmittanceKeys, TheDirectionIsATableKeyAndZeroIsRefused) {
+  const std::string base = "{virtual_mass_kg: 2, virtual_damping_Ns_per_m: 8, can: {interface: can0}, drives: [";
+  EXPECT_EQ(admittance_keys::kDriveDirection.default_value, AdmittanceAxisConfig{}.drive.scaling.sign);
+  EXPECT_EQ(Read(base + "{node_id: 3}]}").axes.at(0).drive.scaling.sign, 1.0);
+  EXPECT_EQ(Read(base + "{node_id: 3, direction: -1}]}").axes.at(0).drive.scaling.sign, -1.0);
+  for (const char* bad : {"0", "2"}) {
+    try {
+      (void)Read(base + "{node_id: 3, direction: " + bad + "}]}");
+      ADD_FAILURE() << "direction " << bad << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("drives[0].direction"), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace teleop::device
