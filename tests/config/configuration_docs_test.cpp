@@ -1,6 +1,7 @@
 // docs/configuration.md documents every key of every registered device backend: a key a backend's reader accepts
 // (DeviceBackend::keys) must appear, in backquotes, in the first cell of a table row of that backend's sections
-// (the "### `device.<name>...`" headings up to the next "## " heading). An undocumented key fails the suite.
+// (the "### `device.<name>...`" headings up to the next "## " heading). An undocumented key fails the suite. The rows
+// of the keys in key tables are generated (`cmake --build build --target config-docs`) and checked to be current.
 
 #include <gtest/gtest.h>
 
@@ -9,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "teleop/config/delay_recheck_keys.hpp"
+#include "teleop/config/config_docs.hpp"
 #include "teleop/config/key_table.hpp"
 #include "teleop/device/device_registry.hpp"
 
@@ -69,65 +70,57 @@ TEST(ConfigurationDocs, EveryKeyOfEveryRegisteredBackendIsDocumented) {
   }
 }
 
-/// The text under `heading` (a whole line) up to the next heading; "" when docs/configuration.md has no such heading.
-std::string SectionText(const std::string& docs, const std::string& heading) {
-  const auto at = docs.find("\n" + heading + "\n");
-  if (at == std::string::npos) return "";
-  const auto body = at + heading.size() + 1;
-  const auto next = docs.find("\n#", body);
-  return docs.substr(body, next == std::string::npos ? std::string::npos : next + 1 - body);
-}
-
-// A backend's key table is the source of its docs rows: each row is in docs/configuration.md verbatim, under the
-// heading of its section (config::DocsHeadingOf: "### `device.hybrid.geometry`" for geometry.proximal_1_m), so a
-// default, range or unit changed in the table and not in the docs (or the other way round) fails here, and the
-// failure prints the heading and the row to paste under it (a new backend: one "### `device.<name>`" heading per
-// section of its table, then the rows this test prints).
-TEST(ConfigurationDocs, EveryKeyTableRowIsInTheDocsVerbatimUnderItsSection) {
-  const std::string docs = ReadDocs();
-  int rows = 0;
-  for (const std::string& name : device::RegisteredDevices()) {
-    for (const config::KeySpec& spec : device::FindDevice(name)->key_table) {
-      const std::string heading = config::DocsHeadingOf("device." + name, spec);
-      const std::string row = config::KeyTableRow(spec);
-      const std::string section = SectionText(docs, heading);
-      EXPECT_NE(section.find("\n" + row + "\n"), std::string::npos)
-          << "device." << name << "." << spec.key << ": docs/configuration.md lacks, under the heading\n"
-          << heading << "\nthe row (into the table: | key | type, unit | default | range | meaning |)\n"
-          << row;
-      ++rows;
+/// The line number (1-based) and text of the first line where `a` and `b` differ.
+std::string FirstDifference(const std::string& a, const std::string& b) {
+  std::istringstream in_a(a);
+  std::istringstream in_b(b);
+  std::string line_a;
+  std::string line_b;
+  for (int number = 1;; ++number) {
+    const bool more_a = static_cast<bool>(std::getline(in_a, line_a));
+    const bool more_b = static_cast<bool>(std::getline(in_b, line_b));
+    if (!more_a && !more_b) return "none";
+    if (!more_a || !more_b || line_a != line_b) {
+      return "line " + std::to_string(number) + "\n  in the file:   " + (more_a ? line_a : "(end of file)") +
+             "\n  the generator: " + (more_b ? line_b : "(end of file)");
     }
   }
-  EXPECT_GE(rows, 7) << "the loopback backend's table (loopback_keys.hpp) has 7 keys";
-  config::KeySpec changed{"mass_kg", config::KeyType::kNumber, "kg", config::KeyRange::kPositive, false, 0.05, "x"};
-  EXPECT_EQ(docs.find(config::KeyTableRow(changed)), std::string::npos) << "the check can fail";
-  EXPECT_EQ(config::KeyTableRow(changed), "| `mass_kg` | number, kg | 0.05 | > 0 | x |");
-  // A row under another section's heading is not found: a loopback row is not the hybrid's.
-  const config::KeySpec mass{"mass_kg",
-                             config::KeyType::kNumber,
-                             "kg",
-                             config::KeyRange::kPositive,
-                             true,
-                             0.0,
-                             "Device mass per DOF. Paper §4.1: master 0.040, slave 0.036."};
-  EXPECT_NE(SectionText(docs, "### `device.loopback`").find(config::KeyTableRow(mass)), std::string::npos);
-  EXPECT_EQ(SectionText(docs, "### `device.hybrid`").find(config::KeyTableRow(mass)), std::string::npos);
-  EXPECT_EQ(config::DocsHeadingOf("device.hybrid", config::KeySpec{.key = "geometry.proximal_1_m"}),
-            "### `device.hybrid.geometry`");
-  EXPECT_EQ(config::DocsHeadingOf("device.hybrid", config::KeySpec{.key = "rig"}), "### `device.hybrid`");
 }
 
-// The link.delay_recheck key table (teleop/config/delay_recheck_keys.hpp) is the source of its docs rows.
-TEST(ConfigurationDocs, TheDelayRecheckRowsAreInTheDocsVerbatim) {
+// The key tables are the source of their rows: docs/configuration.md is exactly what teleop-config-docs makes of it
+// (teleop/config/config_docs.hpp), so a default, range, unit or meaning changed in a table (or a row edited in the
+// docs) fails here until the generator has been run. tests/config/key_tables_docs_test.cpp proves the generator on
+// small texts.
+TEST(ConfigurationDocs, TheKeyTableRowsAreWhatTheGeneratorWrites) {
   const std::string docs = ReadDocs();
-  const auto section = docs.find("### `link.delay_recheck`");
-  ASSERT_NE(section, std::string::npos) << "docs/configuration.md has no link.delay_recheck section";
-  for (const config::KeySpec* spec : config::delay_recheck_keys::kAll) {
-    const std::string row = config::KeyTableRow(*spec);
-    EXPECT_NE(docs.find("\n" + row + "\n", section), std::string::npos)
-        << "link.delay_recheck." << spec->key << ": docs/configuration.md lacks the row\n"
-        << row;
-  }
+  ASSERT_FALSE(docs.empty()) << "cannot read docs/configuration.md";
+  const std::vector<config::KeyRowsSection> sections = config::KeyTableDocsSections();
+  const config::KeyTablesRewrite rewrite = config::RewriteKeyTables(docs, sections);
+  for (const std::string& error : rewrite.errors) ADD_FAILURE() << "docs/configuration.md:" << error;
+  EXPECT_TRUE(rewrite.text == docs)
+      << "docs/configuration.md is not what the key tables make: run `cmake --build build --target config-docs` "
+         "(then review and commit the diff). First difference: "
+      << FirstDifference(docs, rewrite.text);
+  std::size_t rows = 0;
+  for (const config::KeyRowsSection& section : sections) rows += section.rows.size();
+  EXPECT_GE(rows, 250u) << "five backends' tables and link.delay_recheck's";
+  // The check can fail: a row of the loopback's table with another default is not what the generator writes.
+  const std::string row = "| `encoder_resolution_m` | number, m | 0 | ≥ 0 |";
+  const auto at = docs.find(row);
+  ASSERT_NE(at, std::string::npos);
+  std::string stale = docs;
+  stale.replace(at, row.size(), "| `encoder_resolution_m` | number, m | 1 | ≥ 0 |");
+  EXPECT_NE(config::RewriteKeyTables(stale, sections).text, stale);
+  EXPECT_EQ(config::RewriteKeyTables(stale, sections).text, rewrite.text);
+  // Each backend's rows are under its sections' markers: the loopback's mass row is in device.loopback's block.
+  const auto block = docs.find("<!-- keys:device.loopback begin");
+  ASSERT_NE(block, std::string::npos);
+  EXPECT_LT(block, docs.find("| `mass_kg` | number, kg | **required** | > 0 | Device mass per DOF.", block));
+  EXPECT_LT(docs.find("| `mass_kg` | number, kg | **required** | > 0 | Device mass per DOF.", block),
+            docs.find("<!-- keys:device.loopback end -->", block));
+  EXPECT_EQ(config::DocsHeadingOf("device.hybrid", config::KeySpec{.key = "geometry.proximal_1_m"}),
+            "### `device.hybrid.geometry`");
+  EXPECT_EQ(config::DocsSectionOf("device.hybrid", config::KeySpec{.key = "rig"}), "device.hybrid");
 }
 
 TEST(ConfigurationDocs, TheCheckFindsAMissingKey) {

@@ -137,10 +137,14 @@ bool IsKeyUnder(const KeySpec& spec, std::string_view prefix, std::string_view t
   return spec.when[0] == '\0' || type == "*" || type == spec.when;
 }
 
-std::string DocsHeadingOf(const std::string& section, const KeySpec& spec) {
+std::string DocsSectionOf(const std::string& section, const KeySpec& spec) {
   const std::string key = spec.key;
   const auto dot = key.rfind('.');
-  return "### `" + section + (dot == std::string::npos ? "" : "." + key.substr(0, dot)) + "`";
+  return section + (dot == std::string::npos ? "" : "." + key.substr(0, dot));
+}
+
+std::string DocsHeadingOf(const std::string& section, const KeySpec& spec) {
+  return "### `" + DocsSectionOf(section, spec) + "`";
 }
 
 int ReadChoice(const Map& map, const KeySpec& spec) {

@@ -43,7 +43,7 @@ TEST(AdmittanceKeys, TheTablesDefaultsAreTheStructsAndTheReadersWhenAbsent) {
        "max_tracking_error_m");
   same(keys::kTrackingErrorCycles.default_value, code.tracking_error_cycles, read.tracking_error_cycles,
        "tracking_error_cycles");
-  // The documented values (docs/configuration.md, rows checked by config_docs_test).
+  // The documented values (docs/configuration.md, rows generated from the table; config_docs_test).
   EXPECT_EQ(code.max_force_N, 50.0);
   EXPECT_EQ(code.bandwidth_ratio, 10.0);
   EXPECT_EQ(code.cycle_period_s, 0.001);
@@ -122,6 +122,21 @@ TEST(AdmittanceKeys, TheModeKeysDefaultIsTheStructsAndAWrongWordIsRefused) {
                                            std::string(word) + "'"),
                 std::string::npos)
           << e.what();
+    }
+  }
+}
+
+TEST(AdmittanceKeys, TheDirectionIsATableKeyAndZeroIsRefused) {
+  const std::string base = "{virtual_mass_kg: 2, virtual_damping_Ns_per_m: 8, can: {interface: can0}, drives: [";
+  EXPECT_EQ(admittance_keys::kDriveDirection.default_value, AdmittanceAxisConfig{}.drive.scaling.sign);
+  EXPECT_EQ(Read(base + "{node_id: 3}]}").axes.at(0).drive.scaling.sign, 1.0);
+  EXPECT_EQ(Read(base + "{node_id: 3, direction: -1}]}").axes.at(0).drive.scaling.sign, -1.0);
+  for (const char* bad : {"0", "2"}) {
+    try {
+      (void)Read(base + "{node_id: 3, direction: " + bad + "}]}");
+      ADD_FAILURE() << "direction " << bad << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("drives[0].direction"), std::string::npos) << e.what();
     }
   }
 }

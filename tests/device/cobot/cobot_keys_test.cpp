@@ -82,8 +82,8 @@ TEST(CobotKeys, TheTablesDefaultsAreTheConfigsAndTheReadersWhenAbsent) {
   EXPECT_EQ(start.initial.position_m, Vec2(0.1, -0.2));
   EXPECT_NEAR(start.initial.heading_rad, std::numbers::pi / 2.0, 1e-12);
   // 34 with a number, 6 with a word or true/false, initial_position_m and _heading_deg, 3 sections, fieldbus: 2 with
-  // a number and 2 sections, steering 14, sensors 5
-  EXPECT_EQ(keys::All().size(), 68U);
+  // a number and 2 sections, steering 15 (its direction included), sensors 9 (wheel direction, 3 COB-IDs)
+  EXPECT_EQ(keys::All().size(), 73U);
   const CobotFieldbusConfig bus{};
   EXPECT_EQ(keys::kSteeringMaxTorque.default_value, bus.steering.drive.max_torque_Nm);
   EXPECT_EQ(keys::kSteeringHoldStiffness.default_value, bus.steering.hold_stiffness_Nm_per_rad);
@@ -156,6 +156,52 @@ TEST(CobotKeys, AnUnknownNestedKeyIsRefusedByItsName) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("operator.warp_s"), std::string::npos) << e.what();
   }
+}
+
+/// A fieldbus section with `steering` and `sensors` extra keys (flow YAML, without braces) put in.
+std::string FieldbusRig(const std::string& steering, const std::string& sensors) {
+  return "{rig: fieldbus, fieldbus: {can: {medium: socketcan, interface: vcan0}, steering: {node_id: 5" +
+         (steering.empty() ? "" : ", " + steering) + "}, sensors: {node_id: 6" +
+         (sensors.empty() ? "" : ", " + sensors) + "}}}";
+}
+
+/// The error message of reading `yaml`, or "" when it reads.
+std::string ReadError(const std::string& yaml) {
+  try {
+    (void)Read(yaml);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(CobotKeys, TheDirectionsAndCobIdsAreTableKeysWithTheirDefaultsFromTheNodeId) {
+  // Absent: direction 1 and CiA 301's pre-defined COB-IDs from the sensor node's id (6).
+  const CobotFieldbusConfig absent = Read(FieldbusRig("", "")).fieldbus;
+  EXPECT_EQ(absent.steering.drive.scaling.sign, 1.0);
+  EXPECT_EQ(absent.sensors.wheel_sign, 1.0);
+  EXPECT_EQ(absent.sensors.WheelCobId(), 0x186u);
+  EXPECT_EQ(absent.sensors.ForceCobId(), 0x286u);
+  EXPECT_EQ(absent.sensors.BrakeCobId(), 0x206u);
+  EXPECT_EQ(keys::kSensorsWheelCobId.default_value, 0.0);
+  EXPECT_EQ(keys::kSteeringDirection.default_value, CobotFieldbusConfig{}.steering.drive.scaling.sign);
+  // Given: read in their place.
+  const CobotFieldbusConfig given = Read(FieldbusRig("direction: -1",
+                                                     "wheel_direction: -1, wheel_cob_id: 0x190, force_cob_id: 0x291, "
+                                                     "brake_cob_id: 0x212"))
+                                        .fieldbus;
+  EXPECT_EQ(given.steering.drive.scaling.sign, -1.0);
+  EXPECT_EQ(given.sensors.wheel_sign, -1.0);
+  EXPECT_EQ(given.sensors.WheelCobId(), 0x190u);
+  EXPECT_EQ(given.sensors.ForceCobId(), 0x291u);
+  EXPECT_EQ(given.sensors.BrakeCobId(), 0x212u);
+  // Refused by name: a direction of 0 or 2, a COB-ID in the NMT/SYNC range or above 11 bits.
+  EXPECT_NE(ReadError(FieldbusRig("direction: 0", "")).find("fieldbus.steering.direction': must be 1 or -1"),
+            std::string::npos)
+      << ReadError(FieldbusRig("direction: 0", ""));
+  EXPECT_NE(ReadError(FieldbusRig("", "wheel_direction: 2")).find("wheel_direction"), std::string::npos);
+  EXPECT_NE(ReadError(FieldbusRig("", "wheel_cob_id: 0x80")).find("wheel_cob_id"), std::string::npos);
+  EXPECT_NE(ReadError(FieldbusRig("", "brake_cob_id: 0x800")).find("brake_cob_id"), std::string::npos);
 }
 
 }  // namespace

@@ -24,10 +24,11 @@ enum class KeyType : std::uint8_t {
 enum class KeyRange : std::uint8_t { kFinite, kPositive, kNonNegative, kInRange /* [low, high] */ };
 
 /// One key of a config section, written once: its reader (ReadNumber, ReadDofValue), its line in `--list-devices`
-/// (DescribeKey) and its row in docs/configuration.md (KeyTableRow; tests/config/configuration_docs_test.cpp checks
-/// the row is there verbatim) all come from it. A backend keeps its table in one private header
-/// (common/src/device/<name>/<name>_keys.hpp), takes an optional key's default from its config struct's member
-/// initialiser, and lists the table with device::AdoptKeyTable (teleop/device/backend_key_table.hpp).
+/// (DescribeKey) and its row in docs/configuration.md (KeyTableRow, written between the section's markers by
+/// `cmake --build build --target config-docs`, teleop/config/config_docs.hpp) all come from it. A backend keeps its
+/// table in one private header (common/src/device/<name>/<name>_keys.hpp), takes an optional key's default from its
+/// config struct's member initialiser, and lists the table with device::AdoptKeyTable
+/// (teleop/device/backend_key_table.hpp).
 struct KeySpec {
   const char* key = "";  ///< Path below the section, e.g. "mass_kg", "operator.mass_kg" (the reader reads the leaf).
   KeyType type = KeyType::kNumber;

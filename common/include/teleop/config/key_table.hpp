@@ -55,8 +55,11 @@ std::vector<std::string> KeysUnder(const Table& table, std::string_view prefix, 
   }
   return leaves;
 }
-/// The docs/configuration.md heading whose table holds `spec`'s row, for the config section `section`
-/// ("device.hybrid"): "### `device.hybrid.geometry`" for "geometry.proximal_1_m".
+/// The docs section (dotted path) whose table holds `spec`'s row, for the config section `section` ("device.hybrid"):
+/// "device.hybrid.geometry" for "geometry.proximal_1_m" (its markers in docs/configuration.md:
+/// teleop/config/config_docs.hpp).
+std::string DocsSectionOf(const std::string& section, const KeySpec& spec);
+/// Its docs/configuration.md heading: "### `device.hybrid.geometry`".
 std::string DocsHeadingOf(const std::string& section, const KeySpec& spec);
 /// Reads a kDofValue key: `dof` entries, each checked against the range; absent: the default on every DOF.
 DofVector ReadDofValue(const Map& map, const KeySpec& spec, int dof);

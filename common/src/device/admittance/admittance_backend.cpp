@@ -20,9 +20,7 @@ using config::Field;
 using config::Map;
 
 AdmittanceAxisConfig ReadDrive(const Field& f) {
-  const Map map(f, {"node_id", "transmission_m_per_rad", "rated_torque_Nm", "position_rad_per_count",
-                    "velocity_rad_per_s_per_unit", "direction", "max_torque_Nm", "heartbeat_period_ms",
-                    "heartbeat_timeout_ms", "stale_after_ms", "eds"});
+  const Map map(f, config::KeysUnder(admittance_keys::All(), "drives[]."));
   AdmittanceAxisConfig a;
   fieldbus::Cia402DriveConfig& d = a.drive;
   namespace keys = admittance_keys;
@@ -31,11 +29,9 @@ AdmittanceAxisConfig ReadDrive(const Field& f) {
   d.scaling.rated_torque_Nm = config::ReadNumber(map, keys::kDriveRatedTorque);
   d.scaling.position_rad_per_count = config::ReadNumber(map, keys::kDrivePositionUnit);
   d.scaling.velocity_rad_per_s_per_unit = config::ReadNumber(map, keys::kDriveVelocityUnit);
-  if (auto v = map.Optional("direction")) {
-    const int dir = config::IntInRange(*v, -1, 1);
-    if (dir == 0) v->Fail("must be 1 or -1");
-    d.scaling.sign = dir;
-  }
+  const int direction = config::ReadInteger(map, keys::kDriveDirection);
+  if (direction == 0) map.Required(config::LeafOf(keys::kDriveDirection)).Fail("must be 1 or -1");
+  d.scaling.sign = static_cast<double>(direction);
   d.max_torque_Nm = config::ReadNumber(map, keys::kDriveMaxTorque);
   d.drive_heartbeat_period_ms = config::ReadNumber(map, keys::kDriveHeartbeatPeriod);
   d.heartbeat_timeout_ms = config::ReadNumber(map, keys::kDriveHeartbeatTimeout);
@@ -136,10 +132,7 @@ DeviceBackend AdmittanceBackend() {
   for (const fieldbus::CanPortKey& key : fieldbus::kCanPortKeys) {
     b.keys.push_back({std::string("can.") + key.key, key.description});
   }
-  b.keys.insert(b.keys.end(), {
-                                  {"drives", "one drive per DOF, in axis order"},
-                                  {"drives[].direction", "1 or -1 (the drive's positive direction against the axis')"},
-                              });
+  b.keys.push_back({"drives", "one drive per DOF, in axis order; their keys: drives[].*"});
 
   AdoptKeyTable(b, admittance_keys::All());  // the keys with a number or a word, written once (admittance_keys.hpp)
   b.section_required = true;

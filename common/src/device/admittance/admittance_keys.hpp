@@ -161,6 +161,15 @@ inline const KeySpec kDriveEds{
         "\"\" = none.",
     .default_text = kAxis.drive.eds_file.c_str()};
 
+inline const KeySpec kDriveDirection{
+    .key = "drives[].direction",
+    .type = KeyType::kInteger,
+    .range = KeyRange::kInRange,
+    .default_value = kAxis.drive.scaling.sign,
+    .meaning = "1 or -1 (0 is refused): the drive's positive direction against the axis'.",
+    .low = -1,
+    .high = 1};
+
 /// Every key of the table, built at its first use (after static initialisation: its elements are dynamically
 /// initialised constants, and a copy made during static initialisation could read one not yet initialised).
 inline const auto& All() {
@@ -184,7 +193,8 @@ inline const auto& All() {
                                 kDriveHeartbeatPeriod,
                                 kDriveHeartbeatTimeout,
                                 kDriveStaleAfter,
-                                kDriveEds};
+                                kDriveEds,
+                                kDriveDirection};
   return table;
 }
 

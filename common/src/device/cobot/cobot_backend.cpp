@@ -33,18 +33,6 @@ DeviceBackend CobotBackend() {
   for (const fieldbus::CanPortKey& key : fieldbus::kCanPortKeys) {
     b.keys.push_back({std::string("fieldbus.can.") + key.key, key.description});
   }
-  b.keys.insert(
-      b.keys.end(),
-      {
-          {"fieldbus.steering.direction", "1 or -1: the drive's positive direction against the steering angle's"},
-          {"fieldbus.sensors.wheel_cob_id", "wheel TPDO COB-ID (INTEGER32 counts, CiA 406 0x6004); default 0x180+node"},
-          {"fieldbus.sensors.force_cob_id",
-           "force TPDO COB-ID (2 x INTEGER16, CiA 401 0x6401/1-2, 0x8000 = invalid); default 0x280+node"},
-          {"fieldbus.sensors.brake_cob_id",
-           "brake RPDO COB-ID (1 byte, bit 0, CiA 401 0x6200/1), used when "
-           "brake_max_force_N > 0; default 0x200+node"},
-          {"fieldbus.sensors.wheel_direction", "1 or -1: the wheel encoder's count direction; default 1"},
-      });
 
   AdoptKeyTable(b, keys::All());  // the keys with a number, a word or true/false, written once (cobot_keys.hpp)
   b.section_required = false;

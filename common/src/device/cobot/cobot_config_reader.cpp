@@ -2,9 +2,7 @@
 // that span keys (dof, role, rig, fieldbus node ids).
 
 #include <cmath>
-#include <initializer_list>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "cobot_backend_private.hpp"
@@ -48,22 +46,15 @@ void ReadBicycle(const Field& f, CobotBackendConfig& c) {
   c.bicycle_caster.heading_bandwidth_per_s = config::ReadNumber(map, keys::kHeadingBandwidth);
 }
 
-/// 1 or -1 (a drive's or an encoder's direction against the model's).
-double ReadSign(const Field& f) {
-  const double sign = Finite(f);
-  if (sign != 1.0 && sign != -1.0) f.Fail("must be 1 or -1, got " + config::Num(sign));
-  return sign;
-}
-
-/// The section's table keys plus `extra` (keys read apart: a direction, a COB-ID with a computed default).
-Map SectionMap(const Field& f, std::string_view prefix, std::initializer_list<const char*> extra) {
-  std::vector<std::string> names = config::KeysUnder(keys::All(), prefix);
-  names.insert(names.end(), extra.begin(), extra.end());
-  return Map(f, names);
+/// A direction key (-1..1 in its table): 1 or -1, a drive's or an encoder's direction against the model's.
+double ReadSign(const Map& map, const config::KeySpec& spec) {
+  const int sign = config::ReadInteger(map, spec);
+  if (sign == 0) map.Required(config::LeafOf(spec)).Fail("must be 1 or -1, got 0");
+  return static_cast<double>(sign);
 }
 
 void ReadSteering(const Field& f, CobotFieldbusConfig& c) {
-  const Map map = SectionMap(f, "fieldbus.steering.", {"direction"});
+  const Map map(f, config::KeysUnder(keys::All(), "fieldbus.steering."));
   if (auto v = map.Optional("mode"); v && v->AsString() == "velocity") {
     v->Fail(
         "velocity mode (cyclic synchronous velocity, 0x6060 = 9) is not supported by the cobot rig, which steers "
@@ -77,7 +68,7 @@ void ReadSteering(const Field& f, CobotFieldbusConfig& c) {
   c.steering.gear_ratio = config::ReadNumber(map, keys::kSteeringGearRatio);
   d.scaling.position_rad_per_count = config::ReadNumber(map, keys::kSteeringPositionScale);
   d.scaling.velocity_rad_per_s_per_unit = config::ReadNumber(map, keys::kSteeringVelocityScale);
-  if (auto v = map.Optional("direction")) d.scaling.sign = ReadSign(*v);
+  d.scaling.sign = ReadSign(map, keys::kSteeringDirection);
   d.scaling.rated_torque_Nm = config::ReadNumber(map, keys::kSteeringRatedTorque);
   d.max_torque_Nm = config::ReadNumber(map, keys::kSteeringMaxTorque);
   c.steering_offset_rad = config::ReadNumber(map, keys::kSteeringOffset) * config::kDeg;
@@ -94,8 +85,7 @@ void ReadSteering(const Field& f, CobotFieldbusConfig& c) {
 }
 
 void ReadSensors(const Field& f, CobotFieldbusConfig& c) {
-  const Map map =
-      SectionMap(f, "fieldbus.sensors.", {"wheel_cob_id", "force_cob_id", "brake_cob_id", "wheel_direction"});
+  const Map map(f, config::KeysUnder(keys::All(), "fieldbus.sensors."));
   CobotSensorNodeConfig& s = c.sensors;
   if (auto v = map.Optional("source"); v && v->AsString() == "drive") {
     v->Fail(
@@ -104,11 +94,10 @@ void ReadSensors(const Field& f, CobotFieldbusConfig& c) {
   }
   (void)config::ReadChoice(map, keys::kSensorsSource);  // node, the only word
   s.node_id = static_cast<std::uint8_t>(config::ReadInteger(map, keys::kSensorsNodeId));
-  const auto cob = [](const Field& e) { return static_cast<std::uint32_t>(config::IntInRange(e, 0x081, 0x7FF)); };
-  if (auto v = map.Optional("wheel_cob_id")) s.wheel_cob_id = cob(*v);
-  if (auto v = map.Optional("force_cob_id")) s.force_cob_id = cob(*v);
-  if (auto v = map.Optional("brake_cob_id")) s.brake_cob_id = cob(*v);
-  if (auto v = map.Optional("wheel_direction")) s.wheel_sign = ReadSign(*v);
+  s.wheel_cob_id = static_cast<std::uint32_t>(config::ReadInteger(map, keys::kSensorsWheelCobId));
+  s.force_cob_id = static_cast<std::uint32_t>(config::ReadInteger(map, keys::kSensorsForceCobId));
+  s.brake_cob_id = static_cast<std::uint32_t>(config::ReadInteger(map, keys::kSensorsBrakeCobId));
+  s.wheel_sign = ReadSign(map, keys::kSensorsWheelDirection);
   s.force_N_per_unit = config::ReadNumber(map, keys::kSensorsForceScale);
   s.stale_after_ms = config::ReadNumber(map, keys::kSensorsStale);
   s.max_wheel_step_m = config::ReadNumber(map, keys::kSensorsMaxWheelStep);
@@ -116,7 +105,9 @@ void ReadSensors(const Field& f, CobotFieldbusConfig& c) {
 }
 
 void ReadFieldbus(const Field& f, CobotBackendConfig& c) {
-  const Map map = SectionMap(f, "fieldbus.", {"can"});
+  std::vector<std::string> names = config::KeysUnder(keys::All(), "fieldbus.");
+  names.emplace_back("can");  // the shared CAN port section (fieldbus::ReadCanPortSection), not in the table
+  const Map map(f, names);
   CobotFieldbusConfig& b = c.fieldbus;
   fieldbus::ReadCanPortSection(map.Required("can"), b.can);
   b.steering.drive.cycle_period_s = config::ReadNumber(map, keys::kFieldbusCyclePeriod) * 1e-3;

@@ -361,6 +361,14 @@ inline const KeySpec kSteeringStale{.key = "fieldbus.steering.stale_after_ms",
                                     .range = KeyRange::kPositive,
                                     .default_value = kSteeringDrive.stale_after_ms,
                                     .meaning = "No TPDO for this long: the drive is lost."};
+inline const KeySpec kSteeringDirection{
+    .key = "fieldbus.steering.direction",
+    .type = KeyType::kInteger,
+    .range = KeyRange::kInRange,
+    .default_value = kSteeringDrive.scaling.sign,
+    .meaning = "1 or -1 (0 is refused): the drive's positive direction against the steering angle's.",
+    .low = -1,
+    .high = 1};
 inline const KeySpec kSensorsSource{
     .key = "fieldbus.sensors.source",
     .type = KeyType::kChoice,
@@ -388,6 +396,33 @@ inline const KeySpec kSensorsMaxWheelStep{.key = "fieldbus.sensors.max_wheel_ste
                                           .range = KeyRange::kPositive,
                                           .default_value = kBus.sensors.max_wheel_step_m,
                                           .meaning = "Wheel travel step between two TPDOs that is an encoder jump."};
+inline const KeySpec kSensorsWheelDirection{.key = "fieldbus.sensors.wheel_direction",
+                                            .type = KeyType::kInteger,
+                                            .range = KeyRange::kInRange,
+                                            .default_value = kBus.sensors.wheel_sign,
+                                            .meaning = "1 or -1 (0 is refused): the wheel encoder's count direction.",
+                                            .low = -1,
+                                            .high = 1};
+/// A COB-ID of the sensor node: 0 (the default: CiA 301's pre-defined one from the node id) or 0x081..0x7FF.
+constexpr KeySpec SensorCobId(const char* key, double default_value, const char* meaning) {
+  return {.key = key,
+          .type = KeyType::kInteger,
+          .range = KeyRange::kInRange,
+          .default_value = default_value,
+          .meaning = meaning,
+          .low = 0x081,
+          .high = 0x7FF};
+}
+inline const KeySpec kSensorsWheelCobId =
+    SensorCobId("fieldbus.sensors.wheel_cob_id", kBus.sensors.wheel_cob_id,
+                "Wheel TPDO COB-ID (INTEGER32 counts, CiA 406 0x6004); 0 (absent): 0x180 + node_id.");
+inline const KeySpec kSensorsForceCobId = SensorCobId(
+    "fieldbus.sensors.force_cob_id", kBus.sensors.force_cob_id,
+    "Force TPDO COB-ID (2 x INTEGER16, CiA 401 0x6401/1-2, 0x8000 = invalid); 0 (absent): 0x280 + node_id.");
+inline const KeySpec kSensorsBrakeCobId = SensorCobId(
+    "fieldbus.sensors.brake_cob_id", kBus.sensors.brake_cob_id,
+    "Brake RPDO COB-ID (1 byte, bit 0, CiA 401 0x6200/1), used when brake_max_force_N > 0; 0 (absent): 0x200 + "
+    "node_id.");
 
 /// Every key of the table, built at its first use (after static initialisation: its elements are dynamically
 /// initialised constants, and a copy made during static initialisation could read one not yet initialised).
@@ -455,11 +490,16 @@ inline const auto& All() {
                                 kSteeringHeartbeatPeriod,
                                 kSteeringHeartbeatTimeout,
                                 kSteeringStale,
+                                kSteeringDirection,
                                 kSensorsSource,
                                 kSensorsNodeId,
                                 kSensorsForceScale,
                                 kSensorsStale,
-                                kSensorsMaxWheelStep};
+                                kSensorsMaxWheelStep,
+                                kSensorsWheelDirection,
+                                kSensorsWheelCobId,
+                                kSensorsForceCobId,
+                                kSensorsBrakeCobId};
   return table;
 }
 

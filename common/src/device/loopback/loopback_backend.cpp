@@ -3,8 +3,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include <memory>
-#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "loopback_keys.hpp"
@@ -17,56 +17,46 @@ namespace teleop::device {
 namespace {
 
 using config::Field;
-using config::Finite;
-using config::IntInRange;
 using config::Map;
-using config::NonNegative;
-using config::Positive;
 
 OperatorSegment ReadSegment(const Field& f, int dof) {
+  namespace k = loopback_keys;
   using Kind = OperatorSegment::Kind;
-  // The allowed keys depend on the type: a key of another segment type is rejected.
-  const Field type_field = config::TypeOf(
-      f, {"type", "axis", "start_s", "duration_s", "from_N", "to_N", "amplitude_N", "frequency_hz", "offset_N"});
-  const std::string type = type_field.AsString();
+  constexpr std::string_view kPrefix = "operator.script[].";
+  // The type first, among the keys of every type; then the keys of this type only (a key of another type is unknown).
   OperatorSegment s;
-  std::optional<Map> map;
-  if (type == "hold") {
-    s.kind = Kind::kHold;
-    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s"});
-  } else if (type == "step") {
-    s.kind = Kind::kStep;
-    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s", "to_N"});
-  } else if (type == "ramp") {
-    s.kind = Kind::kRamp;
-    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s", "from_N", "to_N"});
-  } else if (type == "sine") {
-    s.kind = Kind::kSine;
-    map.emplace(f, std::initializer_list<std::string_view>{"type", "axis", "start_s", "duration_s", "amplitude_N",
-                                                           "frequency_hz", "offset_N"});
-  } else {
-    type_field.Fail("must be one of hold, step, ramp, sine; got '" + type + "'");
-  }
-  if (auto v = map->Optional("axis")) s.axis = IntInRange(*v, 0, dof - 1);
-  s.start_s = NonNegative(map->Required("start_s"), "s");
-  if (s.kind == Kind::kRamp) {
-    s.duration_s = Positive(map->Required("duration_s"), "s (a ramp needs time; follow it with a hold)");
-    s.from_N = Finite(map->Required("from_N"));
-    s.to_N = Finite(map->Required("to_N"));
-  } else {
-    if (auto v = map->Optional("duration_s")) s.duration_s = NonNegative(*v, "s (0 = until the end of the run)");
-  }
-  if (s.kind == Kind::kStep) s.to_N = Finite(map->Required("to_N"));
-  if (s.kind == Kind::kSine) {
-    s.amplitude_N = Finite(map->Required("amplitude_N"));
-    s.frequency_hz = Positive(map->Required("frequency_hz"), "Hz");
-    if (auto v = map->Optional("offset_N")) s.offset_N = Finite(*v);
+  s.kind = config::ReadChoiceAs<Kind>(Map(f, config::KeysUnder(k::All(), kPrefix, "*")), k::kSegmentType);
+  const Map map(f, config::KeysUnder(k::All(), kPrefix, k::kSegmentType.choices[static_cast<std::size_t>(s.kind)]));
+  s.axis = config::ReadInteger(map, k::kSegmentAxis);
+  if (s.axis >= dof) map.Required("axis").Fail("must be below dof (" + std::to_string(dof) + ")");
+  s.start_s = config::ReadNumber(map, k::kSegmentStart);
+  switch (s.kind) {
+    case Kind::kHold:
+      s.duration_s = config::ReadNumber(map, k::kHoldDuration);
+      break;
+    case Kind::kStep:
+      s.duration_s = config::ReadNumber(map, k::kStepDuration);
+      s.to_N = config::ReadNumber(map, k::kStepTo);
+      break;
+    case Kind::kRamp:
+      s.duration_s = config::ReadNumber(map, k::kRampDuration);
+      s.from_N = config::ReadNumber(map, k::kRampFrom);
+      s.to_N = config::ReadNumber(map, k::kRampTo);
+      break;
+    case Kind::kSine:
+      s.duration_s = config::ReadNumber(map, k::kSineDuration);
+      s.amplitude_N = config::ReadNumber(map, k::kSineAmplitude);
+      s.frequency_hz = config::ReadNumber(map, k::kSineFrequency);
+      s.offset_N = config::ReadNumber(map, k::kSineOffset);
+      break;
   }
   return s;
 }
 
 void ReadOperator(const Field& f, int dof, SimulatedOperatorConfig& human) {
-  const Map map(f, {"mass_kg", "damping_Ns_per_m", "stiffness_N_per_m", "script"});
+  std::vector<std::string> keys = config::KeysUnder(loopback_keys::All(), "operator.");
+  keys.emplace_back("script");  // a list: its items' keys are the table's operator.script[].* (ReadSegment)
+  const Map map(f, keys);
   human.enabled = true;
   human.mass_kg = config::ReadNumber(map, loopback_keys::kOperatorMass);
   human.damping_Ns_per_m = config::ReadNumber(map, loopback_keys::kOperatorDamping);
@@ -99,9 +89,7 @@ void ReadEnvironment(const Field& f, int dof, SimulatedEnvironmentConfig& env) {
 }
 
 LoopbackPlantConfig ReadLoopback(const Field& f, int dof) {
-  std::vector<std::string> keys = config::KeysUnder(loopback_keys::All(), "");
-  keys.emplace_back("operator");  // its keys: ReadOperator (the script's are not in the table yet)
-  const Map map(f, keys);
+  const Map map(f, config::KeysUnder(loopback_keys::All(), ""));
   LoopbackPlantConfig plant;
   plant.dof = dof;
   plant.mass_kg = config::ReadNumber(map, loopback_keys::kMass);
@@ -110,7 +98,7 @@ LoopbackPlantConfig ReadLoopback(const Field& f, int dof) {
   if (map.Optional("initial_position_m")) {  // absent: empty, the plant starts at 0
     plant.initial_position_m = config::ReadDofValue(map, loopback_keys::kInitialPosition, dof);
   }
-  if (auto v = map.Optional("operator")) ReadOperator(*v, dof, plant.human);
+  if (auto v = map.Optional(loopback_keys::kOperatorSection.key)) ReadOperator(*v, dof, plant.human);
   if (auto v = map.Optional(loopback_keys::kEnvironmentSection.key)) ReadEnvironment(*v, dof, plant.environment);
   return plant;
 }
@@ -127,19 +115,9 @@ DeviceBackend LoopbackBackend() {
   b.nominal.measures_velocity = false;
   b.nominal.measures_force = true;
   b.keys = {
-      {"operator", "simulated operator (master): mass-spring-damper with a scripted target force"},
-      {"operator.script", "list of at most 16 segments of F_h*(t)"},
-      {"operator.script[].type", "hold, step, ramp or sine"},
-      {"operator.script[].axis", "the DOF the segment drives, 0..dof-1; default 0"},
-      {"operator.script[].start_s", "segment start (s), >= 0"},
-      {"operator.script[].duration_s", "segment length (s); 0 = open-ended (not for a ramp)"},
-      {"operator.script[].from_N", "ramp start level (N)"},
-      {"operator.script[].to_N", "step level or ramp end level (N)"},
-      {"operator.script[].amplitude_N", "sine amplitude (N)"},
-      {"operator.script[].frequency_hz", "sine frequency (Hz), > 0"},
-      {"operator.script[].offset_N", "sine offset (N); default 0"},
+      {"operator.script", "list of at most 16 segments of F_h*(t); their keys: operator.script[].*"},
   };
-  AdoptKeyTable(b, loopback_keys::All());  // every key but operator.script, written once (loopback_keys.hpp)
+  AdoptKeyTable(b, loopback_keys::All());  // every key but the list operator.script, written once (loopback_keys.hpp)
   b.section_required = true;
   b.read = [](const Field* section, const SectionContext& context) -> std::any {
     return ReadLoopback(*section, context.dof);  // section_required: the config reader checked it is there

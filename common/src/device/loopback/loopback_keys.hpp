@@ -41,6 +41,12 @@ inline const KeySpec kInitialPosition{
     "initial_position_m", KeyType::kDofValue, "m", KeyRange::kFinite, false, 0.0,  // empty = 0
     "Start position."};
 inline constexpr SimulatedOperatorConfig kOperator{};  // the operator's defaults
+inline const KeySpec kOperatorSection{
+    .key = "operator",
+    .type = KeyType::kSection,
+    .meaning =
+        "The simulated hand (usually the master): the operator.* keys (`device.loopback.operator`); absent: no "
+        "operator."};
 inline const KeySpec kOperatorMass{"operator.mass_kg",
                                    KeyType::kNumber,
                                    "kg",
@@ -62,6 +68,75 @@ inline const KeySpec kOperatorStiffness{"operator.stiffness_N_per_m",
                                         false,
                                         kOperator.stiffness_N_per_m,
                                         "k_h."};
+
+// The keys of one segment of `operator.script` (a list; each item's keys depend on its `type`, KeySpec::when).
+inline constexpr OperatorSegment kSegment{};  // a segment's defaults
+inline const KeySpec kSegmentType{
+    .key = "operator.script[].type",
+    .type = KeyType::kChoice,
+    .required = true,
+    .meaning =
+        "hold keeps the level the earlier segments on the same axis had just before start_s; step, ramp and sine "
+        "drive their own; each type takes only its own keys.",
+    .choices = {"hold", "step", "ramp", "sine"}};
+inline const KeySpec kSegmentAxis{.key = "operator.script[].axis",
+                                  .type = KeyType::kInteger,
+                                  .range = KeyRange::kInRange,
+                                  .default_value = static_cast<double>(kSegment.axis),
+                                  .meaning = "The DOF it drives, below dof.",
+                                  .low = 0,
+                                  .high = kMaxDof - 1};
+inline const KeySpec kSegmentStart{.key = "operator.script[].start_s",
+                                   .unit = "s",
+                                   .range = KeyRange::kNonNegative,
+                                   .required = true,
+                                   .meaning = "Start time (simulated time since the start)."};
+inline const KeySpec kRampDuration{.key = "operator.script[].duration_s",
+                                   .unit = "s",
+                                   .range = KeyRange::kPositive,
+                                   .required = true,
+                                   .meaning = "Ramp length (a ramp needs time; follow it with a hold).",
+                                   .when = "ramp"};
+/// duration_s of the types that may last until the end of the run.
+constexpr KeySpec OpenDuration(const char* type) {
+  return {.key = "operator.script[].duration_s",
+          .unit = "s",
+          .range = KeyRange::kNonNegative,
+          .default_value = kSegment.duration_s,
+          .meaning = "Length; 0 = until the end of the run.",
+          .when = type};
+}
+inline const KeySpec kHoldDuration = OpenDuration("hold");
+inline const KeySpec kStepDuration = OpenDuration("step");
+inline const KeySpec kSineDuration = OpenDuration("sine");
+inline const KeySpec kRampFrom{.key = "operator.script[].from_N",
+                               .unit = "N",
+                               .required = true,
+                               .meaning = "Level at start_s: linear from from_N to to_N.",
+                               .when = "ramp"};
+inline const KeySpec kRampTo{.key = "operator.script[].to_N",
+                             .unit = "N",
+                             .required = true,
+                             .meaning = "Level at start_s + duration_s.",
+                             .when = "ramp"};
+inline const KeySpec kStepTo{
+    .key = "operator.script[].to_N", .unit = "N", .required = true, .meaning = "Constant level.", .when = "step"};
+inline const KeySpec kSineAmplitude{.key = "operator.script[].amplitude_N",
+                                    .unit = "N",
+                                    .required = true,
+                                    .meaning = "offset_N + amplitude_N·sin(2π frequency_hz (t − start_s)).",
+                                    .when = "sine"};
+inline const KeySpec kSineFrequency{.key = "operator.script[].frequency_hz",
+                                    .unit = "Hz",
+                                    .range = KeyRange::kPositive,
+                                    .required = true,
+                                    .meaning = "Sine frequency.",
+                                    .when = "sine"};
+inline const KeySpec kSineOffset{.key = "operator.script[].offset_N",
+                                 .unit = "N",
+                                 .default_value = kSegment.offset_N,
+                                 .meaning = "Sine offset.",
+                                 .when = "sine"};
 
 inline const SimulatedEnvironmentConfig kEnvironment{};  // the environment's defaults
 inline const KeySpec kEnvironmentSection{
@@ -109,9 +184,23 @@ inline const auto& All() {
                                 kDamping,
                                 kEncoderResolution,
                                 kInitialPosition,
+                                kOperatorSection,
                                 kOperatorMass,
                                 kOperatorDamping,
                                 kOperatorStiffness,
+                                kSegmentType,
+                                kSegmentAxis,
+                                kSegmentStart,
+                                kRampDuration,
+                                kHoldDuration,
+                                kStepDuration,
+                                kSineDuration,
+                                kRampFrom,
+                                kRampTo,
+                                kStepTo,
+                                kSineAmplitude,
+                                kSineFrequency,
+                                kSineOffset,
                                 kEnvironmentSection,
                                 kEnvironmentType,
                                 kWallAxis,
