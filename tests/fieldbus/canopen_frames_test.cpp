@@ -7,10 +7,14 @@
 
 #include <cstdio>
 #include <string>
+#include <vector>
 
+#include "teleop/error.hpp"
+#include "teleop/fieldbus/canopen_heartbeat_producer.hpp"
 #include "teleop/fieldbus/canopen_pdo.hpp"
 #include "teleop/fieldbus/canopen_sdo.hpp"
 #include "teleop/fieldbus/cia402_state_machine.hpp"
+#include "teleop/transport/can_emulated_bus.hpp"
 
 namespace teleop::fieldbus::canopen {
 namespace {
@@ -219,6 +223,39 @@ TEST(CanopenCobIds, PredefinedConnectionSet) {
   EXPECT_TRUE(IsValidNodeId(127));
   EXPECT_FALSE(IsValidNodeId(0));
   EXPECT_FALSE(IsValidNodeId(128));
+}
+
+// The host's heartbeat for the drives' consumers (CiA 301): 0x700 + node, one byte, 05 Operational; the first at once,
+// then one per period; and the consumer entry of 0x1016 sub n: node in bits 16..23, time in ms in bits 0..15.
+TEST(HeartbeatProducer, SendsTheHostHeartbeatOncePerPeriod) {
+  std::uint64_t now_ns = 0;
+  transport::EmulatedCanBus bus{transport::EmulatedCanBusConfig{}, [&now_ns] { return now_ns; }};
+  auto host = bus.MakePort(bus.AddNode());
+  auto monitor = bus.MakePort(bus.AddNode(), transport::CanReceiveOptions::Everything());
+  HeartbeatProducer producer(*host, 127, 100.0);
+  std::vector<std::uint64_t> sent_at_ms;
+  int received = 0;
+  for (std::uint64_t ms = 0; ms <= 250; ++ms) {
+    now_ns = ms * 1'000'000;
+    const std::uint64_t before = producer.counters().sent;
+    ASSERT_EQ(producer.Service(now_ns), transport::CanWriteStatus::kOk);
+    if (producer.counters().sent != before) sent_at_ms.push_back(ms);
+    bus.Run();
+    proto::can::CanFrame f{};
+    while (monitor->Read(f)) {
+      EXPECT_EQ(f.id, 0x77Fu);
+      ASSERT_EQ(f.len, 1u);
+      EXPECT_EQ(f.data[0], 0x05);
+      ++received;
+    }
+  }
+  EXPECT_EQ(sent_at_ms, (std::vector<std::uint64_t>{0, 100, 200}));
+  EXPECT_EQ(received, 3);
+  EXPECT_EQ(ConsumerHeartbeatEntry(127, 300), 0x007F012Cu);
+  EXPECT_EQ(ConsumerHeartbeatEntry(1, 0), 0x00010000u);
+  EXPECT_THROW(HeartbeatProducer(*host, 0, 100.0), Error);
+  EXPECT_THROW(HeartbeatProducer(*host, 128, 100.0), Error);
+  EXPECT_THROW(HeartbeatProducer(*host, 127, 0.0), Error);
 }
 
 }  // namespace

@@ -2,16 +2,22 @@
 //   [--tool-offset x,y,z] [--direction x,y,z] [--gravity x,y,z] [--json]
 // teleop-arm limit --config FILE --q q1,q2,... [--direction x,y,z] [--json]
 // teleop-arm check --config FILE
+// teleop-arm simulate-motors --config FILE [--for S]
 // One configuration of a URDF arm through the same chain builder and model the arm backend uses
 // (common/src/device/arm; docs/arms.md, "teleop-arm"); `limit` the fixture's stability limit there with the
 // processes' analysis, `check` the start-up check of a process config without starting it. Errors name the URDF
-// file and the link or joint. Exit status: 0 done (check: the process would start), 1 bad input, 3 check: the
-// process would refuse to start.
+// file and the link or joint. `simulate-motors` runs the simulated arm of a config with `actuators: mit` and
+// `mit.bus: can` as its seven motors on that bus (the teleop-canbus daemon, or vcan), so the host process of the same
+// config drives them from another process (docs/mit-motors.md, "The arm on the teleop-canbus daemon"). Exit status:
+// 0 done (check: the process would start), 1 bad input, 3 check: the process would refuse to start.
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
 #include <Eigen/Core>
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <csignal>
 #include <exception>
 #include <iomanip>
 #include <iostream>
@@ -24,6 +30,7 @@
 #include "arm_model.hpp"
 #include "arm_section.hpp"
 #include "arm_sweep.hpp"
+#include "simulated_mit_arm_client.hpp"
 #include "teleop/analysis/stability_limit.hpp"
 #include "teleop/cli_help.hpp"
 #include "teleop/config/stability_check.hpp"
@@ -143,6 +150,38 @@ int RunCheck(const std::string& config_path) {
   return 3;
 }
 
+std::atomic<bool> g_stop{false};
+void OnStopSignal(int /*signal*/) { g_stop = true; }
+
+/// `simulate-motors --config`: the config's simulated arm as its MIT motors on the config's bus, in real time, until
+/// --for S has passed (0: until SIGINT/SIGTERM).
+int RunSimulateMotors(const std::string& config_path, double for_s) {
+  namespace config = teleop::config;
+  using teleop::device::arm::ArmSection;
+  if (config_path.empty())
+    throw teleop::Error("simulate-motors needs --config FILE (a teleop-master/teleop-slave config)");
+  const config::ProcessConfig process = config::LoadProcessConfig(config_path);
+  if (process.device.backend != "arm") {
+    throw teleop::Error(config_path + ": device.backend is '" + process.device.backend + "', not arm");
+  }
+  const auto& section = process.device.Section<ArmSection>();
+  teleop::device::arm::SimulatedMitArmClient client(section);
+  std::signal(SIGINT, OnStopSignal);
+  std::signal(SIGTERM, OnStopSignal);
+  std::cout << "teleop-arm: " << client.motor_count() << " simulated MIT motors (esc_id 0x" << std::hex
+            << section.mit.joints.front().esc_id << "..0x" << section.mit.joints.back().esc_id << std::dec << ") of "
+            << section.chain.urdf_file << " ready on the bus of " << config_path << std::endl;
+  // The motors answer as soon as the host's commands reach them (one wake-up per host cycle, not a polling tick: six
+  // processes share the machine in the daemon rig), and the arm moves at least every millisecond without them.
+  constexpr std::int64_t kMaxWait_ns = 1'000'000;
+  const std::int64_t start = client.now_ns();
+  while (!g_stop && (for_s <= 0.0 || client.now_ns() - start < static_cast<std::int64_t>(for_s * 1e9))) {
+    (void)client.WaitForFrames(client.now_ns() + kMaxWait_ns);
+    client.Step(client.now_ns());
+  }
+  return 0;
+}
+
 int Run(int argc, char** argv) {
   CLI::App app{
       "teleop-arm: a URDF arm's kinematics and dynamics at one configuration, the fixture's stability "
@@ -153,9 +192,11 @@ int Run(int argc, char** argv) {
                                                  gravity_text = "0,0,-9.81", config_path;
   bool json = false;
   LimitOptions lo;
-  app.add_option("command", command, "fk, jacobian, gravity, inertia, apparent-mass, limit or check")
+  double for_s = 0.0;
+  app.add_option("command", command, "fk, jacobian, gravity, inertia, apparent-mass, limit, check or simulate-motors")
       ->required()
-      ->check(CLI::IsMember({"fk", "jacobian", "gravity", "inertia", "apparent-mass", "limit", "check"}));
+      ->check(CLI::IsMember(
+          {"fk", "jacobian", "gravity", "inertia", "apparent-mass", "limit", "check", "simulate-motors"}));
   app.add_option("--urdf", urdf, "The arm's URDF file (limit with --config: the config's device.arm.urdf)");
   app.add_option("--base", base, "The base link (frame B)");
   app.add_option("--tool", tool, "The tool link");
@@ -163,9 +204,10 @@ int Run(int argc, char** argv) {
   app.add_option("--tool-offset", offset_text, "Tool point in the tool link's frame x,y,z (m)");
   app.add_option("--direction", direction_text, "apparent-mass, limit: the direction n in B (normalised)");
   app.add_option("--gravity", gravity_text, "Gravity in B (m/s^2)");
-  app.add_option("--config", config_path,
-                 "check: the process config to check; limit: take the arm and every analysis parameter (rate, gains, "
-                 "filter, peer, delays, operators) from this teleop-master/teleop-slave config");
+  app.add_option(
+      "--config", config_path,
+      "check, simulate-motors: the process config; limit: take the arm and every analysis parameter (rate, gains, "
+      "filter, peer, delays, operators) from this teleop-master/teleop-slave config");
   app.add_option("--side", lo.side, "limit without --config: the fixture analysed (this arm's role)")
       ->check(CLI::IsMember({"master", "slave"}));
   app.add_option("--rate", lo.rate_hz, "limit without --config: rate_hz (Hz)")->check(CLI::Range(1.0, 1e5));
@@ -187,12 +229,14 @@ int Run(int argc, char** argv) {
   app.add_option("--human-steps", lo.human_steps, "limit without --config: stability.human_grid_steps")
       ->check(CLI::Range(1, 16));
   app.add_flag("--json", json, "One JSON object instead of text");
+  app.add_option("--for", for_s, "simulate-motors: seconds (0: until SIGINT/SIGTERM)")->check(CLI::NonNegativeNumber);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
   if (command == "check") return RunCheck(config_path);
+  if (command == "simulate-motors") return RunSimulateMotors(config_path, for_s);
 
   teleop::config::ProcessConfig process;
   ArmChainSpec spec;

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "teleop/error.hpp"
+#include "teleop/fieldbus/canopen_heartbeat_producer.hpp"
 #include "teleop/fieldbus/cia402_drive.hpp"
 #include "teleop/fieldbus/cia402_eds.hpp"
 
@@ -278,10 +279,11 @@ void Cia402Drive::WriteCommunicationObjects(bool& consumer_armed) {
   // Heartbeats: the drive's producer, and its consumer of the host.
   sdo_.Download(obj301::kProducerHeartbeatTime, 0,
                 static_cast<std::uint32_t>(std::lround(config_.drive_heartbeat_period_ms)), 2);
-  const std::uint32_t consumer = config_.drive_consumer_timeout_ms > 0.0
-                                     ? (std::uint32_t{config_.host_node_id} << 16) |
-                                           static_cast<std::uint32_t>(std::lround(config_.drive_consumer_timeout_ms))
-                                     : 0u;
+  const std::uint32_t consumer =
+      config_.drive_consumer_timeout_ms > 0.0
+          ? canopen::ConsumerHeartbeatEntry(config_.host_node_id,
+                                            static_cast<std::uint16_t>(std::lround(config_.drive_consumer_timeout_ms)))
+          : 0u;
   // The consumer heartbeat 0x1016 and the cycle period 0x1006 are optional in CiA 301 (0x1006 is mandatory only
   // for a SYNC producer, which the drive is not): a drive without them is fine unless a consumer is asked for.
   bool present = true;

@@ -84,6 +84,8 @@ void SimulatedCia402Drive::SetExternalTorque(double torque_Nm) noexcept { extern
 
 void SimulatedCia402Drive::InjectFault(std::uint16_t error_code) noexcept { EnterFault(error_code); }
 
+std::uint32_t SimulatedCia402Drive::consumer_heartbeat() const noexcept { return dict_->consumer_heartbeat; }
+
 void SimulatedCia402Drive::ForceDisable() noexcept {
   if (machine_.state() != cia402::DriveState::kFault && machine_.state() != cia402::DriveState::kFaultReactionActive) {
     (void)machine_.Apply(cia402::cw::kCmdDisableVoltage, true);

@@ -111,7 +111,7 @@ void SimulatedMitMotor::Serve(const proto::can::CanFrame& frame, std::int64_t no
 void SimulatedMitMotor::ServeSpecial(mit::Special what) noexcept {
   switch (what) {
     case mit::Special::kEnable:
-      if (!mit::IsFault(status_)) {
+      if (!mit::IsFault(status_) && !ignore_enable_) {
         status_ = Code(mit::MotorStatus::kEnabled);
         command_ = mit::Command{};
       }

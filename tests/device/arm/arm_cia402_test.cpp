@@ -178,17 +178,19 @@ TEST(Cia402Arm, TheCycleFramesAreTheGoldenOnes) {
       n += std::snprintf(text + n, sizeof text - static_cast<std::size_t>(n), "%02X", f.data[b]);
     frames.emplace_back(text);
   }
-  // The cycle's frames: the SYNC (no data) first; the RPDO queued beside it leaves right after it (applied at the
-  // next SYNC); TPDO1 (statusword: Operation Enabled, remote, following the command; position) and TPDO2
-  // (velocity, torque actual) answer the SYNC; the last is the RPDO of the torque written: controlword 0x000F
-  // (enable operation), target torque 0x007D.
+  // First the host's heartbeat with which Activate ends (CiA 301: 0x700 + node 127, state 05 Operational), still
+  // on the wire when the cycle starts. The cycle's frames: the SYNC (no data); the RPDO queued beside it leaves right
+  // after it (applied at the next SYNC); TPDO1 (statusword: Operation Enabled, remote, following the command;
+  // position) and TPDO2 (velocity, torque actual) answer the SYNC; the last is the RPDO of the torque written:
+  // controlword 0x000F (enable operation), target torque 0x007D.
   std::string all;
   for (const std::string& frame : frames) all += frame + " ";
-  ASSERT_GE(frames.size(), 5u) << all;
-  EXPECT_EQ(frames[0], "080#") << all;
-  EXPECT_EQ(frames[1].substr(0, 4), "207#") << all;
-  EXPECT_EQ(frames[2].substr(0, 8), "187#3712") << all;
-  EXPECT_EQ(frames[3].substr(0, 4), "287#") << all;
+  ASSERT_GE(frames.size(), 6u) << all;
+  EXPECT_EQ(frames[0], "77F#05") << all;
+  EXPECT_EQ(frames[1], "080#") << all;
+  EXPECT_EQ(frames[2].substr(0, 4), "207#") << all;
+  EXPECT_EQ(frames[3].substr(0, 8), "187#3712") << all;
+  EXPECT_EQ(frames[4].substr(0, 4), "287#") << all;
   EXPECT_EQ(frames.back(), "207#0F007D00") << all;
   EXPECT_EQ(std::count(frames.begin(), frames.end(), "080#"), 1) << all;
 }
@@ -241,12 +243,89 @@ TEST(Cia402Arm, ADriveThatStopsAnsweringIsNamedAndEveryDriveStops) {
 }
 
 // The loop's first cycle may come long after Activate (the peer, the start-up check): the readings of the activation
-// count until the first SYNC has answered, and the drives do not fault meanwhile.
+// count until the first SYNC has answered, and the drives do not fault meanwhile, as long as the first cycle comes
+// within the drives' consumer time of the host's heartbeat (Activate ends with a heartbeat on every bus). Later, the
+// drives' consumers fire: a host that activated and never ran its loop is a dead host.
 TEST(Cia402Arm, ALateFirstCycleIsNotAFault) {
   Cia402ArmRig rig;
   rig.plant->timebase().wait_ns(200'000'000);  // 200 ms between Activate and the first cycle, the arm held
   for (int k = 0; k < 20; ++k) rig.Cycle(Eigen::Vector3d::Zero());
   EXPECT_EQ(rig.r.faults, kFaultNone) << rig.arm->ActuatorFaultText();
+  Cia402ArmRig late;
+  late.plant->timebase().wait_ns(350'000'000);  // beyond the 300 ms consumer time
+  for (int k = 0; k < 5; ++k) late.Cycle(Eigen::Vector3d::Zero());
+  EXPECT_EQ(late.r.faults, kFaultCommunication);
+  EXPECT_NE(late.arm->ActuatorFaultText().find("(code 0x8130)"), std::string::npos) << late.arm->ActuatorFaultText();
+}
+
+// Each drive consumes the host's heartbeat while the arm is active (0x1016:01 = host node 127 << 16 | 300 ms, CiA
+// 301), one heartbeat per bus every 100 ms from the cycle; Deactivate switches the consumers off, so a host that
+// stops cleanly leaves no drive to fault.
+TEST(Cia402Arm, EveryDriveConsumesTheHostHeartbeatWhileActive) {
+  Cia402ArmRig rig;
+  const Cia402JointBusConfig defaults;
+  ASSERT_EQ(defaults.drive_consumer_timeout_ms, 300.0);
+  for (int i = 0; i < 7; ++i) EXPECT_EQ(rig.plant->drive(i).consumer_heartbeat(), (127u << 16) | 300u) << i;
+  std::uint64_t sent[4];
+  for (int b = 0; b < 4; ++b) sent[b] = rig.bus->host_heartbeat(b)->counters().sent;
+  for (int k = 0; k < 500; ++k) rig.Cycle(Eigen::Vector3d::Zero());
+  EXPECT_EQ(rig.r.faults, kFaultNone) << rig.arm->ActuatorFaultText();
+  for (int b = 0; b < 4; ++b) {
+    const std::uint64_t in_loop = rig.bus->host_heartbeat(b)->counters().sent - sent[b];
+    EXPECT_GE(in_loop, 4u) << b;  // 500 cycles of 1 ms, one heartbeat each 100 ms after Activate's
+    EXPECT_LE(in_loop, 5u) << b;
+  }
+  rig.arm->Deactivate();
+  for (int i = 0; i < 7; ++i) EXPECT_EQ(rig.plant->drive(i).consumer_heartbeat(), 0u) << i;
+  rig.plant->timebase().wait_ns(1'000'000'000);  // 1 s without a host heartbeat
+  for (int i = 0; i < 7; ++i) {
+    EXPECT_NE(rig.plant->drive(i).drive_state(), fieldbus::cia402::DriveState::kFault) << i;
+    EXPECT_EQ(rig.plant->drive(i).counters().host_heartbeat_timeouts, 0u) << i;
+  }
+}
+
+// The host stops (it died, or its loop stalled): no heartbeat, no SYNC, no RPDO. Every drive's consumer faults it
+// (EMCY 0x8130, its fault reaction) drive_consumer_timeout_ms after the host's last heartbeat; a host that comes
+// back reads the fault by name and every drive is out of Operation Enabled. With the consumer off the drives would
+// stay enabled, holding their last torque.
+TEST(Cia402Arm, AHostThatDiesLeavesEveryDriveInItsFaultReaction) {
+  for (const double consumer_ms : {300.0, 150.0, 0.0}) {
+    ArmSection s = Cia402Section();
+    s.cia402.drive_consumer_timeout_ms = consumer_ms;
+    Cia402ArmRig rig(s);
+    for (int k = 0; k < 50; ++k) rig.Cycle(Eigen::Vector3d::Zero());
+    // Stop right after a heartbeat went out, so the time to the fault is the consumer's.
+    const std::uint64_t sent = rig.bus->host_heartbeat(0)->counters().sent;
+    while (rig.bus->host_heartbeat(0)->counters().sent == sent) rig.Cycle(Eigen::Vector3d::Zero());
+    ASSERT_EQ(rig.r.faults, kFaultNone) << rig.arm->ActuatorFaultText();
+    int ms = 0;
+    for (; ms < 400 && rig.plant->drive(0).drive_state() == fieldbus::cia402::DriveState::kOperationEnabled; ++ms) {
+      rig.plant->timebase().wait_ns(1'000'000);
+    }
+    if (consumer_ms == 0.0) {
+      EXPECT_EQ(ms, 400);
+      for (int i = 0; i < 7; ++i) {
+        EXPECT_EQ(rig.plant->drive(i).drive_state(), fieldbus::cia402::DriveState::kOperationEnabled) << i;
+      }
+      continue;
+    }
+    std::printf("consumer %g ms: drive 1 faulted %d ms after the host stopped\n", consumer_ms, ms);
+    EXPECT_GE(ms, consumer_ms - 2.0);
+    EXPECT_LE(ms, consumer_ms + 2.0);
+    rig.plant->timebase().wait_ns(5'000'000);
+    for (int i = 0; i < 7; ++i) {
+      EXPECT_NE(rig.plant->drive(i).drive_state(), fieldbus::cia402::DriveState::kOperationEnabled) << i;
+      EXPECT_EQ(rig.plant->drive(i).error_code(), fieldbus::canopen::emcy::kHeartbeatError) << i;
+    }
+    for (int k = 0; k < 3; ++k) rig.Cycle(Eigen::Vector3d::Zero());  // the host comes back
+    EXPECT_EQ(rig.r.faults, kFaultCommunication);
+    EXPECT_EQ(rig.arm->arm_faults(), kArmFaultActuator | kArmFaultNoReply);
+    const std::string text = rig.arm->ActuatorFaultText();
+    std::printf("%s\n", text.c_str());
+    EXPECT_EQ(text.rfind("joint 1 'joint1': the drive lost the host's heartbeat", 0), 0u) << text;
+    EXPECT_NE(text.find("(code 0x8130)"), std::string::npos) << text;
+    EXPECT_TRUE(rig.NoneEnabled());
+  }
 }
 
 TEST(Cia402Arm, TheCycleDoesNotAllocate) {
@@ -328,4 +407,20 @@ TEST(Cia402Arm, TheSimulatedYamlRigBuildsAndRuns) {
 }
 
 }  // namespace
+TEST(Cia402Arm, AConsumerNotAboveTheHostHeartbeatIsRefused) {
+  ArmSection s = Cia402Section();
+  s.cia402.drive_consumer_timeout_ms = 100.0;  // the host's period: one late heartbeat would fault every drive
+  EXPECT_THROW((void)MakeCia402JointBus(s), Error);
+  constexpr int kOneBusEach[7] = {0, 0, 1, 1, 2, 2, 3};
+  try {
+    (void)ReadSection(Cia402Yaml("  bus: simulated\n  drive_consumer_timeout_ms: 80\n", kOneBusEach));
+    ADD_FAILURE() << "a consumer below the host's heartbeat period accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("must be 0 (off) or more than host_heartbeat_period_ms (100 ms)"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_NO_THROW((void)ReadSection(Cia402Yaml("  bus: simulated\n  drive_consumer_timeout_ms: 0\n", kOneBusEach)));
+}
+
 }  // namespace teleop::device::arm

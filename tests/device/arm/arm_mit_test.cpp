@@ -240,6 +240,50 @@ TEST(MitArm, TheMotorTimeoutCountsFromTheFirstCommandNotFromActivate) {
   EXPECT_TRUE(rig.AllDisabled());
 }
 
+// A motor that answers but never shows enabled (its driver stage or firmware refuses the enable): Activate refuses it
+// by name; one that stops enabling after Activate (the loop's first exchange re-enables every motor) is a fault of
+// its joint after missing_limit exchanges, named, and every motor is disabled: the arm does not run on six joints.
+TEST(MitArm, AMotorThatNeverEnablesIsAFaultNamedAndTheArmDoesNotRun) {
+  {
+    ArmSection s = MitSection();
+    auto model = std::make_unique<ArmModel>(BuildArmChain(s.chain), s.gravity_B());
+    ArmDeviceConfig device = s.device;
+    JointVector posture(7);
+    for (int i = 0; i < 7; ++i) posture[i] = s.posture_q_rad[static_cast<std::size_t>(i)];
+    device.torque.posture_q = posture;
+    auto joint_bus = MakeMitJointBus(s);
+    auto* plant = dynamic_cast<SimulatedMitArm*>(joint_bus->plant());
+    ArmDevice arm(std::move(model), std::move(joint_bus), device);
+    arm.Configure();
+    plant->motor(3).SetIgnoreEnable(true);
+    try {
+      arm.Activate();
+      ADD_FAILURE() << "activated with a motor that never enables";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(
+                    "joint 4 'joint4' (DM-J4340) (esc_id 0x4) did not enable: it reports disabled (code 0x0)"),
+                std::string::npos)
+          << e.what();
+    }
+    for (int i = 0; i < 7; ++i) EXPECT_FALSE(plant->motor(i).enabled()) << i;
+  }
+  MitArmRig rig;
+  rig.plant->motor(3).SetIgnoreEnable(true);  // after Activate: the loop's enable is the one it refuses
+  int k = 0;
+  for (; k < 50 && rig.r.faults == kFaultNone; ++k) rig.Cycle(Eigen::Vector3d::Zero());
+  EXPECT_EQ(k, MitJointBusConfig{}.missing_limit + 2);  // the enable's exchange, the limit, the Read that sees it
+  EXPECT_EQ(rig.r.faults, kFaultDriver);
+  EXPECT_EQ(rig.arm->arm_faults(), kArmFaultActuator);
+  const std::string text = rig.arm->ActuatorFaultText();
+  std::printf("%s\n", text.c_str());
+  EXPECT_EQ(text.rfind("joint 4 'joint4': the motor never enabled", 0), 0u) << text;
+  EXPECT_NE(text.find("(code 0x103)"), std::string::npos) << text;
+  for (int j = 0; j < 5; ++j) rig.Cycle(Eigen::Vector3d::Zero());
+  EXPECT_TRUE(rig.AllDisabled());
+  EXPECT_TRUE(rig.bus->faulted());
+  EXPECT_EQ(rig.plant->motor(3).torque_Nm(), 0.0);
+}
+
 TEST(MitArm, TheCycleDoesNotAllocate) {
   MitArmRig rig;
   for (int k = 0; k < 10; ++k) rig.Cycle(Eigen::Vector3d(1, 2, -3));

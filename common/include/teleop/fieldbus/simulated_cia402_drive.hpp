@@ -155,6 +155,8 @@ class SimulatedCia402Drive {
   double commanded_torque_Nm() const noexcept;
   std::uint8_t error_register() const noexcept { return error_register_; }
   std::uint16_t error_code() const noexcept { return error_code_; }
+  /// 0x1016:01, its consumer of the host's heartbeat (CiA 301: node-ID << 16 | time in ms; 0 off).
+  std::uint32_t consumer_heartbeat() const noexcept;
   const SimulatedDriveCounters& counters() const noexcept { return counters_; }
   /// The mapping a PDO has now (n 1..4), as the object dictionary holds it.
   const canopen::PdoMapping& rpdo(int n) const noexcept;

@@ -51,6 +51,9 @@ class SimulatedMitMotor {
   void ClearInjectedFault() noexcept { injected_ = 0; }
   /// Stops answering (a motor whose CAN wire is cut): frames are still read, nothing is sent.
   void SetSilent(bool silent) noexcept { silent_ = silent; }
+  /// Answers the enable frame (with its feedback) but stays disabled (code 0): a motor whose driver stage or
+  /// firmware refuses the enable. Commands are answered and ignored, as while disabled.
+  void SetIgnoreEnable(bool ignore) noexcept { ignore_enable_ = ignore; }
   /// An external torque on the shaft (the arm's link, the hand).
   void SetLoadTorque(double torque_Nm) noexcept { load_torque_Nm_ = torque_Nm; }
   /// The MOS and rotor temperature it reports while no over-temperature fault is injected (°C).
@@ -106,6 +109,7 @@ class SimulatedMitMotor {
   std::uint8_t status_ = 0;
   std::uint8_t injected_ = 0;
   bool silent_ = false;
+  bool ignore_enable_ = false;
   bool fd_seen_ = false;
   std::uint64_t commands_received_ = 0;
   std::uint64_t frames_sent_ = 0;

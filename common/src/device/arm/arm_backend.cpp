@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -175,6 +176,15 @@ void ReadCia402(const Field& f, Cia402JointBusConfig& c) {
   c.stale_after_ms = config::ReadNumber(map, k::kCia402Stale);
   c.drive_heartbeat_period_ms = config::ReadNumber(map, k::kCia402HeartbeatPeriod);
   c.heartbeat_timeout_ms = config::ReadNumber(map, k::kCia402HeartbeatTimeout);
+  c.host_heartbeat_period_ms = config::ReadNumber(map, k::kCia402HostHeartbeatPeriod);
+  c.drive_consumer_timeout_ms = config::ReadNumber(map, k::kCia402DriveConsumerTimeout);
+  if (c.drive_consumer_timeout_ms > 0.0 && !(c.drive_consumer_timeout_ms > c.host_heartbeat_period_ms)) {
+    const std::optional<Field> at = map.Optional("drive_consumer_timeout_ms");
+    (at ? *at : map.Required("host_heartbeat_period_ms"))
+        .Fail(fmt::format("drive_consumer_timeout_ms ({:g} ms) must be 0 (off) or more than host_heartbeat_period_ms "
+                          "({:g} ms)",
+                          c.drive_consumer_timeout_ms, c.host_heartbeat_period_ms));
+  }
   c.sdo_timeout_ms = config::ReadNumber(map, k::kCia402SdoTimeout);
   c.activate_timeout_ms = config::ReadNumber(map, k::kCia402ActivateTimeout);
   const Field joints = map.Required("joints");

@@ -541,6 +541,23 @@ inline const KeySpec kCia402HeartbeatTimeout{.key = "cia402.heartbeat_timeout_ms
                                              .meaning = "The host's consumer of each drive's heartbeat.",
                                              .low = 1.0,
                                              .high = 60000.0};
+inline const KeySpec kCia402HostHeartbeatPeriod{.key = "cia402.host_heartbeat_period_ms",
+                                                .unit = "ms",
+                                                .range = KeyRange::kInRange,
+                                                .default_value = kCia402.host_heartbeat_period_ms,
+                                                .meaning = "The host's heartbeat on every bus (node 127).",
+                                                .low = 1.0,
+                                                .high = 10000.0};
+inline const KeySpec kCia402DriveConsumerTimeout{
+    .key = "cia402.drive_consumer_timeout_ms",
+    .unit = "ms",
+    .range = KeyRange::kInRange,
+    .default_value = kCia402.drive_consumer_timeout_ms,
+    .meaning =
+        "Each drive's consumer of the host's heartbeat (0x1016:01, on while active): a dead host faults every "
+        "drive this long after its last heartbeat; 0 = off, else above host_heartbeat_period_ms.",
+    .low = 0.0,
+    .high = 65535.0};
 inline const KeySpec kCia402SdoTimeout{.key = "cia402.sdo_timeout_ms",
                                        .unit = "ms",
                                        .range = KeyRange::kInRange,
@@ -687,6 +704,8 @@ inline const auto& All() {
                                 kCia402Stale,
                                 kCia402HeartbeatPeriod,
                                 kCia402HeartbeatTimeout,
+                                kCia402HostHeartbeatPeriod,
+                                kCia402DriveConsumerTimeout,
                                 kCia402SdoTimeout,
                                 kCia402ActivateTimeout,
                                 kRuntimeEnabled,

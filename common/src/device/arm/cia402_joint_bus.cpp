@@ -38,9 +38,12 @@ class Cia402JointBus::Joint final : public JointActuator {
       case Cia402Status::kNoNewData:
         break;
       case Cia402Status::kFault: {
-        // The EMCY's error code is the drive's 0x603F.
+        // The EMCY's error code is the drive's 0x603F: 0x4xxx temperature, 0x81xx communication (0x8130: the
+        // drive's consumer of the host's heartbeat fired), the others the drive's own.
         const std::uint16_t code = drive_.last_emergency().error_code;
-        Latch((code & 0xF000u) == 0x4000u ? JointFaultKind::kOverTemperature : JointFaultKind::kDriver,
+        Latch((code & 0xF000u) == 0x4000u   ? JointFaultKind::kOverTemperature
+              : (code & 0xFF00u) == 0x8100u ? JointFaultKind::kNoReply
+                                            : JointFaultKind::kDriver,
               code != 0 ? code : kCia402FaultHost + static_cast<std::uint32_t>(status));
         break;
       }
@@ -76,8 +79,9 @@ class Cia402JointBus::Joint final : public JointActuator {
     active_ = true;
   }
   void Stop() noexcept { active_ = false; }
-  void LatchSync() noexcept {
-    if (!sample_.fault) Latch(JointFaultKind::kNoReply, kCia402FaultSync);
+  /// Its bus refused the cycle's SYNC or heartbeat (`code`: kCia402FaultSync, kCia402FaultHeartbeat).
+  void LatchBus(std::uint32_t code) noexcept {
+    if (!sample_.fault) Latch(JointFaultKind::kNoReply, code);
   }
   bool fault() const noexcept { return sample_.fault; }
   fieldbus::Cia402Drive& drive() noexcept { return drive_; }
@@ -113,12 +117,13 @@ fieldbus::Cia402DriveConfig Cia402DriveConfigOf(const Cia402JointBusConfig& conf
   d.node_id = j.node_id;
   d.produce_sync = false;  // one SYNC per bus, the JointBus's (StartCycle)
   d.cycle_period_s = 1.0 / config.rate_hz;
-  bool first_on_bus = true;
-  for (std::size_t k = 0; k < i; ++k) first_on_bus = first_on_bus && config.joints[k].bus != j.bus;
-  d.host_heartbeat_period_ms = first_on_bus ? config.host_heartbeat_period_ms : 0.0;
+  // The host heartbeat is the bus's (Cia402JointBus::heartbeats_), and its consumer in the drive is switched on at
+  // Activate and off at Deactivate by the JointBus: Configure writes it off (a consumer left by an earlier session).
+  d.host_node_id = config.host_node_id;
+  d.host_heartbeat_period_ms = 0.0;
   d.drive_heartbeat_period_ms = config.drive_heartbeat_period_ms;
   d.heartbeat_timeout_ms = config.heartbeat_timeout_ms;
-  d.drive_consumer_timeout_ms = config.drive_consumer_timeout_ms;
+  d.drive_consumer_timeout_ms = 0.0;
   d.sdo.timeout_ms = config.sdo_timeout_ms;
   d.mode = fieldbus::Cia402Mode::kCyclicSynchronousTorque;
   d.scaling.rated_torque_Nm = j.rated_torque_Nm;
@@ -184,8 +189,22 @@ Cia402JointBus::Cia402JointBus(Cia402JointBusConfig config, std::unique_ptr<Cia4
     : config_(std::move(config)),
       plant_(std::move(plant)),
       timebase_(plant_ != nullptr ? plant_->timebase() : fieldbus::Timebase::Steady()),
+      setup_timebase_{timebase_.now_ns,
+                      [this](std::uint64_t ns) {
+                        timebase_.wait_ns(ns);
+                        ServiceHeartbeats();
+                      }},
       names_(std::move(joint_names)) {
   if (config_.joints.empty()) throw Error("arm: actuators cia402 with no joints");
+  const double consumer_ms = config_.drive_consumer_timeout_ms;
+  if (!(consumer_ms >= 0.0) || consumer_ms > 65535.0 ||
+      (consumer_ms > 0.0 &&
+       !(consumer_ms > config_.host_heartbeat_period_ms && config_.host_heartbeat_period_ms > 0.0))) {
+    throw Error(fmt::format(
+        "arm: cia402.drive_consumer_timeout_ms {:g} must be 0 (off) or more than the host's heartbeat period "
+        "cia402.host_heartbeat_period_ms {:g} (> 0), at most 65535",
+        consumer_ms, config_.host_heartbeat_period_ms));
+  }
   const int buses = config_.bus_count();
   if (!config_.simulated && plant_ == nullptr && static_cast<int>(config_.buses.size()) < buses) {
     throw Error(fmt::format("arm: cia402 joints use {} buses, cia402.buses has {}", buses, config_.buses.size()));
@@ -200,6 +219,9 @@ Cia402JointBus::Cia402JointBus(Cia402JointBusConfig config, std::unique_ptr<Cia4
         throw Error(fmt::format("arm: {} and joint {} share node {} on bus {}", Where(i), k + 1, j.node_id, j.bus));
       }
     }
+    if (j.node_id == config_.host_node_id && config_.host_heartbeat_period_ms > 0.0) {
+      throw Error(fmt::format("arm: {}: node {} is the host's heartbeat node-ID", Where(i), j.node_id));
+    }
   }
   first_joint_of_bus_.assign(static_cast<std::size_t>(buses), -1);
   for (std::size_t i = 0; i < config_.joints.size(); ++i) {
@@ -212,7 +234,7 @@ Cia402JointBus::Cia402JointBus(Cia402JointBusConfig config, std::unique_ptr<Cia4
     } catch (const Error& e) {
       throw Error(fmt::format("arm: {}: its port: {}", Where(i), e.what()));
     }
-    auto drive = std::make_unique<fieldbus::Cia402Drive>(d, *ports_.back(), timebase_);
+    auto drive = std::make_unique<fieldbus::Cia402Drive>(d, *ports_.back(), setup_timebase_);
     joints_.push_back(std::make_unique<Joint>(config_.joints[i], *drive));
     drives_.push_back(std::move(drive));
     if (first_joint_of_bus_[static_cast<std::size_t>(b)] < 0) {
@@ -223,6 +245,10 @@ Cia402JointBus::Cia402JointBus(Cia402JointBusConfig config, std::unique_ptr<Cia4
     const int first = first_joint_of_bus_[static_cast<std::size_t>(b)];
     if (first < 0) throw Error(fmt::format("arm: cia402 bus {} has no joint (bus indices must run from 0)", b));
     syncs_.push_back(std::make_unique<fieldbus::canopen::SyncProducer>(*ports_[static_cast<std::size_t>(first)]));
+    if (config_.host_heartbeat_period_ms > 0.0) {
+      heartbeats_.push_back(std::make_unique<fieldbus::canopen::HeartbeatProducer>(
+          *ports_[static_cast<std::size_t>(first)], config_.host_node_id, config_.host_heartbeat_period_ms));
+    }
   }
 }
 
@@ -239,8 +265,20 @@ const fieldbus::Cia402Drive& Cia402JointBus::drive(int i) const noexcept {
   return *drives_[static_cast<std::size_t>(i)];
 }
 
+const fieldbus::canopen::HeartbeatProducer* Cia402JointBus::host_heartbeat(int b) const noexcept {
+  return b >= 0 && static_cast<std::size_t>(b) < heartbeats_.size() ? heartbeats_[static_cast<std::size_t>(b)].get()
+                                                                    : nullptr;
+}
+
 std::string_view Cia402JointBus::FaultName(std::uint32_t fault_code) const noexcept {
   if (fault_code == kCia402FaultSync) return "its bus refused the cycle's SYNC (bus-off or a full transmit queue)";
+  if (fault_code == fieldbus::canopen::emcy::kHeartbeatError) {
+    return "the drive lost the host's heartbeat (its consumer 0x1016, cia402.drive_consumer_timeout_ms): the host "
+           "stopped or its loop stalled";
+  }
+  if (fault_code == kCia402FaultHeartbeat) {
+    return "its bus refused the host's heartbeat (bus-off or a full transmit queue)";
+  }
   if (fault_code < kCia402FaultHost)
     return fieldbus::canopen::DescribeEmergencyCode(static_cast<std::uint16_t>(fault_code));
   switch (static_cast<Cia402Status>(fault_code - kCia402FaultHost)) {
@@ -274,11 +312,42 @@ void Cia402JointBus::Configure() {
   }
 }
 
-void Cia402JointBus::Activate() {
-  const auto undo = [this] {
-    for (auto& d : drives_) (void)d->Deactivate();
-  };
+void Cia402JointBus::ServiceHeartbeats() noexcept {
+  if (heartbeats_.empty()) return;
+  const std::uint64_t now = timebase_.now_ns();
+  for (auto& h : heartbeats_) (void)h->Service(now);
+}
+
+void Cia402JointBus::SetConsumer(std::size_t i, bool on) {
+  if (config_.drive_consumer_timeout_ms <= 0.0) return;
+  const auto ms = static_cast<std::uint16_t>(std::lround(config_.drive_consumer_timeout_ms));
+  drives_[i]->sdo().Download(fieldbus::cia402::obj301::kConsumerHeartbeatTime, 1,
+                             on ? fieldbus::canopen::ConsumerHeartbeatEntry(config_.host_node_id, ms) : 0u, 4);
+}
+
+void Cia402JointBus::StopDrives() noexcept {
   for (std::size_t i = 0; i < drives_.size(); ++i) {
+    (void)drives_[i]->Deactivate();
+    try {
+      SetConsumer(i, false);  // a cleanly stopped host leaves no drive to fault when its heartbeat stops
+    } catch (...) {           // a drive that no longer answers keeps it (it faults: that is its safe state too)
+    }
+  }
+}
+
+void Cia402JointBus::Activate() {
+  const auto undo = [this] { StopDrives(); };
+  for (std::size_t i = 0; i < drives_.size(); ++i) {
+    try {
+      SetConsumer(i, true);
+    } catch (const Error& e) {
+      undo();
+      throw Error(fmt::format(
+          "arm: {}: switching on its consumer of the host's heartbeat (0x1016:01 = node {} << 16 | {:g} ms) failed: "
+          "{}; a drive without 0x1016 needs cia402.drive_consumer_timeout_ms: 0 (and then a dead host does not stop "
+          "it)",
+          Where(i), config_.host_node_id, config_.drive_consumer_timeout_ms, e.what()));
+    }
     try {
       drives_[i]->Activate();
     } catch (const Error& e) {
@@ -292,7 +361,7 @@ void Cia402JointBus::Activate() {
   std::vector<bool> seen(drives_.size(), false);
   for (double waited_ms = 0.0; waited_ms <= config_.activate_timeout_ms; waited_ms += 1e3 / config_.rate_hz) {
     for (auto& s : syncs_) (void)s->Send();
-    timebase_.wait_ns(period_ns);
+    setup_timebase_.wait_ns(period_ns);
     bool all = true;
     for (std::size_t i = 0; i < drives_.size(); ++i) {
       fieldbus::Cia402Reading r;
@@ -318,6 +387,9 @@ void Cia402JointBus::Activate() {
                       Where(i), config_.activate_timeout_ms));
     }
   }
+  // A fresh heartbeat on every bus: the loop's first cycle has drive_consumer_timeout_ms from here.
+  const std::uint64_t now = timebase_.now_ns();
+  for (auto& h : heartbeats_) (void)h->SendNow(now);
   for (auto& j : joints_) j->Start();
   first_cycle_ = true;
   faulted_ = false;
@@ -327,7 +399,7 @@ void Cia402JointBus::Activate() {
 void Cia402JointBus::Deactivate() noexcept {
   active_ = false;
   for (auto& j : joints_) j->Stop();
-  for (auto& d : drives_) (void)d->Deactivate();
+  StopDrives();
 }
 
 void Cia402JointBus::Fault() noexcept {
@@ -347,7 +419,8 @@ bool Cia402JointBus::InGrace(std::uint64_t now_ns) noexcept {
 
 void Cia402JointBus::StartCycle() noexcept {
   if (!active_) return;
-  const bool in_grace = InGrace(timebase_.now_ns());
+  const std::uint64_t now = timebase_.now_ns();
+  const bool in_grace = InGrace(now);
   bool any = false;
   for (auto& j : joints_) {
     j->TakeIn(in_grace);  // the TPDOs sampled at the previous SYNC
@@ -357,7 +430,14 @@ void Cia402JointBus::StartCycle() noexcept {
   // cycle's RPDOs: every drive applies those torques on it, together, and samples its next TPDOs.
   for (std::size_t b = 0; b < syncs_.size(); ++b) {
     if (syncs_[b]->Send() != transport::CanWriteStatus::kOk) {
-      joints_[static_cast<std::size_t>(first_joint_of_bus_[b])]->LatchSync();
+      joints_[static_cast<std::size_t>(first_joint_of_bus_[b])]->LatchBus(kCia402FaultSync);
+      any = true;
+    }
+  }
+  // The host's heartbeat, when due: it stops when this loop stops, and the drives' consumers fire.
+  for (std::size_t b = 0; b < heartbeats_.size(); ++b) {
+    if (heartbeats_[b]->Service(now) != transport::CanWriteStatus::kOk) {
+      joints_[static_cast<std::size_t>(first_joint_of_bus_[b])]->LatchBus(kCia402FaultHeartbeat);
       any = true;
     }
   }

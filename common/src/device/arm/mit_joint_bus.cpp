@@ -77,12 +77,15 @@ class MitJointBus::Joint final : public JointActuator {
     } else if (s.answered && sample_.temperature_C >= bus.temperature_fault_C) {
       Latch(JointFaultKind::kOverTemperature, kMitFaultHostTemperature);
     } else if (check_disabled && s.answered &&
-               s.feedback.status == static_cast<std::uint8_t>(mit::MotorStatus::kDisabled) &&
-               (enabled_seen_ || exchanges_since_enable >= bus.missing_limit)) {
+               s.feedback.status == static_cast<std::uint8_t>(mit::MotorStatus::kDisabled)) {
       // Before the first feedback that shows it enabled, the newest may still be the answer to Activate's disable
-      // (the first exchange carries the enables too, and its replies can come a cycle late): a motor that has not
-      // shown enabled within missing_limit exchanges did not enable.
-      Latch(JointFaultKind::kDriver, kMitFaultDisabled);
+      // (the first exchange carries the enables too, and its replies can come a cycle late): a motor that answers
+      // but has not shown enabled within missing_limit exchanges never enabled, and does not run.
+      if (enabled_seen_) {
+        Latch(JointFaultKind::kDriver, kMitFaultDisabled);
+      } else if (exchanges_since_enable >= bus.missing_limit) {
+        Latch(JointFaultKind::kDriver, kMitFaultNeverEnabled);
+      }
     }
   }
   void ClearFault() noexcept {
@@ -194,6 +197,9 @@ std::string_view MitJointBus::FaultName(std::uint32_t fault_code) const noexcept
       return "over temperature (at or above mit.temperature_fault_C)";
     case kMitFaultDisabled:
       return "the motor reports disabled while the arm is active (power lost, or enabled by no one)";
+    case kMitFaultNeverEnabled:
+      return "the motor never enabled: it answers, but reported disabled for mit.missing_limit exchanges after its "
+             "enable (its control mode, its driver stage or its firmware refuse the enable)";
     default:
       return fault_code <= 0xF ? mit::StatusName(static_cast<std::uint8_t>(fault_code)) : "unknown fault";
   }

@@ -19,9 +19,10 @@
 //   Exchange:       one bus exchange per cycle: the replies of the last exchange in, the commands out, then (a real
 //                   bus) up to `reply_wait_us` for this exchange's replies, or (the simulated arm) the plant advanced
 //                   over the period. A motor without a reply for `missing_limit` exchanges in a row, a motor's fault
-//                   code, a temperature at or above `temperature_fault_C`, or a motor that reports disabled while
-//                   active is a fault of that joint; on any fault every motor is disabled and stays so until the
-//                   next Activate.
+//                   code, a temperature at or above `temperature_fault_C`, a motor that reports disabled while
+//                   active, or one that answers but has not shown enabled within `missing_limit` exchanges after
+//                   the loop's enable (kMitFaultNeverEnabled) is a fault of that joint; on any fault every motor is
+//                   disabled and stays so until the next Activate.
 //   Deactivate:     disables every motor.
 // No allocation, lock or exception in Exchange, Read or WriteTorque.
 
@@ -91,6 +92,8 @@ class MitPlant {
 inline constexpr std::uint32_t kMitFaultNoReply = 0x100;
 inline constexpr std::uint32_t kMitFaultHostTemperature = 0x101;
 inline constexpr std::uint32_t kMitFaultDisabled = 0x102;
+/// It answers, but no feedback showed it enabled within missing_limit exchanges after the loop's enable.
+inline constexpr std::uint32_t kMitFaultNeverEnabled = 0x103;
 
 class MitJointBus final : public JointBus {
  public:
