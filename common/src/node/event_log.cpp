@@ -5,12 +5,23 @@
 #include <chrono>
 #include <string>
 
+#include "teleop/device/device.hpp"
 #include "teleop/node/engagement.hpp"
 #include "teleop/runtime/background_thread.hpp"
 
 namespace teleop::node {
 
 namespace {
+
+/// A device fault, with what the backend says failed (Device::FaultText) when it names it.
+void LogDeviceFault(const Event& e, const device::Device* device) {
+  const std::string text = device != nullptr ? device->FaultText() : std::string();
+  if (text.empty()) {
+    spdlog::error("cycle {}: device fault 0x{:x}, safe state", e.cycle, static_cast<unsigned>(e.value));
+  } else {
+    spdlog::error("cycle {}: device fault 0x{:x}, safe state: {}", e.cycle, static_cast<unsigned>(e.value), text);
+  }
+}
 
 /// The peer, the link, the device and the loop.
 void LogLinkEvent(const Event& e) {
@@ -29,9 +40,6 @@ void LogLinkEvent(const Event& e) {
       break;
     case Event::Kind::kPeerFault:
       spdlog::warn("cycle {}: peer reports a fault, coupling off", e.cycle);
-      break;
-    case Event::Kind::kDeviceFault:
-      spdlog::error("cycle {}: device fault 0x{:x}, safe state", e.cycle, static_cast<unsigned>(e.value));
       break;
     case Event::Kind::kDeviceFaultCleared:
       spdlog::info("cycle {}: device fault cleared", e.cycle);
@@ -212,7 +220,6 @@ void EventLog::Drain() {
       case Event::Kind::kPeerRecovered:
       case Event::Kind::kPeerShutdown:
       case Event::Kind::kPeerFault:
-      case Event::Kind::kDeviceFault:
       case Event::Kind::kDeviceFaultCleared:
       case Event::Kind::kNonFiniteInput:
       case Event::Kind::kOverrun:
@@ -220,6 +227,9 @@ void EventLog::Drain() {
       case Event::Kind::kLatencyGate:
       case Event::Kind::kDeviceWarning:
         LogLinkEvent(e);
+        break;
+      case Event::Kind::kDeviceFault:
+        LogDeviceFault(e, device_.load(std::memory_order_acquire));
         break;
       case Event::Kind::kCouplingLost:
       case Event::Kind::kAligning:

@@ -36,7 +36,9 @@ struct TeleopNode::Impl {
         link(std::move(lnk)),
         loop(cfg.loop),
         events(1024),
-        commands(cfg.dof) {}
+        commands(cfg.dof) {
+    events.SetDevice(device.get());  // declared before `events`: outlives its thread
+  }
   ~Impl() { DeactivateDevice(); }
 
   void Configure();

@@ -181,12 +181,14 @@ TEST(ArmDevice, EachFaultIsItsBitAndTheSafeStateHoldsTheArmsWeight) {
     FaultRig rig(Bent());
     rig.arm->Read(r);
     EXPECT_EQ(r.faults, kFaultNone);
+    EXPECT_EQ(rig.arm->FaultText(), "");
   }
   {  // singular: the arm stretched straight up
     FaultRig rig(JointVector(7));
     rig.arm->Read(r);
     EXPECT_EQ(r.faults, kFaultSingular);
     EXPECT_EQ(rig.arm->arm_faults(), kArmFaultSingular);
+    EXPECT_EQ(rig.arm->FaultText(), "a singular configuration (manipulability below device.arm.min_manipulability)");
   }
   {  // beyond a joint limit
     JointVector q = Bent();
@@ -194,6 +196,7 @@ TEST(ArmDevice, EachFaultIsItsBitAndTheSafeStateHoldsTheArmsWeight) {
     FaultRig rig(q);
     rig.arm->Read(r);
     EXPECT_EQ(r.faults, kFaultOutOfRange);
+    EXPECT_EQ(rig.arm->FaultText().rfind("joint 4 'joint4' beyond its limits [-2.09", 0), 0u) << rig.arm->FaultText();
   }
   {  // an actuator fault, then a non-finite reading
     FaultRig rig(Bent());
@@ -201,11 +204,14 @@ TEST(ArmDevice, EachFaultIsItsBitAndTheSafeStateHoldsTheArmsWeight) {
     rig.arm->Read(r);
     EXPECT_EQ(r.faults, kFaultDriver);
     EXPECT_EQ(rig.arm->arm_faults(), kArmFaultActuator);
+    EXPECT_EQ(rig.arm->FaultText(), rig.arm->ActuatorFaultText());
+    EXPECT_EQ(rig.arm->FaultText().rfind("joint 5 'joint5': ", 0), 0u) << rig.arm->FaultText();
     FaultRig nan_rig(Bent());
     nan_rig.sim->InjectNonFinite(2);
     nan_rig.arm->Read(r);
     EXPECT_EQ(r.faults, kFaultNonFiniteSensor);
     EXPECT_FALSE(r.position_m.allFinite());
+    EXPECT_EQ(nan_rig.arm->FaultText(), "a non-finite joint reading");
   }
   {  // the safe state: a force command after a fault renders nothing; gravity compensation keeps the arm still
     FaultRig rig(Bent());

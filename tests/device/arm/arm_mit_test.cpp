@@ -181,6 +181,7 @@ TEST(MitArm, OverTemperatureWarnsThenFaultsByName) {
   EXPECT_EQ(rig.r.faults, kFaultOvertemperature);
   EXPECT_EQ(rig.arm->arm_faults(), kArmFaultActuator | kArmFaultOverTemperature);
   EXPECT_EQ(rig.arm->ActuatorFaultText(), "joint 6 'joint6': coil over-temperature (code 0xC)");
+  EXPECT_EQ(rig.arm->FaultText(), rig.arm->ActuatorFaultText()) << "what the event log's device-fault line says";
   EXPECT_TRUE(rig.AllDisabled());
   // Activation is refused while the motor reports it, with its name.
   rig.arm->Deactivate();

@@ -168,6 +168,11 @@ class Device {
   /// the configuration it read there every cycle (wait-free, no allocation), the run-time limit's thread reads it
   /// (config::ConfigurationLimit; DeviceBackend::configuration_model). nullptr (the default): none.
   virtual ConfigurationMailbox* configuration_mailbox() noexcept { return nullptr; }
+
+  /// The first fault since Activate in words, for the operator: what failed and where ("joint 3 'elbow': coil
+  /// over-temperature (code 0xC)"). Empty when there is none or the backend names none (the fault bits say what
+  /// they can). Any thread: the event log calls it when it logs a device fault. Not for the cycle (it allocates).
+  virtual std::string FaultText() const { return {}; }
 };
 
 }  // namespace teleop::device

@@ -6,6 +6,10 @@
 
 #include "teleop/runtime/spsc_ring.hpp"
 
+namespace teleop::device {
+class Device;
+}  // namespace teleop::device
+
 namespace teleop::node {
 
 /// Something the loop wants a human to read. Logged by a non-real-time thread, never from the cycle.
@@ -117,6 +121,9 @@ class EventLog {
   std::uint64_t dropped() const noexcept { return dropped_.load(std::memory_order_relaxed); }
   /// Adds an observer (nullptr removes it); it must stay alive until Stop() returns.
   void SetObserver(EventObserver* observer) noexcept { observer_.store(observer, std::memory_order_release); }
+  /// The device whose Device::FaultText a device-fault event's line carries (nullptr: the fault bits only); it must
+  /// stay alive until Stop() returns.
+  void SetDevice(const device::Device* device) noexcept { device_.store(device, std::memory_order_release); }
 
  private:
   void Drain();
@@ -124,6 +131,7 @@ class EventLog {
   std::atomic<bool> stop_{false};
   std::atomic<std::uint64_t> dropped_{0};
   std::atomic<EventObserver*> observer_{nullptr};
+  std::atomic<const device::Device*> device_{nullptr};
   std::thread thread_;
 };
 

@@ -35,7 +35,9 @@ ArmDevice::ArmDevice(std::unique_ptr<ArmModel> model, std::unique_ptr<JointBus> 
 }
 
 void ArmDevice::Activate() {
-  first_fault_joint_ = -1;
+  first_arm_faults_.store(kArmFaultNone, std::memory_order_relaxed);
+  first_fault_joint_.store(-1, std::memory_order_relaxed);
+  first_limit_joint_.store(-1, std::memory_order_relaxed);
   bus_->Activate();
   hold_captured_ = false;  // the orientation to hold is the one at the first Read after activation
 }
@@ -62,13 +64,17 @@ void ArmDevice::Read(Reading& out) noexcept {
       arm |= kArmFaultActuator;
       if (sample_.fault_kind == JointFaultKind::kNoReply) arm |= kArmFaultNoReply;
       if (sample_.fault_kind == JointFaultKind::kOverTemperature) arm |= kArmFaultOverTemperature;
-      if (first_fault_joint_ < 0) {
-        first_fault_joint_ = i;
-        first_fault_code_ = sample_.fault_code;
+      if (first_fault_joint_.load(std::memory_order_relaxed) < 0) {
+        first_fault_code_.store(sample_.fault_code, std::memory_order_relaxed);
+        first_fault_joint_.store(i, std::memory_order_relaxed);
       }
     }
     const JointSpec& j = model_->arm().joints[static_cast<std::size_t>(i)];
-    if (j.bounded && (sample_.position < j.lower || sample_.position > j.upper)) arm |= kArmFaultJointLimit;
+    if (j.bounded && (sample_.position < j.lower || sample_.position > j.upper)) {
+      arm |= kArmFaultJointLimit;
+      if (first_limit_joint_.load(std::memory_order_relaxed) < 0)
+        first_limit_joint_.store(i, std::memory_order_relaxed);
+    }
   }
   model_valid_ = false;
   if ((arm & kArmFaultNonFinite) == 0) {
@@ -84,6 +90,9 @@ void ArmDevice::Read(Reading& out) noexcept {
     hold_captured_ = true;
   }
   arm_faults_ = arm;
+  if (arm != kArmFaultNone && first_arm_faults_.load(std::memory_order_relaxed) == kArmFaultNone) {
+    first_arm_faults_.store(arm, std::memory_order_release);
+  }
   std::uint32_t faults = command_faults_;
   if (arm & (kArmFaultNonFinite | kArmFaultModel)) faults |= kFaultNonFiniteSensor;
   if (arm & kArmFaultJointLimit) faults |= kFaultOutOfRange;
@@ -137,12 +146,34 @@ void ArmDevice::Write(const Command& command) noexcept {
 }
 
 std::string ArmDevice::ActuatorFaultText() const {
-  if (first_fault_joint_ < 0) return {};
+  const int joint = first_fault_joint_.load(std::memory_order_relaxed);
+  if (joint < 0) return {};
+  const std::uint32_t fault_code = first_fault_code_.load(std::memory_order_relaxed);
   char code[16];
-  std::snprintf(code, sizeof code, "0x%X", first_fault_code_);
-  return "joint " + std::to_string(first_fault_joint_ + 1) + " '" +
-         model_->arm().joints[static_cast<std::size_t>(first_fault_joint_)].name +
-         "': " + std::string(bus_->FaultName(first_fault_code_)) + " (code " + code + ")";
+  std::snprintf(code, sizeof code, "0x%X", fault_code);
+  return "joint " + std::to_string(joint + 1) + " '" + model_->arm().joints[static_cast<std::size_t>(joint)].name +
+         "': " + std::string(bus_->FaultName(fault_code)) + " (code " + code + ")";
+}
+
+std::string ArmDevice::FaultText() const {
+  const std::uint32_t arm = first_arm_faults_.load(std::memory_order_acquire);
+  std::string text;
+  const auto add = [&text](const std::string& part) {
+    if (part.empty()) return;
+    if (!text.empty()) text += "; ";
+    text += part;
+  };
+  if (arm & kArmFaultActuator) add(ActuatorFaultText());
+  if (const int joint = first_limit_joint_.load(std::memory_order_relaxed); (arm & kArmFaultJointLimit) && joint >= 0) {
+    const JointSpec& j = model_->arm().joints[static_cast<std::size_t>(joint)];
+    char range[64];
+    std::snprintf(range, sizeof range, "[%.4g, %.4g]", j.lower, j.upper);
+    add("joint " + std::to_string(joint + 1) + " '" + j.name + "' beyond its limits " + range);
+  }
+  if (arm & kArmFaultSingular) add("a singular configuration (manipulability below device.arm.min_manipulability)");
+  if (arm & kArmFaultNonFinite) add("a non-finite joint reading");
+  if (arm & kArmFaultModel) add("the kinematic model could not be evaluated at this configuration");
+  return text;
 }
 
 void ArmDevice::Update(double period_s) noexcept { bus_->Exchange(period_s); }

@@ -10,6 +10,7 @@
 //   Safe:  the arm holds its own weight: τ = G(q), the coupling force zero.
 
 #include <Eigen/Core>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -76,6 +77,9 @@ class ArmDevice final : public Device, public BusExchange {
   /// The first actuator fault since Activate (or construction), by name: "joint 4 'joint4': coil over-temperature
   /// (code 0xC)"; empty when none. Not for the cycle (it allocates).
   std::string ActuatorFaultText() const;
+  /// Every fault of the first faulted reading since Activate, by name: the actuator's (ActuatorFaultText), the
+  /// joint beyond its limits, a singular configuration, a non-finite reading. Any thread.
+  std::string FaultText() const override;
   const JointVector& q() const noexcept { return q_; }
   const ArmModel& model() const noexcept { return *model_; }
   const ArmTorque& torque() const noexcept { return torque_; }
@@ -95,8 +99,14 @@ class ArmDevice final : public Device, public BusExchange {
   bool model_valid_ = false;
   bool hold_captured_ = false;
   std::uint32_t arm_faults_ = kArmFaultNone;
-  int first_fault_joint_ = -1;  ///< Latched at the first actuator fault (ActuatorFaultText).
-  std::uint32_t first_fault_code_ = 0;
+  // Latched by Read() at the first faulted reading since Activate, for FaultText on another thread: the joint
+  // and code first, then the fault word (release), which FaultText reads first (acquire).
+  std::atomic<int> first_fault_joint_{-1};  ///< The first actuator fault's joint (ActuatorFaultText).
+  std::atomic<std::uint32_t> first_fault_code_{0};
+  std::atomic<int> first_limit_joint_{-1};  ///< The first joint found beyond its limits.
+  std::atomic<std::uint32_t> first_arm_faults_{kArmFaultNone};
+  static_assert(std::atomic<int>::is_always_lock_free && std::atomic<std::uint32_t>::is_always_lock_free,
+                "written by the cycle, read by the event log's thread, wait-free");
   std::uint32_t faults_ = kFaultNone;
   std::uint32_t command_faults_ = kFaultNone;
   std::uint32_t warnings_ = kWarningNone;
