@@ -10,6 +10,8 @@ wall time on a shared machine is noise). How the sanitizer pass's options were c
   deploy/lib/compile_cost.py build-debug --opt "-g1 -O1" FILES...              # the preset's compiler (clang)
 
 --cxx clang++ drops the GCC-only warning flags. No -Werror: this measures cost, not warnings.
+--as-built keeps the build's own flags (its -g/-O, -Werror, a precompiled header): how the test precompiled header was
+measured, with FILES compiled in a build configured with -DTELEOP_TEST_PCH=OFF and in one with ON (its header built).
 """
 import argparse
 import json
@@ -32,6 +34,7 @@ def main() -> int:
     parser.add_argument("--cxx", help="compiler instead of the build's (e.g. g++, clang++)")
     parser.add_argument("--opt", default="-g1 -O1", help="debug-info and optimisation flags (default: %(default)s)")
     parser.add_argument("-j", type=int, default=2, help="parallel compiles (default: %(default)s)")
+    parser.add_argument("--as-built", action="store_true", help="keep the build's -g/-O flags and -Werror (no --opt)")
     args = parser.parse_args()
 
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -56,7 +59,9 @@ def main() -> int:
             if w in ("-MF", "-MT", "-o"):
                 skip = 1
                 continue
-            if w == "-MD" or w == "-Werror" or w.startswith("-O") or w.startswith("-g"):
+            if w == "-MD":
+                continue
+            if not args.as_built and (w == "-Werror" or w.startswith("-O") or w.startswith("-g")):
                 continue
             if args.cxx and "clang" in args.cxx and w in GCC_ONLY:
                 continue
@@ -64,7 +69,8 @@ def main() -> int:
         if args.cxx:
             out[0] = args.cxx
         obj = os.path.join(scratch, path.replace("/", "_") + ".o")
-        return [out[0], *shlex.split(args.opt), *out[1:], "-o", obj]
+        opt = [] if args.as_built else shlex.split(args.opt)
+        return [out[0], *opt, *out[1:], "-o", obj]
 
     def cost(path: str) -> tuple[str, float, bool]:
         # os.wait4 gives this one compiler's own CPU time, exact even with compiles in parallel.
@@ -83,7 +89,8 @@ def main() -> int:
     for path, cpu, ok in results:
         total += cpu
         print(f"{cpu:7.1f} s  {path}{'' if ok else '  (FAILED)'}")
-    print(f"{total:7.1f} s  total CPU, {len(results)} files, --opt '{args.opt}'" + (f" --cxx {args.cxx}" if args.cxx else ""))
+    flags = "--as-built" if args.as_built else f"--opt '{args.opt}'"
+    print(f"{total:7.1f} s  total CPU, {len(results)} files, {flags}" + (f" --cxx {args.cxx}" if args.cxx else ""))
     return 0 if all(ok for _, _, ok in results) else 1
 
 
