@@ -95,7 +95,6 @@ class ConnectionWatch final : public CycleSink {
   Config config_;
   std::function<void()> give_up_;
   std::uint64_t decimation_ = 100;
-  std::uint64_t first_cycle_ns_ = 0;  ///< Written once by the cycle, before `started_`.
   std::array<std::atomic<std::uint64_t>, kSlots> slots_{};
   std::atomic<std::uint64_t> waited_ns_{0};
   std::atomic<bool> started_{false};
