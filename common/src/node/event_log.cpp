@@ -97,6 +97,59 @@ void LogCouplingEvent(const Event& e) {
   }
 }
 
+/// The delay re-check's outcomes (config/delay_recheck.hpp).
+void LogDelayRecheck(const Event& e) {
+  switch (static_cast<DelayRecheckDetail>(e.detail)) {
+    case DelayRecheckDetail::kSlower:
+      spdlog::warn("cycle {}: delay re-check: the link is slower, fixture ramps to {:.0f} N/m", e.cycle, e.value);
+      break;
+    case DelayRecheckDetail::kRecovered:
+      spdlog::info("cycle {}: delay re-check: the link recovered, fixture ramps back to {:.0f} N/m", e.cycle, e.value);
+      break;
+    case DelayRecheckDetail::kCouplingUnstable:
+      spdlog::error("cycle {}: delay re-check: no fixture is stable at the measured delay, nothing changed", e.cycle);
+      break;
+    case DelayRecheckDetail::kDecoupled:
+      spdlog::error("cycle {}: delay re-check: no fixture is stable at the measured delay, decoupled (clutch)",
+                    e.cycle);
+      break;
+    case DelayRecheckDetail::kPassivityOn:
+      spdlog::error(
+          "cycle {}: delay re-check: no fixture is stable at the measured delay, passivity controller on "
+          "(observer)",
+          e.cycle);
+      break;
+    case DelayRecheckDetail::kPassivityRestored:
+      spdlog::info("cycle {}: delay re-check: stable at the measured delay again, passivity back to its config",
+                   e.cycle);
+      break;
+    case DelayRecheckDetail::kFailed:
+      spdlog::warn("cycle {}: delay re-check: nothing changed (see the re-check's message)", e.cycle);
+      break;
+  }
+}
+
+/// The run-time limit at an arm's configuration (config/configuration_limit.hpp).
+void LogConfigurationLimit(const Event& e) {
+  switch (static_cast<ConfigurationLimitDetail>(e.detail)) {
+    case ConfigurationLimitDetail::kLowered:
+      spdlog::warn(
+          "cycle {}: configuration limit: the limit at the arm's configuration fell, fixture ramps to "
+          "{:.0f} N/m",
+          e.cycle, e.value);
+      break;
+    case ConfigurationLimitDetail::kRaised:
+      spdlog::info("cycle {}: configuration limit: the limit rose, fixture ramps up to {:.0f} N/m", e.cycle, e.value);
+      break;
+    case ConfigurationLimitDetail::kRestored:
+      spdlog::info("cycle {}: configuration limit: fixture ramps back to {:.0f} N/m", e.cycle, e.value);
+      break;
+    case ConfigurationLimitDetail::kFailed:
+      spdlog::warn("cycle {}: configuration limit: nothing changed (see its message)", e.cycle);
+      break;
+  }
+}
+
 /// The command channel's outcomes.
 void LogCommandEvent(const Event& e) {
   switch (e.kind) {
@@ -135,56 +188,10 @@ void LogCommandEvent(const Event& e) {
       spdlog::warn("cycle {}: command refused: fixture plane", e.cycle);
       break;
     case Event::Kind::kDelayRecheck:
-      switch (static_cast<DelayRecheckDetail>(e.detail)) {
-        case DelayRecheckDetail::kSlower:
-          spdlog::warn("cycle {}: delay re-check: the link is slower, fixture ramps to {:.0f} N/m", e.cycle, e.value);
-          break;
-        case DelayRecheckDetail::kRecovered:
-          spdlog::info("cycle {}: delay re-check: the link recovered, fixture ramps back to {:.0f} N/m", e.cycle,
-                       e.value);
-          break;
-        case DelayRecheckDetail::kCouplingUnstable:
-          spdlog::error("cycle {}: delay re-check: no fixture is stable at the measured delay, nothing changed",
-                        e.cycle);
-          break;
-        case DelayRecheckDetail::kDecoupled:
-          spdlog::error("cycle {}: delay re-check: no fixture is stable at the measured delay, decoupled (clutch)",
-                        e.cycle);
-          break;
-        case DelayRecheckDetail::kPassivityOn:
-          spdlog::error(
-              "cycle {}: delay re-check: no fixture is stable at the measured delay, passivity controller on "
-              "(observer)",
-              e.cycle);
-          break;
-        case DelayRecheckDetail::kPassivityRestored:
-          spdlog::info("cycle {}: delay re-check: stable at the measured delay again, passivity back to its config",
-                       e.cycle);
-          break;
-        case DelayRecheckDetail::kFailed:
-          spdlog::warn("cycle {}: delay re-check: nothing changed (see the re-check's message)", e.cycle);
-          break;
-      }
+      LogDelayRecheck(e);
       break;
     case Event::Kind::kConfigurationLimit:
-      switch (static_cast<ConfigurationLimitDetail>(e.detail)) {
-        case ConfigurationLimitDetail::kLowered:
-          spdlog::warn(
-              "cycle {}: configuration limit: the limit at the arm's configuration fell, fixture ramps to "
-              "{:.0f} N/m",
-              e.cycle, e.value);
-          break;
-        case ConfigurationLimitDetail::kRaised:
-          spdlog::info("cycle {}: configuration limit: the limit rose, fixture ramps up to {:.0f} N/m", e.cycle,
-                       e.value);
-          break;
-        case ConfigurationLimitDetail::kRestored:
-          spdlog::info("cycle {}: configuration limit: fixture ramps back to {:.0f} N/m", e.cycle, e.value);
-          break;
-        case ConfigurationLimitDetail::kFailed:
-          spdlog::warn("cycle {}: configuration limit: nothing changed (see its message)", e.cycle);
-          break;
-      }
+      LogConfigurationLimit(e);
       break;
     default:
       break;

@@ -47,9 +47,8 @@ void ArmDevice::Deactivate() noexcept {
   bus_->Deactivate();
 }
 
-void ArmDevice::Read(Reading& out) noexcept {
+std::uint32_t ArmDevice::ReadJoints(Reading& out, std::uint32_t& arm_warnings) noexcept {
   std::uint32_t arm = kArmFaultNone;
-  std::uint32_t arm_warnings = kArmWarningNone;
   out.joint_position_rad.resize(n_);  // fixed storage: no allocation
   out.joint_torque_Nm.resize(n_);
   for (int i = 0; i < n_; ++i) {
@@ -72,10 +71,17 @@ void ArmDevice::Read(Reading& out) noexcept {
     const JointSpec& j = model_->arm().joints[static_cast<std::size_t>(i)];
     if (j.bounded && (sample_.position < j.lower || sample_.position > j.upper)) {
       arm |= kArmFaultJointLimit;
-      if (first_limit_joint_.load(std::memory_order_relaxed) < 0)
+      if (first_limit_joint_.load(std::memory_order_relaxed) < 0) {
         first_limit_joint_.store(i, std::memory_order_relaxed);
+      }
     }
   }
+  return arm;
+}
+
+void ArmDevice::Read(Reading& out) noexcept {
+  std::uint32_t arm_warnings = kArmWarningNone;
+  std::uint32_t arm = ReadJoints(out, arm_warnings);
   model_valid_ = false;
   if ((arm & kArmFaultNonFinite) == 0) {
     model_valid_ = model_->Update(q_, v_);

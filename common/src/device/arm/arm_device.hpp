@@ -85,6 +85,9 @@ class ArmDevice final : public Device, public BusExchange {
   const ArmTorque& torque() const noexcept { return torque_; }
 
  private:
+  /// Reads every joint into q_, v_ and `out`'s joint vectors: the ArmFaultBits they show (latching the first
+  /// actuator fault and the first joint beyond its limits), their warnings into `arm_warnings`.
+  std::uint32_t ReadJoints(Reading& out, std::uint32_t& arm_warnings) noexcept;
   void Apply(const Eigen::Vector3d& force_N, bool coupling) noexcept;
 
   std::string name_ = "arm";
