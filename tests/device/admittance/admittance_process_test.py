@@ -8,7 +8,9 @@ Checks: both processes pass the start-up stability check with (m_v, b_v) as the 
 fault cycle, the slave follows the master (tracking error below 3 mm rms) and stops at the fixture 10 mm out: its
 largest position within 10..12 mm (the finger's 3 N on the coupling and the fixture's 2000 N/m: ~1.5 mm of penetration
 at most) and at rest at the end; the drive's joint (its measured position, logged by the device at the end) followed:
-never beyond the tracking bound, and at the end within 10..12 mm and 0.5 mm of the virtual mass. The configs are used as shipped except for free ports, the EDS path and the CSV.
+never beyond the tracking bound, and at the end within 10..12 mm and 0.5 mm of the virtual mass. The configs are used
+as shipped except for free ports, the EDS path, the CSV and the loaded-host timing bounds (the link's timeout, the
+drive's stale_after_ms and heartbeat_timeout_ms, each 10x or more wider).
 
 --variant torque: the same backend in torque mode (slave-torque.yaml, master-torque.yaml): the law's force is the
 drive's torque, the reading the joint as the drive measures it, the model the axis itself (J/r^2, b/r^2); the same
@@ -51,7 +53,14 @@ def main():
             text = text.replace('"127.0.0.1:47051"', f'"127.0.0.1:{link[0]}"')
             text = text.replace('"127.0.0.1:47052"', f'"127.0.0.1:{link[1]}"')
             text = text.replace('"127.0.0.1:47300"', f'"127.0.0.1:{bus_port}"')
+            # Loaded-host timing (four processes and another test on two cores; the shipped values stay in the file):
+            # the link's watchdog and the drive's staleness and heartbeat bounds 10x wider, so that a scheduler stall
+            # of 50 ms is not a drive that stopped answering (CI once saw 5 fault cycles of it).
             text = text.replace("timeout_ms: 50\n", "timeout_ms: 500\n")
+            text = text.replace("stale_after_ms: 50\n", "stale_after_ms: 500\n")
+            text = text.replace("heartbeat_timeout_ms: 300\n", "heartbeat_timeout_ms: 2000\n")
+            if role == "slave" and ("stale_after_ms: 500\n" not in text or "heartbeat_timeout_ms: 2000\n" not in text):
+                fail(f"{role}-{args.variant}.yaml no longer spells stale_after_ms: 50 / heartbeat_timeout_ms: 300")
             text = text.replace("eds: simulated-cia402-drive.eds", f"eds: {cfg}/simulated-cia402-drive.eds")
             text = re.sub(r'(?m)^(\s*csv:).*$', lambda m: f'{m.group(1)} "{os.path.join(tmp, role + ".csv")}"', text)
             paths[role] = os.path.join(tmp, f"{role}.yaml")

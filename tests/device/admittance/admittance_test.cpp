@@ -37,6 +37,7 @@ struct Rig {
   AdmittanceConfig config;
   std::unique_ptr<AdmittanceDevice> device;
   test::SyncGate* gate = nullptr;  ///< The first drive's host port (the device sends the SYNC on it).
+  bool drives_silent = false;      ///< The simulated drives stop running (no TPDO, no heartbeat).
 
   explicit Rig(int dof, double m_v, double b_v, double kp = 100.0, const fieldbus::SimulatedLoopConfig* loops = nullptr,
                const fieldbus::SimulatedJointConfig* joint = nullptr) {
@@ -79,7 +80,8 @@ struct Rig {
     const std::uint64_t end = now_ns + ns;
     while (now_ns < end) {
       now_ns = std::min(end, now_ns + 100'000);
-      for (auto& s : sims) s->Step(now_ns);
+      if (!drives_silent)
+        for (auto& s : sims) s->Step(now_ns);
     }
   }
   /// One 1 ms cycle as the node runs it: Exchange, Read, the law (here `force`), Write, Update, then the period
@@ -229,6 +231,43 @@ TEST(Admittance, AFaultedDriveIsReportedAndNaNIsRefused) {
   rig.Advance(3'000'000);
   r = rig.Cycle(DofVector::Constant(1, 0.0));
   EXPECT_NE(r.faults & kFaultDriver, 0u);
+}
+
+// The operator is told what failed, by name: a drive in Fault with the EMCY's code, and a drive that stopped
+// answering with its node and stale_after_ms (Device::FaultText, which the event log and Deactivate print).
+TEST(Admittance, TheFirstFaultIsNamedWithTheDrivesNodeAndWhatFailed) {
+  {
+    Rig rig(1, 0.5, 5.0);
+    rig.Build();
+    rig.device->Configure();
+    rig.device->Activate();
+    Reading r;
+    for (int k = 0; k < 5; ++k) r = rig.Cycle(DofVector::Constant(1, 0.0));
+    EXPECT_EQ(rig.device->FaultText(), "");
+    rig.sims[0]->InjectFault(0x2310);
+    for (int k = 0; k < 5; ++k) r = rig.Cycle(DofVector::Constant(1, 0.0));
+    EXPECT_NE(r.faults & kFaultDriver, 0u);
+    EXPECT_EQ(rig.device->fault_status(), fieldbus::Cia402Status::kFault);
+    const std::string text = rig.device->FaultText();
+    EXPECT_EQ(text.rfind("axis 0 (node 1): the drive is in Fault: EMCY 0x2310 ", 0), 0u) << text;
+  }
+  Rig rig(2, 0.5, 5.0);
+  rig.config.axes[1].drive.stale_after_ms = 20.0;
+  rig.config.axes[1].drive.heartbeat_timeout_ms = 500.0;
+  rig.Build();
+  rig.device->Configure();
+  rig.device->Activate();
+  Reading r;
+  for (int k = 0; k < 5; ++k) r = rig.Cycle(DofVector::Constant(2, 0.0));
+  EXPECT_EQ(r.faults, kFaultNone);
+  rig.drives_silent = true;
+  int cycles = 0;
+  for (; cycles < 100 && r.faults == kFaultNone; ++cycles) r = rig.Cycle(DofVector::Constant(2, 0.0));
+  EXPECT_NE(r.faults & kFaultCommunication, 0u);
+  EXPECT_EQ(rig.device->fault_status(), fieldbus::Cia402Status::kStale);
+  EXPECT_EQ(rig.device->FaultText(), "axis 0 (node 1): the drive stopped answering (no TPDO for stale_after_ms), 10 ms")
+      << "the first axis found stale is named, with its own stale_after_ms (axis 1's is 20 ms)";
+  EXPECT_LE(cycles, 15);
 }
 
 // The cycle's SYNC refused while both drives are fine: the fault is the exchange's (kSync, communication), not a

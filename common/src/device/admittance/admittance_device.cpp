@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "teleop/error.hpp"
+#include "teleop/fieldbus/canopen_frames.hpp"
 #include "teleop/fieldbus/cia402_eds.hpp"
 
 namespace teleop::device {
@@ -129,12 +130,76 @@ const char* ToString(AdmittanceFaultSource source) noexcept {
   return "?";
 }
 
-void AdmittanceDevice::Fault(std::uint32_t& faults, std::uint32_t bits, AdmittanceFaultSource source,
-                             int axis) noexcept {
+void AdmittanceDevice::Fault(std::uint32_t& faults, std::uint32_t bits, AdmittanceFaultSource source, int axis,
+                             Cia402Status status) noexcept {
   faults |= bits;
-  if (fault_source_ != AdmittanceFaultSource::kNone) return;
-  fault_source_ = source;
-  fault_axis_ = axis;
+  if (fault_source_.load(std::memory_order_relaxed) != AdmittanceFaultSource::kNone) return;
+  fault_axis_.store(axis, std::memory_order_relaxed);
+  fault_status_.store(status, std::memory_order_relaxed);
+  fault_source_.store(source, std::memory_order_release);
+}
+
+namespace {
+
+/// What a drive's status says failed, in the operator's words (the keys are the drive's, device.admittance.drives).
+const char* DescribeDriveStatus(Cia402Status status) noexcept {
+  switch (status) {
+    case Cia402Status::kStale:
+      return "the drive stopped answering (no TPDO for stale_after_ms)";
+    case Cia402Status::kHeartbeatLost:
+      return "the drive's heartbeat was lost (heartbeat_timeout_ms)";
+    case Cia402Status::kBusOff:
+      return "the bus is bus-off";
+    case Cia402Status::kWriteFailed:
+      return "the port refused a frame (transmit queue full or a bus error)";
+    case Cia402Status::kNotEnabled:
+      return "the drive left Operation Enabled (an external disable, STO, or a quick stop)";
+    case Cia402Status::kFault:
+      return "the drive is in Fault";
+    case Cia402Status::kWrongMode:
+      return "a setpoint of another mode than the configured one";
+    default:
+      return "the drive is not in the cycle";
+  }
+}
+
+}  // namespace
+
+std::string AdmittanceDevice::FaultText() const {
+  const AdmittanceFaultSource source = fault_source_.load(std::memory_order_acquire);
+  const int axis = fault_axis_.load(std::memory_order_relaxed);
+  switch (source) {
+    case AdmittanceFaultSource::kNone:
+      return {};
+    case AdmittanceFaultSource::kDrive: {
+      if (axis < 0) return "no drive configured";
+      const auto k = static_cast<std::size_t>(axis);
+      const Cia402Status status = fault_status_.load(std::memory_order_relaxed);
+      std::string text =
+          fmt::format("axis {} (node {}): {}", axis, config_.axes[k].drive.node_id, DescribeDriveStatus(status));
+      if (status == Cia402Status::kStale) {
+        text += fmt::format(", {} ms", config_.axes[k].drive.stale_after_ms);
+      } else if (status == Cia402Status::kHeartbeatLost) {
+        text += fmt::format(", {} ms", config_.axes[k].drive.heartbeat_timeout_ms);
+      } else if (status == Cia402Status::kFault && k < drives_.size()) {
+        const std::uint16_t code = drives_[k]->last_emergency().error_code;
+        if (code != 0) {
+          text += fmt::format(": EMCY 0x{:04X} {}", code, fieldbus::canopen::DescribeEmergencyCode(code));
+        }
+      }
+      return text;
+    }
+    case AdmittanceFaultSource::kTracking:
+      return fmt::format(
+          "axis {}: the drive's joint did not follow the virtual mass (beyond max_tracking_error_m, "
+          "{:.3f} mm, for tracking_error_cycles)",
+          axis, max_tracking_error_m_ * 1e3);
+    case AdmittanceFaultSource::kCommand:
+      return "a non-finite or wrongly sized force command";
+    case AdmittanceFaultSource::kSync:
+      return "the bus refused the cycle's SYNC (bus-off or a full transmit queue)";
+  }
+  return {};
 }
 
 void AdmittanceDevice::Configure() {
@@ -178,21 +243,17 @@ void AdmittanceDevice::Activate() {
   tracking_fault_ = false;
   force_N_.setZero();
   faults_ = kFaultNone;
-  fault_source_ = AdmittanceFaultSource::kNone;
-  fault_axis_ = -1;
+  fault_axis_.store(-1, std::memory_order_relaxed);
+  fault_status_.store(Cia402Status::kOk, std::memory_order_relaxed);
+  fault_source_.store(AdmittanceFaultSource::kNone, std::memory_order_release);
   safe_ = true;
   active_ = true;
 }
 
 void AdmittanceDevice::Deactivate() noexcept {
   SetSafe();
-  if (active_ && fault_source_ != AdmittanceFaultSource::kNone) {
-    if (fault_axis_ >= 0) {
-      spdlog::error("device.admittance: the first fault since Activate: {} (axis {})", ToString(fault_source_),
-                    fault_axis_);
-    } else {
-      spdlog::error("device.admittance: the first fault since Activate: {}", ToString(fault_source_));
-    }
+  if (active_ && fault_source() != AdmittanceFaultSource::kNone) {
+    spdlog::error("device.admittance: the first fault since Activate ({}): {}", ToString(fault_source()), FaultText());
   }
   if (active_) {
     for (int i = 0; i < config_.dof; ++i) {
@@ -287,10 +348,10 @@ void AdmittanceDevice::Read(Reading& out) noexcept {
       case Cia402Status::kNotEnabled:
       case Cia402Status::kNotActive:
       case Cia402Status::kWrongMode:
-        Fault(faults, kFaultDriver, AdmittanceFaultSource::kDrive, i);
+        Fault(faults, kFaultDriver, AdmittanceFaultSource::kDrive, i, s);
         break;
       default:
-        Fault(faults, kFaultCommunication, AdmittanceFaultSource::kDrive, i);
+        Fault(faults, kFaultCommunication, AdmittanceFaultSource::kDrive, i, s);
         break;
     }
   }
@@ -320,9 +381,9 @@ void AdmittanceDevice::Update(double period_s) noexcept {
       rendered_N_[i] = safe_ ? 0.0 : force_N_[i];
       const Cia402Status s = drives_[k]->WriteTorque_Nm(rendered_N_[i] * t);
       if (s == Cia402Status::kWriteFailed || s == Cia402Status::kBusOff || s == Cia402Status::kHeartbeatLost) {
-        Fault(faults_, kFaultCommunication, AdmittanceFaultSource::kDrive, i);
+        Fault(faults_, kFaultCommunication, AdmittanceFaultSource::kDrive, i, s);
       } else if (s == Cia402Status::kFault) {
-        Fault(faults_, kFaultDriver, AdmittanceFaultSource::kDrive, i);
+        Fault(faults_, kFaultDriver, AdmittanceFaultSource::kDrive, i, s);
       }
       continue;
     }
@@ -341,9 +402,9 @@ void AdmittanceDevice::Update(double period_s) noexcept {
                                ? drives_[k]->WritePosition_rad(m.position_m() / t)
                                : drives_[k]->WriteVelocity_rad_per_s(m.velocity_m_per_s() / t);
     if (s == Cia402Status::kWriteFailed || s == Cia402Status::kBusOff || s == Cia402Status::kHeartbeatLost) {
-      Fault(faults_, kFaultCommunication, AdmittanceFaultSource::kDrive, i);
+      Fault(faults_, kFaultCommunication, AdmittanceFaultSource::kDrive, i, s);
     } else if (s == Cia402Status::kFault) {
-      Fault(faults_, kFaultDriver, AdmittanceFaultSource::kDrive, i);
+      Fault(faults_, kFaultDriver, AdmittanceFaultSource::kDrive, i, s);
     }
   }
 }

@@ -22,6 +22,7 @@
 // tool; no tracking check.
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -139,8 +140,13 @@ class AdmittanceDevice final : public Device, public BusExchange {
   double measured_position_m(int axis) const { return tracking(axis).measured_position_m; }
   double max_tracking_error_m() const noexcept { return max_tracking_error_m_; }
   /// The first fault's source since Activate, and its axis (kDrive, kTracking; -1 otherwise).
-  AdmittanceFaultSource fault_source() const noexcept { return fault_source_; }
-  int fault_axis() const noexcept { return fault_axis_; }
+  AdmittanceFaultSource fault_source() const noexcept { return fault_source_.load(std::memory_order_acquire); }
+  int fault_axis() const noexcept { return fault_axis_.load(std::memory_order_relaxed); }
+  /// kDrive: the drive's status that set it (kOk for a refused RPDO reported by Update as kWriteFailed, etc.).
+  fieldbus::Cia402Status fault_status() const noexcept { return fault_status_.load(std::memory_order_relaxed); }
+  /// The first fault since Activate in words: its source, the axis and drive node, and what the drive's status
+  /// says ("axis 0 (node 1): the drive stopped answering (no TPDO for stale_after_ms, 50 ms)").
+  std::string FaultText() const override;
 
  private:
   /// One drive's part of the last Exchange(): its status and reading (kOk becomes kNoNewData once Read).
@@ -152,7 +158,8 @@ class AdmittanceDevice final : public Device, public BusExchange {
   /// position to the joint's at the first one); sets kFaultDriver in `faults` once the bound holds long enough.
   void TrackAxis(std::size_t k, double measured_m, std::uint32_t& faults) noexcept;
   /// Sets `bits` in `faults` and names the source when it is the first since Activate.
-  void Fault(std::uint32_t& faults, std::uint32_t bits, AdmittanceFaultSource source, int axis = -1) noexcept;
+  void Fault(std::uint32_t& faults, std::uint32_t bits, AdmittanceFaultSource source, int axis = -1,
+             fieldbus::Cia402Status status = fieldbus::Cia402Status::kOk) noexcept;
 
   AdmittanceConfig config_;
   AdmittancePortFactory ports_;
@@ -174,8 +181,11 @@ class AdmittanceDevice final : public Device, public BusExchange {
   DofVector force_N_;
   DofVector rendered_N_;
   std::uint32_t faults_ = kFaultNone;
-  AdmittanceFaultSource fault_source_ = AdmittanceFaultSource::kNone;
-  int fault_axis_ = -1;
+  // Latched by the cycle at the first fault since Activate, for FaultText on another thread (the event log): the
+  // axis and status first, then the source (release), which FaultText reads first (acquire).
+  std::atomic<AdmittanceFaultSource> fault_source_{AdmittanceFaultSource::kNone};
+  std::atomic<int> fault_axis_{-1};
+  std::atomic<fieldbus::Cia402Status> fault_status_{fieldbus::Cia402Status::kOk};
   bool active_ = false;
   bool safe_ = true;
 };
