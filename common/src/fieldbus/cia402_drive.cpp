@@ -136,6 +136,31 @@ const char* ToString(Cia402Status status) noexcept {
   return "invalid";
 }
 
+const char* Describe(Cia402Status status) noexcept {
+  switch (status) {
+    case Cia402Status::kStale:
+      return "the drive stopped answering (no TPDO for stale_after_ms)";
+    case Cia402Status::kHeartbeatLost:
+      return "the drive's heartbeat was lost (heartbeat_timeout_ms)";
+    case Cia402Status::kBusOff:
+      return "the bus is bus-off";
+    case Cia402Status::kWriteFailed:
+      return "the port refused a frame (transmit queue full or a bus error)";
+    case Cia402Status::kNotEnabled:
+      return "the drive left Operation Enabled (an external disable, STO, or a quick stop)";
+    case Cia402Status::kFault:
+      return "the drive is in Fault";
+    case Cia402Status::kWrongMode:
+      return "a setpoint of another mode than the configured one";
+    case Cia402Status::kNotActive:
+      return "the drive is not in the cycle";
+    case Cia402Status::kOk:
+    case Cia402Status::kNoNewData:
+      return "no fault";
+  }
+  return "an unknown status";
+}
+
 std::vector<PdoMapping> Cia402DriveConfig::DefaultRpdos() {
   return {Mapping(1, {{obj::kControlword, 0, 16}, {obj::kTargetTorque, 0, 16}})};
 }

@@ -256,6 +256,7 @@ TEST(HybridFieldbusDevice, ARefusedSyncIsNamedAsTheSyncNotAsADrive) {
   ASSERT_TRUE(rig.device->latched_safe());
   EXPECT_EQ(rig.device->fault_source(), RigFaultSource::kSync);
   EXPECT_STREQ(ToString(rig.device->fault_source()), "SYNC");
+  EXPECT_EQ(rig.device->FaultText(), "the bus refused the cycle's SYNC (bus-off or a full transmit queue)");
   EXPECT_NE(r.faults & kFaultCommunication, 0u);
   EXPECT_EQ(rig.device->drive(0).counters().write_failures, 0u);  // drive 1's own frames all went out
 }
@@ -270,6 +271,10 @@ TEST(HybridFieldbusDevice, DriveLeavingOperationEnabledEngagesTheSafeState) {
   for (int k = 0; k < 10 && !rig.device->latched_safe(); ++k) r = rig.Cycle({5.0, 5.0});
   ASSERT_TRUE(rig.device->latched_safe());
   EXPECT_EQ(rig.device->fault_source(), RigFaultSource::kDrive2);
+  EXPECT_EQ(rig.device->fault_status(), fieldbus::Cia402Status::kNotEnabled);
+  EXPECT_EQ(rig.device->FaultText(), "drive 2 (node " + std::to_string(rig.device->drive(1).config().node_id) +
+                                         "): the drive left Operation Enabled (an external disable, STO, or a quick "
+                                         "stop)");
   r = rig.Cycle({5.0, 5.0});
   EXPECT_NE(r.faults & kFaultDriver, 0u);
   for (int k = 0; k < 5; ++k) (void)rig.Cycle({5.0, 5.0});
@@ -287,6 +292,7 @@ TEST(HybridFieldbusDevice, SilentAmplifierEngagesTheSafeState) {
   ASSERT_EQ(rig.server.Control("mode stop"), "ok");
   ASSERT_TRUE(rig.CycleUntil([&] { return rig.device->latched_safe(); }, 5.0, {5.0, 0.0}));
   EXPECT_EQ(rig.device->fault_source(), RigFaultSource::kAmplifier);
+  EXPECT_EQ(rig.device->FaultText().rfind("the brake amplifier (Modbus): ", 0), 0u) << rig.device->FaultText();
   const Reading r = rig.Cycle({5.0, 0.0});
   EXPECT_NE(r.faults & kFaultCommunication, 0u);
   (void)rig.Cycle({5.0, 0.0});
@@ -356,6 +362,8 @@ TEST(HybridFieldbusDevice, CanForceSensorIsReadAndItsSilenceEngagesTheSafeState)
   }
   ASSERT_TRUE(rig.device->latched_safe());
   EXPECT_EQ(rig.device->fault_source(), RigFaultSource::kForceSensor);
+  EXPECT_NE(rig.device->FaultText().find("no frame for its stale_after_ms (10 ms)"), std::string::npos)
+      << rig.device->FaultText();
   EXPECT_GE(cycles, 9);  // stale_after_ms = 10 ms of 1 ms cycles, not before
   r = rig.Cycle(Eigen::Vector2d::Zero());
   EXPECT_NE(r.faults & kFaultCommunication, 0u);

@@ -102,6 +102,9 @@ enum class Cia402Status : std::uint8_t {
   kWrongMode,      ///< A setpoint of another mode than the configured one: the hold target was sent instead.
 };
 const char* ToString(Cia402Status status) noexcept;
+/// What a status other than kOk/kNoNewData says failed, in an operator's words, naming the drive's config keys
+/// (stale_after_ms, heartbeat_timeout_ms) where one bounds it: the backends' Device::FaultText.
+const char* Describe(Cia402Status status) noexcept;
 
 /// One cycle's reading, SI units. `stamp_ns` is when the TPDOs carrying it were read (Timebase clock).
 struct Cia402Reading {

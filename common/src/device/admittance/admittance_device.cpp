@@ -139,32 +139,6 @@ void AdmittanceDevice::Fault(std::uint32_t& faults, std::uint32_t bits, Admittan
   fault_source_.store(source, std::memory_order_release);
 }
 
-namespace {
-
-/// What a drive's status says failed, in the operator's words (the keys are the drive's, device.admittance.drives).
-const char* DescribeDriveStatus(Cia402Status status) noexcept {
-  switch (status) {
-    case Cia402Status::kStale:
-      return "the drive stopped answering (no TPDO for stale_after_ms)";
-    case Cia402Status::kHeartbeatLost:
-      return "the drive's heartbeat was lost (heartbeat_timeout_ms)";
-    case Cia402Status::kBusOff:
-      return "the bus is bus-off";
-    case Cia402Status::kWriteFailed:
-      return "the port refused a frame (transmit queue full or a bus error)";
-    case Cia402Status::kNotEnabled:
-      return "the drive left Operation Enabled (an external disable, STO, or a quick stop)";
-    case Cia402Status::kFault:
-      return "the drive is in Fault";
-    case Cia402Status::kWrongMode:
-      return "a setpoint of another mode than the configured one";
-    default:
-      return "the drive is not in the cycle";
-  }
-}
-
-}  // namespace
-
 std::string AdmittanceDevice::FaultText() const {
   const AdmittanceFaultSource source = fault_source_.load(std::memory_order_acquire);
   const int axis = fault_axis_.load(std::memory_order_relaxed);
@@ -176,7 +150,7 @@ std::string AdmittanceDevice::FaultText() const {
       const auto k = static_cast<std::size_t>(axis);
       const Cia402Status status = fault_status_.load(std::memory_order_relaxed);
       std::string text =
-          fmt::format("axis {} (node {}): {}", axis, config_.axes[k].drive.node_id, DescribeDriveStatus(status));
+          fmt::format("axis {} (node {}): {}", axis, config_.axes[k].drive.node_id, fieldbus::Describe(status));
       if (status == Cia402Status::kStale) {
         text += fmt::format(", {} ms", config_.axes[k].drive.stale_after_ms);
       } else if (status == Cia402Status::kHeartbeatLost) {

@@ -1,5 +1,6 @@
 #include "device/hybrid/hybrid_fieldbus_device.hpp"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <Eigen/LU>
@@ -10,6 +11,7 @@
 
 #include "device/hybrid/force_manipulability.hpp"
 #include "teleop/error.hpp"
+#include "teleop/fieldbus/canopen_frames.hpp"
 
 namespace teleop::device::hybrid {
 
@@ -213,7 +215,8 @@ void HybridFieldbusDevice::Activate() {
   awaiting_fresh_ = {true, true, sensor_ != nullptr};
   allocator_.Reset();
   latched_ = false;
-  fault_source_ = RigFaultSource::kNone;
+  fault_status_.store(Cia402Status::kOk, std::memory_order_relaxed);
+  fault_source_.store(RigFaultSource::kNone, std::memory_order_release);
   fault_bits_ = kFaultNone;
   active_ = true;
 }
@@ -223,9 +226,9 @@ void HybridFieldbusDevice::Deactivate() noexcept {
     CommandSafe();
     if (latched_) {
       spdlog::error(
-          "device.hybrid: the {} latched the safe state (faults 0x{:x}); motors at zero torque, brakes "
+          "device.hybrid: the {} latched the safe state (faults 0x{:x}): {}; motors at zero torque, brakes "
           "engaged",
-          ToString(fault_source_), static_cast<unsigned>(fault_bits_));
+          ToString(fault_source()), static_cast<unsigned>(fault_bits_), FaultText());
     }
     for (auto& d : drives_) {
       if (d) (void)d->Deactivate();
@@ -239,10 +242,49 @@ void HybridFieldbusDevice::SendCycleSync() noexcept {
   if (sync_->Send() != transport::CanWriteStatus::kOk) Latch(RigFaultSource::kSync, kFaultCommunication);
 }
 
-void HybridFieldbusDevice::Latch(RigFaultSource source, std::uint32_t bits) noexcept {
-  if (!latched_) fault_source_ = source;
+void HybridFieldbusDevice::Latch(RigFaultSource source, std::uint32_t bits, Cia402Status status) noexcept {
+  if (!latched_) {
+    fault_status_.store(status, std::memory_order_relaxed);
+    fault_source_.store(source, std::memory_order_release);
+  }
   latched_ = true;
   fault_bits_ |= bits;
+}
+
+std::string HybridFieldbusDevice::FaultText() const {
+  const RigFaultSource source = fault_source_.load(std::memory_order_acquire);
+  switch (source) {
+    case RigFaultSource::kNone:
+      return {};
+    case RigFaultSource::kDrive1:
+    case RigFaultSource::kDrive2: {
+      const std::size_t i = source == RigFaultSource::kDrive1 ? 0 : 1;
+      const fieldbus::Cia402DriveConfig& d = config_.drives[i];
+      const Cia402Status status = fault_status_.load(std::memory_order_relaxed);
+      std::string text = fmt::format("drive {} (node {}): {}", i + 1, d.node_id, fieldbus::Describe(status));
+      if (status == Cia402Status::kStale) text += fmt::format(", {} ms", d.stale_after_ms);
+      if (status == Cia402Status::kHeartbeatLost) text += fmt::format(", {} ms", d.heartbeat_timeout_ms);
+      if (status == Cia402Status::kFault && drives_[i]) {
+        const std::uint16_t code = drives_[i]->last_emergency().error_code;
+        if (code != 0) {
+          text += fmt::format(": EMCY 0x{:04X} {}", code, fieldbus::canopen::DescribeEmergencyCode(code));
+        }
+      }
+      return text;
+    }
+    case RigFaultSource::kAmplifier:
+      return "the brake amplifier (Modbus): a failed transaction, or no good poll within its stale_after_ms";
+    case RigFaultSource::kForceSensor:
+      return fmt::format(
+          "the CAN force sensor (COB-ID 0x{:03X}): no frame for its stale_after_ms ({} ms), or "
+          "bus-off",
+          static_cast<unsigned>(config_.can_force_sensor.cob_id), config_.can_force_sensor.stale_after_ms);
+    case RigFaultSource::kKinematics:
+      return "the five-bar has no pose at the joint reading (a non-finite or out-of-reach joint angle)";
+    case RigFaultSource::kSync:
+      return "the bus refused the cycle's SYNC (bus-off or a full transmit queue)";
+  }
+  return {};
 }
 
 bool HybridFieldbusDevice::InGrace(std::uint64_t now_ns) noexcept {
@@ -274,13 +316,13 @@ void HybridFieldbusDevice::TakeInDrives(bool in_grace) noexcept {
       case Cia402Status::kHeartbeatLost:
       case Cia402Status::kBusOff:
       case Cia402Status::kWriteFailed:
-        Latch(source, kFaultCommunication);
+        Latch(source, kFaultCommunication, status);
         break;
       case Cia402Status::kNotEnabled:
       case Cia402Status::kFault:
       case Cia402Status::kNotActive:
       case Cia402Status::kWrongMode:
-        Latch(source, kFaultDriver);
+        Latch(source, kFaultDriver, status);
         break;
     }
     joint_rad_(static_cast<int>(i)) = r.position_rad / ratio + config_.joint_offset_rad[i];
@@ -360,8 +402,8 @@ void HybridFieldbusDevice::WriteDrives(double torque_1_Nm, double torque_2_Nm) n
   const double ratio = config_.allocation.motor.pulley_ratio;
   const std::array<double, 2> joint_Nm{torque_1_Nm, torque_2_Nm};
   for (std::size_t i = 0; i < 2; ++i) {
-    if (drives_[i]->WriteTorque_Nm(joint_Nm[i] / ratio) != Cia402Status::kOk) {
-      Latch(i == 0 ? RigFaultSource::kDrive1 : RigFaultSource::kDrive2, kFaultCommunication);
+    if (const Cia402Status s = drives_[i]->WriteTorque_Nm(joint_Nm[i] / ratio); s != Cia402Status::kOk) {
+      Latch(i == 0 ? RigFaultSource::kDrive1 : RigFaultSource::kDrive2, kFaultCommunication, s);
     }
   }
 }

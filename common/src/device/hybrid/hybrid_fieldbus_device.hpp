@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -101,7 +102,12 @@ class HybridFieldbusDevice final : public Device, public BusExchange {
   void SetSafe() noexcept override;
 
   bool latched_safe() const noexcept { return latched_; }
-  RigFaultSource fault_source() const noexcept { return fault_source_; }
+  RigFaultSource fault_source() const noexcept { return fault_source_.load(std::memory_order_acquire); }
+  /// A drive's status that latched the safe state (kDrive1, kDrive2; kOk otherwise).
+  fieldbus::Cia402Status fault_status() const noexcept { return fault_status_.load(std::memory_order_relaxed); }
+  /// What latched the safe state, in words: the part, its node or COB-ID, what its status says and the key that
+  /// bounds it ("drive 2 (node 2): the drive stopped answering (no TPDO for stale_after_ms), 20 ms").
+  std::string FaultText() const override;
   std::uint32_t fault_bits() const noexcept { return fault_bits_; }
   const fieldbus::Cia402Drive& drive(int i) const noexcept { return *drives_[static_cast<std::size_t>(i)]; }
   const fieldbus::ModbusIoThread& amplifier() const noexcept { return *amplifier_; }
@@ -113,7 +119,8 @@ class HybridFieldbusDevice final : public Device, public BusExchange {
   void SetCapabilities();
   void Build();
   void WriteDrives(double torque_1_Nm, double torque_2_Nm) noexcept;
-  void Latch(RigFaultSource source, std::uint32_t bits) noexcept;
+  void Latch(RigFaultSource source, std::uint32_t bits,
+             fieldbus::Cia402Status status = fieldbus::Cia402Status::kOk) noexcept;
   void CommandSafe() noexcept;
   /// The cycle's one SYNC on the bus (after the TPDOs were drained, long after both RPDOs).
   void SendCycleSync() noexcept;
@@ -152,7 +159,10 @@ class HybridFieldbusDevice final : public Device, public BusExchange {
   bool first_cycle_ = false;
   std::uint64_t grace_end_ns_ = 0;
   std::array<bool, 3> awaiting_fresh_{};  ///< Drive 1, drive 2, CAN sensor: no fresh reading since Activate().
-  RigFaultSource fault_source_ = RigFaultSource::kNone;
+  // Latched by the cycle, for FaultText on another thread (the event log): the status first, then the source
+  // (release), which FaultText reads first (acquire).
+  std::atomic<RigFaultSource> fault_source_{RigFaultSource::kNone};
+  std::atomic<fieldbus::Cia402Status> fault_status_{fieldbus::Cia402Status::kOk};
   std::uint32_t fault_bits_ = kFaultNone;
   double period_s_ = 1e-3;
 };
