@@ -227,8 +227,30 @@ void ExpectTheCobotStops(Injected what, SteeringFault steering, SensorFault sens
   EXPECT_EQ(rig.device->sensor_fault(), sensor);
   EXPECT_EQ(rig.reading.faults & bits, bits);
   EXPECT_TRUE(rig.device->locked());
-  std::printf("fault '%s'/'%s' after %d cycles\n", ToString(rig.device->steering_fault()),
-              ToString(rig.device->sensor_fault()), cycles);
+  std::printf("fault '%s'/'%s' after %d cycles: %s\n", ToString(rig.device->steering_fault()),
+              ToString(rig.device->sensor_fault()), cycles, rig.device->FaultText().c_str());
+  // The operator is told which node and what failed (Device::FaultText).
+  const std::string text = rig.device->FaultText();
+  if (steering != SteeringFault::kNone) {
+    EXPECT_EQ(
+        text.rfind("the steering drive (node " + std::to_string(rig.config.fieldbus.steering.drive.node_id) + ") ", 0),
+        0u)
+        << text;
+  }
+  if (sensor != SensorFault::kNone) {
+    EXPECT_NE(text.find("the sensor node (node " + std::to_string(rig.config.fieldbus.sensors.node_id) + ") "),
+              std::string::npos)
+        << text;
+  }
+  if (steering == SteeringFault::kDriveLost) {
+    EXPECT_NE(text.find("stopped answering"), std::string::npos) << text;
+  }
+  if (steering == SteeringFault::kHeartbeatLost) {
+    EXPECT_NE(text.find("heartbeat"), std::string::npos) << text;
+  }
+  if (sensor == SensorFault::kLost) {
+    EXPECT_NE(text.find("stopped sending"), std::string::npos) << text;
+  }
   // The operator keeps pushing at 30° into the wall for 1.5 s.
   double max_tangent_error = 0.0;
   double max_y = 0.0;

@@ -1,5 +1,7 @@
 #include "device/cobot/cobot_fieldbus_device.hpp"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <string>
 
@@ -160,8 +162,59 @@ void UnicycleCobotFieldbusDevice::Activate() {
   force_N_ = Vec2::Zero();
   pending_faults_ = kFaultNone;
   stability_warning_ = false;
+  first_steering_fault_.store(SteeringFault::kNone, std::memory_order_relaxed);
+  first_sensor_fault_.store(SensorFault::kNone, std::memory_order_relaxed);
   safe_ = false;
   active_ = true;
+}
+
+std::string UnicycleCobotFieldbusDevice::FaultText() const {
+  const fieldbus::Cia402DriveConfig& d = config_.fieldbus.steering.drive;
+  const CobotSensorNodeConfig& n = config_.fieldbus.sensors;
+  std::string steering;
+  switch (first_steering_fault_.load(std::memory_order_relaxed)) {
+    case SteeringFault::kNone:
+      break;
+    case SteeringFault::kDriveLost:
+      steering = fmt::format("stopped answering (no TPDO for stale_after_ms, {} ms)", d.stale_after_ms);
+      break;
+    case SteeringFault::kHeartbeatLost:
+      steering = fmt::format("lost its heartbeat (heartbeat_timeout_ms, {} ms)", d.heartbeat_timeout_ms);
+      break;
+    case SteeringFault::kDriveFault:
+      steering = "is in Fault or left Operation Enabled";
+      break;
+    case SteeringFault::kEncoderJump:
+      steering = fmt::format("reported a steering angle jump beyond max_angle_jump_rad ({} rad): held where it is",
+                             config_.fieldbus.steering.max_angle_jump_rad);
+      break;
+  }
+  std::string sensor;
+  switch (first_sensor_fault_.load(std::memory_order_relaxed)) {
+    case SensorFault::kNone:
+      break;
+    case SensorFault::kLost:
+      sensor = fmt::format("stopped sending (no wheel or force frame for stale_after_ms, {} ms)", n.stale_after_ms);
+      break;
+    case SensorFault::kWheelJump:
+      sensor = fmt::format("reported a wheel travel step beyond max_wheel_step_m ({} m)", n.max_wheel_step_m);
+      break;
+    case SensorFault::kBadFrame:
+      sensor = "sent a malformed frame";
+      break;
+    case SensorFault::kBusError:
+      sensor = "is on a bus that reported a CAN error frame";
+      break;
+    case SensorFault::kForceInvalid:
+      sensor = fmt::format("reported no valid handle force (COB-ID 0x{:03X})", n.ForceCobId());
+      break;
+  }
+  std::string text;
+  if (!steering.empty()) text = fmt::format("the steering drive (node {}) {}", d.node_id, steering);
+  if (!sensor.empty()) {
+    text += fmt::format("{}the sensor node (node {}) {}", text.empty() ? "" : "; ", n.node_id, sensor);
+  }
+  return text;
 }
 
 void UnicycleCobotFieldbusDevice::Deactivate() noexcept {
@@ -214,6 +267,13 @@ void UnicycleCobotFieldbusDevice::Read(Reading& out) noexcept {
   }
   if (force_fault_ != SensorFault::kNone) force_N_ = Vec2::Zero();
   const SensorFault sensor = sensor_fault();
+  if (steering != SteeringFault::kNone &&
+      first_steering_fault_.load(std::memory_order_relaxed) == SteeringFault::kNone) {
+    first_steering_fault_.store(steering, std::memory_order_relaxed);
+  }
+  if (sensor != SensorFault::kNone && first_sensor_fault_.load(std::memory_order_relaxed) == SensorFault::kNone) {
+    first_sensor_fault_.store(sensor, std::memory_order_relaxed);
+  }
   const double heading = config_.fieldbus.steering_offset_rad + s.angle_rad;
   // Odometry: the wheel rolls along its heading (no lateral slip), at the mid-cycle heading.
   const double ds = m.wheel_travel_m - travel_m_;

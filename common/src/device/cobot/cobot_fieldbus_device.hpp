@@ -1,5 +1,6 @@
 #pragma once
 
+#include <atomic>
 #include <memory>
 #include <string>
 
@@ -59,6 +60,9 @@ class UnicycleCobotFieldbusDevice final : public Device {
   bool locked() const noexcept;
   SteeringFault steering_fault() const noexcept;
   SensorFault sensor_fault() const noexcept;
+  /// The first steering and sensor faults since Activate in words, with the node and the key that bounds each
+  /// ("the steering drive (node 5) stopped answering (no TPDO for stale_after_ms, 10 ms)"). Any thread.
+  std::string FaultText() const override;
   bool brake_engaged() const noexcept { return brake_engaged_; }
   double heading_rad() const noexcept { return heading_rad_; }
   const VirtualWallController& controller() const noexcept { return controller_; }
@@ -96,6 +100,9 @@ class UnicycleCobotFieldbusDevice final : public Device {
   std::uint32_t pending_faults_ = kFaultNone;  ///< A bad Command, reported by the next Read.
   bool brake_engaged_ = false;
   bool stability_warning_ = false;  ///< StabilityStatus::warning of the last controller step.
+  // The first faults since Activate, latched by Read() for FaultText on another thread (the event log).
+  std::atomic<SteeringFault> first_steering_fault_{SteeringFault::kNone};
+  std::atomic<SensorFault> first_sensor_fault_{SensorFault::kNone};
 };
 
 }  // namespace teleop::device::cobot
