@@ -90,6 +90,8 @@ teleop::ctest() {
   local dir="$1"
   shift
   local rc=0
+  # A first run (no measured test times: a fresh clone, CI) starts the locked chains first.
+  python3 "${TELEOP_ROOT}/deploy/lib/timing_sensitive.py" --seed-costs "${dir}" || true
   (cd "${dir}" && ctest "$@") || rc=$?
   if [[ ${rc} -ne 0 ]]; then
     python3 "${TELEOP_ROOT}/deploy/lib/failure_digest.py" "${dir}" || true

@@ -48,6 +48,8 @@ def main():
         subprocess.run(["cmake", "-S", src, "-B", build], check=True, capture_output=True)
 
         rc, out = run_ctest(args.common, build, "locked_flaky")
+        check("seeded 2 locked tests to start first" in out,
+              "the first run (no measured costs) seeds both locked tests to start first")
         check(rc == 0 and "a second run, one at a time, of the timing-sensitive tests that failed: locked_flaky" in out
               and "passed on the second run, alone (failed the first time beside other tests): locked_flaky" in out
               and "first run fails" in out,
