@@ -407,6 +407,33 @@ TEST(Cia402Arm, TheSimulatedYamlRigBuildsAndRuns) {
 }
 
 }  // namespace
+// The host's node-ID is a key (cia402.host_node_id, default 127): a bus whose node 127 is taken moves the host to
+// another; each drive's consumer (0x1016:01) and the heartbeat producers follow it, and a drive on it is refused.
+TEST(Cia402Arm, TheHostsHeartbeatNodeIdIsConfigurable) {
+  constexpr int kOneBusEach[7] = {0, 0, 1, 1, 2, 2, 3};
+  const auto section =
+      std::any_cast<ArmSection>(ReadSection(Cia402Yaml("  bus: simulated\n  host_node_id: 100\n", kOneBusEach)));
+  EXPECT_EQ(section.cia402.host_node_id, 100);
+  EXPECT_EQ(std::any_cast<ArmSection>(ReadSection(Cia402Yaml("  bus: simulated\n", kOneBusEach))).cia402.host_node_id,
+            127);
+  EXPECT_THROW((void)ReadSection(Cia402Yaml("  bus: simulated\n  host_node_id: 128\n", kOneBusEach)), Error);
+  ArmSection s = Cia402Section();
+  s.cia402.host_node_id = 100;
+  Cia402ArmRig rig(s);
+  for (int i = 0; i < 7; ++i) EXPECT_EQ(rig.plant->drive(i).consumer_heartbeat(), (100u << 16) | 300u) << i;
+  for (int k = 0; k < 200; ++k) rig.Cycle(Eigen::Vector3d::Zero());
+  EXPECT_EQ(rig.r.faults, kFaultNone) << rig.arm->ActuatorFaultText();
+  for (int i = 0; i < 7; ++i) EXPECT_EQ(rig.plant->drive(i).counters().host_heartbeat_timeouts, 0u) << i;
+  ArmSection taken = Cia402Section();
+  taken.cia402.host_node_id = 3;  // joint 3's drive
+  try {
+    (void)MakeCia402JointBus(taken);
+    ADD_FAILURE() << "a drive on the host's heartbeat node-ID accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("node 3 is the host's heartbeat node-ID"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Cia402Arm, AConsumerNotAboveTheHostHeartbeatIsRefused) {
   ArmSection s = Cia402Section();
   s.cia402.drive_consumer_timeout_ms = 100.0;  // the host's period: one late heartbeat would fault every drive

@@ -176,6 +176,7 @@ void ReadCia402(const Field& f, Cia402JointBusConfig& c) {
   c.stale_after_ms = config::ReadNumber(map, k::kCia402Stale);
   c.drive_heartbeat_period_ms = config::ReadNumber(map, k::kCia402HeartbeatPeriod);
   c.heartbeat_timeout_ms = config::ReadNumber(map, k::kCia402HeartbeatTimeout);
+  c.host_node_id = static_cast<std::uint8_t>(config::ReadInteger(map, k::kCia402HostNodeId));
   c.host_heartbeat_period_ms = config::ReadNumber(map, k::kCia402HostHeartbeatPeriod);
   c.drive_consumer_timeout_ms = config::ReadNumber(map, k::kCia402DriveConsumerTimeout);
   if (c.drive_consumer_timeout_ms > 0.0 && !(c.drive_consumer_timeout_ms > c.host_heartbeat_period_ms)) {

@@ -541,11 +541,24 @@ inline const KeySpec kCia402HeartbeatTimeout{.key = "cia402.heartbeat_timeout_ms
                                              .meaning = "The host's consumer of each drive's heartbeat.",
                                              .low = 1.0,
                                              .high = 60000.0};
+inline const KeySpec kCia402HostNodeId = [] {
+  KeySpec s{"cia402.host_node_id",
+            KeyType::kInteger,
+            "",
+            KeyRange::kInRange,
+            false,
+            static_cast<double>(kCia402.host_node_id),
+            "The host's node-ID in its heartbeat on every bus (0x700 + it) and in each drive's consumer of it "
+            "(0x1016:01); no drive may use it."};
+  s.low = 1;
+  s.high = 127;
+  return s;
+}();
 inline const KeySpec kCia402HostHeartbeatPeriod{.key = "cia402.host_heartbeat_period_ms",
                                                 .unit = "ms",
                                                 .range = KeyRange::kInRange,
                                                 .default_value = kCia402.host_heartbeat_period_ms,
-                                                .meaning = "The host's heartbeat on every bus (node 127).",
+                                                .meaning = "The host's heartbeat on every bus (node host_node_id).",
                                                 .low = 1.0,
                                                 .high = 10000.0};
 inline const KeySpec kCia402DriveConsumerTimeout{
@@ -704,6 +717,7 @@ inline const auto& All() {
                                 kCia402Stale,
                                 kCia402HeartbeatPeriod,
                                 kCia402HeartbeatTimeout,
+                                kCia402HostNodeId,
                                 kCia402HostHeartbeatPeriod,
                                 kCia402DriveConsumerTimeout,
                                 kCia402SdoTimeout,
