@@ -28,15 +28,20 @@ import sys
 TIMING_LOCKS = {"two_process_cpu", "qemu_guest"}
 
 
+def properties(test):
+    """A json-v1 test's properties by name, RESOURCE_LOCK always a list."""
+    props = {p["name"]: p["value"] for p in test.get("properties", [])}
+    locks = props.get("RESOURCE_LOCK", [])
+    props["RESOURCE_LOCK"] = [locks] if isinstance(locks, str) else locks
+    return props
+
+
 def timing_sensitive(tests):
     """The names of the tests in ctest's json-v1 listing that hold a timing lock or run serially."""
     names = set()
     for test in tests:
-        props = {p["name"]: p["value"] for p in test.get("properties", [])}
-        locks = props.get("RESOURCE_LOCK", [])
-        if isinstance(locks, str):
-            locks = [locks]
-        if TIMING_LOCKS.intersection(locks) or props.get("RUN_SERIAL") is True:
+        props = properties(test)
+        if TIMING_LOCKS.intersection(props["RESOURCE_LOCK"]) or props.get("RUN_SERIAL") is True:
             names.add(test["name"])
     return names
 
@@ -62,9 +67,7 @@ def seed_costs(build_dir, listing):
         return 0
     lines = []
     for test in listing.get("tests", []):
-        props = {p["name"]: p["value"] for p in test.get("properties", [])}
-        locks = props.get("RESOURCE_LOCK", [])
-        locks = [locks] if isinstance(locks, str) else locks
+        locks = properties(test)["RESOURCE_LOCK"]
         cost = max((SEED_COST[lock] for lock in locks if lock in SEED_COST), default=0.0)
         if cost > 0 and " " not in test["name"]:
             lines.append(f"{test['name']} 1 {cost}")

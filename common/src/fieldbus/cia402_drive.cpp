@@ -161,6 +161,16 @@ const char* Describe(Cia402Status status) noexcept {
   return "an unknown status";
 }
 
+std::string DescribeFault(const Cia402DriveConfig& config, Cia402Status status, std::uint16_t emcy_code) {
+  std::string text = Describe(status);
+  if (status == Cia402Status::kStale) text += fmt::format(", {} ms", config.stale_after_ms);
+  if (status == Cia402Status::kHeartbeatLost) text += fmt::format(", {} ms", config.heartbeat_timeout_ms);
+  if (status == Cia402Status::kFault && emcy_code != 0) {
+    text += fmt::format(": EMCY 0x{:04X} {}", emcy_code, canopen::DescribeEmergencyCode(emcy_code));
+  }
+  return text;
+}
+
 std::vector<PdoMapping> Cia402DriveConfig::DefaultRpdos() {
   return {Mapping(1, {{obj::kControlword, 0, 16}, {obj::kTargetTorque, 0, 16}})};
 }

@@ -105,6 +105,10 @@ const char* ToString(Cia402Status status) noexcept;
 /// What a status other than kOk/kNoNewData says failed, in an operator's words, naming the drive's config keys
 /// (stale_after_ms, heartbeat_timeout_ms) where one bounds it: the backends' Device::FaultText.
 const char* Describe(Cia402Status status) noexcept;
+/// Describe(status) with the bound that tripped it (", 50 ms" for kStale and kHeartbeatLost, from `config`) and,
+/// for kFault with a non-zero `emcy_code`, the EMCY's code and CiA 301 meaning. Allocates: not for the cycle (a
+/// backend latches the status and the code in the cycle and calls this from Device::FaultText).
+std::string DescribeFault(const Cia402DriveConfig& config, Cia402Status status, std::uint16_t emcy_code);
 
 /// One cycle's reading, SI units. `stamp_ns` is when the TPDOs carrying it were read (Timebase clock).
 struct Cia402Reading {

@@ -8,7 +8,6 @@
 #include <limits>
 
 #include "teleop/error.hpp"
-#include "teleop/fieldbus/canopen_frames.hpp"
 #include "teleop/fieldbus/cia402_eds.hpp"
 
 namespace teleop::device {
@@ -136,6 +135,9 @@ void AdmittanceDevice::Fault(std::uint32_t& faults, std::uint32_t bits, Admittan
   if (fault_source_.load(std::memory_order_relaxed) != AdmittanceFaultSource::kNone) return;
   fault_axis_.store(axis, std::memory_order_relaxed);
   fault_status_.store(status, std::memory_order_relaxed);
+  const bool emcy = status == Cia402Status::kFault && axis >= 0 && static_cast<std::size_t>(axis) < drives_.size();
+  fault_emcy_code_.store(emcy ? drives_[static_cast<std::size_t>(axis)]->last_emergency().error_code : 0,
+                         std::memory_order_relaxed);
   fault_source_.store(source, std::memory_order_release);
 }
 
@@ -147,21 +149,10 @@ std::string AdmittanceDevice::FaultText() const {
       return {};
     case AdmittanceFaultSource::kDrive: {
       if (axis < 0) return "no drive configured";
-      const auto k = static_cast<std::size_t>(axis);
-      const Cia402Status status = fault_status_.load(std::memory_order_relaxed);
-      std::string text =
-          fmt::format("axis {} (node {}): {}", axis, config_.axes[k].drive.node_id, fieldbus::Describe(status));
-      if (status == Cia402Status::kStale) {
-        text += fmt::format(", {} ms", config_.axes[k].drive.stale_after_ms);
-      } else if (status == Cia402Status::kHeartbeatLost) {
-        text += fmt::format(", {} ms", config_.axes[k].drive.heartbeat_timeout_ms);
-      } else if (status == Cia402Status::kFault && k < drives_.size()) {
-        const std::uint16_t code = drives_[k]->last_emergency().error_code;
-        if (code != 0) {
-          text += fmt::format(": EMCY 0x{:04X} {}", code, fieldbus::canopen::DescribeEmergencyCode(code));
-        }
-      }
-      return text;
+      const fieldbus::Cia402DriveConfig& d = config_.axes[static_cast<std::size_t>(axis)].drive;
+      return fmt::format("axis {} (node {}): {}", axis, d.node_id,
+                         fieldbus::DescribeFault(d, fault_status_.load(std::memory_order_relaxed),
+                                                 fault_emcy_code_.load(std::memory_order_relaxed)));
     }
     case AdmittanceFaultSource::kTracking:
       return fmt::format(
@@ -219,6 +210,7 @@ void AdmittanceDevice::Activate() {
   faults_ = kFaultNone;
   fault_axis_.store(-1, std::memory_order_relaxed);
   fault_status_.store(Cia402Status::kOk, std::memory_order_relaxed);
+  fault_emcy_code_.store(0, std::memory_order_relaxed);
   fault_source_.store(AdmittanceFaultSource::kNone, std::memory_order_release);
   safe_ = true;
   active_ = true;

@@ -182,10 +182,11 @@ class AdmittanceDevice final : public Device, public BusExchange {
   DofVector rendered_N_;
   std::uint32_t faults_ = kFaultNone;
   // Latched by the cycle at the first fault since Activate, for FaultText on another thread (the event log): the
-  // axis and status first, then the source (release), which FaultText reads first (acquire).
+  // axis, status and EMCY code first, then the source (release), which FaultText reads first (acquire).
   std::atomic<AdmittanceFaultSource> fault_source_{AdmittanceFaultSource::kNone};
   std::atomic<int> fault_axis_{-1};
   std::atomic<fieldbus::Cia402Status> fault_status_{fieldbus::Cia402Status::kOk};
+  std::atomic<std::uint16_t> fault_emcy_code_{0};  ///< kFault: the drive's newest EMCY code then (0: none).
   bool active_ = false;
   bool safe_ = true;
 };

@@ -11,7 +11,6 @@
 
 #include "device/hybrid/force_manipulability.hpp"
 #include "teleop/error.hpp"
-#include "teleop/fieldbus/canopen_frames.hpp"
 
 namespace teleop::device::hybrid {
 
@@ -216,6 +215,7 @@ void HybridFieldbusDevice::Activate() {
   allocator_.Reset();
   latched_ = false;
   fault_status_.store(Cia402Status::kOk, std::memory_order_relaxed);
+  fault_emcy_code_.store(0, std::memory_order_relaxed);
   fault_source_.store(RigFaultSource::kNone, std::memory_order_release);
   fault_bits_ = kFaultNone;
   active_ = true;
@@ -244,7 +244,12 @@ void HybridFieldbusDevice::SendCycleSync() noexcept {
 
 void HybridFieldbusDevice::Latch(RigFaultSource source, std::uint32_t bits, Cia402Status status) noexcept {
   if (!latched_) {
+    const bool drive = source == RigFaultSource::kDrive1 || source == RigFaultSource::kDrive2;
     fault_status_.store(status, std::memory_order_relaxed);
+    fault_emcy_code_.store(drive && status == Cia402Status::kFault
+                               ? drives_[source == RigFaultSource::kDrive1 ? 0 : 1]->last_emergency().error_code
+                               : std::uint16_t{0},
+                           std::memory_order_relaxed);
     fault_source_.store(source, std::memory_order_release);
   }
   latched_ = true;
@@ -259,18 +264,9 @@ std::string HybridFieldbusDevice::FaultText() const {
     case RigFaultSource::kDrive1:
     case RigFaultSource::kDrive2: {
       const std::size_t i = source == RigFaultSource::kDrive1 ? 0 : 1;
-      const fieldbus::Cia402DriveConfig& d = config_.drives[i];
-      const Cia402Status status = fault_status_.load(std::memory_order_relaxed);
-      std::string text = fmt::format("drive {} (node {}): {}", i + 1, d.node_id, fieldbus::Describe(status));
-      if (status == Cia402Status::kStale) text += fmt::format(", {} ms", d.stale_after_ms);
-      if (status == Cia402Status::kHeartbeatLost) text += fmt::format(", {} ms", d.heartbeat_timeout_ms);
-      if (status == Cia402Status::kFault && drives_[i]) {
-        const std::uint16_t code = drives_[i]->last_emergency().error_code;
-        if (code != 0) {
-          text += fmt::format(": EMCY 0x{:04X} {}", code, fieldbus::canopen::DescribeEmergencyCode(code));
-        }
-      }
-      return text;
+      return fmt::format("drive {} (node {}): {}", i + 1, config_.drives[i].node_id,
+                         fieldbus::DescribeFault(config_.drives[i], fault_status_.load(std::memory_order_relaxed),
+                                                 fault_emcy_code_.load(std::memory_order_relaxed)));
     }
     case RigFaultSource::kAmplifier:
       return "the brake amplifier (Modbus): a failed transaction, or no good poll within its stale_after_ms";

@@ -159,10 +159,11 @@ class HybridFieldbusDevice final : public Device, public BusExchange {
   bool first_cycle_ = false;
   std::uint64_t grace_end_ns_ = 0;
   std::array<bool, 3> awaiting_fresh_{};  ///< Drive 1, drive 2, CAN sensor: no fresh reading since Activate().
-  // Latched by the cycle, for FaultText on another thread (the event log): the status first, then the source
-  // (release), which FaultText reads first (acquire).
+  // Latched by the cycle, for FaultText on another thread (the event log): the status and EMCY code first, then
+  // the source (release), which FaultText reads first (acquire).
   std::atomic<RigFaultSource> fault_source_{RigFaultSource::kNone};
   std::atomic<fieldbus::Cia402Status> fault_status_{fieldbus::Cia402Status::kOk};
+  std::atomic<std::uint16_t> fault_emcy_code_{0};  ///< kFault: the drive's newest EMCY code then (0: none).
   std::uint32_t fault_bits_ = kFaultNone;
   double period_s_ = 1e-3;
 };
